@@ -1,0 +1,25 @@
+"""Errors that cross module boundaries; each names what went wrong and where."""
+
+
+class UrdfkbError(Exception):
+    """Base class: any error urdfkb reports to a user instead of a traceback."""
+
+
+class URDFError(UrdfkbError):
+    """The URDF was refused: not XML, hostile, too large, or structurally invalid."""
+
+    def __init__(self, message: str, element: str | None = None):
+        self.element = element
+        super().__init__(f"{message} (at {element})" if element else message)
+
+
+class OntologyError(UrdfkbError):
+    """The ontology or a populated robot breaks the vocabulary contract or its shapes."""
+
+
+class BackendError(UrdfkbError):
+    """The model backend failed: it raised, timed out or kept answering outside the valid set."""
+
+
+class PipelineError(UrdfkbError):
+    """A pipeline stage could not produce a valid result."""
