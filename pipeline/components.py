@@ -1,0 +1,56 @@
+"""What the abstraction pipeline produces: components, their sub-components, provenance.
+
+These plain records are the one hand-over between the stages and everything downstream
+(population, the result cache, the server). Class names are ontology local names.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+SENSOR = "sensor"
+END_EFFECTOR = "end_effector"
+KINDS = (SENSOR, END_EFFECTOR)
+
+
+@dataclass(frozen=True)
+class SubComponent:
+    """One sub-link of a component, typed with its pre-classification class (Subpart branch)."""
+
+    link: str
+    cls: str
+    confidence: float
+
+
+@dataclass(frozen=True)
+class Component:
+    """A physical device: its post-classification class, attachment root and sub-components."""
+
+    name: str
+    kind: str
+    cls: str
+    confidence: float
+    root: str
+    subcomponents: tuple[SubComponent, ...]
+
+    @property
+    def links(self) -> tuple[str, ...]:
+        return tuple(s.link for s in self.subcomponents)
+
+
+@dataclass(frozen=True)
+class Abstraction:
+    """All components found in one robot, with how they were found."""
+
+    components: tuple[Component, ...] = ()
+    provenance: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Abstraction":
+        comps = tuple(
+            Component(**{**c, "subcomponents": tuple(SubComponent(**s) for s in c["subcomponents"])})
+            for c in data["components"]
+        )
+        return cls(comps, dict(data.get("provenance", {})))
