@@ -1,0 +1,52 @@
+"""The model-layer contract: a question with a finite answer set, and the backend interface."""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Sequence
+
+
+@dataclass(frozen=True)
+class Question:
+    """One classification question; `system` is the shared (KV-cached) prefix, `options` the valid answers."""
+
+    system: str
+    user: str
+    options: tuple[str, ...]
+    key: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.options:
+            raise ValueError(f"question {self.key!r} has no options")
+        if any(not o for o in self.options):
+            raise ValueError(f"question {self.key!r} has an empty option")
+        if len(set(self.options)) != len(self.options):
+            raise ValueError(f"question {self.key!r} has duplicate options: {self.options}")
+
+
+@dataclass
+class Stats:
+    """Work done by a backend."""
+
+    calls: int = 0  # backend requests/decodes
+    prompt_tokens: int = 0  # tokens evaluated (prompt + scored answer tokens)
+    generated_tokens: int = 0
+
+
+class Backend(ABC):
+    """A language model that can score whole options and/or sample answers."""
+
+    name: str
+    exposes_logits: bool
+    stats: Stats
+
+    @abstractmethod
+    def score(self, questions: Sequence[Question]) -> list[list[float]]:
+        """Per question, the log-probability of each whole option (all its tokens, then end-of-turn), same order as options."""
+
+    @abstractmethod
+    def sample(self, question: Question, n: int, temperature: float) -> list[str]:
+        """n completions, constrained to the options where the backend can; raw text otherwise."""
+
+    def close(self) -> None:
+        """Release the model; the default has nothing to release."""
