@@ -1,0 +1,326 @@
+"""Abstraction accuracy against the ground truth, as defined in spec/evaluation.md.
+
+A populated graph is read by the core namespace and the local names of spec/ontology.md only;
+class ancestry comes from the graph's own ``rdfs:subClassOf`` triples.
+
+Conventions beyond the spec (each also stated where it applies):
+
+* Matching is one-to-one on equal leaf sets. Over both kinds the kind is not compared; per
+  kind, predictions and truth are both filtered to that kind first, so a prediction whose
+  leaves equal a truth component of the other kind is a false positive in its own kind and a
+  miss in the truth's kind (over both kinds it matches, and its class earns no typed credit
+  because it is not under the truth's branch).
+* Root and subpart accuracy are 0.0 when their denominator is empty; the denominators are
+  reported (``n_matched``, ``n_subparts``) so such a 0.0 can be told apart.
+* Hedging does not pay: an individual with several incomparable most specific classes has no
+  class (``None``, no credit), one with several ``isMountedOn`` links has no root.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from statistics import fmean
+from typing import Iterable, Mapping
+
+import rdflib
+import yaml
+from rdflib import RDF, RDFS, URIRef
+
+from pipeline.components import END_EFFECTOR, KINDS, SENSOR
+
+CORE = rdflib.Namespace("https://w3id.org/urdfkb/core#")
+ALL = "all"
+SCOPES = (ALL, *KINDS)
+METRICS = (
+    "leaf_precision", "leaf_recall", "leaf_f1",
+    "component_precision", "component_recall", "component_f1",
+    "typed_precision", "typed_recall", "typed_f1",
+    "root_accuracy", "subpart_accuracy",
+)
+COUNTS = ("n_predicted", "n_truth", "n_matched", "n_subparts")
+_KIND_ROOTS = {SENSOR: "Sensor", END_EFFECTOR: "EndEffector"}
+_SUBPART_ROOTS = ("SensorSubpart", "EndEffectorSubpart")
+
+
+@dataclass(frozen=True)
+class TruthComponent:
+    id: str
+    kind: str
+    classes: frozenset[str]
+    roots: frozenset[str]
+    leaves: frozenset[str]
+    subparts: Mapping[str, frozenset[str]] = field(default_factory=dict, hash=False)
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """Another accepted partition: truth components ``replace`` may be read as ``with_``."""
+
+    replace: tuple[str, ...]
+    with_: tuple[TruthComponent, ...]
+
+
+@dataclass(frozen=True)
+class Truth:
+    robot: str
+    urdf: str
+    ignore: frozenset[str]
+    components: tuple[TruthComponent, ...]
+    alternatives: tuple[Alternative, ...] = ()
+
+
+@dataclass(frozen=True)
+class PredictedComponent:
+    """A top-level component as read from a graph; ``cls``/``root`` are None when absent or ambiguous."""
+
+    node: str
+    kind: str | None
+    cls: str | None
+    root: str | None
+    leaves: frozenset[str]
+    subparts: Mapping[str, str | None] = field(default_factory=dict, hash=False)
+
+
+def _truth_component(d: dict) -> TruthComponent:
+    if d["kind"] not in KINDS:
+        raise ValueError(f"truth component {d['id']}: unknown kind {d['kind']!r}")
+    leaves = frozenset(d["leaves"])
+    subparts = {k: frozenset(v) for k, v in (d.get("subparts") or {}).items()}
+    if not set(subparts) <= leaves:
+        raise ValueError(f"truth component {d['id']}: subparts not among its leaves")
+    return TruthComponent(str(d["id"]), d["kind"], frozenset(d["classes"]), frozenset(d["roots"]),
+                          leaves, subparts)
+
+
+def load_truth(path: str | Path) -> Truth:
+    """Parse and sanity-check a truth YAML file (format: spec/evaluation.md)."""
+    data = yaml.safe_load(Path(path).read_text())
+    comps = tuple(_truth_component(c) for c in data["components"])
+    ids = [c.id for c in comps]
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"{path}: duplicate component ids")
+    alts, replaced = [], set()
+    for a in data.get("alternatives") or []:
+        rep = tuple(a["replace"])
+        if not set(rep) <= set(ids) or replaced & set(rep):
+            raise ValueError(f"{path}: alternative replaces unknown or already replaced ids {rep}")
+        replaced |= set(rep)
+        alts.append(Alternative(rep, tuple(_truth_component(c) for c in a["with"])))
+    return Truth(data["robot"], data["urdf"], frozenset(data.get("ignore") or ()), comps, tuple(alts))
+
+
+# ---- reading a prediction -------------------------------------------------------------------
+
+class _Taxonomy:
+    """Ancestry over the graph's rdfs:subClassOf triples."""
+
+    def __init__(self, graph: rdflib.Graph):
+        self.graph = graph
+        self._cache: dict[URIRef, frozenset[URIRef]] = {}
+
+    def ancestors(self, cls: URIRef) -> frozenset[URIRef]:
+        """Strict superclasses of ``cls``."""
+        if cls not in self._cache:
+            self._cache[cls] = frozenset(self.graph.transitive_objects(cls, RDFS.subClassOf)) - {cls}
+        return self._cache[cls]
+
+    def is_under(self, cls: URIRef, root: URIRef) -> bool:
+        return cls == root or root in self.ancestors(cls)
+
+    def most_specific(self, classes: Iterable[URIRef]) -> str | None:
+        """Local name of the single most specific core class, None if none or several."""
+        core = {c for c in classes if isinstance(c, URIRef) and c.startswith(str(CORE))}
+        lowest = [c for c in core if not any(c in self.ancestors(o) for o in core if o != c)]
+        return lowest[0][len(str(CORE)):] if len(lowest) == 1 else None
+
+    def credit(self, predicted: str | None, accepted: Iterable[str], floors: Iterable[str]) -> float:
+        """1 if accepted; 0.5 if a strict ancestor of an accepted class strictly below a floor."""
+        accepted = set(accepted)
+        if predicted is None:
+            return 0.0
+        if predicted in accepted:
+            return 1.0
+        p = CORE[predicted]
+        below_floor = any(CORE[f] in self.ancestors(p) for f in floors)
+        if below_floor and any(p in self.ancestors(CORE[a]) for a in accepted):
+            return 0.5
+        return 0.0
+
+
+def _reach(graph: rdflib.Graph, node, prop: URIRef) -> set:
+    """Nodes reached from ``node`` by one or more ``prop`` edges."""
+    return set(graph.transitive_objects(node, prop)) - {node}
+
+
+def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[PredictedComponent]:
+    def names(node) -> set[str]:
+        return {str(n) for link in graph.objects(node, CORE.hasLink) for n in graph.objects(link, CORE.urdfName)}
+
+    out = []
+    robots = set(graph.subjects(RDF.type, CORE.Robot))
+    tops = {c for r in robots for c in graph.objects(r, CORE.hasComponent)}
+    for comp in sorted(tops):
+        types = set(graph.objects(comp, RDF.type))
+        kinds = {k for k, root in _KIND_ROOTS.items() if any(tax.is_under(t, CORE[root]) for t in types)}
+        if not kinds:
+            continue
+        subs = _reach(graph, comp, CORE.hasComponent)
+        leaves = set(names(comp))
+        sub_types: dict[str, set] = {}
+        for sub in subs:
+            for leaf in names(sub):
+                leaves.add(leaf)
+                sub_types.setdefault(leaf, set()).update(graph.objects(sub, RDF.type))
+        leaves &= urdf_leaves
+        roots = {str(n) for link in graph.objects(comp, CORE.isMountedOn) for n in graph.objects(link, CORE.urdfName)}
+        out.append(PredictedComponent(
+            node=str(comp),
+            kind=kinds.pop() if len(kinds) == 1 else None,
+            cls=tax.most_specific(t for t in types if any(tax.is_under(t, CORE[r]) for r in _KIND_ROOTS.values())),
+            root=roots.pop() if len(roots) == 1 else None,
+            leaves=frozenset(leaves),
+            subparts={leaf: tax.most_specific(ts) for leaf, ts in sub_types.items() if leaf in leaves},
+        ))
+    return out
+
+
+def read_prediction(graph: rdflib.Graph, urdf_leaves: set[str]) -> list[PredictedComponent]:
+    """The predicted components of ``graph`` (spec: "Reading a prediction").
+
+    Leaves are restricted to ``urdf_leaves``; pass the URDF's leaves minus the truth's
+    ``ignore``. A component typed under both Sensor and EndEffector has kind None: it counts
+    over both kinds but in neither per-kind scope. Components left with no leaves are kept
+    here and dropped by :func:`score`.
+    """
+    return _read(graph, _Taxonomy(graph), set(urdf_leaves))
+
+
+# ---- scoring --------------------------------------------------------------------------------
+
+def _prf(hits: float, n_pred: int, n_truth: int) -> tuple[float, float, float]:
+    p = hits / n_pred if n_pred else 0.0
+    r = hits / n_truth if n_truth else 0.0
+    return p, r, (2 * p * r / (p + r) if p + r else 0.0)
+
+
+def _match(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _Taxonomy):
+    """One-to-one pairs with equal leaf sets; among duplicates the best-typed prediction wins."""
+    free = list(preds)
+    pairs = []
+    for t in truths:
+        cands = [p for p in free if p.leaves == t.leaves]
+        if cands:
+            best = max(cands, key=lambda p: tax.credit(p.cls, t.classes, _KIND_ROOTS.values()))
+            free.remove(best)
+            pairs.append((best, t))
+    return pairs
+
+
+def _partition(truth: Truth, preds: list[PredictedComponent], tax: _Taxonomy):
+    """Truth components after choosing, per alternatives entry, the partition matching more
+    predicted components (over both kinds; a tie keeps the canonical one)."""
+    by_id = {c.id: c for c in truth.components}
+    comps = list(truth.components)
+    chosen = {}
+    for alt in truth.alternatives:
+        canonical = [by_id[i] for i in alt.replace]
+        use_alt = len(_match(preds, list(alt.with_), tax)) > len(_match(preds, canonical, tax))
+        chosen["+".join(alt.replace)] = "alternative" if use_alt else "canonical"
+        if use_alt:
+            comps = [c for c in comps if c.id not in alt.replace] + list(alt.with_)
+    return comps, chosen
+
+
+def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _Taxonomy) -> dict:
+    pairs = _match(preds, truths, tax)
+    pred_leaves = set().union(*(p.leaves for p in preds))
+    truth_leaves = set().union(*(t.leaves for t in truths))
+    out = dict(zip(("leaf_precision", "leaf_recall", "leaf_f1"),
+                   _prf(len(pred_leaves & truth_leaves), len(pred_leaves), len(truth_leaves))))
+    out.update(zip(("component_precision", "component_recall", "component_f1"),
+                   _prf(len(pairs), len(preds), len(truths))))
+    typed = sum(tax.credit(p.cls, t.classes, _KIND_ROOTS.values()) for p, t in pairs)
+    out.update(zip(("typed_precision", "typed_recall", "typed_f1"), _prf(typed, len(preds), len(truths))))
+    out["root_accuracy"] = fmean(p.root in t.roots for p, t in pairs) if pairs else 0.0
+    sub = [tax.credit(p.subparts.get(leaf), accepted, _SUBPART_ROOTS)
+           for p, t in pairs for leaf, accepted in t.subparts.items()]
+    out["subpart_accuracy"] = fmean(sub) if sub else 0.0
+    out.update(n_predicted=len(preds), n_truth=len(truths), n_matched=len(pairs), n_subparts=len(sub))
+    return out
+
+
+def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str]) -> dict:
+    """Every metric of spec/evaluation.md for one robot.
+
+    Returns ``{"all"|"sensor"|"end_effector": {metric: float, count: int}, "partitions":
+    {replaced ids: "canonical"|"alternative"}, "failed": False}``. Ignored leaves are removed
+    from predicted and truth leaf sets. A predicted component with no leaf left is not a
+    prediction: the spec identifies components by their leaves, so it can match nothing, and
+    counting it would penalise labelling exactly what ``ignore`` (or a non-leaf link, such as
+    a bonus sensor on an inner link) declares unscored.
+    """
+    tax = _Taxonomy(graph)
+    scorable = set(urdf_leaves) - truth.ignore
+    preds = [p for p in _read(graph, tax, scorable) if p.leaves]
+    truths, chosen = _partition(truth, preds, tax)
+    truths = [TruthComponent(t.id, t.kind, t.classes, t.roots, t.leaves - truth.ignore, t.subparts)
+              for t in truths]
+    result = {ALL: _scope(preds, truths, tax)}
+    for kind in KINDS:
+        result[kind] = _scope([p for p in preds if p.kind == kind], [t for t in truths if t.kind == kind], tax)
+    result["partitions"] = chosen
+    result["failed"] = False
+    return result
+
+
+def failed_scores() -> dict:
+    """Scores of a robot whose run failed: every metric and count 0."""
+    zero = {**dict.fromkeys(METRICS, 0.0), **dict.fromkeys(COUNTS, 0)}
+    return {**{s: dict(zero) for s in SCOPES}, "partitions": {}, "failed": True}
+
+
+def mean_scores(per_robot: Mapping[str, dict]) -> dict:
+    """Mean of each metric over robots (failed ones included as 0); counts are summed."""
+    runs = list(per_robot.values())
+    out = {s: {**{m: fmean(r[s][m] for r in runs) if runs else 0.0 for m in METRICS},
+               **{c: sum(r[s][c] for r in runs) for c in COUNTS}} for s in SCOPES}
+    out["failed"] = sum(bool(r.get("failed")) for r in runs)
+    return out
+
+
+_HEADERS = {
+    "leaf_precision": "leafP", "leaf_recall": "leafR", "leaf_f1": "leafF1",
+    "component_precision": "compP", "component_recall": "compR", "component_f1": "compF1",
+    "typed_precision": "typedP", "typed_recall": "typedR", "typed_f1": "TYPED_F1",
+    "root_accuracy": "root", "subpart_accuracy": "subpart",
+}
+
+
+def _table(rows: list[list[str]]) -> list[str]:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
+             for r in rows]
+    return [lines[0], "-" * len(lines[0]), *lines[1:]]
+
+
+def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapping[str, object]] | None = None) -> str:
+    """Plain-text report: one block per scope (all, sensor, end_effector), rows the robots and
+    their mean, columns the metrics (the headline is TYPED_F1). ``extra_columns`` maps a column
+    title to ``{robot: value}`` (e.g. model, voting, LLM calls, tokens, wall time), shown in a
+    final "run" block; a value under the key ``"mean"`` fills the mean row.
+    """
+    names = list(per_robot)
+    mean = mean_scores(per_robot)
+    label = {n: n + (" (failed)" if per_robot[n].get("failed") else "") for n in names} | {"mean": "mean"}
+    blocks = []
+    for scope in SCOPES:
+        rows = [[scope, *(_HEADERS[m] for m in METRICS)]]
+        rows += [[label[n], *(f"{per_robot[n][scope][m]:.3f}" for m in METRICS)] for n in names]
+        rows.append([label["mean"], *(f"{mean[scope][m]:.3f}" for m in METRICS)])
+        blocks.append("\n".join(_table(rows)))
+    if extra_columns:
+        cols = list(extra_columns)
+        rows = [["run", *cols]]
+        rows += [[label[n], *(str(extra_columns[c].get(n, "")) for c in cols)] for n in [*names, "mean"]]
+        blocks.append("\n".join(_table(rows)))
+    return "\n\n".join(blocks) + "\n"
