@@ -1,0 +1,66 @@
+"""Export a populated robot as one self-contained RDF file (core axioms merged in, no owl:imports)."""
+from __future__ import annotations
+
+import functools
+import io
+import os
+import tempfile
+from typing import BinaryIO
+
+import owlready2
+import rdflib
+from rdflib.namespace import OWL
+
+from pipeline.errors import OntologyError
+from pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, core_path
+
+FORMATS = ("rdfxml", "turtle", "ntriples")
+_RDFLIB_FORMATS = {"rdfxml": "xml", "turtle": "turtle", "ntriples": "nt"}
+
+
+@functools.cache
+def _core_triples() -> tuple:
+    """The core's triples without its ontology header (the export has one header: the robot's)."""
+    graph = rdflib.Graph().parse(core_path(), format="xml")
+    header = rdflib.URIRef(CORE_ONTOLOGY_IRI)
+    return tuple(t for t in graph if t[0] != header)
+
+
+def robot_graph(onto: owlready2.Ontology) -> rdflib.Graph:
+    """The robot ontology's own triples plus the core's axioms, as one rdflib graph."""
+    buf = io.BytesIO()
+    onto.save(buf, format="ntriples")
+    graph = rdflib.Graph()
+    graph.parse(data=buf.getvalue(), format="nt")
+    for triple in _core_triples():
+        graph.add(triple)
+    graph.remove((None, OWL.imports, None))
+    graph.bind("core", CORE_IRI)
+    graph.bind("robot", onto.base_iri)
+    graph.bind("sosa", "http://www.w3.org/ns/sosa/")
+    return graph
+
+
+def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml") -> None:
+    """Write `robot_graph(onto)` to a path (atomically: temp file then rename) or a binary stream."""
+    if fmt not in FORMATS:
+        raise OntologyError(f"unknown export format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    data = robot_graph(onto).serialize(format=_RDFLIB_FORMATS[fmt], encoding="utf-8")
+    if hasattr(dest, "write"):
+        dest.write(data)
+        return
+    _write_atomically(os.fspath(dest), data)
+
+
+def _write_atomically(path: str, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".urdfkb-", suffix=".part")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise

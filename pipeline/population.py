@@ -1,0 +1,164 @@
+"""Populate one robot as its own OWL ontology: structure from the tree, components from an abstraction.
+
+Individual IRIs are `<robot_iri(name)><kind>_<escaped name>`: every byte outside ASCII letters,
+digits, '-', '_' and '~' is percent-encoded (so '.' is free to separate a component from a
+sub-link), which makes any URDF name a valid IRI and keeps distinct names distinct.
+"""
+from __future__ import annotations
+
+import math
+import string
+
+import owlready2
+
+from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component
+from pipeline.errors import OntologyError
+from pipeline.ontology import CORE_IRI, core_version, load_core, taxonomy
+
+ROBOT_BASE = "https://w3id.org/urdfkb/robot/"
+_SAFE = frozenset((string.ascii_letters + string.digits + "-_~").encode())
+_JOINT_CLASSES = {
+    "fixed": "FixedJoint",
+    "revolute": "RevoluteJoint",
+    "continuous": "ContinuousJoint",
+    "prismatic": "PrismaticJoint",
+    "floating": "FloatingJoint",
+    "planar": "PlanarJoint",
+}
+_KIND_ROOTS = {SENSOR: "Sensor", END_EFFECTOR: "EndEffector"}
+
+
+def escape(name: str) -> str:
+    """Percent-encode the UTF-8 bytes of `name` outside [A-Za-z0-9_~-]; injective."""
+    return "".join(chr(b) if b in _SAFE else f"%{b:02X}" for b in name.encode("utf-8", "surrogatepass"))
+
+
+def robot_iri(robot_name: str) -> str:
+    """Namespace (ending in '#') of the robot's own ontology."""
+    if not robot_name:
+        raise OntologyError("robot name is empty")
+    return f"{ROBOT_BASE}{escape(robot_name)}#"
+
+
+def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abstraction | None = None,
+                provenance: dict[str, str] | None = None) -> owlready2.Ontology:
+    """Write the robot as ontology `robot_iri(robot_name)` in `world`, replacing any earlier version.
+
+    The abstraction is checked first (classes, links, confidences, names), so a bad one raises
+    OntologyError with nothing written. Provenance keys that are core annotation properties
+    (abstraction.provenance, then `provenance`) are asserted as such, others as provenanceNote
+    "key=value"; ontologyVersion defaults to core_version().
+    """
+    components = abstraction.components if abstraction else ()
+    _check_components(tree, components)
+    notes = {"ontologyVersion": core_version(), **(abstraction.provenance if abstraction else {}),
+             **(provenance or {})}
+    load_core(world)
+    onto = _fresh_ontology(world, robot_iri(robot_name))
+    with onto:
+        robot = _new(world, onto, "Robot", "robot", robot_name)
+        _set(world, "urdfName", robot, tree.robot_name)
+        links = _add_structure(world, onto, robot, tree)
+        for comp in components:
+            _add_component(world, onto, robot, comp, links)
+        _annotate(world, robot, notes)
+    return onto
+
+
+def _check_components(tree, components: tuple[Component, ...]) -> None:
+    known = set(tree.links)
+    names: set[str] = set()
+    for comp in components:
+        where = f"component {comp.name!r}"
+        if comp.name in names:
+            raise OntologyError(f"{where} appears twice")
+        names.add(comp.name)
+        root_cls = _KIND_ROOTS.get(comp.kind)
+        if root_cls is None:
+            raise OntologyError(f"{where} has unknown kind {comp.kind!r}")
+        _check_class(comp.cls, root_cls, where)
+        _check_confidence(comp.confidence, where)
+        _check_link(comp.root, known, where)
+        sub_links: set[str] = set()
+        for sub in comp.subcomponents:
+            _check_class(sub.cls, "Subpart", f"{where}, sub-link {sub.link!r}")
+            _check_confidence(sub.confidence, f"{where}, sub-link {sub.link!r}")
+            _check_link(sub.link, known, where)
+            if sub.link in sub_links:
+                raise OntologyError(f"{where} lists sub-link {sub.link!r} twice")
+            sub_links.add(sub.link)
+
+
+def _check_class(cls: str, root: str, where: str) -> None:
+    tax = taxonomy()
+    if cls not in tax or not tax.is_a(cls, root):
+        raise OntologyError(f"{where}: class {cls!r} is not a {root} class of the core ontology")
+
+
+def _check_confidence(value: float, where: str) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and 0 <= value <= 1):
+        raise OntologyError(f"{where}: confidence {value!r} is not a number in [0, 1]")
+
+
+def _check_link(link: str, known: set[str], where: str) -> None:
+    if link not in known:
+        raise OntologyError(f"{where} names link {link!r}, which is not in the URDF")
+
+
+def _fresh_ontology(world: owlready2.World, iri: str) -> owlready2.Ontology:
+    old = world.ontologies.get(iri[:-1])
+    if old is not None:
+        old.destroy()
+    return world.get_ontology(iri)
+
+
+def _new(world, onto, cls: str, local: str, label: str):
+    individual = world[CORE_IRI + cls](local, namespace=onto)
+    individual.label = [label]
+    return individual
+
+
+def _set(world, prop: str, subject, value) -> None:
+    world[CORE_IRI + prop][subject].append(value)
+
+
+def _add_structure(world, onto, robot, tree) -> dict:
+    links = {}
+    for name in tree.links:
+        link = links[name] = _new(world, onto, "Link", "link_" + escape(name), name)
+        _set(world, "urdfName", link, name)
+        _set(world, "hasLink", robot, link)
+    for edge in tree.edges:
+        joint = _new(world, onto, _JOINT_CLASSES[edge.joint_type], "joint_" + escape(edge.joint), edge.joint)
+        _set(world, "urdfName", joint, edge.joint)
+        _set(world, "hasParentLink", joint, links[edge.parent])
+        _set(world, "hasChildLink", joint, links[edge.child])
+        _set(world, "hasJoint", robot, joint)
+    return links
+
+
+def _add_component(world, onto, robot, comp: Component, links: dict) -> None:
+    local = escape(comp.name)
+    ind = _new(world, onto, comp.cls, "comp_" + local, comp.name)
+    _set(world, "confidence", ind, _decimal(comp.confidence))
+    _set(world, "isMountedOn", ind, links[comp.root])
+    _set(world, "hasComponent", robot, ind)
+    for sub in comp.subcomponents:
+        part = _new(world, onto, sub.cls, f"sub_{local}.{escape(sub.link)}", sub.link)
+        _set(world, "hasLink", part, links[sub.link])
+        _set(world, "confidence", part, _decimal(sub.confidence))
+        _set(world, "hasComponent", ind, part)
+
+
+def _decimal(value: float) -> float:
+    """Owlready2 writes floats as xsd:decimal; 4 places keep the lexical form non-exponential."""
+    return round(float(value), 4)
+
+
+def _annotate(world, robot, notes: dict[str, str]) -> None:
+    for key, value in notes.items():
+        prop = world[CORE_IRI + key]
+        if isinstance(prop, owlready2.AnnotationPropertyClass):
+            prop[robot].append(str(value))
+        else:
+            _set(world, "provenanceNote", robot, f"{key}={value}")

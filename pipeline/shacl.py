@@ -1,0 +1,28 @@
+"""Check a populated robot graph against ontologies/shapes.ttl (RDFS inference over the core)."""
+from __future__ import annotations
+
+import functools
+import importlib.resources
+
+import pyshacl
+import rdflib
+
+from pipeline.ontology import core_path
+
+
+@functools.cache
+def _shapes() -> rdflib.Graph:
+    return rdflib.Graph().parse(str(importlib.resources.files("ontologies").joinpath("shapes.ttl")), format="turtle")
+
+
+@functools.cache
+def _core() -> rdflib.Graph:
+    return rdflib.Graph().parse(core_path(), format="xml")
+
+
+def validate(data: rdflib.Graph) -> tuple[bool, str]:
+    """(conforms, human-readable report); `data` itself is left unchanged."""
+    conforms, _, text = pyshacl.validate(
+        data, shacl_graph=_shapes(), ont_graph=_core(), inference="rdfs", abort_on_first=False,
+    )
+    return bool(conforms), text
