@@ -1,0 +1,45 @@
+"""A result cache: an identical run (same URDF, model, ontology, settings) is answered from disk."""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import platformdirs
+
+from .components import Abstraction
+
+SCHEMA = 1  # bump when the abstraction algorithm changes what it produces
+
+
+def cache_dir() -> Path:
+    """Where results are kept: $URDFKB_CACHE/results, else the user cache directory."""
+    base = os.environ.get("URDFKB_CACHE") or platformdirs.user_cache_dir("urdfkb")
+    return Path(base) / "results"
+
+
+def key(urdf_sha256: str, model: str, ontology: str, settings: dict) -> str:
+    """A digest of everything that determines the result."""
+    blob = json.dumps([SCHEMA, urdf_sha256, model, ontology, settings], sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def load(digest: str) -> Abstraction | None:
+    """The cached result, or None when absent or unreadable."""
+    path = cache_dir() / f"{digest}.json"
+    try:
+        return Abstraction.from_dict(json.loads(path.read_text()))
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def store(digest: str, abstraction: Abstraction) -> None:
+    """Write atomically, so a crash never leaves a half-written entry."""
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
+    with os.fdopen(fd, "w") as out:
+        json.dump(abstraction.to_dict(), out)
+    os.replace(tmp, folder / f"{digest}.json")

@@ -1,0 +1,131 @@
+"""The one entry point from a parsed URDF to an Abstraction: settings, model backend, cache, passes."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+from dataclasses import dataclass
+from typing import Callable, Mapping, TextIO
+
+from . import cache
+from .abstraction import Abstractor
+from .components import Abstraction
+from .llm.base import Backend
+from .ontology import core_version, taxonomy
+from .oracle import Oracle
+from .tree import KinematicTree
+
+Progress = Callable[[str, int, int], None]
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How to abstract a robot; every field is also a `populate` option and a POST /populate field."""
+
+    structure_only: bool = False
+    model: str | None = None       # GGUF path; None = the default model, fetched on first use
+    llm_url: str | None = None     # an OpenAI-compatible server instead of the embedded model
+    llm_model: str | None = None   # the model name that server should use
+    vote: str | None = None        # "exact" or "sample"; None = exact when the backend has logits
+    votes: int = 5
+    use_cache: bool = True
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, object]) -> "Settings":
+        """Settings from user input (JSON or form fields), with a clear error for anything invalid."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = set(data) - set(fields)
+        if unknown:
+            raise ValueError(f"unknown setting(s): {', '.join(sorted(unknown))}; valid: {', '.join(fields)}")
+        values = {}
+        for name, raw in data.items():
+            values[name] = _coerce(name, fields[name].type, raw)
+        settings = cls(**values)
+        settings.check()
+        return settings
+
+    def check(self) -> None:
+        if self.vote not in (None, "exact", "sample"):
+            raise ValueError(f"vote must be 'exact' or 'sample', not {self.vote!r}")
+        if not 1 <= self.votes <= 100:
+            raise ValueError(f"votes must be between 1 and 100, not {self.votes}")
+        if self.model and self.llm_url:
+            raise ValueError("give either a model file or an LLM server URL, not both")
+
+
+def _coerce(name: str, kind: str, raw: object) -> object:
+    if "bool" in kind:
+        if isinstance(raw, bool):
+            return raw
+        if str(raw).lower() in ("1", "true", "yes", "on"):
+            return True
+        if str(raw).lower() in ("0", "false", "no", "off"):
+            return False
+        raise ValueError(f"setting {name} must be true or false, not {raw!r}")
+    if "int" in kind:
+        try:
+            return int(raw)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            raise ValueError(f"setting {name} must be an integer, not {raw!r}") from None
+    return None if raw in (None, "") else str(raw)
+
+
+def make_backend(settings: Settings) -> Backend:
+    """The backend the settings ask for: an HTTP server, a given GGUF, or the default model."""
+    if settings.llm_url:
+        from .llm.http import OpenAIBackend
+        return OpenAIBackend(settings.llm_url, settings.llm_model or "default")
+    from .llm.fetch import DEFAULT_MODEL, ensure_model
+    from .llm.llama import LlamaBackend
+    return LlamaBackend(settings.model or str(ensure_model(DEFAULT_MODEL)))
+
+
+def _backend_id(settings: Settings, backend: Backend | None) -> str:
+    if backend is not None:
+        return backend.name
+    if settings.llm_url:
+        return f"openai:{settings.llm_url}:{settings.llm_model}"
+    return f"gguf:{settings.model or 'default'}"
+
+
+def tree_digest(tree: KinematicTree) -> str:
+    """A digest of everything in the tree the pipeline reads (names, edges, joint types, origins)."""
+    blob = json.dumps([tree.robot_name, tree.links, [dataclasses.asdict(e) for e in tree.edges]])
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
+        trace: TextIO | None = None) -> Abstraction:
+    """Abstract a robot's sensors and end-effectors (nothing when structure_only).
+
+    `backend` overrides the one the settings name (tests inject a scripted one). Results are
+    cached by URDF digest, model, ontology version and settings; the backend is closed after use.
+    """
+    if settings.structure_only:
+        return Abstraction((), {"mode": "structure-only"})
+    settings_key = {k: v for k, v in dataclasses.asdict(settings).items() if k != "use_cache"}
+    digest = cache.key(tree_digest(tree), _backend_id(settings, backend), core_version(), settings_key)
+    if settings.use_cache and (hit := cache.load(digest)) is not None:
+        return hit
+    owned = backend is None
+    backend = backend or make_backend(settings)
+    try:
+        oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
+        started = time.monotonic()
+        log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
+        components = Abstractor(oracle, taxonomy(), progress, log).run(tree)
+        stats = oracle.stats
+        provenance = {
+            **oracle.provenance(),
+            "llm_calls": str(stats.calls),
+            "prompt_tokens": str(stats.prompt_tokens),
+            "seconds": f"{time.monotonic() - started:.1f}",
+        }
+    finally:
+        if owned:
+            backend.close()
+    result = Abstraction(components, provenance)
+    if settings.use_cache:
+        cache.store(digest, result)
+    return result

@@ -1,0 +1,22 @@
+"""Stage 1, identification: which kind of component (if any) each leaf link belongs to."""
+from __future__ import annotations
+
+from ..oracle import Oracle
+from ..ontology import Taxonomy
+from ..prompts import kind_question
+from ..tree import KinematicTree
+from .asking import Progress, ask
+
+COMPONENT = "Component"
+
+
+def identify(oracle: Oracle, tax: Taxonomy, tree: KinematicTree, leaves: list[str],
+             progress: Progress | None = None) -> dict[str, str]:
+    """Map each leaf to a direct subclass of Component (or prompts.NONE_OF_THESE)."""
+    kinds = tax.subclasses(COMPONENT)
+    questions = [
+        kind_question(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type)
+        for leaf in leaves
+    ]
+    verdicts = ask(oracle, questions, "identification", progress)
+    return {leaf: v.answer or "" for leaf, v in zip(leaves, verdicts)}
