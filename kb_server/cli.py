@@ -1,0 +1,226 @@
+"""The `urdfkb` command: a thin layer over the pipeline and the knowledge-base server."""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from pipeline.errors import UrdfkbError
+
+DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
+
+
+class StageBars:
+    """One tqdm bar per stage round on stderr; silent when quiet."""
+
+    def __init__(self, quiet: bool):
+        self.quiet, self.bar = quiet, None
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if self.quiet:
+            return
+        from tqdm import tqdm
+        if self.bar is None or done == 0 or self.bar.desc != stage:
+            self.close()
+            self.bar = tqdm(total=total, desc=stage, unit="q", leave=True, file=sys.stderr)
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+def _add_model_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("model")
+    g.add_argument("--model", metavar="GGUF", help="a GGUF model file (default: Qwen2.5-Coder-1.5B-Instruct, fetched once)")
+    g.add_argument("--llm-url", metavar="URL", help="an OpenAI-compatible server (llama.cpp server, vLLM, Ollama /v1) instead of the embedded model")
+    g.add_argument("--llm-model", metavar="NAME", help="the model name to request from --llm-url")
+    g.add_argument("--vote", choices=("exact", "sample"), help="exact: whole-answer probabilities in one pass (default with an embedded model); sample: K samples at temperature 0.7")
+    g.add_argument("--votes", type=int, default=5, metavar="K", help="samples per question with --vote sample (default 5)")
+    g.add_argument("--no-cache", action="store_true", help="ignore and do not write the result cache")
+
+
+def _settings(args: argparse.Namespace, structure_only: bool = False):
+    from pipeline.runner import Settings
+    settings = Settings(structure_only=structure_only, model=args.model, llm_url=args.llm_url,
+                        llm_model=args.llm_model, vote=args.vote, votes=args.votes, use_cache=not args.no_cache)
+    try:
+        settings.check()
+    except ValueError as exc:
+        raise UrdfkbError(str(exc)) from None
+    return settings
+
+
+def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, max_bytes: int):
+    """Ingest and abstract one URDF; returns (tree, robot name, abstraction, seconds)."""
+    from pipeline.ingest import load_urdf
+    from pipeline.runner import run
+    tree = load_urdf(urdf, max_bytes=max_bytes)
+    bars = StageBars(quiet)
+    started = time.monotonic()
+    with open(trace_path, "w") if trace_path else contextlib.nullcontext() as trace:
+        try:
+            abstraction = run(tree, settings, progress=bars, trace=trace)
+        finally:
+            bars.close()
+    return tree, name or tree.robot_name, abstraction, time.monotonic() - started
+
+
+def _robot_ontology(tree, name: str, abstraction):
+    import owlready2
+    from pipeline.population import build_robot
+    return build_robot(owlready2.World(), tree, name, abstraction)
+
+
+def cmd_populate(args: argparse.Namespace) -> int:
+    from pipeline.export import export_robot, robot_graph
+    from pipeline.shacl import validate
+    settings = _settings(args, args.structure_only)
+    tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, args.max_bytes)
+    onto = _robot_ontology(tree, name, abstraction)
+    conforms, report = validate(robot_graph(onto))
+    if not conforms:
+        raise UrdfkbError(f"the populated robot breaks the SHACL shapes; nothing written:\n{report}")
+    out = args.output or f"{Path(args.urdf).stem}.{ {'rdfxml': 'owl', 'turtle': 'ttl', 'ntriples': 'nt'}[args.format] }"
+    export_robot(onto, out, args.format)
+    what = "structure only" if settings.structure_only else f"{len(abstraction.components)} components"
+    print(f"{name}: {len(tree.links)} links, {len(tree.edges)} joints, {what} in {seconds:.1f} s -> {Path(out).resolve()}")
+    for c in abstraction.components:
+        print(f"  {c.kind:12} {c.cls:20} on {c.root:30} {c.confidence:.2f}  {', '.join(c.links)}")
+    return 0
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    import rdflib
+    from pipeline.shacl import validate
+    try:
+        graph = rdflib.Graph().parse(args.file)
+    except Exception as exc:  # rdflib raises many parser-specific types
+        raise UrdfkbError(f"cannot read {args.file} as RDF: {exc}") from None
+    conforms, report = validate(graph)
+    print(report if not conforms else f"{args.file}: conforms to the urdfkb shapes")
+    return 0 if conforms else 1
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from pipeline import evaluation
+    from pipeline.export import robot_graph
+    truth_dir = Path(args.truth_dir)
+    files = sorted(truth_dir.glob("*.yaml"))
+    if not files:
+        raise UrdfkbError(f"no truth files (*.yaml) in {truth_dir}")
+    settings = _settings(args)
+    per_robot, extra = {}, {k: {} for k in ("model", "vote", "llm calls", "tokens", "seconds")}
+    for path in files:
+        truth = evaluation.load_truth(path)
+        urdf = truth_dir.parent.parent / truth.urdf
+        print(f"== {truth.robot} ({urdf})", file=sys.stderr)
+        try:
+            tree, name, abstraction, seconds = _abstract(str(urdf), truth.robot, settings, args.quiet, None, 10_000_000)
+            graph = robot_graph(_robot_ontology(tree, name, abstraction))
+            per_robot[truth.robot] = evaluation.score(truth, graph, set(tree.leaves()))
+            prov = abstraction.provenance
+            for col, key in (("model", "model"), ("vote", "vote"), ("llm calls", "llm_calls"), ("tokens", "prompt_tokens")):
+                extra[col][truth.robot] = Path(prov.get(key, "?")).name if key == "model" else prov.get(key, "?")
+            extra["seconds"][truth.robot] = f"{seconds:.1f}"
+        except UrdfkbError as exc:
+            print(f"{truth.robot}: run failed: {exc}", file=sys.stderr)
+            per_robot[truth.robot] = evaluation.failed_scores()
+    print(evaluation.format_table(per_robot, extra))
+    if args.json:
+        Path(args.json).write_text(json.dumps({"robots": per_robot, "mean": evaluation.mean_scores(per_robot), "run": extra}, indent=2))
+    return 0
+
+
+def cmd_model(args: argparse.Namespace) -> int:
+    from pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
+    print(ensure_model(TEST_MODEL if args.test else DEFAULT_MODEL, progress=not args.quiet))
+    return 0
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    from kb_server.serve import serve
+    serve(store_path=args.store, host=args.host, port=args.port, token=args.token or os.environ.get("URDFKB_TOKEN"),
+          remote_store=args.remote_store, populate=args.populate)
+    return 0
+
+
+def cmd_query(args: argparse.Namespace) -> int:
+    from kb_server.queries import run_named_query
+    params = dict(p.split("=", 1) for p in args.param)
+    print(run_named_query(args.name, robot=args.robot, params=params, store_path=args.store, fmt=args.format))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="urdfkb", description="Turn a robot's URDF into a populated, queryable OWL ontology of its sensors and end-effectors.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("populate", help="abstract a URDF and write the populated ontology to a file",
+                       description="Ingest a URDF, run the LLM-guided abstraction (sensors, then end-effectors), check the result against the SHACL shapes and write a self-contained ontology file that opens in Protégé offline.")
+    p.add_argument("urdf", help="the robot's URDF file")
+    p.add_argument("-o", "--output", help="output file (default: <urdf stem>.owl/.ttl/.nt in the current directory)")
+    p.add_argument("--format", choices=("rdfxml", "turtle", "ntriples"), default="rdfxml", help="output syntax (default rdfxml)")
+    p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
+    p.add_argument("--structure-only", action="store_true", help="skip the model: links and joints only")
+    p.add_argument("--trace", metavar="FILE", help="write a JSON-lines audit of every question: candidates, distribution, answer")
+    p.add_argument("--max-bytes", type=int, default=10_000_000, help="refuse URDFs larger than this (default 10 MB)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    _add_model_options(p)
+    p.set_defaults(func=cmd_populate)
+
+    p = sub.add_parser("validate", help="check a populated ontology file against the urdfkb SHACL shapes")
+    p.add_argument("file", help="an RDF file written by `urdfkb populate` (any RDF syntax)")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("eval", help="score the pipeline against ground-truth robots",
+                       description="Run the pipeline on each truth robot and print the metrics of spec/evaluation.md per robot and their mean, with model, voting, LLM calls, tokens and wall time.")
+    p.add_argument("truth_dir", nargs="?", default=str(DEFAULT_TRUTH), help=f"folder of truth *.yaml files (default {DEFAULT_TRUTH}); URDF paths in them are relative to its grandparent")
+    p.add_argument("--json", metavar="FILE", help="also write the scores as JSON")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    _add_model_options(p)
+    p.set_defaults(func=cmd_eval)
+
+    p = sub.add_parser("model", help="fetch, assemble and verify the default model (cached; instant once done)")
+    p.add_argument("--test", action="store_true", help="the small SmolLM2-135M test model instead")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_model)
+
+    p = sub.add_parser("serve", help="serve the knowledge base: SPARQL endpoint, POST /populate, robots, HRI queries")
+    p.add_argument("--store", help="the quadstore file (default: a kb.sqlite3 in the user data directory)")
+    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
+    p.add_argument("--port", type=int, default=8000, help="port (default 8000)")
+    p.add_argument("--token", help="bearer token allowing SPARQL updates and deletions (or env URDFKB_TOKEN)")
+    p.add_argument("--remote-store", metavar="URL", help="mirror every robot as a named graph into this SPARQL 1.1 Graph Store endpoint")
+    p.add_argument("--populate", metavar="URDF", action="append", default=[], help="populate this URDF into the store before serving (repeatable)")
+    p.set_defaults(func=cmd_serve)
+
+    p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")
+    p.add_argument("name", help="query name (a file in queries/, without .rq)")
+    p.add_argument("--robot", required=True, help="robot name")
+    p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="query parameter (repeatable)")
+    p.add_argument("--store", help="the quadstore file (default: the server's default store)")
+    p.add_argument("--format", choices=("table", "json", "csv"), default="table", help="output format (default table)")
+    p.set_defaults(func=cmd_query)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except UrdfkbError as exc:
+        print(f"urdfkb: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("urdfkb: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
