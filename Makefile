@@ -1,0 +1,40 @@
+# urdfkb: `make run` sets everything up and serves the sample robot; `make test` runs the suite.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+SAMPLE := kb_server/samples/turtlebot3_waffle_pi.urdf
+HOST   ?= 127.0.0.1
+PORT   ?= 8000
+# llama-cpp-python compiles from source once (about 8 minutes on 2 cores); pip's wheel cache
+# and the already-installed check mean it is never rebuilt after that.
+export CMAKE_BUILD_PARALLEL_LEVEL ?= $(shell nproc 2>/dev/null || echo 2)
+
+.PHONY: run test install model bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+
+$(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install -q -e '.[test]'
+	touch $@
+
+install: $(VENV)/.installed
+
+model: install
+	$(BIN)/urdfkb model
+
+run: model
+	$(BIN)/urdfkb serve --host $(HOST) --port $(PORT) --populate $(SAMPLE)
+
+test: install
+	$(BIN)/python -m pytest -q -ra
+
+bench: install
+	$(BIN)/python benchmarks/ingest_bench.py
+	$(BIN)/python benchmarks/llm_bench.py
+	$(BIN)/python benchmarks/bench_queries.py
+	$(BIN)/python benchmarks/vote_bench.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info
