@@ -26,6 +26,17 @@ _JOINT_CLASSES = {
     "planar": "PlanarJoint",
 }
 _KIND_ROOTS = {SENSOR: "Sensor", END_EFFECTOR: "EndEffector"}
+# Provenance keys the pipeline writes (oracle, runner) -> core annotation properties.
+PROVENANCE_ALIASES = {
+    "model": "abstractionModel",
+    "vote": "votingMode",
+    "votes": "votesPerQuestion",
+    "temperature": "samplingTemperature",
+    "mode": "abstractionMode",
+    "llm_calls": "llmCalls",
+    "prompt_tokens": "tokensEvaluated",
+    "seconds": "wallTimeSeconds",
+}
 
 
 def escape(name: str) -> str:
@@ -45,9 +56,9 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
     """Write the robot as ontology `robot_iri(robot_name)` in `world`, replacing any earlier version.
 
     The abstraction is checked first (classes, links, confidences, names), so a bad one raises
-    OntologyError with nothing written. Provenance keys that are core annotation properties
-    (abstraction.provenance, then `provenance`) are asserted as such, others as provenanceNote
-    "key=value"; ontologyVersion defaults to core_version().
+    OntologyError with nothing written. Provenance (abstraction.provenance, then `provenance`)
+    is annotated on the Robot: keys naming a core annotation property (or in PROVENANCE_ALIASES)
+    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to core_version().
     """
     components = abstraction.components if abstraction else ()
     _check_components(tree, components)
@@ -157,7 +168,7 @@ def _decimal(value: float) -> float:
 
 def _annotate(world, robot, notes: dict[str, str]) -> None:
     for key, value in notes.items():
-        prop = world[CORE_IRI + key]
+        prop = world[CORE_IRI + PROVENANCE_ALIASES.get(key, key)]
         if isinstance(prop, owlready2.AnnotationPropertyClass):
             prop[robot].append(str(value))
         else:
