@@ -117,7 +117,7 @@ def _check_link(link: str, known: set[str], where: str) -> None:
 
 
 def _fresh_ontology(world: owlready2.World, iri: str) -> owlready2.Ontology:
-    old = world.ontologies.get(iri[:-1])
+    old = world.ontologies.get(iri)
     if old is not None:
         old.destroy()
     return world.get_ontology(iri)

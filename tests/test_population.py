@@ -1,0 +1,218 @@
+"""Populating robots: structure, components, safe IRIs, isolation between robots, refusal of bad input."""
+import io
+import re
+
+import owlready2
+import pytest
+import rdflib
+
+from pipeline.components import Abstraction, Component, SubComponent
+from pipeline.errors import OntologyError
+from pipeline.ontology import CORE_IRI, core_version
+from pipeline.population import build_robot, escape, robot_iri
+from pipeline.tree import Edge, KinematicTree, Origin
+
+CORE = rdflib.Namespace(CORE_IRI)
+ZERO = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+IRI_CHARS = re.compile(r"[A-Za-z0-9:/._~%#-]+")
+HOSTILE = ["base link", "a#b", "a/b", "50%", "%41", "a.b", "a%2Eb", "ünï€😀", 'say "hi"', "it's", "<x>&y",
+           "back\\slash", "tab\there", "new\nline", "?q=1", "{}|^`", "link_x", "comp_x"]
+
+
+def sample_tree(name="bot", links=None):
+    """base_link with a head carrying an RGB-D camera, an arm with a gripper; every joint type."""
+    spec = [("caster_joint", "planar", "base_link", "caster_link"),
+            ("odom_joint", "floating", "base_link", "odom_link"),
+            ("head_joint", "revolute", "base_link", "head_link"),
+            ("cam_joint", "fixed", "head_link", "cam_link"),
+            ("rgb_joint", "fixed", "cam_link", "cam_rgb_optical_frame"),
+            ("depth_joint", "fixed", "cam_link", "cam_depth_optical_frame"),
+            ("wrist_joint", "continuous", "base_link", "wrist_link"),
+            ("finger_joint", "prismatic", "wrist_link", "finger_link"),
+            ("tool_joint", "fixed", "wrist_link", "tool_frame")]
+    names = links or ("base_link", *(child for _, _, _, child in spec))
+    return KinematicTree(name, tuple(names), tuple(Edge(j, t, p, c, ZERO) for j, t, p, c in spec))
+
+
+def sample_abstraction(camera_cls="RGBDCamera", rgb_cls="RgbFrame"):
+    camera = Component("head camera", "sensor", camera_cls, 0.93, "head_link",
+                       (SubComponent("cam_rgb_optical_frame", rgb_cls, 0.8),
+                        SubComponent("cam_depth_optical_frame", "DepthFrame", 1.0)))
+    gripper = Component("gripper", "end_effector", "ParallelGripper", 2 / 3, "wrist_link",
+                        (SubComponent("finger_link", "Finger", 0.6), SubComponent("tool_frame", "ToolCenterPoint", 1)))
+    return Abstraction((camera, gripper), {"model": "tiny-q4", "votes": "3", "favourite colour": "blue"})
+
+
+def triples(onto):
+    buf = io.BytesIO()
+    onto.save(buf, format="ntriples")
+    return rdflib.Graph().parse(data=buf.getvalue(), format="nt")
+
+
+def named(graph, name):
+    [node] = graph.subjects(CORE.urdfName, rdflib.Literal(name, datatype=rdflib.XSD.string))
+    return node
+
+
+def test_structure():
+    world = owlready2.World()
+    onto = build_robot(world, sample_tree(), "bot")
+    g = triples(onto)
+    [robot] = g.subjects(rdflib.RDF.type, CORE.Robot)
+    assert len(list(g.objects(robot, CORE.hasLink))) == 10
+    assert len(list(g.objects(robot, CORE.hasJoint))) == 9
+    joint = named(g, "head_joint")
+    assert (joint, rdflib.RDF.type, CORE.RevoluteJoint) in g
+    assert g.value(joint, CORE.hasParentLink) == named(g, "base_link")
+    assert g.value(joint, CORE.hasChildLink) == named(g, "head_link")
+    types = {t for j in g.objects(robot, CORE.hasJoint) for t in g.objects(j, rdflib.RDF.type)}
+    assert {CORE[t] for t in ("FixedJoint", "RevoluteJoint", "ContinuousJoint", "PrismaticJoint",
+                               "FloatingJoint", "PlanarJoint")} <= types
+    assert not list(g.triples((None, CORE.hasComponent, None)))
+    assert str(g.value(robot, CORE.ontologyVersion)) == core_version()
+
+
+def test_components_and_provenance():
+    world = owlready2.World()
+    onto = build_robot(world, sample_tree(), "bot", sample_abstraction(), {"generatedAt": "2026-11-21T09:00:00Z"})
+    g = triples(onto)
+    [robot] = g.subjects(rdflib.RDF.type, CORE.Robot)
+    comps = {str(g.value(c, rdflib.RDFS.label)): c for c in g.objects(robot, CORE.hasComponent)}
+    assert comps.keys() == {"head camera", "gripper"}
+    cam = comps["head camera"]
+    assert (cam, rdflib.RDF.type, CORE.RGBDCamera) in g
+    assert g.value(cam, CORE.isMountedOn) == named(g, "head_link")
+    conf = g.value(comps["gripper"], CORE.confidence)
+    assert conf.datatype == rdflib.XSD.decimal and float(conf) == 0.6667
+    subs = list(g.objects(cam, CORE.hasComponent))
+    links = {g.value(s, CORE.hasLink): s for s in subs}
+    rgb = links[named(g, "cam_rgb_optical_frame")]
+    assert (rgb, rdflib.RDF.type, CORE.RgbFrame) in g and float(g.value(rgb, CORE.confidence)) == 0.8
+    assert len(subs) == 2 and len(list(g.objects(comps["gripper"], CORE.hasComponent))) == 2
+    assert str(g.value(robot, CORE.abstractionModel)) == "tiny-q4"
+    assert str(g.value(robot, CORE.votesPerQuestion)) == "3"
+    assert str(g.value(robot, CORE.generatedAt)) == "2026-11-21T09:00:00Z"
+    assert str(g.value(robot, CORE.provenanceNote)) == "favourite colour=blue"
+
+
+def test_populated_robot_is_consistent_for_hermit():
+    world = owlready2.World()
+    build_robot(world, sample_tree(), "bot", sample_abstraction())
+    owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
+    assert list(world.inconsistent_classes()) == []
+
+
+@pytest.mark.parametrize("name", HOSTILE)
+def test_hostile_names_give_valid_distinct_iris(name):
+    links = ("base_link", "caster_link", "odom_link", name, "cam_link", "cam_rgb_optical_frame",
+             "cam_depth_optical_frame", "wrist_link", "finger_link", "tool_frame")
+    tree = KinematicTree(name, links, (Edge(name, "fixed", "base_link", name, ZERO),
+                                       Edge("j2", "revolute", "base_link", "caster_link", ZERO),
+                                       *(Edge(f"j{c}", "fixed", "base_link", c, ZERO) for c in links[2:] if c != name)))
+    world = owlready2.World()
+    g = triples(build_robot(world, tree, name))
+    link, joint = (s for s in g.subjects(CORE.urdfName, rdflib.Literal(name, datatype=rdflib.XSD.string))
+                   if (s, rdflib.RDF.type, CORE.Robot) not in g)
+    assert link != joint
+    for node in (link, joint, rdflib.URIRef(robot_iri(name))):
+        assert IRI_CHARS.fullmatch(str(node)), node
+    assert str(link).startswith(robot_iri(name))
+
+
+def test_escape_is_injective_and_plain_for_ordinary_names():
+    escaped = [escape(n) for n in HOSTILE]
+    assert len(set(escaped)) == len(HOSTILE)
+    assert escape("base_link-2~") == "base_link-2~"
+    assert escape("a.b") == "a%2Eb" and escape("a%2Eb") == "a%252Eb"
+
+
+def test_names_that_escape_alike_do_not_collide():
+    """A sub-link IRI joins component and link with '.', which escape() never emits."""
+    links = ("r", "a", "a.b", "b.c", "c")
+    tree = KinematicTree("t", links, tuple(Edge(f"j{l}", "fixed", "r", l, ZERO) for l in links[1:]))
+    comps = (Component("a.b", "sensor", "IMU", 1, "r", (SubComponent("c", "SensingElement", 1),)),
+             Component("a", "sensor", "IMU", 1, "r", (SubComponent("b.c", "SensingElement", 1),)))
+    g = triples(build_robot(owlready2.World(), tree, "t", Abstraction(comps)))
+    assert len(set(g.subjects(rdflib.RDF.type, CORE.SensingElement))) == 2
+    assert len(set(g.subjects(rdflib.RDF.type, CORE.IMU))) == 2
+
+
+def test_two_robots_in_one_world_share_no_individual():
+    world = owlready2.World()
+    one = build_robot(world, sample_tree("one"), "one", sample_abstraction())
+    two = build_robot(world, sample_tree("two"), "two", sample_abstraction())
+    assert one.base_iri != two.base_iri
+    ones, twos = set(triples(one).subjects()), set(triples(two).subjects())
+    assert len(ones) > 20 and not ({s for s in ones if "/robot/" in s} & twos)
+    assert all(str(i.iri).startswith(one.base_iri) for i in one.individuals())
+
+
+def test_rebuilding_a_robot_replaces_it():
+    world = owlready2.World()
+    build_robot(world, sample_tree(), "bot", sample_abstraction())
+    onto = build_robot(world, sample_tree(), "bot")
+    assert not list(triples(onto).triples((None, CORE.hasComponent, None)))
+    assert world.search(type=world[CORE_IRI + "RGBDCamera"]) == []
+
+
+def _with_bad_sub(comp, link):
+    return Component(comp.name, comp.kind, comp.cls, comp.confidence, comp.root,
+                     (*comp.subcomponents, SubComponent(link, "SensingElement", 1)))
+
+
+BAD = {
+    "unknown sub-link": lambda a: Abstraction((_with_bad_sub(a.components[0], "nope_link"),)),
+    "unknown root": lambda a: Abstraction((Component("c", "sensor", "IMU", 1, "nope_root", ()),)),
+    "class outside Sensor": lambda a: Abstraction((Component("c", "sensor", "Gripper", 1, "head_link", ()),)),
+    "structural class": lambda a: Abstraction((Component("c", "sensor", "Link", 1, "head_link", ()),)),
+    "unknown class": lambda a: Abstraction((Component("c", "sensor", "Telescope", 1, "head_link", ()),)),
+    "subpart class": lambda a: Abstraction((Component("c", "sensor", "IMU", 1, "head_link",
+                                                      (SubComponent("cam_link", "Camera", 1),)),)),
+    "unknown kind": lambda a: Abstraction((Component("c", "body", "IMU", 1, "head_link", ()),)),
+    "confidence above 1": lambda a: Abstraction((Component("c", "sensor", "IMU", 1.5, "head_link", ()),)),
+    "confidence NaN": lambda a: Abstraction((Component("c", "sensor", "IMU", 1, "head_link",
+                                                       (SubComponent("cam_link", "SensingElement", float("nan")),)),)),
+    "duplicate component": lambda a: Abstraction((a.components[1], a.components[1])),
+    "duplicate sub-link": lambda a: Abstraction((Component("c", "sensor", "IMU", 1, "head_link",
+                                                           (SubComponent("cam_link", "SensingElement", 1),) * 2),)),
+}
+
+
+@pytest.mark.parametrize("case", BAD)
+def test_bad_abstraction_writes_nothing(case):
+    world = owlready2.World()
+    build_robot(world, sample_tree(), "bot", sample_abstraction())
+    before = len(world.graph)
+    with pytest.raises(OntologyError):
+        build_robot(world, sample_tree(), "bot", BAD[case](sample_abstraction()))
+    with pytest.raises(OntologyError):
+        build_robot(world, sample_tree(), "other", BAD[case](sample_abstraction()))
+    assert len(world.graph) == before
+    assert robot_iri("other") not in world.ontologies
+
+
+def test_bad_link_is_named():
+    with pytest.raises(OntologyError, match="nope_link"):
+        build_robot(owlready2.World(), sample_tree(), "bot", BAD["unknown sub-link"](sample_abstraction()))
+
+
+def test_sqlite_world_holds_several_robots(tmp_path):
+    path = str(tmp_path / "kb.sqlite3")
+    world = owlready2.World(filename=path)
+    build_robot(world, sample_tree("one"), "one", sample_abstraction())
+    build_robot(world, sample_tree("two"), "two")
+    world.save()
+    size = len(world.graph)
+    world.close()
+    world = owlready2.World(filename=path)
+    assert len(world.graph) == size
+    onto = world.get_ontology(robot_iri("one"))
+    assert len(triples(onto)) > 100
+    build_robot(world, sample_tree("one"), "one", sample_abstraction())
+    assert len(world.graph) == size
+    world.close()
+
+
+def test_empty_robot_name_is_refused():
+    with pytest.raises(OntologyError):
+        robot_iri("")
