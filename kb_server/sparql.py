@@ -11,6 +11,7 @@ import csv
 import io
 import json
 import math
+import sqlite3
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -110,6 +111,7 @@ class SparqlEngine:
         self.graph = _DeadlineGraph(store=world.as_rdflib_graph().store)
         self.graph.triplelite = world.graph
         self.graph.onto = None
+        self._not_native: set[str] = set()
 
     @contextmanager
     def _deadline(self, timeout: float):
@@ -132,7 +134,12 @@ class SparqlEngine:
         with self._deadline(timeout):
             native = self._native(text) if prepared.algebra.name == "SelectQuery" else None
             if native is not None:
-                return self._run_native(native)
+                try:
+                    return self._run_native(native)
+                except sqlite3.OperationalError:
+                    if time.monotonic() > self.graph.deadline:
+                        raise
+                    self._not_native.add(text)  # owlready2 translated it to SQL SQLite rejects
             return self._run_rdflib(prepared)
 
     def update(self, text: str, timeout: float = 10.0) -> None:
@@ -142,6 +149,8 @@ class SparqlEngine:
             self.graph.update(text)
 
     def _native(self, text: str) -> PreparedSelectQuery | None:
+        if text in self._not_native:
+            return None
         try:
             prepared = self.world.prepare_sparql(text, False)
         except Exception:  # a construct the native translator does not support

@@ -1,0 +1,144 @@
+"""Populate jobs: the pipeline runs in a worker outside the store lock, then one transaction stores it.
+
+Job states: queued -> running -> succeeded | failed | mirror_failed. `mirror_failed` means the
+robot *was* stored and is served locally, but the remote store (--remote-store) was not updated;
+the reason is in `errors`, and re-populating the robot retries the mirror. A failed job leaves the
+store as it was. Jobs for the same robot run one after the other (a lock per robot name).
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+import uuid
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Callable
+
+from kb_server.remote import RemoteError, RemoteStore
+from kb_server.store import Store
+from pipeline.components import Abstraction
+from pipeline.errors import UrdfkbError
+from pipeline.runner import Progress, Settings, run
+from pipeline.tree import KinematicTree
+
+log = logging.getLogger(__name__)
+
+Runner = Callable[[KinematicTree, Settings, Progress], Abstraction]
+FINISHED = ("succeeded", "failed", "mirror_failed")
+
+
+def pipeline_runner(tree: KinematicTree, settings: Settings, progress: Progress) -> Abstraction:
+    """The production runner: pipeline.runner.run with the backend the settings name."""
+    return run(tree, settings, progress=progress)
+
+
+@dataclass
+class Job:
+    """One populate request and how far it got."""
+
+    id: str
+    robot: str
+    state: str = "queued"
+    stage: str = "queued"
+    done: int = 0
+    total: int = 0
+    errors: list[str] = field(default_factory=list)
+    created: float = field(default_factory=time.time)
+    finished: float | None = None
+    ontology: str | None = None
+    finished_event: threading.Event = field(default_factory=threading.Event, repr=False)
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "robot": self.robot, "state": self.state, "stage": self.stage,
+                "progress": {"done": self.done, "total": self.total}, "errors": list(self.errors),
+                "ontology": self.ontology, "created": self.created, "finished": self.finished}
+
+    def wait(self, timeout: float | None) -> bool:
+        return self.finished_event.wait(timeout)
+
+
+class JobManager:
+    """Runs populate jobs on a small thread pool and remembers the last `keep` of them."""
+
+    def __init__(self, store: Store, runner: Runner = pipeline_runner, remote: RemoteStore | None = None,
+                 workers: int = 2, keep: int = 1000):
+        self.store = store
+        self.runner = runner
+        self.remote = remote
+        self.keep = keep
+        self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="urdfkb-job")
+        self._jobs: OrderedDict[str, Job] = OrderedDict()
+        self._robot_locks: dict[str, threading.Lock] = {}
+        self._guard = threading.Lock()
+
+    def submit(self, tree: KinematicTree, robot: str, settings: Settings) -> Job:
+        """Queue populating `robot` from an already ingested tree; returns at once."""
+        job = Job(uuid.uuid4().hex, robot)
+        with self._guard:
+            self._jobs[job.id] = job
+            while len(self._jobs) > self.keep:
+                self._jobs.popitem(last=False)
+        self._pool.submit(self._run, job, tree, settings)
+        return job
+
+    def get(self, job_id: str) -> Job | None:
+        with self._guard:
+            return self._jobs.get(job_id)
+
+    def delete_robot(self, robot: str):
+        """Delete a robot (after any job on it) and its remote graph.
+
+        Returns (entry or None if unknown, the mirror error message or None)."""
+        with self._robot_lock(robot):
+            entry = self.store.delete_robot(robot)
+            if entry is None or not self.remote:
+                return entry, None
+            try:
+                self.remote.delete_graph(entry.ontology_iri)
+            except RemoteError as e:
+                return entry, f"deleted locally, but deleting the remote graph failed: {e}"
+            return entry, None
+
+    def shutdown(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def _robot_lock(self, robot: str) -> threading.Lock:
+        with self._guard:
+            return self._robot_locks.setdefault(robot, threading.Lock())
+
+    def _run(self, job: Job, tree: KinematicTree, settings: Settings) -> None:
+        def progress(stage: str, done: int, total: int) -> None:
+            job.stage, job.done, job.total = stage, done, total
+
+        try:
+            with self._robot_lock(job.robot):
+                job.state, job.stage = "running", "pipeline"
+                abstraction = self.runner(tree, settings, progress)
+                progress("store", 0, 1)
+                entry = self.store.replace_robot(job.robot, tree, abstraction)
+                job.ontology = entry.ontology_iri
+                progress("store", 1, 1)
+                job.state = self._mirror(job)
+        except UrdfkbError as e:
+            job.state = "failed"
+            job.errors.append(str(e))
+        except Exception as e:  # anything else is a bug: keep serving, report it in the job
+            log.exception("populate job %s for %s failed", job.id, job.robot)
+            job.state = "failed"
+            job.errors.append(f"internal error: {type(e).__name__}: {e}")
+        finally:
+            job.finished = time.time()
+            job.finished_event.set()
+
+    def _mirror(self, job: Job) -> str:
+        if not self.remote:
+            return "succeeded"
+        job.stage = "mirror"
+        try:
+            self.remote.put_graph(job.ontology, self.store.graph(job.robot))
+        except RemoteError as e:
+            job.errors.append(f"stored locally, but mirroring to the remote store failed: {e}")
+            return "mirror_failed"
+        return "succeeded"

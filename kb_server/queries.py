@@ -1,0 +1,160 @@
+"""Named HRI queries (queries/*.rq) with safely bound parameters.
+
+A query file is SPARQL whose header comments give a title and its parameters:
+
+    # title: What is mounted on or below a link
+    # param link: string - URDF name of the link
+    # param threshold: decimal = 0.5 - what it means
+
+`$robot` is always bound to the robot's individual IRI; other `$name` variables to the request's
+values, validated for their type and written as RDF terms (`Literal(...).n3()`, escaped), never
+pasted as raw text.
+"""
+from __future__ import annotations
+
+import importlib.resources
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from decimal import Decimal, InvalidOperation
+from functools import cache
+
+from rdflib import Literal, URIRef
+from rdflib.namespace import XSD
+
+from kb_server.sparql import Result, serialize
+from kb_server.store import Store
+
+_PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(.*))?$")
+_VAR = re.compile(r"\$(\w+)")
+TYPES = ("string", "decimal", "integer")
+
+
+class ParamError(ValueError):
+    """A missing, unknown or ill-typed query parameter."""
+
+
+class UnknownQuery(KeyError):
+    """No query of that name."""
+
+
+class UnknownRobot(KeyError):
+    """No robot of that name in the store."""
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str
+    type: str
+    default: str | None
+    doc: str
+
+    def term(self, raw: str):
+        """The value as a typed RDF term; ParamError if it does not fit the type."""
+        if self.type == "string":
+            if len(raw) > 1000:
+                raise ParamError(f"parameter {self.name!r} is longer than 1000 characters")
+            return Literal(raw)
+        try:
+            number = Decimal(raw) if self.type == "decimal" else int(raw)
+        except (InvalidOperation, ValueError):
+            raise ParamError(f"parameter {self.name!r} must be {'a decimal' if self.type == 'decimal' else 'an integer'}, got {raw!r}") from None
+        if not Decimal(number).is_finite():
+            raise ParamError(f"parameter {self.name!r} must be finite, got {raw!r}")
+        return Literal(str(number), datatype=XSD.decimal if self.type == "decimal" else XSD.integer)
+
+
+@dataclass(frozen=True)
+class NamedQuery:
+    name: str
+    title: str
+    text: str
+    params: tuple[Param, ...]
+
+    def describe(self) -> dict:
+        return {"name": self.name, "title": self.title,
+                "params": [{"name": p.name, "type": p.type, "default": p.default, "doc": p.doc} for p in self.params]}
+
+    def bind(self, robot_iri: str, args: Mapping[str, str]) -> str:
+        """The query text with $robot and every parameter replaced by its RDF term."""
+        known = {p.name for p in self.params}
+        unknown = sorted(set(args) - known)
+        if unknown:
+            raise ParamError(f"query {self.name!r} has no parameter {', '.join(unknown)} (it takes: {', '.join(sorted(known)) or 'none'})")
+        terms = {"robot": URIRef(robot_iri)}
+        for p in self.params:
+            raw = args.get(p.name, p.default)
+            if raw is None:
+                raise ParamError(f"query {self.name!r} needs parameter {p.name!r} ({p.doc or p.type})")
+            terms[p.name] = p.term(raw)
+        return _VAR.sub(lambda m: terms[m.group(1)].n3(), self.text)
+
+
+def _parse(name: str, text: str) -> NamedQuery:
+    title, params = name, []
+    for line in text.splitlines():
+        if line.startswith("# title:"):
+            title = line.split(":", 1)[1].strip()
+        elif m := _PARAM.match(line):
+            pname, ptype, default, doc = m.groups()
+            if ptype not in TYPES or pname == "robot":
+                raise ValueError(f"query file {name}.rq: bad parameter declaration {line!r}")
+            params.append(Param(pname, ptype, default, (doc or "").strip()))
+    declared = {p.name for p in params} | {"robot"}
+    used = set(_VAR.findall(text))
+    if used != declared:
+        raise ValueError(f"query file {name}.rq: variables {sorted(used)} do not match parameters {sorted(declared)}")
+    return NamedQuery(name, title, text, tuple(params))
+
+
+@cache
+def load_queries() -> dict[str, NamedQuery]:
+    """All packaged queries by name (file stem)."""
+    root = importlib.resources.files("queries")
+    return {f.name[:-3]: _parse(f.name[:-3], f.read_text(encoding="utf-8"))
+            for f in sorted(root.iterdir(), key=lambda f: f.name) if f.name.endswith(".rq")}
+
+
+def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = 10.0) -> Result:
+    """Run query `name` for stored robot `robot`; UnknownQuery, UnknownRobot or ParamError on bad input."""
+    query = load_queries().get(name)
+    if query is None:
+        raise UnknownQuery(f"no query {name!r} (known: {', '.join(load_queries())})")
+    entry = store.robot(robot)
+    if entry is None:
+        raise UnknownRobot(f"no robot {robot!r} in the store")
+    return store.query(query.bind(entry.robot_iri, args), timeout)
+
+
+def components(store: Store, robot: str) -> list[dict]:
+    """The robot's components with class, confidence, mount and sub-components, as JSON-ready dicts."""
+    result = run_named(store, "components", robot, {})
+    out: dict[str, dict] = {}
+    for row in result.as_dicts():
+        comp = out.setdefault(row["component"], {
+            "iri": row["component"], "class": _local(row["class"]),
+            "confidence": float(row["confidence"]) if "confidence" in row else None,
+            "mount": row.get("mount"), "subcomponents": []})
+        if "sub" in row:
+            comp["subcomponents"].append({
+                "iri": row["sub"], "class": _local(row["subClass"]), "link": row.get("subLink"),
+                "confidence": float(row["subConfidence"]) if "subConfidence" in row else None})
+    return list(out.values())
+
+
+def _local(iri: str) -> str:
+    return iri.rsplit("#", 1)[-1]
+
+
+def cli_query(name: str, robot: str, params: Mapping[str, str], store_path=None,
+              media_type: str = "text/tab-separated-values", timeout: float = 10.0) -> str:
+    """`urdfkb query NAME --robot NAME [--param k=v]`: run a named query on a store file, as text.
+
+    `media_type` is any SELECT result type of kb_server.sparql (TSV, CSV, SPARQL JSON/XML).
+    Raises UnknownQuery, UnknownRobot, ParamError, QueryError or QueryTimeout with a clear message.
+    """
+    store = Store(store_path)
+    try:
+        return serialize(run_named(store, name, robot, params, timeout), media_type).decode("utf-8")
+    finally:
+        store.close()

@@ -1,0 +1,43 @@
+"""`urdfkb serve`: the app under waitress over a persistent store (127.0.0.1 unless told otherwise)."""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from waitress import create_server
+from waitress.server import BaseWSGIServer
+
+from kb_server.app import create_app
+from kb_server.jobs import JobManager, Runner, pipeline_runner
+from kb_server.remote import RemoteStore
+from kb_server.store import Store
+
+log = logging.getLogger(__name__)
+
+
+def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
+                token: str | None = None, remote_store: str | None = None, query_timeout: float = 10.0,
+                max_body: int = 10_000_000, threads: int = 8, runner: Runner = pipeline_runner
+                ) -> tuple[BaseWSGIServer, Store, JobManager]:
+    """Open the store and bind the server (port 0 picks a free port: see server.effective_port)."""
+    store = Store(store_path)
+    jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
+    app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout)
+    server = create_server(app, host=host, port=port, threads=threads)
+    return server, store, jobs
+
+
+def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
+          token: str | None = None, remote_store: str | None = None, query_timeout: float = 10.0,
+          max_body: int = 10_000_000, threads: int = 8) -> None:
+    """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3."""
+    server, store, jobs = make_server(store_path, host, port, token, remote_store, query_timeout, max_body, threads)
+    log.info("urdfkb serving %s on http://%s:%s/sparql", store.path, host, server.effective_port)
+    try:
+        server.run()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
+        jobs.shutdown()
+        store.close()

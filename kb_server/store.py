@@ -1,0 +1,155 @@
+"""The persistent knowledge base: one owlready2 SQLite quadstore, the core plus one ontology per robot.
+
+owlready2 is not thread-safe, so every access to the world goes through `Store.lock`. Writes
+(populate, delete, update) happen inside that lock in one SQLite transaction committed by
+`world.save()`; a failure rolls back and reopens the world, so readers (who take the same
+lock) see the old robot or the new one, never a mix, and a crash leaves the last commit.
+"""
+from __future__ import annotations
+
+import io
+import threading
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import owlready2
+import rdflib
+from platformdirs import user_data_dir
+
+from kb_server.sparql import Result, SparqlEngine
+from pipeline.components import Abstraction
+from pipeline.export import export_robot, robot_graph
+from pipeline.ontology import CORE_IRI, load_core
+from pipeline.population import build_robot
+
+EXPORT_FORMATS = {"owl": ("rdfxml", "application/rdf+xml"), "ttl": ("turtle", "text/turtle"),
+                  "nt": ("ntriples", "application/n-triples")}
+
+_SCHEMA = """CREATE TABLE IF NOT EXISTS kb_robots (
+    name TEXT PRIMARY KEY, ontology_iri TEXT NOT NULL, robot_iri TEXT NOT NULL, updated TEXT NOT NULL)"""
+
+
+def default_store_path() -> Path:
+    """platformdirs user_data_dir("urdfkb")/kb.sqlite3."""
+    return Path(user_data_dir("urdfkb")) / "kb.sqlite3"
+
+
+@dataclass(frozen=True)
+class RobotEntry:
+    """A stored robot: its name, ontology IRI (also its named-graph IRI), Robot individual, update time."""
+
+    name: str
+    ontology_iri: str
+    robot_iri: str
+    updated: str
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "ontology": self.ontology_iri, "robot": self.robot_iri, "updated": self.updated}
+
+
+class Store:
+    """The quadstore file at `path` (created with the core if new), safe to share between threads."""
+
+    def __init__(self, path: str | Path | None = None):
+        self.path = Path(path) if path else default_store_path()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.lock = threading.RLock()
+        self._open()
+
+    def _open(self) -> None:
+        self.world = owlready2.World(filename=str(self.path), exclusive=False, journal_mode="WAL")
+        load_core(self.world)
+        self.world.graph.db.execute(_SCHEMA)
+        self.world.save()
+        self.engine = SparqlEngine(self.world)
+
+    def _discard(self) -> None:
+        """Drop uncommitted changes and the world's in-memory caches; reopen from the file."""
+        self.world.graph.db.rollback()
+        self.world.close()
+        self._open()
+
+    @contextmanager
+    def _writing(self):
+        with self.lock:
+            try:
+                yield
+                self.world.save()
+            except BaseException:
+                self._discard()
+                raise
+
+    def close(self) -> None:
+        with self.lock:
+            self.world.close()
+
+    # --- robots -------------------------------------------------------------------------------
+
+    def robots(self) -> list[RobotEntry]:
+        with self.lock:
+            rows = self.world.graph.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
+        return [RobotEntry(*r) for r in rows]
+
+    def robot(self, name: str) -> RobotEntry | None:
+        with self.lock:
+            row = self.world.graph.db.execute("SELECT * FROM kb_robots WHERE name=?", (name,)).fetchone()
+        return RobotEntry(*row) if row else None
+
+    def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
+                      provenance: dict[str, str] | None = None) -> RobotEntry:
+        """Write robot `name` (replacing any earlier one) in one transaction; all or nothing."""
+        with self._writing():
+            onto = build_robot(self.world, tree, name, abstraction, provenance)
+            robot_cls = self.world[CORE_IRI + "Robot"]
+            (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
+            entry = RobotEntry(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"))
+            self.world.graph.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
+                                        (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
+        return entry
+
+    def delete_robot(self, name: str) -> RobotEntry | None:
+        """Remove robot `name`; returns what was removed, None if there was no such robot."""
+        with self._writing():
+            entry = self.robot(name)
+            if entry is None:
+                return None
+            self._ontology(entry).destroy()
+            self.world.graph.db.execute("DELETE FROM kb_robots WHERE name=?", (name,))
+        return entry
+
+    def _ontology(self, entry: RobotEntry) -> owlready2.Ontology:
+        return self.world.ontologies.get(entry.ontology_iri) or self.world.get_ontology(entry.ontology_iri)
+
+    def graph(self, name: str) -> rdflib.Graph | None:
+        """The robot and the core as one self-contained in-memory graph (for mirrors)."""
+        with self.lock:
+            entry = self.robot(name)
+            return robot_graph(self._ontology(entry)) if entry else None
+
+    def export(self, name: str, ext: str) -> bytes | None:
+        """The robot as a file (`ext` a key of EXPORT_FORMATS) that opens in Protégé offline."""
+        fmt = EXPORT_FORMATS[ext][0]
+        buf = io.BytesIO()
+        with self.lock:
+            entry = self.robot(name)
+            if entry is None:
+                return None
+            export_robot(self._ontology(entry), buf, fmt)
+        return buf.getvalue()
+
+    # --- SPARQL -------------------------------------------------------------------------------
+
+    def query(self, text: str, timeout: float = 10.0) -> Result:
+        """Run a SPARQL query over everything stored (see kb_server.sparql)."""
+        with self.lock:
+            try:
+                return self.engine.query(text, timeout)
+            finally:
+                self.world.save()  # commits IRIs the engine interned while reading, if any
+
+    def update(self, text: str, timeout: float = 10.0) -> None:
+        """Apply a SPARQL update atomically."""
+        with self._writing():
+            self.engine.update(text, timeout)
