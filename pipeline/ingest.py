@@ -118,10 +118,8 @@ def _dtd_refusal(data: bytes, dtd: DTDForbidden) -> URDFError:
             f"entity declaration '{err.name}' refused: entity expansion (e.g. billion laughs) is never performed",
             "DOCTYPE",
         )
-    except ExternalReferenceForbidden as err:
-        return URDFError(f"external reference '{err.sysid}' refused; nothing was fetched", "DOCTYPE")
-    except ET.ParseError:
-        pass
+    except (ExternalReferenceForbidden, ET.ParseError):
+        pass  # nothing more specific to say than the DTD itself
     external = f" referring to '{dtd.sysid}'" if dtd.sysid else ""
     return URDFError(f"document type declaration (DTD){external} refused: a URDF needs none", "DOCTYPE")
 

@@ -17,11 +17,6 @@ class Origin:
     xyz: Vector
     rpy: Vector
 
-    def apply(self, point: Vector) -> Vector:
-        """Express a point given in the child frame in the parent frame."""
-        x, y, z = _rotate(self.rpy, point)
-        return (x + self.xyz[0], y + self.xyz[1], z + self.xyz[2])
-
 
 @dataclass(frozen=True)
 class Edge:
@@ -40,6 +35,12 @@ class TreeError(ValueError):
     def __init__(self, message: str, element: str):
         self.element = element
         super().__init__(message)
+
+
+def _to_parent(origin: Origin, point: Vector) -> Vector:
+    """Express a point given in a joint's child frame in its parent frame."""
+    x, y, z = _rotate(origin.rpy, point)
+    return (x + origin.xyz[0], y + origin.xyz[1], z + origin.xyz[2])
 
 
 def _rotate(rpy: Vector, v: Vector) -> Vector:
@@ -204,7 +205,7 @@ class KinematicTree:
             edge = self._parent_edge.get(current)
             if edge is None:
                 raise ValueError(f"'{ancestor}' is not an ancestor of '{link}'")
-            point = edge.origin.apply(point)
+            point = _to_parent(edge.origin, point)
             current = edge.parent
         return point
 
