@@ -23,6 +23,7 @@ from pipeline.errors import URDFError
 from pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
 
 DEFAULT_MAX_BYTES = 10_000_000
+MAX_DEPTH = 100  # real URDFs nest under 10 levels
 
 
 @dataclass(frozen=True)
@@ -96,12 +97,24 @@ def _check_size(size: int, max_bytes: int, where: str) -> None:
 
 def _parse_hardened(data: bytes) -> ET.Element:
     try:
-        return DET.fromstring(data, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+        root = DET.fromstring(data, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DTDForbidden as err:
         raise _dtd_refusal(data, err) from None
     except ET.ParseError as err:
         line, column = err.position
         raise URDFError(f"not XML: {expat.ErrorString(err.code)}", f"line {line}, column {column + 1}") from None
+    _check_depth(root)
+    return root
+
+
+def _check_depth(root: ET.Element) -> None:
+    """Refuse deep nesting, which recursive serialisers and lxml (limit 256) cannot handle."""
+    level, depth = [root], 1
+    while level:
+        if depth > MAX_DEPTH:
+            raise URDFError(f"elements nested deeper than {MAX_DEPTH} levels", f"<{level[0].tag}>")
+        level = [child for element in level for child in element]
+        depth += 1
 
 
 def _dtd_refusal(data: bytes, dtd: DTDForbidden) -> URDFError:
@@ -258,8 +271,12 @@ def _parse_with_yourdfpy(robot: ET.Element) -> yourdfpy.URDF:
 def _tree_from(model: yourdfpy.URDF, robot: ET.Element) -> KinematicTree:
     """Names, types and links from yourdfpy; origins as written in the validated document."""
     origins = {joint.get("name"): _origin(joint.find("origin")) for joint in robot.findall("joint")}
+    links = tuple(link.name for link in model.robot.links)
+    validated_links = tuple(link.get("name") for link in robot.findall("link"))
+    if links != validated_links or [j.name for j in model.robot.joints] != list(origins):
+        raise URDFError("yourdfpy read other links or joints than were validated", "robot")
     edges = tuple(Edge(j.name, j.type, j.parent, j.child, origins[j.name]) for j in model.robot.joints)
-    return KinematicTree(model.robot.name, tuple(link.name for link in model.robot.links), edges)
+    return KinematicTree(model.robot.name, links, edges)
 
 
 def _origin(element: ET.Element | None) -> Origin:

@@ -5,6 +5,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+import yourdfpy
 
 from pipeline.errors import URDFError
 from pipeline.ingest import DEFAULT_MAX_BYTES, load_urdf
@@ -335,6 +336,23 @@ def test_duplicate_global_material():
 def test_invalid_geometry_is_dropped_like_urdfdom():
     body = '<link name="a"><visual><geometry><torus/></geometry></visual><collision><geometry><box/></geometry></collision></link>'
     assert load_urdf(robot(body)).links == ("a",)
+
+
+def test_deep_nesting_is_refused():
+    deep = "<x>" * 150 + "</x>" * 150
+    refused(robot(f'<link name="a"/><gazebo>{deep}</gazebo>'), "nested deeper than 100 levels")
+
+
+def test_yourdfpy_disagreeing_with_validation_is_refused(monkeypatch):
+    real_load = yourdfpy.URDF.load
+
+    def lossy_load(*args, **kwargs):
+        model = real_load(*args, **kwargs)
+        model.robot.joints.pop()
+        return model
+
+    monkeypatch.setattr(yourdfpy.URDF, "load", staticmethod(lossy_load))
+    refused(GOOD, "yourdfpy read other links or joints than were validated")
 
 
 def test_malformed_data_yourdfpy_reads_is_refused():
