@@ -27,6 +27,7 @@ from rdflib.plugins.sparql import prepareQuery
 from rdflib.plugins.sparql.parser import parseUpdate
 
 XSD = "http://www.w3.org/2001/XMLSchema#"
+UPDATES_IRI = "https://w3id.org/urdfkb/updates#"
 SRX_NS = "http://www.w3.org/2005/sparql-results#"
 
 SELECT_TYPES = {
@@ -143,9 +144,13 @@ class SparqlEngine:
             return self._run_rdflib(prepared)
 
     def update(self, text: str, timeout: float = 10.0) -> None:
-        """Apply a SPARQL 1.1 update to the world (the caller commits or rolls back)."""
+        """Apply a SPARQL 1.1 update to the world (the caller commits or rolls back).
+
+        Inserted triples go to ontology UPDATES_IRI, so they outlive re-populating a robot;
+        deletions apply wherever the triples are.
+        """
         check_update(text)
-        with self._deadline(timeout):
+        with self._deadline(timeout), self.world.get_ontology(UPDATES_IRI):
             self.graph.update(text)
 
     def _native(self, text: str) -> PreparedSelectQuery | None:

@@ -58,3 +58,53 @@ def live(app):
     finally:
         server.close()
         thread.join(5)
+
+
+def fake_runner(abstractions: dict | None = None, delay: float = 0.0, fail: Exception | None = None):
+    """A runner for JobManager: the hand-written abstraction for known robots, none otherwise."""
+    import time
+
+    def run(tree, settings, progress):
+        for i in range(3):
+            progress("classify", i, 3)
+            time.sleep(delay / 3)
+        if fail is not None:
+            raise fail
+        return (abstractions or {}).get(tree.robot_name, Abstraction((), {"mode": "fake"}))
+
+    return run
+
+
+def make_app(store, runner=None, token=None, remote=None, **kw):
+    """The server app over `store` with a fake runner (PR2 gets its hand-written abstraction)."""
+    from kb_server.app import create_app
+    from kb_server.jobs import JobManager
+
+    jobs = JobManager(store, runner or fake_runner({"pr2": PR2}), remote)
+    return create_app(store, jobs, token=token, **kw), jobs
+
+
+def http(method: str, url: str, data: bytes | None = None, headers: dict | None = None, timeout: float = 30):
+    """(status, content type, body bytes) of one request, error statuses included."""
+    import urllib.error
+    import urllib.request
+
+    req = urllib.request.Request(url, data=data, method=method, headers=headers or {})
+    try:
+        with urllib.request.urlopen(req, timeout=timeout) as r:
+            return r.status, r.headers.get("Content-Type", ""), r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.headers.get("Content-Type", ""), e.read()
+
+
+def multipart(fields: dict[str, str], files: dict[str, tuple[str, bytes]]) -> tuple[bytes, str]:
+    """A multipart/form-data body and its content type."""
+    boundary = "urdfkb-test-boundary"
+    parts = []
+    for k, v in fields.items():
+        parts.append(f'--{boundary}\r\nContent-Disposition: form-data; name="{k}"\r\n\r\n{v}\r\n'.encode())
+    for k, (fname, data) in files.items():
+        parts.append(f'--{boundary}\r\nContent-Disposition: form-data; name="{k}"; filename="{fname}"\r\n'
+                     f'Content-Type: application/xml\r\n\r\n'.encode() + data + b"\r\n")
+    parts.append(f"--{boundary}--\r\n".encode())
+    return b"".join(parts), f"multipart/form-data; boundary={boundary}"

@@ -1,0 +1,107 @@
+"""The persistent store: restart, atomic replace, failures leave it as it was, exports, timeouts."""
+import threading
+
+import pytest
+import rdflib
+
+import kb_server.store as store_mod
+from kb_fixtures import PR2
+from kb_server.sparql import QueryTimeout
+from kb_server.store import Store
+from pipeline.components import Abstraction
+from pipeline.errors import OntologyError
+from pipeline.ingest import load_urdf
+
+COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
+SELECT (COUNT(?c) AS ?n) WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c }"""
+
+
+@pytest.fixture(scope="module")
+def trees(shared):
+    return {n: load_urdf(shared / "urdf" / f"{n}.urdf") for n in ("pr2", "panda")}
+
+
+def components(store) -> int:
+    return int(store.query(COUNT_COMPONENTS).rows[0][0])
+
+
+def test_restart_serves_everything_stored(tmp_path, trees):
+    path = tmp_path / "kb.sqlite3"
+    s = Store(path)
+    s.replace_robot("pr2", trees["pr2"], PR2)
+    s.replace_robot("panda", trees["panda"], None)
+    s.close()
+    s = Store(path)
+    assert [e.name for e in s.robots()] == ["panda", "pr2"]
+    assert s.robot("pr2").robot_iri == "https://w3id.org/urdfkb/robot/pr2#robot"
+    assert components(s) == len(PR2.components)
+    s.close()
+
+
+def test_replace_is_whole_and_failures_leave_the_old_robot(tmp_path, trees, monkeypatch):
+    s = Store(tmp_path / "kb.sqlite3")
+    s.replace_robot("pr2", trees["pr2"], PR2)
+    s.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
+    assert components(s) == 2
+    bad = Abstraction((PR2.components[0].__class__(**{**PR2.components[0].__dict__, "cls": "Toaster"}),))
+    with pytest.raises(OntologyError):
+        s.replace_robot("pr2", trees["pr2"], bad)
+    assert components(s) == 2
+
+    real = store_mod.build_robot
+
+    def build_then_fail(*args, **kw):
+        real(*args, **kw)  # old robot destroyed, new one half-committed in the transaction
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(store_mod, "build_robot", build_then_fail)
+    with pytest.raises(RuntimeError):
+        s.replace_robot("pr2", trees["pr2"], PR2)
+    assert components(s) == 2
+    assert s.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).rows[0][0].toPython() == len(trees["pr2"].links)
+    s.close()
+
+
+def test_readers_never_see_a_mix(tmp_path, trees):
+    s = Store(tmp_path / "kb.sqlite3")
+    small, full = Abstraction(PR2.components[:1]), PR2
+    s.replace_robot("pr2", trees["pr2"], small)
+    seen, stop = set(), threading.Event()
+
+    def read():
+        while not stop.is_set():
+            seen.add(components(s))
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    for i in range(6):
+        s.replace_robot("pr2", trees["pr2"], full if i % 2 else small)
+    stop.set()
+    reader.join()
+    assert seen <= {1, len(full.components)}
+    s.close()
+
+
+def test_delete_and_exports(tmp_path, trees):
+    s = Store(tmp_path / "kb.sqlite3")
+    s.replace_robot("pr2", trees["pr2"], PR2)
+    for ext, fmt in (("owl", "xml"), ("ttl", "turtle"), ("nt", "nt")):
+        g = rdflib.Graph().parse(data=s.export("pr2", ext), format=fmt)
+        core = rdflib.Namespace("https://w3id.org/urdfkb/core#")
+        assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#comp_kinect"), rdflib.RDF.type, core.RGBDCamera) in g
+        assert (core.RGBDCamera, rdflib.RDFS.subClassOf, core.Camera) in g  # self-contained: core merged in
+    assert s.delete_robot("pr2").name == "pr2"
+    assert s.delete_robot("pr2") is None and s.export("pr2", "ttl") is None
+    assert components(s) == 0
+    s.close()
+
+
+def test_timeout_stops_the_query_and_the_store_keeps_serving(tmp_path, trees):
+    s = Store(tmp_path / "kb.sqlite3")
+    s.replace_robot("pr2", trees["pr2"], PR2)
+    cross = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"
+    for q in (cross, cross.replace("}", "MINUS { ?a a <urn:x> } }")):  # native SQL, then rdflib
+        with pytest.raises(QueryTimeout):
+            s.query(q, timeout=0.5)
+    assert components(s) == len(PR2.components)
+    s.close()
