@@ -51,11 +51,22 @@ def free_port() -> int:
 def live(app):
     """Serve a WSGI app with waitress on 127.0.0.1 (free port) in a thread; yields the base URL."""
     server = create_server(app, host="127.0.0.1", port=0, threads=6)
-    thread = threading.Thread(target=server.run, daemon=True)
+    stopping = threading.Event()
+
+    def run():
+        try:
+            server.run()
+        except OSError:  # the loop's sockets were closed under it: expected when stopping
+            if not stopping.is_set():
+                raise
+
+    thread = threading.Thread(target=run, daemon=True)
     thread.start()
     try:
         yield f"http://127.0.0.1:{server.effective_port}"
     finally:
+        stopping.set()
+        server.task_dispatcher.shutdown()
         server.close()
         thread.join(5)
 

@@ -1,0 +1,167 @@
+"""Every route of the live server: status codes, content types, jobs, atomic re-populate, limits."""
+import json
+import threading
+import time
+
+import pytest
+import rdflib
+
+from kb_fixtures import PR2, fake_runner, http, live, make_app, multipart
+from kb_server.jobs import pipeline_runner
+from kb_server.store import Store
+from pipeline.components import Abstraction
+from pipeline.errors import PipelineError
+
+TOKEN = "t0ken"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+
+
+@pytest.fixture
+def server(tmp_path):
+    """A live server whose runner is slow (0.6 s) for 'slow*' names, and fails for 'broken'."""
+    plain = fake_runner({"pr2": PR2})
+    slow = fake_runner({"pr2": PR2}, delay=0.6)
+    broken = fake_runner(fail=PipelineError("classification failed: model said 'banana'"))
+
+    def runner(tree, settings, progress):
+        if settings.structure_only:
+            return pipeline_runner(tree, settings, progress)
+        return {"slow": slow, "broken": broken}.get(_current_name.get(tree), plain)(tree, settings, progress)
+
+    store = Store(tmp_path / "kb.sqlite3")
+    app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
+    with live(app) as base:
+        yield base
+    jobs.shutdown()
+    store.close()
+
+
+class _Names:
+    """Lets the runner above see how the test asked it to behave (by URDF robot name)."""
+
+    def get(self, tree):
+        return next((k for k in ("slow", "broken") if tree.robot_name.startswith(k)), None)
+
+
+_current_name = _Names()
+
+
+def urdf(shared, name="pr2", rename=None) -> bytes:
+    data = (shared / "urdf" / f"{name}.urdf").read_bytes()
+    if rename:
+        data = data.replace(f'<robot name="{name}"'.encode(), f'<robot name="{rename}"'.encode(), 1)
+    return data
+
+
+def populate(base, body, query="", headers=None):
+    status, ctype, out = http("POST", f"{base}/populate{query}", body, {**AUTH, **(headers or {})})
+    return status, ctype, json.loads(out)
+
+
+def wait(base, job_id):
+    status, ctype, out = http("GET", f"{base}/jobs/{job_id}?wait=1&timeout=30")
+    assert status == 200 and ctype.startswith("application/json")
+    return json.loads(out)
+
+
+def test_populate_raw_and_multipart_then_robot_routes(server, shared):
+    status, _, job = populate(server, urdf(shared), headers={"Content-Type": "application/xml"})
+    assert status == 202 and job["state"] in ("queued", "running", "succeeded")
+    done = wait(server, job["id"])
+    assert done["state"] == "succeeded" and done["errors"] == [] and done["ontology"] == "https://w3id.org/urdfkb/robot/pr2#"
+    body, ctype = multipart({"name": "panda_a", "structure_only": "true"}, {"urdf": ("panda.urdf", urdf(shared, "panda"))})
+    status, _, job = populate(server, body, headers={"Content-Type": ctype})
+    assert status == 202 and wait(server, job["id"])["state"] == "succeeded"
+
+    status, ctype, out = http("GET", f"{server}/robots")
+    assert status == 200 and ctype.startswith("application/json")
+    assert [r["name"] for r in json.loads(out)] == ["panda_a", "pr2"]
+    status, ctype, out = http("GET", f"{server}/robots/pr2")
+    assert status == 200 and ctype.startswith("application/json")
+    comps = {c["iri"].split("#comp_")[1]: c for c in json.loads(out)["components"]}
+    kinect = comps["kinect"]
+    assert (kinect["class"], kinect["confidence"], kinect["mount"]) == ("RGBDCamera", 0.93, "head_mount_link")
+    assert {(s["class"], s["link"]) for s in kinect["subcomponents"]} == {
+        ("RgbFrame", "head_mount_kinect_rgb_optical_frame"), ("DepthFrame", "head_mount_kinect_ir_optical_frame"),
+        ("SensorHousing", "head_mount_kinect_ir_link")}
+    assert json.loads(http("GET", f"{server}/robots/panda_a")[2])["components"] == []
+
+    for ext, ctype_want, fmt in (("owl", "application/rdf+xml", "xml"), ("ttl", "text/turtle", "turtle")):
+        status, ctype, out = http("GET", f"{server}/robots/pr2.{ext}")
+        assert status == 200 and ctype.startswith(ctype_want)
+        assert len(rdflib.Graph().parse(data=out, format=fmt)) > 1000
+    assert http("GET", f"{server}/robots/pr2.pdf")[0] == 404
+
+
+def test_bad_input(server, shared):
+    status, ctype, out = populate(server, b"<html><body>hi</body></html>")
+    assert status == 400 and ctype.startswith("application/json") and "URDF" in out["error"]
+    status, _, out = populate(server, b"x" * 2_000_001)
+    assert status == 413
+    status, _, out = populate(server, urdf(shared), "?votes=many")
+    assert status == 400 and "votes" in out["error"]
+    status, _, out = populate(server, urdf(shared), "?colour=blue")
+    assert status == 400 and "colour" in out["error"]
+    status, _, out = populate(server, urdf(shared), "?name=bad%20name")
+    assert status == 400 and "name" in out["error"]
+    assert http("POST", f"{server}/populate", urdf(shared))[0] == 403  # token configured, none sent
+    for path in ("/robots/nope", "/robots/nope.ttl", "/jobs/nope", "/queries/cameras?robot=nope", "/queries/nope?robot=x", "/nowhere"):
+        status, ctype, _ = http("GET", server + path)
+        assert status == 404 and ctype.startswith("application/json"), path
+
+
+def test_failed_job_leaves_the_store_as_it_was(server, shared):
+    wait(server, populate(server, urdf(shared))[2]["id"])
+    before = http("GET", f"{server}/robots/pr2")[2]
+    job = wait(server, populate(server, urdf(shared, rename="broken"), "?name=pr2")[2]["id"])
+    assert job["state"] == "failed" and "banana" in job["errors"][0]
+    assert http("GET", f"{server}/robots/pr2")[2] == before
+
+
+def test_queries_answered_while_a_model_runs_and_jobs_report_progress(server, shared):
+    wait(server, populate(server, urdf(shared))[2]["id"])
+    job = populate(server, urdf(shared, rename="slow_pr2"))[2]
+    latencies = []
+    while (state := json.loads(http("GET", f"{server}/jobs/{job['id']}")[2]))["state"] in ("queued", "running"):
+        t = time.perf_counter()
+        assert http("GET", f"{server}/queries/cameras?robot=pr2")[0] == 200
+        latencies.append(time.perf_counter() - t)
+        if state["stage"] == "classify":
+            assert state["progress"]["total"] == 3
+    assert state["state"] == "succeeded" and len(latencies) >= 3 and max(latencies) < 0.5
+
+
+def test_repopulate_is_atomic_and_same_robot_jobs_are_serialised(server, shared):
+    wait(server, populate(server, urdf(shared))[2]["id"])
+    n_full = len(PR2.components)
+    seen, stop = set(), threading.Event()
+
+    def read():
+        while not stop.is_set():
+            seen.add(len(json.loads(http("GET", f"{server}/robots/pr2")[2])["components"]))
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    # Two slow jobs for the same robot at once: structure-only (0 components) and full; serialised.
+    ids = [populate(server, urdf(shared, rename="slow_pr2"), "?name=pr2&structure_only=" + s)[2]["id"] for s in ("true", "false")]
+    jobs = [wait(server, i) for i in ids]
+    stop.set()
+    reader.join()
+    assert [j["state"] for j in jobs] == ["succeeded", "succeeded"]
+    assert seen <= {0, n_full}
+    assert jobs[0]["finished"] <= jobs[1]["finished"]
+
+
+def test_delete_needs_the_token(server, shared):
+    wait(server, populate(server, urdf(shared))[2]["id"])
+    assert http("DELETE", f"{server}/robots/pr2")[0] == 403
+    status, ctype, out = http("DELETE", f"{server}/robots/pr2", headers=AUTH)
+    assert status == 200 and json.loads(out)["deleted"] == "pr2"
+    assert http("DELETE", f"{server}/robots/pr2", headers=AUTH)[0] == 404
+    assert http("GET", f"{server}/robots/pr2")[0] == 404
+
+
+def test_queries_listing(server):
+    status, ctype, out = http("GET", f"{server}/queries")
+    assert status == 200 and ctype.startswith("application/json")
+    assert {"cameras", "sensors", "mounted_below", "end_effectors", "low_confidence"} <= {q["name"] for q in json.loads(out)}
