@@ -8,6 +8,7 @@ import rdflib
 
 from pipeline.components import Abstraction, Component, SubComponent
 from pipeline.errors import OntologyError
+from pipeline.ingest import load_urdf
 from pipeline.ontology import CORE_IRI, core_version
 from pipeline.population import build_robot, escape, robot_iri
 from pipeline.tree import Edge, KinematicTree, Origin
@@ -216,3 +217,14 @@ def test_sqlite_world_holds_several_robots(tmp_path):
 def test_empty_robot_name_is_refused():
     with pytest.raises(OntologyError):
         robot_iri("")
+
+
+def test_shared_urdfs_populate_exactly_and_consistently(shared):
+    world = owlready2.World()
+    for path in sorted((shared / "urdf").glob("*.urdf")):
+        tree = load_urdf(path)
+        g = triples(build_robot(world, tree, tree.robot_name))
+        names = {str(n) for link in g.subjects(rdflib.RDF.type, CORE.Link) for n in g.objects(link, CORE.urdfName)}
+        assert names == set(tree.links), path.name
+    owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
+    assert list(world.inconsistent_classes()) == []

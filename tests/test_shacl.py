@@ -6,6 +6,7 @@ from rdflib.namespace import RDF
 
 from pipeline.components import Abstraction, Component
 from pipeline.export import robot_graph
+from pipeline.ingest import load_urdf
 from pipeline.ontology import CORE_IRI
 from pipeline.population import build_robot
 from pipeline.shacl import validate
@@ -122,3 +123,11 @@ def test_mount_on_something_without_urdf_name():
         g.remove((gripper, CORE.isMountedOn, None))
         g.add((gripper, CORE.isMountedOn, dangling))
     assert "nowhere" in breaks(edit)
+
+
+def test_shared_urdfs_conform_structure_only(shared):
+    world = owlready2.World()
+    for path in sorted((shared / "urdf").glob("*.urdf")):
+        tree = load_urdf(path)
+        conforms, report = validate(robot_graph(build_robot(world, tree, tree.robot_name)))
+        assert conforms, f"{path.name}: {report}"
