@@ -1,0 +1,121 @@
+"""Each named HRI query's expected answer on PR2 with a hand-written abstraction; parameter safety."""
+import json
+import urllib.parse
+
+import pytest
+
+from kb_fixtures import PR2, http, live, make_app
+from kb_server.queries import ParamError, UnknownQuery, UnknownRobot, cli_query, load_queries, run_named
+from kb_server.store import Store
+from pipeline.ingest import load_urdf
+
+R = "https://w3id.org/urdfkb/robot/pr2#"
+C = "https://w3id.org/urdfkb/core#"
+
+
+@pytest.fixture(scope="module")
+def store(shared, tmp_path_factory):
+    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3")
+    tree = load_urdf(shared / "urdf" / "pr2.urdf")
+    s.replace_robot("pr2", tree, PR2)
+    s.replace_robot("pr2_bare", tree, None)  # same links, no components: must not leak into pr2's answers
+    yield s
+    s.close()
+
+
+def rows(store, name, robot="pr2", **args):
+    return run_named(store, name, robot, {k: str(v) for k, v in args.items()}).as_dicts()
+
+
+def test_which_links_are_cameras(store):
+    got = {(r["link"], r["class"].removeprefix(C)) for r in rows(store, "cameras")}
+    assert got == {
+        ("head_mount_kinect_rgb_optical_frame", "RGBDCamera"), ("head_mount_kinect_ir_optical_frame", "RGBDCamera"),
+        ("head_mount_kinect_ir_link", "RGBDCamera"),
+        ("wide_stereo_l_stereo_camera_optical_frame", "StereoCamera"),
+        ("wide_stereo_r_stereo_camera_optical_frame", "StereoCamera"),
+        ("head_mount_prosilica_optical_frame", "MonocularCamera"), ("r_forearm_cam_optical_frame", "MonocularCamera")}
+    assert rows(store, "cameras", "pr2_bare") == []
+
+
+def test_sensors_with_type_and_mount(store):
+    got = {(r["sensor"].removeprefix(R), r["class"].removeprefix(C), r["mount"], r["confidence"]) for r in rows(store, "sensors")}
+    assert got == {
+        ("comp_kinect", "RGBDCamera", "head_mount_link", "0.93"),
+        ("comp_wide_stereo", "StereoCamera", "double_stereo_link", "0.81"),
+        ("comp_prosilica", "MonocularCamera", "head_mount_link", "0.42"),
+        ("comp_r_forearm_cam", "MonocularCamera", "r_forearm_roll_link", "0.9"),
+        ("comp_base_laser", "Lidar", "base_link", "0.95"),
+        ("comp_tilt_laser", "Lidar", "laser_tilt_mount_link", "0.6"),
+        ("comp_imu", "IMU", "torso_lift_link", "0.9"),
+        ("comp_r_gripper_accelerometer", "Accelerometer", "r_gripper_palm_link", "0.3")}
+
+
+def test_mounted_on_or_below_a_link(store):
+    def below(link):
+        return {r["component"].removeprefix(R) for r in rows(store, "mounted_below", link=link)}
+
+    assert below("r_forearm_roll_link") == {"comp_r_forearm_cam", "comp_r_gripper", "comp_r_gripper_accelerometer"}
+    assert below("head_mount_link") == {"comp_kinect", "comp_prosilica"}
+    assert below("r_gripper_palm_link") == {"comp_r_gripper_accelerometer"}
+    assert below("base_footprint") == {"comp_" + c.name for c in PR2.components}
+    assert below("no_such_link") == set()
+
+
+def test_end_effectors_with_tcp_and_contact_surfaces(store):
+    (row,) = rows(store, "end_effectors")
+    assert row["endEffector"] == R + "comp_r_gripper" and row["class"] == C + "ParallelGripper"
+    assert row["mount"] == "r_wrist_roll_link" and row["tcp"] == "r_gripper_tool_frame"
+    assert sorted(row["contacts"].split()) == ["r_gripper_l_finger_tip_link", "r_gripper_r_finger_tip_link"]
+
+
+def test_low_confidence_for_review(store):
+    got = [(r["individual"].removeprefix(R), r["confidence"], r["link"]) for r in rows(store, "low_confidence")]
+    assert got == [("comp_r_gripper_accelerometer", "0.3", "r_gripper_palm_link"),
+                   ("sub_r_gripper_accelerometer.r_gripper_motor_accelerometer_link", "0.3", "r_gripper_motor_accelerometer_link"),
+                   ("sub_tilt_laser.laser_tilt_link", "0.35", "laser_tilt_link"),
+                   ("comp_prosilica", "0.42", "head_mount_link")]
+    assert len(rows(store, "low_confidence", threshold=0.31)) == 2
+    assert rows(store, "low_confidence", threshold=0) == []
+
+
+def test_parameters_are_typed_and_checked(store):
+    with pytest.raises(ParamError, match="decimal"):
+        rows(store, "low_confidence", threshold="0.5) } #")
+    with pytest.raises(ParamError, match="needs parameter 'link'"):
+        rows(store, "mounted_below")
+    with pytest.raises(ParamError, match="no parameter colour"):
+        rows(store, "cameras", colour="red")
+    with pytest.raises(UnknownRobot):
+        rows(store, "cameras", "nao")
+    with pytest.raises(UnknownQuery):
+        rows(store, "toasters")
+    hostile = 'x" } UNION { ?component ?p ?o } #'
+    assert rows(store, "mounted_below", link=hostile) == []  # a literal, not query text
+    text = load_queries()["mounted_below"].bind(R + "robot", {"link": hostile})
+    assert '"x\\" } UNION' in text
+
+
+def test_http_route_and_cli(store):
+    app, jobs = make_app(store)
+    with live(app) as base:
+        q = urllib.parse.urlencode({"robot": "pr2", "link": "head_mount_link"})
+        status, ctype, out = http("GET", f"{base}/queries/mounted_below?{q}")
+        assert status == 200 and ctype.startswith("application/sparql-results+json")
+        assert len(json.loads(out)["results"]["bindings"]) == 2
+        status, ctype, _ = http("GET", f"{base}/queries/sensors?robot=pr2", headers={"Accept": "text/csv"})
+        assert status == 200 and ctype.startswith("text/csv")
+        status, ctype, out = http("GET", f"{base}/queries/low_confidence?robot=pr2&threshold=abc")
+        assert status == 400 and "decimal" in json.loads(out)["error"]
+        assert http("GET", f"{base}/queries/cameras")[0] == 400
+    jobs.shutdown()
+
+
+def test_cli_query(shared, tmp_path):
+    path = tmp_path / "kb.sqlite3"
+    s = Store(path)
+    s.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+    s.close()
+    out = cli_query("end_effectors", "pr2", {}, store_path=path)
+    assert out.splitlines()[0] == "?endEffector\t?class\t?mount\t?tcp\t?contacts"
+    assert '"r_gripper_tool_frame"' in out
