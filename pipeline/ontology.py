@@ -70,8 +70,6 @@ class Taxonomy:
         self._comment: dict[str, str] = {}
         for name in self._order:
             node = rdflib.URIRef(CORE_IRI + name)
-            if (node, RDF.type, OWL.Class) not in graph:
-                raise OntologyError(f"core class {name} is not declared an owl:Class")
             parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
                              key=self._order.__getitem__)
             self._parents[name] = tuple(parents)

@@ -1,8 +1,8 @@
 """Populate one robot as its own OWL ontology: structure from the tree, components from an abstraction.
 
-Individual IRIs are `<robot_iri(name)><kind>_<escaped name>`: every byte outside ASCII letters,
-digits, '-', '_' and '~' is percent-encoded (so '.' is free to separate a component from a
-sub-link), which makes any URDF name a valid IRI and keeps distinct names distinct.
+Individual IRIs in `robot_iri(name)`: `robot`, `link_<l>`, `joint_<j>`, `comp_<c>`, `sub_<c>.<l>`, where
+each name is escaped: every byte outside ASCII letters, digits, '-', '_' and '~' is percent-encoded
+(so '.' is free as a separator), which makes any URDF name a valid IRI and keeps distinct names distinct.
 """
 from __future__ import annotations
 
