@@ -1,8 +1,10 @@
 """Exported robots are self-contained, round-trip in every format and reload in a fresh owlready2 World."""
 import io
 import os
+import subprocess
 
 import owlready2
+import owlready2.reasoning
 import pytest
 import rdflib
 from rdflib.compare import isomorphic
@@ -88,3 +90,14 @@ def test_overwrites_atomically_and_refuses_unknown_format(onto, tmp_path):
     with pytest.raises(OntologyError, match="jsonld"):
         export_robot(onto, tmp_path / "x.jsonld", "jsonld")
     assert sorted(os.listdir(tmp_path)) == ["bot.ttl"]
+
+
+def test_owlapi_opens_the_file_offline(onto, hostile_onto, tmp_path):
+    """HermiT's own OWL API parser (Protégé's) reads the RDF/XML file alone: no import to resolve."""
+    for robot in (onto, hostile_onto):
+        path = tmp_path / "robot.owl"
+        export_robot(robot, path)
+        run = subprocess.run([owlready2.JAVA_EXE, "-cp", owlready2.reasoning._HERMIT_CLASSPATH,
+                              "org.semanticweb.HermiT.cli.CommandLine", "-k", path.as_uri()],
+                             capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0 and "owl#Thing is satisfiable" in run.stdout, run.stderr
