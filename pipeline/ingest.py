@@ -28,7 +28,7 @@ MAX_DEPTH = 100  # real URDFs nest under 10 levels
 
 @dataclass(frozen=True)
 class _Spec:
-    """What urdfdom requires of one joint sub-element's attributes."""
+    """What urdfdom requires of one element's attributes."""
 
     required: tuple[str, ...] = ()
     any_of: tuple[str, ...] = ()
