@@ -28,6 +28,7 @@ from rdflib.plugins.sparql.parser import parseUpdate
 
 XSD = "http://www.w3.org/2001/XMLSchema#"
 UPDATES_IRI = "https://w3id.org/urdfkb/updates#"
+XSD_STRING = URIRef(XSD + "string")
 SRX_NS = "http://www.w3.org/2005/sparql-results#"
 
 SELECT_TYPES = {
@@ -129,11 +130,14 @@ class SparqlEngine:
             self.db.set_progress_handler(None, 0)
             self.graph.deadline = math.inf
 
-    def query(self, text: str, timeout: float = 10.0) -> Result:
-        """Evaluate a SPARQL 1.1 query; QueryError if malformed, QueryTimeout past `timeout` s."""
+    def query(self, text: str, timeout: float = 10.0, engine: str = "auto") -> Result:
+        """Evaluate a SPARQL 1.1 query; QueryError if malformed, QueryTimeout past `timeout` s.
+
+        engine="rdflib" skips the native engine (to compare the two)."""
         prepared = parse_query(text)
         with self._deadline(timeout):
-            native = self._native(text) if prepared.algebra.name == "SelectQuery" else None
+            use_native = engine == "auto" and prepared.algebra.name == "SelectQuery"
+            native = self._native(text) if use_native else None
             if native is not None:
                 try:
                     return self._run_native(native)
@@ -192,9 +196,9 @@ class SparqlEngine:
             return None
         if isinstance(d, str) and d.startswith("@"):
             return Literal(str(value), lang=d[1:])
-        if not d:
+        datatype = self.world._unabbreviate(d) if d else XSD + "string"
+        if datatype == XSD + "string":  # a simple literal, as rdflib and other stores give it
             return Literal(str(value))
-        datatype = self.world._unabbreviate(d)
         if datatype == XSD + "boolean":
             return Literal("true" if value in (1, True, "true", "1") else "false", datatype=URIRef(datatype))
         return Literal(str(value), datatype=URIRef(datatype))
@@ -337,6 +341,8 @@ def _tsv_value(t) -> str:
         return ""
     if isinstance(t, BNode):
         return f"_:{t}"
+    if isinstance(t, Literal) and t.datatype == XSD_STRING:
+        t = Literal(str(t))
     return t.n3().replace("\t", "\\t")
 
 

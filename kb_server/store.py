@@ -141,11 +141,11 @@ class Store:
 
     # --- SPARQL -------------------------------------------------------------------------------
 
-    def query(self, text: str, timeout: float = 10.0) -> Result:
-        """Run a SPARQL query over everything stored (see kb_server.sparql)."""
+    def query(self, text: str, timeout: float = 10.0, engine: str = "auto") -> Result:
+        """Run a SPARQL query over everything stored (see SparqlEngine.query)."""
         with self.lock:
             try:
-                return self.engine.query(text, timeout)
+                return self.engine.query(text, timeout, engine)
             finally:
                 self.world.save()  # commits IRIs the engine interned while reading, if any
 

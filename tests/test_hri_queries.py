@@ -79,6 +79,18 @@ def test_low_confidence_for_review(store):
     assert rows(store, "low_confidence", threshold=0) == []
 
 
+@pytest.mark.parametrize("name,args", [("cameras", {}), ("sensors", {}), ("mounted_below", {"link": "torso_lift_link"}),
+                                       ("end_effectors", {}), ("low_confidence", {}), ("components", {})])
+def test_native_engine_agrees_with_rdflib(store, name, args):
+    text = load_queries()[name].bind(R + "robot", args)
+    native, reference = store.query(text), store.query(text, engine="rdflib")
+    assert native.engine == "owlready2" and reference.engine == "rdflib"
+    norm = [tuple(" ".join(sorted(str(t).split())) if t is not None else None for t in row) for row in reference.rows]
+    assert sorted(norm, key=str) == sorted(
+        [tuple(" ".join(sorted(str(t).split())) if t is not None else None for t in row) for row in native.rows], key=str)
+    assert native.vars == reference.vars
+
+
 def test_parameters_are_typed_and_checked(store):
     with pytest.raises(ParamError, match="decimal"):
         rows(store, "low_confidence", threshold="0.5) } #")
