@@ -24,7 +24,9 @@ from owlready2.sparql.main import PreparedSelectQuery
 from pyparsing import ParseException
 from rdflib import BNode, Literal, URIRef
 from rdflib.plugins.sparql import prepareQuery
+from rdflib.plugins.sparql.algebra import translateUpdate
 from rdflib.plugins.sparql.parser import parseUpdate
+from rdflib.plugins.sparql.parserutils import CompValue
 
 XSD = "http://www.w3.org/2001/XMLSchema#"
 UPDATES_IRI = "https://w3id.org/urdfkb/updates#"
@@ -73,21 +75,48 @@ class Result:
 
 @lru_cache(maxsize=512)
 def parse_query(text: str):
-    """rdflib's prepared query (algebra); raises QueryError with the parser's message."""
+    """rdflib's prepared query (algebra); raises QueryError with the parser's message.
+
+    Anything that would make the server fetch remote data (SERVICE, FROM, FROM NAMED) is refused.
+    """
     try:
-        return prepareQuery(text)
+        prepared = prepareQuery(text)
     except ParseException as e:
         raise QueryError(f"SPARQL syntax error: {e}") from None
     except Exception as e:  # rdflib raises plain Exceptions for unknown prefixes etc.
         raise QueryError(f"invalid SPARQL query: {e}") from None
+    if prepared.algebra.get("datasetClause"):
+        raise QueryError("FROM / FROM NAMED are not supported: the default graph is the union of all "
+                         "robots; use GRAPH <robot ontology IRI> for one robot")
+    _refuse_service(prepared.algebra)
+    return prepared
 
 
-def check_update(text: str) -> None:
-    """Raise QueryError unless `text` parses as a SPARQL 1.1 update."""
+def parse_update(text: str):
+    """rdflib's translated update; QueryError if malformed or if it would fetch remote data (LOAD, SERVICE)."""
     try:
-        parseUpdate(text)
+        update = translateUpdate(parseUpdate(text))
     except ParseException as e:
         raise QueryError(f"SPARQL update syntax error: {e}") from None
+    except Exception as e:
+        raise QueryError(f"invalid SPARQL update: {e}") from None
+    if any(op.name == "Load" for op in update.algebra):
+        raise QueryError("LOAD is not supported: the server does not fetch remote data")
+    _refuse_service(update.algebra)
+    return update
+
+
+def _refuse_service(algebra) -> None:
+    if _contains(algebra, "ServiceGraphPattern"):
+        raise QueryError("SERVICE (federated query) is not supported: the server does not fetch remote data")
+
+
+def _contains(node, name: str) -> bool:
+    if isinstance(node, CompValue):
+        return node.name == name or any(_contains(v, name) for v in node.values())
+    if isinstance(node, (list, tuple)):
+        return any(_contains(v, name) for v in node)
+    return False
 
 
 class _DeadlineGraph(TripleLiteRDFlibGraph):
@@ -153,9 +182,9 @@ class SparqlEngine:
         Inserted triples go to ontology UPDATES_IRI, so they outlive re-populating a robot;
         deletions apply wherever the triples are.
         """
-        check_update(text)
+        update = parse_update(text)
         with self._deadline(timeout), self.world.get_ontology(UPDATES_IRI):
-            self.graph.update(text)
+            self.graph.update(update)
 
     def _native(self, text: str) -> PreparedSelectQuery | None:
         if text in self._not_native:

@@ -8,6 +8,7 @@ import rdflib
 
 from kb_fixtures import PR2, fake_runner, http, live, make_app, multipart
 from kb_server.jobs import pipeline_runner
+from kb_server.serve import make_server
 from kb_server.store import Store
 from pipeline.components import Abstraction
 from pipeline.errors import PipelineError
@@ -159,6 +160,14 @@ def test_delete_needs_the_token(server, shared):
     assert status == 200 and json.loads(out)["deleted"] == "pr2"
     assert http("DELETE", f"{server}/robots/pr2", headers=AUTH)[0] == 404
     assert http("GET", f"{server}/robots/pr2")[0] == 404
+
+
+def test_binds_loopback_by_default(tmp_path):
+    server, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0)
+    assert server.effective_host == "127.0.0.1"
+    server.close()
+    jobs.shutdown()
+    store.close()
 
 
 def test_queries_listing(server):

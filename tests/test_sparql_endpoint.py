@@ -102,6 +102,21 @@ def test_unknown_iri_is_empty_and_malformed_is_400(url):
     assert get(url, "SELECT ?x WHERE { ?x nope:a ?y }")[0] == 400
 
 
+def test_remote_fetching_is_refused(url):
+    for q in ("SELECT * WHERE { SERVICE <http://127.0.0.1:9/sparql> { ?s ?p ?o } }",
+              "SELECT * FROM <http://127.0.0.1:9/data.ttl> WHERE { ?s ?p ?o }"):
+        status, _, body = get(url, q)
+        assert status == 400 and b"not supported" in body
+    h = {"Content-Type": "application/sparql-update", "Authorization": f"Bearer {TOKEN}"}
+    status, _, body = http("POST", url, b"LOAD <http://127.0.0.1:9/data.ttl>", h)
+    assert status == 400 and b"LOAD" in body
+
+
+def test_named_graphs_are_robot_ontologies(url):
+    q = "SELECT (COUNT(*) AS ?n) WHERE { GRAPH <https://w3id.org/urdfkb/robot/pr2#> { ?c a <https://w3id.org/urdfkb/core#Lidar> } }"
+    assert json.loads(get(url, q)[2])["results"]["bindings"][0]["n"]["value"] == "2"
+
+
 def test_timeout_is_an_error_and_the_server_keeps_serving(url):
     status, _, body = get(url, "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }")
     assert status == 503 and b"timeout" in body
