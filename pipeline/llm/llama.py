@@ -1,0 +1,300 @@
+"""Embedded llama.cpp backend: whole-option scoring with a KV-cached shared prefix and batched decodes."""
+from __future__ import annotations
+
+import ctypes
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import BackendError
+from .base import Backend, Question, Stats
+
+SENTINEL = "\x00URDFKB\x00"
+
+
+@dataclass
+class _Job:
+    """One question prepared for scoring: its suffix after the shared prefix and its options' tokens."""
+
+    suffix: list[int]
+    options: list[list[int]]
+
+    @property
+    def size(self) -> int:
+        return len(self.suffix) + sum(map(len, self.options))
+
+
+class LlamaBackend(Backend):
+    """llama-cpp-python in process; scores every option of many questions in few decodes.
+
+    Prompts are rendered with the GGUF's own chat template. The system part (everything before the
+    user text) stays in the KV cache as sequence 0 and is reused by every question with the same
+    system text; each option is a sequence sharing that prefix and its question's suffix.
+    """
+
+    exposes_logits = True
+
+    def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
+                 n_batch: int = 512, n_seq_max: int = 64):
+        import llama_cpp
+        from llama_cpp import _internals
+
+        self._lib = llama_cpp
+        path = Path(model_path)
+        self.name = f"llama.cpp:{path.name}"
+        self.stats = Stats()
+        self.seed = seed
+        self._draws = 0
+        threads = n_threads or os.cpu_count() or 1
+        try:
+            self.llm = llama_cpp.Llama(str(path), n_ctx=n_ctx, n_threads=threads, n_threads_batch=threads,
+                                       n_batch=n_batch, n_ubatch=n_batch, seed=seed, verbose=False)
+            self._ctx = _internals.LlamaContext(model=self.llm._model, verbose=False,
+                                                params=self._context_params(n_ctx, n_batch, n_seq_max, threads))
+        except Exception as exc:
+            raise BackendError(f"{self.name}: cannot load {path}: {exc}") from exc
+        self.n_ctx, self.n_batch = n_ctx, n_batch
+        self.n_seq_max = llama_cpp.llama_n_seq_max(self._ctx.ctx)
+        self._batch = _internals.LlamaBatch(n_tokens=n_batch, embd=0, n_seq_max=self.n_seq_max, verbose=False)
+        self.n_vocab = self.llm.n_vocab()
+        self._formatter = self._chat_formatter()
+        self.eot = self._end_of_turn()
+        self._cached: list[int] = []  # tokens held by sequence 0 of the scoring context
+
+    def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int):
+        params = self._lib.llama_context_default_params()
+        params.n_ctx, params.n_batch, params.n_ubatch = n_ctx, n_batch, n_batch
+        params.n_seq_max = min(n_seq_max, self._lib.llama_max_parallel_sequences())
+        params.n_threads = params.n_threads_batch = threads
+        params.kv_unified = True  # one cache where a cell can belong to several sequences
+        params.flash_attn_type = self._lib.LLAMA_FLASH_ATTN_TYPE_DISABLED  # same numerics as Llama()
+        params.no_perf = True
+        return params
+
+    # --- prompt rendering -------------------------------------------------------------------
+
+    def _chat_formatter(self):
+        from llama_cpp.llama_chat_format import Jinja2ChatFormatter
+
+        template = self.llm.metadata.get("tokenizer.chat_template")
+        if not template:
+            raise BackendError(f"{self.name}: the GGUF has no chat template")
+        model = self.llm._model
+        bos, eos = model.token_bos(), model.token_eos()
+        return Jinja2ChatFormatter(template, eos_token=model.token_get_text(eos) if eos >= 0 else "",
+                                   bos_token=model.token_get_text(bos) if bos >= 0 else "")
+
+    def _render(self, system: str, user: str, answer: str | None = None) -> str:
+        messages = [{"role": "system", "content": system}, {"role": "user", "content": user}]
+        if answer is not None:
+            messages.append({"role": "assistant", "content": answer})
+        return self._formatter(messages=messages).prompt
+
+    def _tokens(self, text: str) -> list[int]:
+        """Tokens of rendered text (special tokens parsed), with the model's BOS if it wants one."""
+        tokens = self.llm.tokenize(text.encode("utf-8"), add_bos=False, special=True)
+        bos = self.llm.token_bos()
+        if self.llm._model.add_bos_token() and bos >= 0 and tokens[:1] != [bos]:
+            tokens = [bos] + tokens
+        return tokens
+
+    def _end_of_turn(self) -> int:
+        """The token the template puts after an assistant answer (if end-of-generation), else EOT/EOS."""
+        text = self._render("s", "u", SENTINEL)
+        after = text[text.index(SENTINEL) + len(SENTINEL):]
+        vocab = self.llm._model.vocab
+        first = self.llm.tokenize(after.encode("utf-8"), add_bos=False, special=True)[:1]
+        if first and self._lib.llama_vocab_is_eog(vocab, first[0]):
+            return first[0]
+        eot = self._lib.llama_vocab_eot(vocab)
+        return eot if eot >= 0 else self.llm.token_eos()
+
+    def prompt_tokens(self, question: Question) -> list[int]:
+        """The full prompt: system, user and generation prompt, in the model's chat template."""
+        return self._tokens(self._render(question.system, question.user))
+
+    def option_tokens(self, option: str) -> list[int]:
+        """An option's continuation (its text tokens) without the end-of-turn token."""
+        return self.llm.tokenize(option.encode("utf-8"), add_bos=False, special=False)
+
+    def _prefix_tokens(self, system: str) -> list[int]:
+        text = self._render(system, SENTINEL)
+        return self._tokens(text[: text.index(SENTINEL)])
+
+    # --- scoring ----------------------------------------------------------------------------
+
+    def score(self, questions: Sequence[Question]) -> list[list[float]]:
+        """Whole-option log-probabilities; questions sharing a system text share one cached prefix."""
+        results: dict[int, list[float]] = {}
+        by_system: dict[str, list[int]] = {}
+        for i, q in enumerate(questions):
+            by_system.setdefault(q.system, []).append(i)
+        try:
+            for system, indices in by_system.items():
+                self._score_group(system, [questions[i] for i in indices], indices, results)
+        except BackendError:
+            raise
+        except Exception as exc:
+            self._reset()
+            raise BackendError(f"{self.name}: scoring failed: {type(exc).__name__}: {exc}") from exc
+        return [results[i] for i in range(len(questions))]
+
+    def _score_group(self, system: str, questions: list[Question], indices: list[int], out: dict) -> None:
+        prefix = self._prefix_tokens(system)
+        prompts = [self.prompt_tokens(q) for q in questions]
+        # the shared part: the rendered system prefix, as tokenized inside every full prompt, minus
+        # at least the last prompt token (decoded per question to predict the first answer token)
+        shared = min(min(_common_prefix(prefix, p), len(p) - 1) for p in prompts)
+        self._load_prefix(prefix[:shared])
+        jobs = [self._job(q, p, shared) for q, p in zip(questions, prompts)]
+        for chunk in self._chunks(list(zip(indices, jobs)), shared):
+            for i, scores in zip([i for i, _ in chunk], self._decode_jobs([j for _, j in chunk], shared)):
+                out[i] = scores
+
+    def _job(self, question: Question, prompt: list[int], shared: int) -> _Job:
+        options = [self.option_tokens(o) for o in question.options]
+        job = _Job(prompt[shared:], options)
+        if len(options) + 1 > self.n_seq_max or job.size > self.n_batch or len(prompt) + max(map(len, options)) > self.n_ctx:
+            raise BackendError(f"{self.name}: question {question.key!r} does not fit one decode "
+                               f"({job.size} tokens, {len(options)} options; n_batch {self.n_batch}, n_seq_max {self.n_seq_max})")
+        return job
+
+    def _chunks(self, jobs: list, n_prefix: int):
+        """Greedy groups of jobs that fit one decode: tokens, sequences and cache cells."""
+        chunk, tokens, seqs = [], 0, 1
+        for item in jobs:
+            job = item[1]
+            fits = (tokens + job.size <= self.n_batch and seqs + len(job.options) <= self.n_seq_max
+                    and n_prefix + tokens + job.size <= self.n_ctx)
+            if chunk and not fits:
+                yield chunk
+                chunk, tokens, seqs = [], 0, 1
+            chunk.append(item)
+            tokens, seqs = tokens + job.size, seqs + len(job.options)
+        if chunk:
+            yield chunk
+
+    def _load_prefix(self, prefix: list[int]) -> None:
+        """Make sequence 0 hold exactly `prefix`, decoding only what differs from the cached tokens."""
+        mem = self._ctx.memory
+        keep = _common_prefix(self._cached, prefix)
+        self._lib.llama_memory_seq_rm(mem, 0, keep, -1)
+        self._cached = self._cached[:keep]
+        for start in range(keep, len(prefix), self.n_batch):
+            piece = prefix[start: start + self.n_batch]
+            self._fill([(t, start + k, (0,), False) for k, t in enumerate(piece)])
+            self._decode()
+            self._cached = prefix[: start + len(piece)]
+
+    def _decode_jobs(self, jobs: list[_Job], n_prefix: int) -> list[list[float]]:
+        """One decode for all options of all jobs; option sequences copy the prefix from sequence 0."""
+        entries, wanted, seq = [], [], 1
+        for job in jobs:
+            seqs = tuple(range(seq, seq + len(job.options)))
+            seq += len(job.options)
+            for s in seqs:
+                self._lib.llama_memory_seq_cp(self._ctx.memory, 0, s, -1, -1)
+            for k, t in enumerate(job.suffix):
+                entries.append((t, n_prefix + k, seqs, k == len(job.suffix) - 1))
+            first_row = len(entries) - 1
+            rows = []
+            for s, option in zip(seqs, job.options):
+                start = len(entries)
+                entries += [(t, n_prefix + len(job.suffix) + k, (s,), True) for k, t in enumerate(option)]
+                rows.append([first_row] + list(range(start, len(entries))))
+            wanted.append(rows)
+        try:
+            self._fill(entries)
+            self._decode()
+            return [[self._option_logprob(r, o) for r, o in zip(rows, job.options)] for rows, job in zip(wanted, jobs)]
+        finally:
+            for s in range(1, seq):
+                self._lib.llama_memory_seq_rm(self._ctx.memory, s, -1, -1)
+
+    def _option_logprob(self, rows: list[int], option: list[int]) -> float:
+        """Sum of log P(token | before) over the option's tokens and the end-of-turn token."""
+        targets = option + [self.eot]
+        return float(sum(self._logprob(row, t) for row, t in zip(rows, targets)))
+
+    def _logprob(self, row: int, token: int) -> float:
+        ptr = self._lib.llama_get_logits_ith(self._ctx.ctx, row)
+        logits = np.ctypeslib.as_array(ptr, shape=(self.n_vocab,)).astype(np.float64)
+        top = logits.max()
+        return float(logits[token] - top - np.log(np.exp(logits - top).sum()))
+
+    def _fill(self, entries: list[tuple[int, int, tuple[int, ...], bool]]) -> None:
+        """Write (token, position, sequence ids, wants logits) entries into the batch."""
+        b = self._batch.batch
+        for i, (token, pos, seqs, logits) in enumerate(entries):
+            b.token[i], b.pos[i], b.n_seq_id[i], b.logits[i] = token, pos, len(seqs), logits
+            for k, s in enumerate(seqs):
+                b.seq_id[i][k] = s
+        b.n_tokens = len(entries)
+
+    def _decode(self) -> None:
+        n = self._batch.batch.n_tokens
+        code = self._lib.llama_decode(self._ctx.ctx, self._batch.batch)
+        self.stats.calls += 1
+        if code != 0:
+            self._reset()
+            raise BackendError(f"{self.name}: llama_decode returned {code} for {n} tokens")
+        self.stats.prompt_tokens += n
+
+    def _reset(self) -> None:
+        self._lib.llama_memory_clear(self._ctx.memory, True)
+        self._cached = []
+
+    # --- sampling ---------------------------------------------------------------------------
+
+    def sample(self, question: Question, n: int, temperature: float) -> list[str]:
+        """n completions constrained by a grammar whose alternatives are exactly the options."""
+        from llama_cpp import LlamaGrammar
+
+        prompt = self.prompt_tokens(question)
+        if self.llm._model.add_bos_token() and prompt[:1] == [self.llm.token_bos()]:
+            prompt = prompt[1:]  # create_completion adds the BOS itself
+        # the grammar may spell an option in more tokens than its usual tokenization: one per byte at worst
+        max_tokens = max(len(o.encode("utf-8")) for o in question.options) + 1
+        try:
+            grammar = LlamaGrammar.from_string(gbnf(question.options), verbose=False)
+            return [self._complete(prompt, grammar, max_tokens, temperature) for _ in range(n)]
+        except Exception as exc:
+            raise BackendError(f"{self.name}: sampling failed: {type(exc).__name__}: {exc}") from exc
+
+    def _complete(self, prompt: list[int], grammar, max_tokens: int, temperature: float) -> str:
+        cached = _common_prefix(self.llm._input_ids[: self.llm.n_tokens].tolist(), prompt)
+        self._draws += 1
+        out = self.llm.create_completion(prompt, grammar=grammar, max_tokens=max_tokens, temperature=temperature,
+                                         seed=self.seed + self._draws)
+        self.stats.calls += 1
+        self.stats.prompt_tokens += len(prompt) - min(cached, len(prompt) - 1)
+        self.stats.generated_tokens += out["usage"]["completion_tokens"]
+        return out["choices"][0]["text"]
+
+    def close(self) -> None:
+        """Free the scoring context, the batch and the model."""
+        self._batch.close()
+        self._ctx.close()
+        self.llm.close()
+
+
+def gbnf(options: Sequence[str]) -> str:
+    """A GBNF grammar whose root is exactly one of the options."""
+    return "root ::= " + " | ".join(_literal(o) for o in options) + "\n"
+
+
+def _literal(text: str) -> str:
+    escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r").replace("\t", "\\t")
+    return f'"{escaped}"'
+
+
+def _common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
+    n = 0
+    for x, y in zip(a, b):
+        if x != y:
+            break
+        n += 1
+    return n
