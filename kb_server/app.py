@@ -6,7 +6,6 @@ need `Authorization: Bearer <token>`; with no token configured, updates and dele
 from __future__ import annotations
 
 import hmac
-import re
 
 import rdflib
 from flask import Flask, Response, jsonify, request
@@ -16,12 +15,11 @@ from werkzeug.exceptions import HTTPException
 from kb_server import queries
 from kb_server.jobs import JobManager
 from kb_server.sparql import QueryError, QueryTimeout, Result, negotiate, offers_for, serialize
-from kb_server.store import EXPORT_FORMATS, Store
+from kb_server.store import EXPORT_FORMATS, RobotNameError, Store, check_robot_name
 from pipeline.errors import URDFError
 from pipeline.ingest import load_urdf
 from pipeline.runner import Settings
 
-ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
 MAX_WAIT = 600.0
@@ -144,9 +142,10 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             tree = load_urdf(data, max_bytes=max_body)
         except URDFError as e:
             return error(400, f"not a valid URDF: {e}")
-        name = name or tree.robot_name
-        if not ROBOT_NAME.match(name):
-            return error(400, f"robot name {name!r} must be 1-64 of A-Z a-z 0-9 _ - (pass ?name=...)")
+        try:
+            name = check_robot_name(name or tree.robot_name)
+        except RobotNameError as e:
+            return error(400, f"{e}: pass ?name=...")
         job = jobs.submit(tree, name, settings)
         resp = jsonify(job.to_dict())
         resp.status_code = 202

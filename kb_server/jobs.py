@@ -131,6 +131,7 @@ class JobManager:
         finally:
             job.finished = time.time()
             job.finished_event.set()
+            log.info("populate %s (job %s): %s %s", job.robot, job.id, job.state, "; ".join(job.errors))
 
     def _mirror(self, job: Job) -> str:
         if not self.remote:

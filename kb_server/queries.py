@@ -22,23 +22,24 @@ from functools import cache
 from rdflib import Literal, URIRef
 from rdflib.namespace import XSD
 
-from kb_server.sparql import Result, serialize
+from kb_server.sparql import Result, to_csv, to_json, to_tsv, to_xml
 from kb_server.store import Store
+from pipeline.errors import UrdfkbError
 
 _PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(.*))?$")
 _VAR = re.compile(r"\$(\w+)")
 TYPES = ("string", "decimal", "integer")
 
 
-class ParamError(ValueError):
+class ParamError(UrdfkbError, ValueError):
     """A missing, unknown or ill-typed query parameter."""
 
 
-class UnknownQuery(KeyError):
+class UnknownQuery(UrdfkbError, LookupError):
     """No query of that name."""
 
 
-class UnknownRobot(KeyError):
+class UnknownRobot(UrdfkbError, LookupError):
     """No robot of that name in the store."""
 
 
@@ -146,15 +147,30 @@ def _local(iri: str) -> str:
     return iri.rsplit("#", 1)[-1]
 
 
-def cli_query(name: str, robot: str, params: Mapping[str, str], store_path=None,
-              media_type: str = "text/tab-separated-values", timeout: float = 10.0) -> str:
-    """`urdfkb query NAME --robot NAME [--param k=v]`: run a named query on a store file, as text.
+def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path=None, fmt: str = "table",
+                    timeout: float = 10.0) -> str:
+    """`urdfkb query NAME --robot NAME [--param k=v]`: a named query on a store file, as text.
 
-    `media_type` is any SELECT result type of kb_server.sparql (TSV, CSV, SPARQL JSON/XML).
-    Raises UnknownQuery, UnknownRobot, ParamError, QueryError or QueryTimeout with a clear message.
+    fmt: "table" (aligned columns, IRIs shortened to their local name), "json" (SPARQL results
+    JSON), "csv", "tsv" or "xml". Raises UnknownQuery, UnknownRobot, ParamError, QueryError or
+    QueryTimeout (all UrdfkbError) with a clear message.
     """
+    writers = {"table": _table, "json": to_json, "csv": to_csv, "tsv": to_tsv, "xml": to_xml}
+    if fmt not in writers:
+        raise ParamError(f"unknown format {fmt!r}; choose one of {', '.join(writers)}")
     store = Store(store_path)
     try:
-        return serialize(run_named(store, name, robot, params, timeout), media_type).decode("utf-8")
+        out = writers[fmt](run_named(store, name, robot, params, timeout))
     finally:
         store.close()
+    return out if isinstance(out, str) else out.decode("utf-8")
+
+
+def _table(result: Result) -> str:
+    cells = [[("" if t is None else _local(str(t)) if "#" in str(t) else str(t)) for t in row] for row in result.rows]
+    widths = [max([len(v)] + [len(r[i]) for r in cells]) for i, v in enumerate(result.vars)]
+    lines = ["  ".join(v.ljust(w) for v, w in zip(result.vars, widths)).rstrip(),
+             "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in cells]
+    lines.append(f"({len(cells)} row{'s' if len(cells) != 1 else ''})")
+    return "\n".join(lines)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 
 from waitress import create_server
@@ -10,7 +11,9 @@ from waitress.server import BaseWSGIServer
 from kb_server.app import create_app
 from kb_server.jobs import JobManager, Runner, pipeline_runner
 from kb_server.remote import RemoteStore
-from kb_server.store import Store
+from kb_server.store import Store, check_robot_name
+from pipeline.ingest import load_urdf
+from pipeline.runner import Settings
 
 log = logging.getLogger(__name__)
 
@@ -28,11 +31,21 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
 
 
 def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
-          token: str | None = None, remote_store: str | None = None, query_timeout: float = 10.0,
-          max_body: int = 10_000_000, threads: int = 8) -> None:
-    """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3."""
+          token: str | None = None, remote_store: str | None = None, populate: Sequence[str] = (),
+          query_timeout: float = 10.0, max_body: int = 10_000_000, threads: int = 8) -> None:
+    """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3.
+
+    Each URDF in `populate` is ingested first (a bad one raises URDFError before anything is
+    served) and populated with default settings as a background job, logged when it finishes.
+    """
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
+    trees = [load_urdf(path, max_bytes=max_body) for path in populate]
+    for tree in trees:
+        check_robot_name(tree.robot_name)
     server, store, jobs = make_server(store_path, host, port, token, remote_store, query_timeout, max_body, threads)
-    log.info("urdfkb serving %s on http://%s:%s/sparql", store.path, host, server.effective_port)
+    for tree in trees:
+        jobs.submit(tree, tree.robot_name, Settings())
+    log.info("serving %s at http://%s:%s/sparql", store.path, host, server.effective_port)
     try:
         server.run()
     except KeyboardInterrupt:

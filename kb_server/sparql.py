@@ -28,6 +28,8 @@ from rdflib.plugins.sparql.algebra import translateUpdate
 from rdflib.plugins.sparql.parser import parseUpdate
 from rdflib.plugins.sparql.parserutils import CompValue
 
+from pipeline.errors import UrdfkbError
+
 XSD = "http://www.w3.org/2001/XMLSchema#"
 UPDATES_IRI = "https://w3id.org/urdfkb/updates#"
 XSD_STRING = URIRef(XSD + "string")
@@ -49,11 +51,11 @@ GRAPH_TYPES = {
 }
 
 
-class QueryError(ValueError):
+class QueryError(UrdfkbError, ValueError):
     """The query (or update) is not valid SPARQL 1.1; the message is the parser's."""
 
 
-class QueryTimeout(RuntimeError):
+class QueryTimeout(UrdfkbError, RuntimeError):
     """The query ran past its deadline and was stopped."""
 
 

@@ -8,6 +8,7 @@ lock) see the old robot or the new one, never a mix, and a crash leaves the last
 from __future__ import annotations
 
 import io
+import re
 import threading
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from platformdirs import user_data_dir
 
 from kb_server.sparql import Result, SparqlEngine
 from pipeline.components import Abstraction
+from pipeline.errors import UrdfkbError
 from pipeline.export import export_robot, robot_graph
 from pipeline.ontology import CORE_IRI, load_core
 from pipeline.population import build_robot
@@ -29,6 +31,20 @@ EXPORT_FORMATS = {"owl": ("rdfxml", "application/rdf+xml"), "ttl": ("turtle", "t
 
 _SCHEMA = """CREATE TABLE IF NOT EXISTS kb_robots (
     name TEXT PRIMARY KEY, ontology_iri TEXT NOT NULL, robot_iri TEXT NOT NULL, updated TEXT NOT NULL)"""
+
+
+ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+
+
+class RobotNameError(UrdfkbError, ValueError):
+    """A robot name the store cannot key on (it is also a URL path segment)."""
+
+
+def check_robot_name(name: str) -> str:
+    """`name` if it is 1-64 of A-Z a-z 0-9 _ - ; RobotNameError otherwise."""
+    if not ROBOT_NAME.match(name or ""):
+        raise RobotNameError(f"robot name {name!r} must be 1-64 of A-Z a-z 0-9 _ - (give another name)")
+    return name
 
 
 def default_store_path() -> Path:
@@ -100,6 +116,7 @@ class Store:
     def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
                       provenance: dict[str, str] | None = None) -> RobotEntry:
         """Write robot `name` (replacing any earlier one) in one transaction; all or nothing."""
+        check_robot_name(name)
         with self._writing():
             onto = build_robot(self.world, tree, name, abstraction, provenance)
             robot_cls = self.world[CORE_IRI + "Robot"]

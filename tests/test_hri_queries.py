@@ -5,7 +5,7 @@ import urllib.parse
 import pytest
 
 from kb_fixtures import PR2, http, live, make_app
-from kb_server.queries import ParamError, UnknownQuery, UnknownRobot, cli_query, load_queries, run_named
+from kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
 from kb_server.store import Store
 from pipeline.ingest import load_urdf
 
@@ -128,6 +128,12 @@ def test_cli_query(shared, tmp_path):
     s = Store(path)
     s.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     s.close()
-    out = cli_query("end_effectors", "pr2", {}, store_path=path)
+    out = run_named_query("end_effectors", "pr2", {}, store_path=path, fmt="tsv")
     assert out.splitlines()[0] == "?endEffector\t?class\t?mount\t?tcp\t?contacts"
     assert '"r_gripper_tool_frame"' in out
+    table = run_named_query("mounted_below", "pr2", {"link": "head_mount_link"}, store_path=path).splitlines()
+    assert table[0].split() == ["component", "class", "mount"] and table[-1] == "(2 rows)"
+    assert table[2].split() == ["comp_kinect", "RGBDCamera", "head_mount_link"]
+    assert json.loads(run_named_query("cameras", "pr2", {}, store_path=path, fmt="json"))["head"]["vars"] == ["link", "camera", "class"]
+    with pytest.raises(UnknownRobot, match="nao"):
+        run_named_query("cameras", "nao", {}, store_path=path)

@@ -1,17 +1,24 @@
 """Every route of the live server: status codes, content types, jobs, atomic re-populate, limits."""
 import json
+import subprocess
+import sys
 import threading
 import time
+import urllib.request
+from pathlib import Path
 
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, fake_runner, http, live, make_app, multipart
+from kb_fixtures import PR2, fake_runner, free_port, http, live, make_app, multipart
 from kb_server.jobs import pipeline_runner
 from kb_server.serve import make_server
 from kb_server.store import Store
 from pipeline.components import Abstraction
 from pipeline.errors import PipelineError
+from pipeline.ingest import load_urdf
+
+REPO = Path(__file__).resolve().parents[1]
 
 TOKEN = "t0ken"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -168,6 +175,31 @@ def test_binds_loopback_by_default(tmp_path):
     server.close()
     jobs.shutdown()
     store.close()
+
+
+def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
+    """The real entry point (urdfkb serve, waitress) in a subprocess, restarted over the same store."""
+    path = tmp_path / "kb.sqlite3"
+    store = Store(path)
+    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+    store.close()
+    for _ in range(2):
+        port = free_port()
+        proc = subprocess.Popen([sys.executable, "-m", "kb_server.cli", "serve", "--store", str(path), "--port", str(port)],
+                                cwd=REPO, stderr=subprocess.DEVNULL)
+        try:
+            for _ in range(100):
+                try:
+                    status, _, out = http("GET", f"http://127.0.0.1:{port}/robots/pr2", timeout=1)
+                    break
+                except OSError:
+                    time.sleep(0.1)
+            assert status == 200 and len(json.loads(out)["components"]) == len(PR2.components)
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/robots") as r:
+                assert r.headers["Server"] == "waitress"
+        finally:
+            proc.terminate()
+            proc.wait(10)
 
 
 def test_queries_listing(server):
