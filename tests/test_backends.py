@@ -29,3 +29,132 @@ def test_scripted_sample_is_seeded_and_counts_calls():
     assert a.sample(q(), 10, 0.7) == b.sample(q(), 10, 0.7)
     assert set(a.sample(q(), 50, 0.7)) == {"sensor", "wheel"}
     assert a.stats.calls == 60
+
+
+# --- OpenAI-compatible HTTP backend against a real local server ----------------------------------
+
+import json  # noqa: E402
+import socket  # noqa: E402
+import threading  # noqa: E402
+import time  # noqa: E402
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer  # noqa: E402
+
+from pipeline.errors import BackendError  # noqa: E402
+from pipeline.llm.http import OpenAIBackend  # noqa: E402
+from pipeline.oracle import Oracle  # noqa: E402
+
+
+def fake_server(behaviour):
+    """Start an HTTP server on 127.0.0.1 whose POST handler is `behaviour(body) -> (status, bytes)`."""
+    requests = []
+
+    class Handler(BaseHTTPRequestHandler):
+        def do_POST(self):
+            body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+            requests.append((self.path, dict(self.headers), body))
+            status, payload = behaviour(body)
+            self.send_response(status)
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Content-Length", str(len(payload)))
+            self.end_headers()
+            try:
+                self.wfile.write(payload)
+            except OSError:
+                pass
+
+        def log_message(self, *args):
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return server, f"http://127.0.0.1:{server.server_address[1]}", requests
+
+
+def completion(texts):
+    return 200, json.dumps({
+        "choices": [{"index": i, "message": {"role": "assistant", "content": t}} for i, t in enumerate(texts)],
+        "usage": {"prompt_tokens": 40, "completion_tokens": len(texts)},
+    }).encode()
+
+
+@pytest.fixture
+def serve():
+    servers = []
+
+    def start(behaviour):
+        server, url, requests = fake_server(behaviour)
+        servers.append(server)
+        return url, requests
+
+    yield start
+    for server in servers:
+        server.shutdown()
+        server.server_close()
+
+
+def test_http_sample_with_n(serve):
+    url, requests = serve(lambda body: completion(["sensor"] * body["n"]))
+    backend = OpenAIBackend(url + "/v1", "qwen", api_key="k")
+    assert backend.sample(q(), 3, 0.7) == ["sensor"] * 3
+    path, headers, body = requests[0]
+    assert path == "/v1/chat/completions" and headers["Authorization"] == "Bearer k"
+    assert body["model"] == "qwen" and body["temperature"] == 0.7 and body["n"] == 3
+    assert "- gripper" in body["messages"][1]["content"] and body["messages"][0]["content"] == "Classify the link."
+    assert backend.stats.calls == 1 and backend.stats.prompt_tokens == 40
+    assert not backend.exposes_logits and backend.name == f"openai:{url}/v1:qwen"
+
+
+def test_http_server_ignoring_n_gets_separate_requests(serve):
+    url, requests = serve(lambda body: completion([" Wheel\n"]))
+    backend = OpenAIBackend(url, "m")
+    assert backend.sample(q(), 4, 0.5) == [" Wheel\n"] * 4
+    assert len(requests) == 4 and requests[0][0] == "/v1/chat/completions"
+    [v] = Oracle(backend, votes=4).ask([q()])
+    assert v.answer == "wheel" and v.confidence == 1.0
+
+
+def test_http_out_of_set_answers_abstain(serve):
+    url, _ = serve(lambda body: completion(["It is probably a sensor."] * body["n"]))
+    [v] = Oracle(OpenAIBackend(url, "m"), votes=3, retries=1).ask([q()])
+    assert v.answer is None and v.confidence == 0
+
+
+def test_http_500_is_backend_error(serve):
+    url, _ = serve(lambda body: (500, b'{"error": "model crashed"}'))
+    with pytest.raises(BackendError, match=r"127\.0\.0\.1.*HTTP 500.*model crashed"):
+        Oracle(OpenAIBackend(url, "m")).ask([q()])
+
+
+@pytest.mark.parametrize("payload", [b"<html>not json", b'{"choices": [{"text": 1}]}', b"[1, 2]", b'{"choices": []}'])
+def test_http_garbage_is_backend_error(serve, payload):
+    url, _ = serve(lambda body: (200, payload))
+    with pytest.raises(BackendError, match="127.0.0.1"):
+        OpenAIBackend(url, "m").sample(q(), 1, 0.7)
+
+
+def test_http_hang_times_out(serve):
+    def hang(body):
+        time.sleep(2)
+        return completion(["sensor"])
+
+    url, _ = serve(hang)
+    started = time.monotonic()
+    with pytest.raises(BackendError, match="timed out after 0.5s"):
+        OpenAIBackend(url, "m", timeout=0.5).sample(q(), 1, 0.7)
+    assert time.monotonic() - started < 1.8
+
+
+def test_http_connection_refused():
+    with socket.socket() as sock:  # a port nobody listens on once closed
+        sock.bind(("127.0.0.1", 0))
+        url = f"http://127.0.0.1:{sock.getsockname()[1]}"
+    with pytest.raises(BackendError, match="cannot reach"):
+        OpenAIBackend(url, "m", timeout=2).sample(q(), 1, 0.7)
+
+
+def test_http_has_no_logits():
+    with pytest.raises(BackendError, match="vote='sample'"):
+        OpenAIBackend("http://127.0.0.1:9", "m").score([q()])
+    with pytest.raises(BackendError, match="log-probabilities"):
+        Oracle(OpenAIBackend("http://127.0.0.1:9", "m"), vote="exact")

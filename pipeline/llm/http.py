@@ -1,0 +1,83 @@
+"""OpenAI-compatible chat backend (llama.cpp server, vLLM, Ollama /v1) over stdlib urllib."""
+from __future__ import annotations
+
+import json
+import socket
+import urllib.error
+import urllib.request
+from typing import Sequence
+
+from ..errors import BackendError
+from .base import Backend, Question, Stats
+
+
+class OpenAIBackend(Backend):
+    """Samples answers from `/v1/chat/completions`; no log-probabilities, so the Oracle votes by sampling."""
+
+    exposes_logits = False
+
+    def __init__(self, base_url: str, model: str, api_key: str | None = None, timeout: float = 60):
+        base = base_url.rstrip("/")
+        self.url = base + ("/chat/completions" if base.endswith("/v1") else "/v1/chat/completions")
+        self.name = f"openai:{base_url}:{model}"
+        self.model, self.api_key, self.timeout = model, api_key, timeout
+        self.stats = Stats()
+
+    def score(self, questions: Sequence[Question]) -> list[list[float]]:
+        """Not available: chat completions expose no whole-option log-probabilities."""
+        raise BackendError(f"{self.name}: no log-probabilities over HTTP; use vote='sample'")
+
+    def sample(self, question: Question, n: int, temperature: float) -> list[str]:
+        """n raw answers; asks for `n` choices at once and tops up one request at a time if the server ignores `n`."""
+        texts = self._complete(question, n, temperature)
+        while len(texts) < n:
+            texts += self._complete(question, 1, temperature)
+        return texts[:n]
+
+    def _complete(self, question: Question, n: int, temperature: float) -> list[str]:
+        listed = "\n".join(f"- {o}" for o in question.options)
+        body = {
+            "model": self.model,
+            "messages": [
+                {"role": "system", "content": question.system},
+                {"role": "user", "content": f"{question.user}\n\nAnswer with exactly one of these, nothing else:\n{listed}"},
+            ],
+            "temperature": temperature,
+            "max_tokens": max(len(o) for o in question.options) + 8,
+            "n": n,
+        }
+        reply = self._post(body)
+        try:
+            texts = [c["message"]["content"] or "" for c in reply["choices"]]
+        except (KeyError, TypeError) as exc:
+            raise BackendError(f"{self.name}: malformed response from {self.url}: {str(reply)[:200]}") from exc
+        if not texts:
+            raise BackendError(f"{self.name}: no choices in the response from {self.url}")
+        usage = reply.get("usage") or {}
+        self.stats.prompt_tokens += int(usage.get("prompt_tokens") or 0)
+        self.stats.generated_tokens += int(usage.get("completion_tokens") or 0)
+        return texts
+
+    def _post(self, body: dict) -> dict:
+        headers = {"Content-Type": "application/json"}
+        if self.api_key:
+            headers["Authorization"] = f"Bearer {self.api_key}"
+        request = urllib.request.Request(self.url, data=json.dumps(body).encode(), headers=headers, method="POST")
+        self.stats.calls += 1
+        try:
+            with urllib.request.urlopen(request, timeout=self.timeout) as response:
+                raw = response.read()
+        except urllib.error.HTTPError as exc:
+            detail = exc.read()[:200].decode("utf-8", "replace")
+            raise BackendError(f"{self.name}: {self.url} answered HTTP {exc.code}: {detail}") from exc
+        except (TimeoutError, socket.timeout) as exc:
+            raise BackendError(f"{self.name}: {self.url} timed out after {self.timeout}s") from exc
+        except (urllib.error.URLError, OSError) as exc:
+            raise BackendError(f"{self.name}: cannot reach {self.url}: {getattr(exc, 'reason', exc)}") from exc
+        try:
+            reply = json.loads(raw)
+        except ValueError as exc:
+            raise BackendError(f"{self.name}: {self.url} sent malformed JSON: {raw[:200]!r}") from exc
+        if not isinstance(reply, dict):
+            raise BackendError(f"{self.name}: {self.url} sent malformed JSON: {raw[:200]!r}")
+        return reply
