@@ -2,7 +2,7 @@
 
 Job states: queued -> running -> succeeded | failed | mirror_failed. `mirror_failed` means the
 robot *was* stored and is served locally, but the remote store (--remote-store) was not updated;
-the reason is in `errors`, and re-populating the robot retries the mirror. A failed job leaves the
+the reason is in `errors`; re-populating the robot, or restarting the server (mirror_all), retries. A failed job leaves the
 store as it was. Jobs for the same robot run one after the other (a lock per robot name).
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import threading
 import time
 import uuid
 from collections import OrderedDict
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -100,6 +100,22 @@ class JobManager:
             except RemoteError as e:
                 return entry, f"deleted locally, but deleting the remote graph failed: {e}"
             return entry, None
+
+    def mirror_all(self) -> Future | None:
+        """Push every stored robot to the remote store in the background (at startup: mirrors robots
+        stored before the remote was configured and repairs earlier mirror failures)."""
+        return self._pool.submit(self._mirror_all) if self.remote else None
+
+    def _mirror_all(self) -> None:
+        for entry in self.store.robots():
+            with self._robot_lock(entry.name):
+                graph = self.store.graph(entry.name)
+                if graph is None:  # deleted meanwhile
+                    continue
+                try:
+                    self.remote.put_graph(entry.ontology_iri, graph)
+                except RemoteError as e:
+                    log.warning("mirroring %s failed: %s", entry.name, e)
 
     def shutdown(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)

@@ -20,11 +20,14 @@ log = logging.getLogger(__name__)
 
 def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
                 token: str | None = None, remote_store: str | None = None, query_timeout: float = 10.0,
-                max_body: int = 10_000_000, threads: int = 8, runner: Runner = pipeline_runner
+                max_body: int = 10_000_000, threads: int = 16, runner: Runner = pipeline_runner
                 ) -> tuple[BaseWSGIServer, Store, JobManager]:
-    """Open the store and bind the server (port 0 picks a free port: see server.effective_port)."""
+    """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
+
+    With a remote store, every robot already stored is mirrored to it in the background."""
     store = Store(store_path)
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
+    jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout)
     server = create_server(app, host=host, port=port, threads=threads)
     return server, store, jobs
@@ -32,7 +35,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
 
 def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
           token: str | None = None, remote_store: str | None = None, populate: Sequence[str] = (),
-          query_timeout: float = 10.0, max_body: int = 10_000_000, threads: int = 8) -> None:
+          query_timeout: float = 10.0, max_body: int = 10_000_000, threads: int = 16) -> None:
     """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3.
 
     Each URDF in `populate` is ingested first (a bad one raises URDFError before anything is

@@ -11,7 +11,9 @@ import rdflib
 
 from kb_fixtures import PR2, free_port, http, live, make_app
 from kb_server.remote import RemoteError, RemoteStore
+from kb_server.serve import make_server
 from kb_server.store import Store
+from pipeline.ingest import load_urdf
 
 OXIGRAPH = Path(sys.executable).with_name("oxigraph")
 PR2_GRAPH = "https://w3id.org/urdfkb/robot/pr2#"
@@ -85,6 +87,19 @@ def test_populate_put_replaces_and_delete_drops_the_named_graph(server, oxigraph
     status, _, out = http("DELETE", f"{server}/robots/pr2", headers={"Authorization": f"Bearer {TOKEN}"})
     assert status == 200 and json.loads(out)["mirror_error"] is None
     assert remote_count(oxigraph, f"GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }}") == 0
+
+
+def test_startup_mirrors_robots_stored_before(oxigraph, shared, tmp_path):
+    store = Store(tmp_path / "kb.sqlite3")
+    store.replace_robot("pr2_early", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+    store.close()
+    server, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, remote_store=oxigraph + "/store")
+    jobs.mirror_all().result(60)  # a second full push, awaited (make_server started one too)
+    graph = "https://w3id.org/urdfkb/robot/pr2_early#"
+    assert remote_count(oxigraph, f"GRAPH <{graph}> {{ <{graph}comp_kinect> a ?c }}") >= 1
+    server.close()
+    jobs.shutdown()
+    store.close()
 
 
 def test_remote_down_is_reported_and_the_robot_is_stored(tmp_path, shared):
