@@ -46,6 +46,7 @@ class Job:
     total: int = 0
     errors: list[str] = field(default_factory=list)
     created: float = field(default_factory=time.time)
+    started: float | None = None
     finished: float | None = None
     ontology: str | None = None
     finished_event: threading.Event = field(default_factory=threading.Event, repr=False)
@@ -53,7 +54,7 @@ class Job:
     def to_dict(self) -> dict:
         return {"id": self.id, "robot": self.robot, "state": self.state, "stage": self.stage,
                 "progress": {"done": self.done, "total": self.total}, "errors": list(self.errors),
-                "ontology": self.ontology, "created": self.created, "finished": self.finished}
+                "ontology": self.ontology, "created": self.created, "started": self.started, "finished": self.finished}
 
     def wait(self, timeout: float | None) -> bool:
         return self.finished_event.wait(timeout)
@@ -130,7 +131,7 @@ class JobManager:
 
         try:
             with self._robot_lock(job.robot):
-                job.state, job.stage = "running", "pipeline"
+                job.state, job.stage, job.started = "running", "pipeline", time.time()
                 abstraction = self.runner(tree, settings, progress)
                 progress("store", 0, 1)
                 entry = self.store.replace_robot(job.robot, tree, abstraction)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, fake_runner, free_port, http, live, make_app, multipart
+from kb_fixtures import PR2, free_port, http, live, make_app, multipart
 from kb_server.jobs import pipeline_runner
 from kb_server.serve import make_server
 from kb_server.store import Store
@@ -24,34 +24,27 @@ TOKEN = "t0ken"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
+def runner(tree, settings, progress):
+    """By URDF robot name: 'slow*' takes 0.6 s, 'broken*' fails, '*pr2' gets the PR2 abstraction."""
+    slow = tree.robot_name.startswith("slow")
+    for i in range(3):
+        progress("classify", i, 3)
+        time.sleep(0.2 if slow else 0)
+    if tree.robot_name.startswith("broken"):
+        raise PipelineError("classification failed: model said 'banana'")
+    if settings.structure_only:
+        return pipeline_runner(tree, settings, progress)
+    return PR2 if tree.robot_name.endswith("pr2") else Abstraction((), {"mode": "test"})
+
+
 @pytest.fixture
 def server(tmp_path):
-    """A live server whose runner is slow (0.6 s) for 'slow*' names, and fails for 'broken'."""
-    plain = fake_runner({"pr2": PR2})
-    slow = fake_runner({"pr2": PR2}, delay=0.6)
-    broken = fake_runner(fail=PipelineError("classification failed: model said 'banana'"))
-
-    def runner(tree, settings, progress):
-        if settings.structure_only:
-            return pipeline_runner(tree, settings, progress)
-        return {"slow": slow, "broken": broken}.get(_current_name.get(tree), plain)(tree, settings, progress)
-
     store = Store(tmp_path / "kb.sqlite3")
     app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
     with live(app) as base:
         yield base
     jobs.shutdown()
     store.close()
-
-
-class _Names:
-    """Lets the runner above see how the test asked it to behave (by URDF robot name)."""
-
-    def get(self, tree):
-        return next((k for k in ("slow", "broken") if tree.robot_name.startswith(k)), None)
-
-
-_current_name = _Names()
 
 
 def urdf(shared, name="pr2", rename=None) -> bytes:
@@ -156,8 +149,9 @@ def test_repopulate_is_atomic_and_same_robot_jobs_are_serialised(server, shared)
     stop.set()
     reader.join()
     assert [j["state"] for j in jobs] == ["succeeded", "succeeded"]
-    assert seen <= {0, n_full}
-    assert jobs[0]["finished"] <= jobs[1]["finished"]
+    assert seen <= {0, n_full} and n_full in seen
+    first, second = sorted(jobs, key=lambda j: j["started"])
+    assert first["finished"] <= second["started"]  # one after the other, never interleaved
 
 
 def test_delete_needs_the_token(server, shared):
