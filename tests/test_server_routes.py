@@ -177,20 +177,24 @@ def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
     store = Store(path)
     store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     store.close()
-    for _ in range(2):
-        port = free_port()
-        proc = subprocess.Popen([sys.executable, "-m", "kb_server.cli", "serve", "--store", str(path), "--port", str(port)],
-                                cwd=REPO, stderr=subprocess.DEVNULL)
+    for run in range(2):
+        port, log = free_port(), tmp_path / f"serve{run}.log"
+        with log.open("wb") as err:
+            proc = subprocess.Popen([sys.executable, "-m", "kb_server.cli", "serve", "--store", str(path),
+                                     "--port", str(port)], cwd=REPO, stderr=err)
         try:
-            for _ in range(100):
+            for _ in range(150):
                 try:
-                    status, _, out = http("GET", f"http://127.0.0.1:{port}/robots/pr2", timeout=1)
+                    with urllib.request.urlopen(f"http://127.0.0.1:{port}/robots/pr2", timeout=2) as r:
+                        assert r.headers["Server"] == "waitress"
+                        robot = json.loads(r.read())
                     break
                 except OSError:
+                    assert proc.poll() is None, log.read_text()
                     time.sleep(0.1)
-            assert status == 200 and len(json.loads(out)["components"]) == len(PR2.components)
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/robots") as r:
-                assert r.headers["Server"] == "waitress"
+            else:
+                pytest.fail("urdfkb serve did not answer: " + log.read_text())
+            assert len(robot["components"]) == len(PR2.components)
         finally:
             proc.terminate()
             proc.wait(10)
