@@ -2,19 +2,24 @@
 
 Stores hold 1, 10 and 100 robots populated from the shared URDFs (distinct names; PR2 with the
 hand-written test abstraction, the others with keyword-made abstractions). pyoxigraph holds the
-same triples (each robot's self-contained export, in its default graph). The last table is the
-KB's latency while another thread re-populates a robot continuously (store-lock contention).
+same triples (each robot's self-contained export, in its default graph). Then, on the largest
+store: the same queries over HTTP (waitress; 1 and 8 concurrent clients), and the KB's latency
+while another thread re-populates a robot continuously (store-lock contention).
 
     .venv/bin/python benchmarks/bench_queries.py [--sizes 1,10,100] [--iterations 40]
 """
 from __future__ import annotations
 
 import argparse
+import logging
 import statistics
 import sys
 import tempfile
 import threading
 import time
+import urllib.parse
+import urllib.request
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pyoxigraph
@@ -22,7 +27,7 @@ import pyoxigraph
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
-from kb_fixtures import PR2  # noqa: E402
+from kb_fixtures import PR2, live, make_app  # noqa: E402
 from kb_server.queries import load_queries  # noqa: E402
 from kb_server.store import Store  # noqa: E402
 from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent  # noqa: E402
@@ -108,6 +113,7 @@ def main() -> None:
                 ox = stats(timed(lambda: list(oxi.query(text)), args.iterations))
                 rows.append((n, qname, engine, len(kb_rows), *kb, rdf[0], *ox, kb[0] / ox[0]))
             if n == max(int(x) for x in args.sizes.split(",")):
+                http_rows = over_http(store, robots[0], args.iterations)
                 busy_rows = under_populate(store, trees["pr2"], target, named, args.iterations)
             store.close()
     print(f"{'robots':>6} {'query':<15} {'engine':<9} {'rows':>4} | {'KB p50':>8} {'p99':>8} {'q/s':>7} |"
@@ -115,11 +121,39 @@ def main() -> None:
     for n, q, engine, nrows, kp50, kp99, kqps, rp50, op50, op99, oqps, ratio in rows:
         print(f"{n:>6} {q:<15} {engine:<9} {nrows:>4} | {kp50:>6.2f}ms {kp99:>6.2f}ms {kqps:>7.0f} |"
               f" {rp50:>8.1f}ms | {op50:>6.3f}ms {op99:>6.3f}ms {oqps:>7.0f} | {ratio:>5.1f}x")
+    print("\nOver HTTP (waitress, GET /queries/<name>, largest store): 1 client, then 8 concurrent clients:")
+    print(f"{'query':<15} | {'p50':>8} {'p99':>8} {'q/s':>6} | {'8c p50':>8} {'p99':>8} {'q/s':>6}")
+    for q, one, many in http_rows:
+        print(f"{q:<15} | {one[0]:>6.2f}ms {one[1]:>6.2f}ms {one[2]:>6.0f} | {many[0]:>6.2f}ms {many[1]:>6.2f}ms {many[2]:>6.0f}")
     print("\nKB latency while another thread re-populates PR2 continuously (largest store):")
     print(f"{'query':<15} | {'idle p50':>9} {'p99':>8} | {'busy p50':>9} {'p99':>8} | {'p50 x':>6} | populates")
     for q, idle, busy, pops in busy_rows:
         print(f"{q:<15} | {idle[0]:>7.2f}ms {idle[1]:>6.2f}ms | {busy[0]:>7.2f}ms {busy[1]:>6.2f}ms |"
               f" {busy[0] / idle[0]:>5.1f}x | {pops}")
+
+
+def over_http(store: Store, robot: str, iterations: int) -> list:
+    """Per query: (p50, p99, q/s) with one client, and with 8 concurrent clients (aggregate q/s)."""
+    app, jobs = make_app(store)
+    logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # 8 clients > 6 threads: expected
+    out = []
+    with live(app) as base:
+        for qname, params in QUERIES.items():
+            url = f"{base}/queries/{qname}?" + urllib.parse.urlencode({"robot": robot, **params})
+
+            def get():
+                with urllib.request.urlopen(url) as r:
+                    r.read()
+
+            one = stats(timed(get, iterations))
+            with ThreadPoolExecutor(8) as pool:
+                t0 = time.perf_counter()
+                samples = [x for xs in pool.map(lambda _: timed(get, iterations), range(8)) for x in xs]
+                wall = time.perf_counter() - t0
+            p50, p99, _ = stats(samples)
+            out.append((qname, one, (p50, p99, len(samples) / wall)))
+    jobs.shutdown()
+    return out
 
 
 def under_populate(store: Store, tree, target: str, named, iterations: int) -> list:

@@ -318,7 +318,6 @@ def to_json(result: Result) -> bytes:
 
 def to_xml(result: Result) -> bytes:
     """W3C SPARQL Query Results XML Format."""
-    ET.register_namespace("", SRX_NS)
     root = ET.Element(f"{{{SRX_NS}}}sparql")
     head = ET.SubElement(root, f"{{{SRX_NS}}}head")
     if result.kind == "boolean":
@@ -387,4 +386,5 @@ def to_tsv(result: Result) -> bytes:
     return ("\n".join(lines) + "\n").encode("utf-8")
 
 
+ET.register_namespace("", SRX_NS)
 _WRITERS = {"json": to_json, "xml": to_xml, "csv": to_csv, "tsv": to_tsv}
