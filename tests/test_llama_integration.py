@@ -64,7 +64,7 @@ def reference(model_path, backend):
 
 def test_single_option_matches_reference_exactly(backend, reference):
     q = question("head_camera_link", options=("sensor",))
-    backend._reset()
+    backend.reset()
     assert backend.score([q])[0] == pytest.approx(reference(q), abs=1e-4)
     # warm prefix: same numbers
     assert backend.score([q])[0] == pytest.approx(reference(q), abs=1e-4)
@@ -104,14 +104,14 @@ def test_batched_equals_one_at_a_time(backend):
 
 def test_prefix_reuse_reduces_evaluated_tokens(backend):
     questions = [question(link) for link in LINKS]
-    backend._reset()
+    backend.reset()
     before = backend.stats.prompt_tokens
     backend.score(questions)
     cold = backend.stats.prompt_tokens - before
     backend.score(questions)
     warm = backend.stats.prompt_tokens - before - cold
     naive = sum(len(backend.prompt_tokens(q)) + len(backend.option_tokens(o)) for q in questions for o in q.options)
-    prefix = len(backend._prefix_tokens(SYSTEM))
+    prefix = len(backend.prefix_tokens(SYSTEM))
     assert warm <= cold - prefix + 1
     assert cold < naive / 2
     assert backend.stats.calls > 0

@@ -1,7 +1,6 @@
 """Embedded llama.cpp backend: whole-option scoring with a KV-cached shared prefix and batched decodes."""
 from __future__ import annotations
 
-import ctypes
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +32,7 @@ class LlamaBackend(Backend):
     Prompts are rendered with the GGUF's own chat template. The system part (everything before the
     user text) stays in the KV cache as sequence 0 and is reused by every question with the same
     system text; each option is a sequence sharing that prefix and its question's suffix.
+    Not thread-safe: use one backend per thread.
     """
 
     exposes_logits = True
@@ -120,7 +120,8 @@ class LlamaBackend(Backend):
         """An option's continuation (its text tokens) without the end-of-turn token."""
         return self.llm.tokenize(option.encode("utf-8"), add_bos=False, special=False)
 
-    def _prefix_tokens(self, system: str) -> list[int]:
+    def prefix_tokens(self, system: str) -> list[int]:
+        """The rendered prompt up to where the user text starts: what questions with this system text share."""
         text = self._render(system, SENTINEL)
         return self._tokens(text[: text.index(SENTINEL)])
 
@@ -138,12 +139,12 @@ class LlamaBackend(Backend):
         except BackendError:
             raise
         except Exception as exc:
-            self._reset()
+            self.reset()
             raise BackendError(f"{self.name}: scoring failed: {type(exc).__name__}: {exc}") from exc
         return [results[i] for i in range(len(questions))]
 
     def _score_group(self, system: str, questions: list[Question], indices: list[int], out: dict) -> None:
-        prefix = self._prefix_tokens(system)
+        prefix = self.prefix_tokens(system)
         prompts = [self.prompt_tokens(q) for q in questions]
         # the shared part: the rendered system prefix, as tokenized inside every full prompt, minus
         # at least the last prompt token (decoded per question to predict the first answer token)
@@ -239,11 +240,12 @@ class LlamaBackend(Backend):
         code = self._lib.llama_decode(self._ctx.ctx, self._batch.batch)
         self.stats.calls += 1
         if code != 0:
-            self._reset()
+            self.reset()
             raise BackendError(f"{self.name}: llama_decode returned {code} for {n} tokens")
         self.stats.prompt_tokens += n
 
-    def _reset(self) -> None:
+    def reset(self) -> None:
+        """Forget every cached token (the next question re-evaluates its system prefix)."""
         self._lib.llama_memory_clear(self._ctx.memory, True)
         self._cached = []
 
