@@ -135,3 +135,38 @@ def test_oracle_on_llama(backend):
     assert all(v.answer in OPTIONS and sum(v.distribution.values()) == pytest.approx(1) for v in verdicts)
     sampled = Oracle(backend, vote="sample", votes=3).ask([question("base_laser")])
     assert sampled[0].answer in OPTIONS
+
+
+def test_alternating_system_texts_stay_cached(backend, model_path):
+    """Several system prefixes stay resident: returning to one evaluates only the question again."""
+    from pipeline.llm.llama import LlamaBackend
+
+    other = "Classify robot parts. Answer sensor, gripper, wheel or structure."
+    third = SYSTEM + " Be careful."  # shares most of SYSTEM's tokens
+    qa, qb, qc = question("base_laser"), question("base_laser", system=other), question("base_laser", system=third)
+    backend.reset()
+    first = [backend.score([q])[0] for q in (qa, qb, qc)]
+    before = backend.stats.prompt_tokens
+    again = [backend.score([q])[0] for q in (qa, qb, qc)]
+    suffixes = sum(len(backend.prompt_tokens(q)) - len(backend.prefix_tokens(q.system)) for q in (qa, qb, qc))
+    assert backend.stats.prompt_tokens - before <= suffixes + 3 * (len(OPTIONS) * 2 + 2)
+    assert np.allclose(first, again, atol=LOGPROB_TOL)  # other cache cells: layout noise only
+    single = LlamaBackend(model_path, n_ctx=2048, prefix_slots=1)  # one slot: every switch re-evaluates
+    try:
+        fresh = [single.score([q])[0] for q in (qa, qb, qc, qa)]
+        assert np.allclose(fresh[:3], first, atol=LOGPROB_TOL) and np.allclose(fresh[3], fresh[0], atol=LOGPROB_TOL)
+    finally:
+        single.close()
+
+
+def test_long_prefix_evicts_other_slots(model_path):
+    from pipeline.llm.llama import LlamaBackend
+
+    small = LlamaBackend(model_path, n_ctx=1024, prefix_slots=3)
+    try:
+        systems = [f"Rule {i}: " + "classify robot links carefully. " * 40 for i in range(3)]
+        rows = [small.score([question("base_laser", system=s)])[0] for s in systems * 2]
+        assert all(len(r) == 4 and max(r) > -60 for r in rows)
+        assert small._resident() <= 1024
+    finally:
+        small.close()

@@ -30,15 +30,16 @@ class LlamaBackend(Backend):
     """llama-cpp-python in process; scores every option of many questions in few decodes.
 
     Prompts are rendered with the GGUF's own chat template. The system part (everything before the
-    user text) stays in the KV cache as sequence 0 and is reused by every question with the same
-    system text; each option is a sequence sharing that prefix and its question's suffix.
+    user text) stays in the KV cache, one sequence per slot for the `prefix_slots` most recently
+    used system texts, and is reused by every question with the same system text; each option is
+    a sequence sharing that prefix and its question's suffix.
     Not thread-safe: use one backend per thread.
     """
 
     exposes_logits = True
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
-                 n_batch: int = 512, n_seq_max: int = 64):
+                 n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 4):
         import llama_cpp
         from llama_cpp import _internals
 
@@ -62,7 +63,8 @@ class LlamaBackend(Backend):
         self.n_vocab = self.llm.n_vocab()
         self._formatter = self._chat_formatter()
         self.eot = self._end_of_turn()
-        self._cached: list[int] = []  # tokens held by sequence 0 of the scoring context
+        self._slots: list[list[int]] = [[] for _ in range(prefix_slots)]  # tokens held by prefix sequence i
+        self._recent: list[int] = list(range(prefix_slots))  # slot ids, least recently used first
 
     def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int):
         params = self._lib.llama_context_default_params()
@@ -149,55 +151,86 @@ class LlamaBackend(Backend):
         # the shared part: the rendered system prefix, as tokenized inside every full prompt, minus
         # at least the last prompt token (decoded per question to predict the first answer token)
         shared = min(min(_common_prefix(prefix, p), len(p) - 1) for p in prompts)
-        self._load_prefix(prefix[:shared])
         jobs = [self._job(q, p, shared) for q, p in zip(questions, prompts)]
-        for chunk in self._chunks(list(zip(indices, jobs)), shared):
-            for i, scores in zip([i for i, _ in chunk], self._decode_jobs([j for _, j in chunk], shared)):
+        slot = self._load_prefix(prefix[:shared], max(j.size for j in jobs))
+        free = self.n_ctx - self._resident()
+        for chunk in self._chunks(list(zip(indices, jobs)), free):
+            for i, scores in zip([i for i, _ in chunk], self._decode_jobs([j for _, j in chunk], slot, shared)):
                 out[i] = scores
 
     def _job(self, question: Question, prompt: list[int], shared: int) -> _Job:
         options = [self.option_tokens(o) for o in question.options]
         job = _Job(prompt[shared:], options)
-        if len(options) + 1 > self.n_seq_max or job.size > self.n_batch or len(prompt) + max(map(len, options)) > self.n_ctx:
+        if (len(options) > self.n_seq_max - len(self._slots) or job.size > self.n_batch
+                or len(prompt) + max(map(len, options)) > self.n_ctx):
             raise BackendError(f"{self.name}: question {question.key!r} does not fit one decode "
-                               f"({job.size} tokens, {len(options)} options; n_batch {self.n_batch}, n_seq_max {self.n_seq_max})")
+                               f"({job.size} tokens, {len(options)} options; n_batch {self.n_batch}, "
+                               f"n_seq_max {self.n_seq_max}, n_ctx {self.n_ctx})")
         return job
 
-    def _chunks(self, jobs: list, n_prefix: int):
-        """Greedy groups of jobs that fit one decode: tokens, sequences and cache cells."""
-        chunk, tokens, seqs = [], 0, 1
+    def _chunks(self, jobs: list, free_cells: int):
+        """Greedy groups of jobs that fit one decode: tokens, sequences and free cache cells."""
+        first_seq = len(self._slots)
+        chunk, tokens, seqs = [], 0, first_seq
         for item in jobs:
             job = item[1]
-            fits = (tokens + job.size <= self.n_batch and seqs + len(job.options) <= self.n_seq_max
-                    and n_prefix + tokens + job.size <= self.n_ctx)
+            fits = (tokens + job.size <= min(self.n_batch, free_cells)
+                    and seqs + len(job.options) <= self.n_seq_max)
             if chunk and not fits:
                 yield chunk
-                chunk, tokens, seqs = [], 0, 1
+                chunk, tokens, seqs = [], 0, first_seq
             chunk.append(item)
             tokens, seqs = tokens + job.size, seqs + len(job.options)
         if chunk:
             yield chunk
 
-    def _load_prefix(self, prefix: list[int]) -> None:
-        """Make sequence 0 hold exactly `prefix`, decoding only what differs from the cached tokens."""
-        mem = self._ctx.memory
-        keep = _common_prefix(self._cached, prefix)
-        self._lib.llama_memory_seq_rm(mem, 0, keep, -1)
-        self._cached = self._cached[:keep]
-        for start in range(keep, len(prefix), self.n_batch):
-            piece = prefix[start: start + self.n_batch]
-            self._fill([(t, start + k, (0,), False) for k, t in enumerate(piece)])
-            self._decode()
-            self._cached = prefix[: start + len(piece)]
+    def _resident(self) -> int:
+        """Cache cells the prefix slots may hold (an upper bound: slots can share cells)."""
+        return sum(map(len, self._slots))
 
-    def _decode_jobs(self, jobs: list[_Job], n_prefix: int) -> list[list[float]]:
-        """One decode for all options of all jobs; option sequences copy the prefix from sequence 0."""
-        entries, wanted, seq = [], [], 1
+    def _load_prefix(self, prefix: list[int], room: int) -> int:
+        """A slot whose sequence holds `prefix` (at the start), decoding only what no slot already has.
+
+        Extends or reuses the slot with the longest common prefix; otherwise copies that common part
+        into the least recently used slot. Evicts other slots while `room` more cells would not fit.
+        """
+        best = max(range(len(self._slots)), key=lambda i: _common_prefix(self._slots[i], prefix))
+        keep = _common_prefix(self._slots[best], prefix)
+        slot = best
+        if keep < len(prefix) and keep < len(self._slots[best]):  # diverges: keep `best`, use another slot
+            slot = next((i for i in self._recent if i != best), best)
+            if slot == best:
+                self._lib.llama_memory_seq_rm(self._ctx.memory, best, keep, -1)
+            else:
+                self._clear_slot(slot)
+                self._lib.llama_memory_seq_cp(self._ctx.memory, best, slot, 0, keep)
+            self._slots[slot] = prefix[:keep]
+        self._recent.remove(slot)
+        self._recent.append(slot)
+        for other in list(self._recent[:-1]):
+            if self._resident() + len(prefix) - keep + room <= self.n_ctx:
+                break
+            self._clear_slot(other)
+        for start in range(len(self._slots[slot]), len(prefix), self.n_batch):
+            piece = prefix[start: start + self.n_batch]
+            self._fill([(t, start + k, (slot,), False) for k, t in enumerate(piece)])
+            self._decode()
+            self._slots[slot] = prefix[: start + len(piece)]
+        return slot
+
+    def _clear_slot(self, slot: int) -> None:
+        self._lib.llama_memory_seq_rm(self._ctx.memory, slot, -1, -1)
+        self._slots[slot] = []
+
+    def _decode_jobs(self, jobs: list[_Job], slot: int, n_prefix: int) -> list[list[float]]:
+        """One decode for all options of all jobs; option sequences copy the prefix from the slot."""
+        entries, wanted = [], []
+        first_seq = seq = len(self._slots)
         for job in jobs:
             seqs = tuple(range(seq, seq + len(job.options)))
             seq += len(job.options)
             for s in seqs:
-                self._lib.llama_memory_seq_cp(self._ctx.memory, 0, s, -1, -1)
+                self._lib.llama_memory_seq_cp(self._ctx.memory, slot, s, 0, n_prefix)
             for k, t in enumerate(job.suffix):
                 entries.append((t, n_prefix + k, seqs, k == len(job.suffix) - 1))
             first_row = len(entries) - 1
@@ -212,7 +245,7 @@ class LlamaBackend(Backend):
             self._decode()
             return [[self._option_logprob(r, o) for r, o in zip(rows, job.options)] for rows, job in zip(wanted, jobs)]
         finally:
-            for s in range(1, seq):
+            for s in range(first_seq, seq):
                 self._lib.llama_memory_seq_rm(self._ctx.memory, s, -1, -1)
 
     def _option_logprob(self, rows: list[int], option: list[int]) -> float:
@@ -247,7 +280,7 @@ class LlamaBackend(Backend):
     def reset(self) -> None:
         """Forget every cached token (the next question re-evaluates its system prefix)."""
         self._lib.llama_memory_clear(self._ctx.memory, True)
-        self._cached = []
+        self._slots = [[] for _ in self._slots]
 
     # --- sampling ---------------------------------------------------------------------------
 
