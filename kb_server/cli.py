@@ -112,6 +112,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from pipeline.export import robot_graph
     truth_dir = Path(args.truth_dir)
     files = sorted(truth_dir.glob("*.yaml"))
+    if args.traces:
+        Path(args.traces).mkdir(parents=True, exist_ok=True)
     if not files:
         raise UrdfkbError(f"no truth files (*.yaml) in {truth_dir}")
     settings = _settings(args)
@@ -121,7 +123,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         urdf = truth_dir.parent.parent / truth.urdf
         print(f"== {truth.robot} ({urdf})", file=sys.stderr)
         try:
-            tree, name, abstraction, seconds = _abstract(str(urdf), truth.robot, settings, args.quiet, None, 10_000_000)
+            trace = str(Path(args.traces) / f"{truth.robot}.jsonl") if args.traces else None
+            tree, name, abstraction, seconds = _abstract(str(urdf), truth.robot, settings, args.quiet, trace, 10_000_000)
             graph = robot_graph(_robot_ontology(tree, name, abstraction))
             per_robot[truth.robot] = evaluation.score(truth, graph, set(tree.leaves()))
             prov = abstraction.provenance
@@ -182,6 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Run the pipeline on each truth robot and print the metrics of spec/evaluation.md per robot and their mean, with model, voting, LLM calls, tokens and wall time.")
     p.add_argument("truth_dir", nargs="?", default=str(DEFAULT_TRUTH), help=f"folder of truth *.yaml files (default {DEFAULT_TRUTH}); URDF paths in them are relative to its grandparent")
     p.add_argument("--json", metavar="FILE", help="also write the scores as JSON")
+    p.add_argument("--traces", metavar="DIR", help="write each robot's question trace to DIR/<robot>.jsonl")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     _add_model_options(p)
     p.set_defaults(func=cmd_eval)

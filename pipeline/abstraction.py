@@ -12,8 +12,8 @@ from typing import Callable
 from .components import END_EFFECTOR, SENSOR, Component, SubComponent
 from .ontology import Taxonomy
 from .oracle import Oracle
-from .prompts import NONE_OF_THESE
-from .stages.asking import Progress
+from .prompts import NONE, optical_frame_question
+from .stages.asking import Progress, ask
 from .stages.attachment import detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
@@ -27,6 +27,7 @@ PASSES = {
     END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
 }
 Log = Callable[[str], None]
+CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape in ontologies/shapes.ttl
 
 
 class Abstractor:
@@ -35,7 +36,7 @@ class Abstractor:
     def __init__(self, oracle: Oracle, tax: Taxonomy, progress: Progress | None = None, log: Log | None = None):
         self.oracle, self.tax = oracle, tax
         self.progress, self.log = progress, log or (lambda _msg: None)
-        self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE_OF_THESE)
+        self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
 
     def run(self, tree: KinematicTree) -> tuple[Component, ...]:
         components: list[Component] = []
@@ -54,17 +55,24 @@ class Abstractor:
         selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
         if not selected:
             return []
-        chains = detect_roots(self.oracle, tree, selected, label, self.progress)
+        chains = detect_roots(self.oracle, tree, selected, label, self._blocked(tree, cls), self.progress)
         pre = descend(self.oracle, self.tax, cls, [
-            Subject(f"pre:{c.leaf}", f"These links form a {label} or part of one.",
-                    "Links, mount first: " + " > ".join((c.root, *c.links)))
+            Subject(f"pre:{c.leaf}", "The link below belongs to a {concept}.",
+                    f"Link: {c.leaf}" + (f"\nBetween it and its mount: {', '.join(c.links[:-1])}" if len(c.links) > 1 else ""))
             for c in chains
         ], "pre-classification", self.progress)
         pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
-        groups = merge(self.oracle, tree, chains, {k: t.cls for k, t in pre_by_leaf.items()}, kind, label, self.progress)
+        groups = merge(self.oracle, chains, kind, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
         post = self._post_classify(tree, groups, pre_by_leaf, cls, label)
         return self._components(tree, kind, subpart_cls, label, groups, post)
+
+    def _blocked(self, tree: KinematicTree, cls: str) -> Callable[[str], bool]:
+        """A link a device of class `cls` cannot contain: a leaf identified as another kind of component.
+        (The mount of a device abstracted earlier may lie inside: a sensor on a gripper's palm.)"""
+        def blocked(link: str) -> bool:
+            return tree.is_leaf(link) and self.claims.get(link, NONE) not in (cls, NONE)
+        return blocked
 
     def _unclaimed(self, tree: KinematicTree, groups: list[Group], mounts: set[str]) -> Callable[[str], bool]:
         grouped = {m for g in groups for m in g.members}
@@ -72,7 +80,7 @@ class Abstractor:
         def unclaimed(link: str) -> bool:
             if link in mounts or link in grouped:
                 return False
-            return not tree.is_leaf(link) or self.claims.get(link) == NONE_OF_THESE
+            return not tree.is_leaf(link) or self.claims.get(link) == NONE
         return unclaimed
 
     def _post_classify(self, tree: KinematicTree, groups: list[Group], pre: dict[str, Typed], cls: str,
@@ -80,9 +88,8 @@ class Abstractor:
         """Multi-chain groups descend again given their members' classes; a lone chain keeps its class."""
         multi = [g for g in groups if len(g.chains) > 1]
         typed = descend(self.oracle, self.tax, cls, [
-            Subject(f"post:{g.leaves[0]}", f"These frames form one {label} device.",
-                    f"Mount: {group_root(tree, g)}\nFrames: "
-                    + "; ".join(f"{leaf} ({pre[leaf].cls})" for leaf in g.leaves))
+            Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
+                    "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves))
             for g in multi
         ], "post-classification", self.progress)
         by_group = {id(g): t for g, t in zip(multi, typed)}
@@ -93,12 +100,14 @@ class Abstractor:
         """Type every member link in the Subpart branch, then assemble the components."""
         roots = [group_root(tree, g) for g in groups]
         subjects = [
-            Subject(f"part:{link}", f"The link is part of a {label} device.",
-                    f"Link: {link} (child of {tree.parent(link)})\n"
-                    f"Device: {self.tax.label(t.cls)} on {root}, frames: {', '.join(g.leaves)}")
-            for g, t, root in zip(groups, post, roots) for link in g.members
+            Subject(f"part:{link}", "The link below is a {concept} of a %s device." % label,
+                    f"Link: {link}\nDevice: {self.tax.label(t.cls)} with frames {', '.join(g.leaves)}")
+            for g, t in zip(groups, post) for link in g.members
         ]
-        parts = iter(descend(self.oracle, self.tax, subpart_cls, subjects, "sub-part classification", self.progress))
+        parts = descend(self.oracle, self.tax, subpart_cls, subjects, "sub-part classification", self.progress)
+        members = [g.members for g in groups]
+        self._ensure_optical_frames(post, members, parts)
+        parts = iter(parts)
         return [
             Component(
                 name=f"{kind}_{i}_{g.leaves[0]}",
@@ -107,7 +116,31 @@ class Abstractor:
                 confidence=round(t.confidence, 4),
                 root=root,
                 subcomponents=tuple(SubComponent(link, p.cls, round(p.confidence, 4))
-                                    for link, p in zip(g.members, parts)),
+                                    for link, p in zip(links, parts)),
             )
-            for i, (g, t, root) in enumerate(zip(groups, post, roots))
+            for i, (g, t, root, links) in enumerate(zip(groups, post, roots, members))
         ]
+
+    def _ensure_optical_frames(self, post: list[Typed], members: list[list[str]], parts: list[Typed]) -> None:
+        """A camera must have an optical frame (ontologies/shapes.ttl): where typing found none, ask
+        which of the camera's links is its optical frame, then type that link below OpticalFrame."""
+        offsets, start = [], 0
+        for links in members:
+            offsets.append(start)
+            start += len(links)
+        lacking = [
+            i for i, (t, links) in enumerate(zip(post, members))
+            if self.tax.is_a(t.cls, CAMERA)
+            and not any(self.tax.is_a(p.cls, OPTICAL_FRAME) for p in parts[offsets[i]:offsets[i] + len(links)])
+        ]
+        if not lacking:
+            return
+        picks = ask(self.oracle, [optical_frame_question(members[i]) for i in lacking], "optical frames", self.progress)
+        chosen = [(i, v.answer or members[i][-1]) for i, v in zip(lacking, picks)]
+        typed = descend(self.oracle, self.tax, OPTICAL_FRAME, [
+            Subject(f"part:{link}", "The link below is an {concept} of a camera.",
+                    f"Link: {link}\nCamera: {self.tax.label(post[i].cls)} with links {', '.join(members[i])}")
+            for i, link in chosen
+        ], "optical frames", self.progress)
+        for (i, link), (v, t) in zip(chosen, zip(picks, typed)):
+            parts[offsets[i] + members[i].index(link)] = Typed(t.cls, round(v.confidence * t.confidence, 4))

@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 
 import owlready2
 import rdflib
-from rdflib.namespace import OWL, RDF, RDFS
+from rdflib.namespace import OWL, RDF, RDFS, SKOS
 
 from pipeline.errors import OntologyError
 
@@ -68,6 +68,7 @@ class Taxonomy:
         self._children: dict[str, list[str]] = {n: [] for n in self._order}
         self._label: dict[str, str] = {}
         self._comment: dict[str, str] = {}
+        self._example: dict[str, str] = {}
         for name in self._order:
             node = rdflib.URIRef(CORE_IRI + name)
             parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
@@ -77,6 +78,7 @@ class Taxonomy:
                 self._children[p].append(name)
             self._label[name] = str(graph.value(node, RDFS.label) or name)
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
+            self._example[name] = str(graph.value(node, SKOS.example) or "")
         for kids in self._children.values():
             kids.sort(key=self._order.__getitem__)
 
@@ -120,6 +122,10 @@ class Taxonomy:
     def comment(self, name: str) -> str:
         """The class definition shown to the model when it chooses among siblings."""
         return self._comment[self._check(name)]
+
+    def example(self, name: str) -> str:
+        """An invented link name typical of the class (skos:example), or ''."""
+        return self._example[self._check(name)]
 
 
 def _declared_classes(path: pathlib.Path) -> list[str]:

@@ -2,68 +2,48 @@
 
 Static parts (instructions, the definitions of the options at one taxonomy level) go in the
 system text so the backend evaluates them once and reuses them from its KV cache; the user
-text carries only what differs per question. Option definitions are the ontology's own
-rdfs:comment, so the taxonomy, not this file, says what each class means. Link names in the
-examples below are invented; none comes from a robot we score against.
+text carries only what differs per question. Options are the classes' natural-language labels
+(a small model reads "vision sensor" far better than "VisionSensor"); each Choice maps them
+back to ontology local names. Definitions and examples are the ontology's own rdfs:comment and
+skos:example, so the taxonomy, not this file, says what each class means.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Sequence
 
 from .llm.base import Question
 from .ontology import Taxonomy
 
-NONE_OF_THESE = "Other"
+NONE = "none"  # identification: the leaf is part of no component
 MAX_CHAIN = 4  # ancestors shown as context for a link
 
 _PREAMBLE = (
     "You read the URDF of a robot: a tree of links (rigid bodies or coordinate frames) joined by joints. "
-    "Link names are informal and abbreviated; the chain of parent links shows where a link sits."
+    "Link names are informal and abbreviated; the chain of parent links shows where a link sits.\n"
 )
 
-_KINDS_HEAD = (
-    _PREAMBLE
-    + "\nDecide which kind of component a leaf link belongs to."
-    + "\nKinds:\n"
-)
-_KINDS_OTHER = (
-    f"- {NONE_OF_THESE}: none of these: actuators and emitters (motors, lights, loudspeakers, displays, "
-    "projectors), fasteners, covers, cables, and purely virtual reference frames."
-)
-_KINDS_TAIL = "\nReply with the kind only."
 
-_ROOT = (
-    _PREAMBLE
-    + "\nA {kind} device is fixed to the robot body at one link: its mount. Links between the mount and the"
-    " device's own frames belong to the device (its housing, its frames); the mount itself is a body part"
-    " (a base, torso, head, arm or wrist link, or a bracket that carries the device)."
-    "\nGiven one link of a {kind} and its chain of ancestors, name the mount: the first ancestor that is"
-    " not part of the device itself."
-    "\nReply with the link name only."
-)
+@dataclass(frozen=True)
+class Choice:
+    """A question plus what each of its options means (an ontology class or a sentinel)."""
 
-_LEVEL = (
-    _PREAMBLE
-    + "\n{subject} Choose the most fitting kind of {concept}:\n{definitions}"
-    "\nReply with the kind only."
-)
+    question: Question
+    meaning: dict[str, str]
 
-_GROUP = (
-    _PREAMBLE
-    + "\nSeveral {kind} frames hang from nearby links. {guidance}"
-    "\nGiven a new frame and the devices found so far, answer the device it belongs to, or {new} if it is"
-    " a separate device."
-    "\nReply with one of the given names only."
-)
-_GROUP_GUIDANCE = {
-    "sensor": "Frames of one physical sensor (for example the colour and depth frames of one camera, or the"
-    " body and optical frames of one scanner) share its name stem; two sensors of the same type (a front"
-    " and a rear unit, a left and a right unit) are separate devices. Identical sensing elements that"
-    " work together as one array (for example the capsules of one microphone array) may form one device.",
-    "end_effector": "All frames of one gripper or hand (its palm, fingers, finger tips and tool frame) form"
-    " one device; a left and a right gripper are separate devices.",
-}
-NEW_DEVICE = "new"
+
+def _definitions(tax: Taxonomy, classes: Sequence[str]) -> str:
+    lines = []
+    for c in classes:
+        example = tax.example(c)
+        lines.append(f"- {tax.label(c)}: {tax.comment(c)}" + (f" Example: {example}" if example else ""))
+    return "\n".join(lines)
+
+
+def _class_choice(system: str, user: str, tax: Taxonomy, classes: Sequence[str], key: str,
+                  extra: dict[str, str] | None = None) -> Choice:
+    meaning = {tax.label(c): c for c in classes} | (extra or {})
+    return Choice(Question(system, user, tuple(meaning), key=key), meaning)
 
 
 def chain_text(chain: Sequence[str]) -> str:
@@ -72,36 +52,64 @@ def chain_text(chain: Sequence[str]) -> str:
     return " < ".join(shown) + (" < ..." if len(chain) > MAX_CHAIN else "")
 
 
-def definitions(tax: Taxonomy, names: Sequence[str]) -> str:
-    """One line per option: its local name and the ontology's comment."""
-    return "\n".join(f"- {n}: {tax.comment(n)}" for n in names)
-
-
-def kind_question(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Question:
+def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Choice:
     """Which kind of component (or none) a leaf link is part of."""
-    system = _KINDS_HEAD + definitions(tax, kinds) + "\n" + _KINDS_OTHER + _KINDS_TAIL
+    system = (
+        _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(tax, kinds)
+        + f"\n- {NONE}: part of none of these: actuators and emitters (motors, lights, loudspeakers, displays,"
+        " projectors), fasteners, covers, cables, and purely virtual reference frames."
+        "\nReply with the kind only."
+    )
     user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}"
-    return Question(system, user, (*kinds, NONE_OF_THESE), key=f"identify:{link}")
+    return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 
-def root_question(kind_label: str, link: str, ancestors: Sequence[str]) -> Question:
-    """Which ancestor is the mount of the device that `link` belongs to."""
-    system = _ROOT.format(kind=kind_label)
-    user = f"Link: {link}\nAncestors, nearest first: {' < '.join(ancestors)}"
-    return Question(system, user, tuple(ancestors), key=f"root:{link}")
+def root_question(kind_label: str, link: str, candidates: Sequence[str]) -> Question:
+    """Which of the offered ancestors is the mount of the device that `link` belongs to."""
+    system = (
+        _PREAMBLE + f"A {kind_label} is fixed to the robot body at one link, its mount. The links between the"
+        f" mount and the {kind_label}'s own frames belong to the {kind_label} (its housing, body and frames,"
+        " usually named after it); the mount is a body part or bracket (base, torso, head, arm, wrist or"
+        f" mount link) that is not named after the {kind_label}."
+        f"\nGiven one link of a {kind_label} and its ancestors, name the mount."
+        "\nReply with the link name only."
+    )
+    user = f"Link: {link}\nAncestors, nearest first: {' < '.join(candidates)}"
+    return Question(system, user, tuple(candidates), key=f"root:{link}")
 
 
-def level_question(tax: Taxonomy, concept: str, subject: str, evidence: str, key: str) -> Question:
+def level_choice(tax: Taxonomy, concept: str, framing: str, evidence: str, key: str) -> Choice:
     """Pick among the direct subclasses of `concept` for one subject (a sub-chain, a link, a group)."""
     options = tax.subclasses(concept)
-    if len(options) == 1:  # a lone subclass is no choice: offer stopping at the concept itself
-        options = (*options, concept)
-    system = _LEVEL.format(subject=subject, concept=tax.label(concept), definitions=definitions(tax, options))
-    return Question(system, evidence, options, key=f"{key}@{concept}")
+    label = tax.label(concept)
+    system = (
+        _PREAMBLE + framing.format(concept=label) + f" Choose the most fitting kind of {label}:\n"
+        + _definitions(tax, options) + "\nReply with the kind only."
+    )
+    return _class_choice(system, evidence, tax, options, f"{key}@{concept}")
 
 
-def group_question(kind: str, kind_label: str, frame: str, evidence: str, devices: Sequence[str]) -> Question:
-    """Which of the devices found so far a frame belongs to, or a new one."""
-    system = _GROUP.format(kind=kind_label, guidance=_GROUP_GUIDANCE[kind], new=NEW_DEVICE)
-    user = f"New frame: {frame}{evidence}\nAnswer one of: {', '.join((*devices, NEW_DEVICE))}"
-    return Question(system, user, (*devices, NEW_DEVICE), key=f"group:{frame}")
+def device_name_question(frame: str, prefixes: Sequence[str]) -> Question:
+    """Which beginning of a frame's name names the device it belongs to."""
+    system = (
+        _PREAMBLE + "A frame's name usually starts with the name of the device it belongs to, followed by words"
+        " for the frame's role in that device (optical, frame, link, rgb, depth, ir, tip, tool, and left or"
+        " right for the two eyes of one stereo camera). A number or a position word (front, rear, left,"
+        " right) that tells apart separate units of the same type is part of the device name."
+        "\nGive the device name: the beginning of the frame name that names the whole device, without the"
+        " role words. Examples: mast_cam3_l_optical_frame -> mast_cam3; chest_rgbd_depth_optical_frame ->"
+        " chest_rgbd; ultrasonic_2_link -> ultrasonic_2; RearBumperLeft_frame -> RearBumperLeft;"
+        " claw_finger_1_tip_link -> claw.\nReply with the device name only."
+    )
+    return Question(system, f"Frame: {frame}", tuple(prefixes), key=f"device:{frame}")
+
+
+def optical_frame_question(links: Sequence[str]) -> Question:
+    """Which of a camera's links is the frame its images are expressed in."""
+    system = (
+        _PREAMBLE + "A camera's optical frame is the link its images are expressed in (z axis forward),"
+        " usually named with optical, image or the camera's name."
+        "\nGiven the links of one camera, name its optical frame.\nReply with the link name only."
+    )
+    return Question(system, f"Camera links: {', '.join(links)}", tuple(links), key=f"optical:{links[-1]}")
+

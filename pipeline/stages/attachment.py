@@ -1,14 +1,22 @@
-"""Stage 2, attachment root detection: the link each selected leaf's device is mounted on."""
+"""Stage 2, attachment root detection: the link each selected leaf's device is mounted on.
+
+Code offers the candidates, the model picks. Candidates are the leaf's ancestors, nearest first,
+up to and including the first one that also carries something the device cannot contain (a
+leaf identified as another kind of component, or the mount of a device already abstracted):
+anything higher would make that link a member of the device with a child outside it, which
+verification must reject.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 from ..oracle import Oracle
 from ..prompts import root_question
 from ..tree import KinematicTree
 from .asking import Progress, ask
 
-MAX_ANCESTORS = 8  # candidate mounts offered, nearest first
+MAX_CANDIDATES = 8
 
 
 @dataclass(frozen=True)
@@ -27,16 +35,26 @@ def sub_chain(tree: KinematicTree, leaf: str, root: str, confidence: float) -> S
     return SubChain(leaf, root, tuple(reversed(chain[:chain.index(root)])), confidence)
 
 
+def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool]) -> list[str]:
+    """Ancestors that could be the mount, nearest first."""
+    candidates = []
+    for ancestor in tree.chain_to_root(leaf)[1:1 + MAX_CANDIDATES]:
+        candidates.append(ancestor)
+        if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)):
+            break
+    return candidates
+
+
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind_label: str,
-                 progress: Progress | None = None) -> list[SubChain]:
-    """One sub-chain per leaf, its root chosen by the model among the leaf's ancestors."""
+                 blocked: Callable[[str], bool], progress: Progress | None = None) -> list[SubChain]:
+    """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device."""
     asked, chains = [], {}
     for leaf in leaves:
-        ancestors = tree.chain_to_root(leaf)[1:1 + MAX_ANCESTORS]
-        if len(ancestors) == 1:
-            chains[leaf] = sub_chain(tree, leaf, ancestors[0], 1.0)
+        candidates = mount_candidates(tree, leaf, blocked)
+        if len(candidates) == 1:
+            chains[leaf] = sub_chain(tree, leaf, candidates[0], 1.0)
         else:
-            asked.append((leaf, root_question(kind_label, leaf, ancestors)))
+            asked.append((leaf, root_question(kind_label, leaf, candidates)))
     verdicts = ask(oracle, [q for _, q in asked], "attachment root detection", progress)
     for (leaf, q), v in zip(asked, verdicts):
         root = v.answer or q.options[0]  # an abstention mounts the device on its parent

@@ -1,8 +1,8 @@
 """Stages 3 and 5, pre- and post-classification, and sub-part typing: descents of the taxonomy.
 
 Each subject starts at a concept and goes down one level per question, choosing among the direct
-subclasses the ontology offers, until it reaches a leaf concept (or stops at a concept whose lone
-subclass the model declines). Subjects at the same concept share one system prompt, so each
+subclasses the ontology offers, until it reaches a leaf concept or the model abstains. A concept
+with a lone subclass is no choice and is passed through without a question. Subjects at the same concept share one system prompt, so each
 level is asked breadth-first for all subjects at once.
 """
 from __future__ import annotations
@@ -11,13 +11,13 @@ from dataclasses import dataclass
 
 from ..ontology import Taxonomy
 from ..oracle import Oracle
-from ..prompts import level_question
+from ..prompts import level_choice
 from .asking import Progress, ask
 
 
 @dataclass(frozen=True)
 class Subject:
-    """What is being classified: a key for the trace, a sentence framing it, the evidence shown."""
+    """What is being classified: a key for the trace, a sentence framing it ({concept} is filled in), the evidence."""
 
     key: str
     framing: str
@@ -35,20 +35,28 @@ class Typed:
 def descend(oracle: Oracle, tax: Taxonomy, start: str, subjects: list[Subject], stage: str,
             progress: Progress | None = None) -> list[Typed]:
     """Classify every subject below `start`, breadth-first."""
-    typed = [Typed(start, 1.0)] * len(subjects)
-    active = [i for i in range(len(subjects)) if tax.subclasses(start)]
+    typed = [_through_lone(tax, Typed(start, 1.0))] * len(subjects)
+    active = [i for i in range(len(subjects)) if tax.subclasses(typed[i].cls)]
     while active:
-        questions = [
-            level_question(tax, typed[i].cls, subjects[i].framing, subjects[i].evidence, subjects[i].key)
+        choices = [
+            level_choice(tax, typed[i].cls, subjects[i].framing, subjects[i].evidence, subjects[i].key)
             for i in active
         ]
-        verdicts = ask(oracle, questions, stage, progress)
+        verdicts = ask(oracle, [c.question for c in choices], stage, progress)
         still = []
-        for i, v in zip(active, verdicts):
-            if v.answer is None or v.answer == typed[i].cls:
+        for i, c, v in zip(active, choices, verdicts):
+            cls = c.meaning.get(v.answer)
+            if cls is None or cls == typed[i].cls:
                 continue  # abstention or the model stopped at the current concept: converged
-            typed[i] = Typed(v.answer, typed[i].confidence * v.confidence)
-            if tax.subclasses(v.answer):
+            typed[i] = _through_lone(tax, Typed(cls, typed[i].confidence * v.confidence))
+            if tax.subclasses(typed[i].cls):
                 still.append(i)
         active = still
+    return typed
+
+
+def _through_lone(tax: Taxonomy, typed: Typed) -> Typed:
+    """Follow lone-subclass links down (VisionSensor → Camera): there is nothing to ask."""
+    while len(subs := tax.subclasses(typed.cls)) == 1:
+        typed = Typed(subs[0], typed.confidence)
     return typed

@@ -1,19 +1,24 @@
 """Stage 4, group merging: partition the classified sub-chains into physical devices.
 
-The model places sub-chains one at a time: each new sub-chain joins one of the devices found so
-far that are near it in the tree (same mount, or sharing links with it), or starts a new device.
-Every sub-chain ends in exactly one group, so the answer is a partition by construction.
+The model names each sub-chain's device: it picks, among the beginnings of the leaf's own name
+(a URDF identifier, so the answer set is finite and checkable), the part that names the whole
+device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). Sub-chains that are near each other
+in the tree (same mount, or sharing links) and carry the same device name form one device. For
+end-effectors, every sub-chain on one mount belongs to the one tool at that arm end, whatever
+its fingers are called. Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
 
-import math
+import re
 from dataclasses import dataclass, field
 
+from ..components import END_EFFECTOR
 from ..oracle import Oracle
-from ..prompts import NEW_DEVICE, group_question
-from ..tree import KinematicTree
-from .asking import Progress
+from ..prompts import device_name_question
+from .asking import Progress, ask
 from .attachment import SubChain
+
+_WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 
 
 @dataclass
@@ -22,7 +27,6 @@ class Group:
 
     chains: list[SubChain]
     absorbed: list[str] = field(default_factory=list)
-    confidence: float = 1.0  # the merging verdicts' shares, multiplied
 
     @property
     def members(self) -> list[str]:
@@ -36,51 +40,35 @@ class Group:
         return [c.leaf for c in self.chains]
 
 
-def _near(group: Group, chain: SubChain) -> bool:
-    members = set(group.members)
-    return (
-        any(c.root == chain.root for c in group.chains)
-        or bool(members & set(chain.links))
-        or chain.root in members
-        or any(c.root in chain.links for c in group.chains)
-    )
+def name_prefixes(name: str) -> tuple[str, ...]:
+    """Every beginning of `name` that ends at a word break ('_' or a lower→upper case change), and the name."""
+    cuts = [m.start() for m in _WORD_BREAK.finditer(name) if m.start() > 0]
+    return tuple(dict.fromkeys([name[:c] for c in cuts] + [name]))
 
 
-def _distance(tree: KinematicTree, a: SubChain, b: SubChain) -> float | None:
-    if a.root != b.root:
-        return None
-    pa, pb = tree.position_in(a.leaf, a.root), tree.position_in(b.leaf, b.root)
-    return math.dist(pa, pb)
+def _near(a: SubChain, b: SubChain) -> bool:
+    return a.root == b.root or bool(set(a.links) & set(b.links)) or a.root in b.links or b.root in a.links
 
 
-def _evidence(tree: KinematicTree, chain: SubChain, cls: str, near: list[Group], classes: dict[str, str]) -> str:
-    lines = [f" ({cls}, mounted on {chain.root})", "Devices so far:"]
-    for g in near:
-        d = min((x for x in (_distance(tree, chain, c) for c in g.chains) if x is not None), default=None)
-        where = f", {d:.2f} m away" if d is not None else ""
-        lines.append(f"- {g.leaves[0]}: frames {', '.join(g.leaves)} ({classes[g.leaves[0]]}{where})")
-    return "\n".join(lines)
+def merge(oracle: Oracle, chains: list[SubChain], kind: str, progress: Progress | None = None) -> list[Group]:
+    """Partition `chains` into devices (see the module docstring)."""
+    verdicts = ask(oracle, [device_name_question(c.leaf, name_prefixes(c.leaf)) for c in chains], "group merging", progress)
+    device = [v.answer or c.leaf for c, v in zip(chains, verdicts)]
+    parent = list(range(len(chains)))
 
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
 
-def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], classes: dict[str, str],
-          kind: str, kind_label: str, progress: Progress | None = None) -> list[Group]:
-    """Partition `chains` (classes: leaf → pre-class) into groups, asking about each chain in turn."""
-    groups: list[Group] = []
-    if progress:
-        progress("group merging", 0, len(chains))
-    for n, chain in enumerate(chains, 1):
-        near = [g for g in groups if _near(g, chain)]
-        if near:
-            names = [g.leaves[0] for g in near]
-            question = group_question(kind, kind_label, chain.leaf, _evidence(tree, chain, classes[chain.leaf], near, classes), names)
-            (verdict,) = oracle.ask([question])
-            if verdict.answer not in (None, NEW_DEVICE):
-                target = near[names.index(verdict.answer)]
-                target.chains.append(chain)
-                target.confidence *= verdict.confidence
-                chain = None
-        if chain is not None:
-            groups.append(Group([chain]))
-        if progress:
-            progress("group merging", n, len(chains))
-    return groups
+    for i, a in enumerate(chains):
+        for j in range(i):
+            b = chains[j]
+            same = (kind == END_EFFECTOR and a.root == b.root) or (device[i] == device[j] and _near(a, b))
+            if same:
+                parent[find(i)] = find(j)
+    groups: dict[int, Group] = {}
+    for i, chain in enumerate(chains):
+        groups.setdefault(find(i), Group([])).chains.append(chain)
+    return list(groups.values())

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from ..oracle import Oracle
 from ..ontology import Taxonomy
-from ..prompts import kind_question
+from ..prompts import NONE, kind_choice
 from ..tree import KinematicTree
 from .asking import Progress, ask
 
@@ -12,11 +12,11 @@ COMPONENT = "Component"
 
 def identify(oracle: Oracle, tax: Taxonomy, tree: KinematicTree, leaves: list[str],
              progress: Progress | None = None) -> dict[str, str]:
-    """Map each leaf to a direct subclass of Component (or prompts.NONE_OF_THESE)."""
+    """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention)."""
     kinds = tax.subclasses(COMPONENT)
-    questions = [
-        kind_question(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type)
+    choices = [
+        kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type)
         for leaf in leaves
     ]
-    verdicts = ask(oracle, questions, "identification", progress)
-    return {leaf: v.answer or "" for leaf, v in zip(leaves, verdicts)}
+    verdicts = ask(oracle, [c.question for c in choices], "identification", progress)
+    return {leaf: c.meaning.get(v.answer, NONE) for leaf, c, v in zip(leaves, choices, verdicts)}

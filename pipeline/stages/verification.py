@@ -32,7 +32,7 @@ def _split_by_mount(tree: KinematicTree, group: Group) -> list[Group]:
         return [group]
     parts: dict[str, Group] = {}
     for chain in group.chains:
-        parts.setdefault(chain.root, Group([], confidence=group.confidence)).chains.append(chain)
+        parts.setdefault(chain.root, Group([])).chains.append(chain)
     # chains mounted inside another part belong to that part
     merged: list[Group] = []
     for root, part in parts.items():
