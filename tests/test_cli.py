@@ -1,0 +1,82 @@
+"""The urdfkb command end to end (model-free paths; the model path is in test_llama_integration)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import owlready2
+import pytest
+import rdflib
+
+from kb_server.cli import main
+
+TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
+CORE = "https://w3id.org/urdfkb/core#"
+
+
+@pytest.mark.parametrize("fmt,suffix,rdf_format", [("rdfxml", ".owl", "xml"), ("turtle", ".ttl", "turtle"), ("ntriples", ".nt", "nt")])
+def test_populate_structure_only_writes_a_self_contained_file(tmp_path, shared, capsys, fmt, suffix, rdf_format):
+    out = tmp_path / f"pr2{suffix}"
+    assert main(["populate", str(shared / "urdf" / "pr2.urdf"), "--structure-only", "--format", fmt, "-o", str(out)]) == 0
+    assert str(out) in capsys.readouterr().out
+    graph = rdflib.Graph().parse(out, format=rdf_format)
+    links = set(graph.subjects(rdflib.RDF.type, rdflib.URIRef(CORE + "Link")))
+    assert len(links) == 95
+    assert not list(graph.objects(None, rdflib.OWL.imports))
+
+
+def test_populated_file_reloads_in_owlready2(tmp_path):
+    out = tmp_path / "toy.owl"
+    assert main(["populate", str(TOY), "--structure-only", "-o", str(out)]) == 0
+    world = owlready2.World()
+    onto = world.get_ontology(out.as_uri()).load()
+    assert onto.search_one(urdfName="claw_tcp") is not None
+
+
+def test_a_bad_urdf_is_a_clear_error_and_writes_nothing(tmp_path, capsys):
+    bad = tmp_path / "bad.urdf"
+    bad.write_text('<robot name="r"><link name="a"/><joint name="j" type="fixed"><parent link="a"/><child link="ghost"/></joint></robot>')
+    out = tmp_path / "bad.owl"
+    assert main(["populate", str(bad), "--structure-only", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("urdfkb: error:") and "ghost" in err
+    assert not out.exists()
+
+
+def test_an_existing_output_survives_a_failed_populate(tmp_path):
+    out = tmp_path / "robot.owl"
+    out.write_text("earlier result")
+    missing = tmp_path / "missing.urdf"
+    assert main(["populate", str(missing), "--structure-only", "-o", str(out)]) == 2
+    assert out.read_text() == "earlier result"
+
+
+def test_validate_reports_conformance_and_violations(tmp_path, capsys):
+    good = tmp_path / "toy.ttl"
+    main(["populate", str(TOY), "--structure-only", "--format", "turtle", "-o", str(good)])
+    assert main(["validate", str(good)]) == 0
+    graph = rdflib.Graph().parse(good)
+    link = next(graph.subjects(rdflib.RDF.type, rdflib.URIRef(CORE + "Link")))
+    graph.add((link, rdflib.URIRef(CORE + "urdfName"), rdflib.Literal("a second name")))
+    bad = tmp_path / "bad.ttl"
+    graph.serialize(bad, format="turtle")
+    capsys.readouterr()
+    assert main(["validate", str(bad)]) == 1
+    assert "urdfName" in capsys.readouterr().out
+
+
+def test_validate_refuses_a_non_rdf_file(tmp_path, capsys):
+    junk = tmp_path / "junk.ttl"
+    junk.write_text("this is not RDF {")
+    assert main(["validate", str(junk)]) == 2
+    assert "cannot read" in capsys.readouterr().err
+
+
+def test_console_script_help_lists_every_command():
+    out = subprocess.run([sys.executable, "-m", "kb_server.cli", "--help"], capture_output=True, text=True, check=True).stdout
+    for command in ("populate", "validate", "eval", "model", "serve", "query"):
+        assert command in out
+    sub = subprocess.run([sys.executable, "-m", "kb_server.cli", "populate", "--help"], capture_output=True, text=True, check=True).stdout
+    for option in ("--structure-only", "--format", "--trace", "--vote", "--votes", "--model", "--llm-url", "--quiet"):
+        assert option in sub

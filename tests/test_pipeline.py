@@ -1,0 +1,204 @@
+"""The abstraction stages and passes, driven by a scripted model on an invented robot."""
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pytest
+
+from pipeline.abstraction import Abstractor
+from pipeline.errors import BackendError
+from pipeline.ingest import load_urdf
+from pipeline.llm.base import Question
+from pipeline.llm.scripted import ScriptedBackend
+from pipeline.ontology import taxonomy
+from pipeline.oracle import Oracle
+from pipeline.prompts import NONE
+from pipeline.stages.attachment import SubChain, mount_candidates
+from pipeline.stages.classification import Subject, descend
+from pipeline.stages.grouping import Group, merge, name_prefixes
+from pipeline.stages.verification import verify
+
+TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
+TAX = taxonomy()
+LABELS = {TAX.label(c): c for c in TAX._order}  # label → class, for the scripted model
+
+# What a perfect model would answer about the toy robot.
+KIND = {"front_scanner": "sensor", "mast_rgbd_color_optical": "sensor", "mast_rgbd_depth_optical": "sensor",
+        "claw_jaw_a": "end effector", "claw_jaw_b": "end effector", "claw_tcp": "end effector",
+        "drive_wheel_left": "body part", "drive_wheel_right": "body part", "claw_status_light": NONE}
+ROOT = {"front_scanner": "chassis", "mast_rgbd_color_optical": "mast", "mast_rgbd_depth_optical": "mast",
+        "claw_jaw_a": "arm_flange", "claw_jaw_b": "arm_flange", "claw_tcp": "arm_flange"}
+DEVICE = {"front_scanner": "front_scanner", "mast_rgbd_color_optical": "mast_rgbd", "mast_rgbd_depth_optical": "mast_rgbd"}
+CLASS = {"pre:front_scanner": "Lidar", "pre:mast_rgbd_color_optical": "MonocularCamera",
+         "pre:mast_rgbd_depth_optical": "DepthCamera", "post:mast_rgbd_color_optical": "RGBDCamera",
+         "pre:claw_jaw_a": "ParallelGripper", "pre:claw_jaw_b": "ParallelGripper", "pre:claw_tcp": "ParallelGripper",
+         "post:claw_jaw_a": "ParallelGripper",
+         "part:front_scanner": "SensingElement", "part:mast_rgbd_body": "SensorHousing",
+         "part:mast_rgbd_color_optical": "RgbFrame", "part:mast_rgbd_depth_optical": "DepthFrame",
+         "part:claw_base": "Palm", "part:claw_jaw_a": "Finger", "part:claw_jaw_b": "Finger",
+         "part:claw_tcp": "ToolCenterPoint", "part:claw_status_light": "StructuralSubpart"}
+
+
+def perfect(q: Question) -> str:
+    stage, _, subject = q.key.partition(":")
+    subject, _, concept = subject.partition("@")
+    if stage == "identify":
+        return KIND[subject]
+    if stage == "root":
+        return ROOT[subject]
+    if stage == "device":
+        return DEVICE.get(subject, subject)
+    target = CLASS[f"{stage}:{subject}"]
+    return next(o for o in q.options if TAX.is_a(target, LABELS[o]))
+
+
+@pytest.fixture
+def toy():
+    return load_urdf(TOY)
+
+
+def abstract(tree, rule=perfect, vote=None):
+    return Abstractor(Oracle(ScriptedBackend(rule), vote=vote), TAX).run(tree)
+
+
+def test_toy_robot_is_abstracted_into_its_devices(toy):
+    comps = {c.cls: c for c in abstract(toy)}
+    assert set(comps) == {"Lidar", "RGBDCamera", "ParallelGripper"}
+    assert comps["Lidar"].root == "chassis" and comps["Lidar"].links == ("front_scanner",)
+    camera = comps["RGBDCamera"]
+    assert camera.root == "mast" and camera.kind == "sensor"
+    assert {s.link: s.cls for s in camera.subcomponents} == {
+        "mast_rgbd_body": "SensorHousing", "mast_rgbd_color_optical": "RgbFrame", "mast_rgbd_depth_optical": "DepthFrame"}
+    gripper = comps["ParallelGripper"]
+    assert gripper.kind == "end_effector" and gripper.root == "arm_flange"
+    # the status light was identified as no component, so verification absorbed it into the gripper
+    assert {s.link: s.cls for s in gripper.subcomponents}["claw_status_light"] == "StructuralSubpart"
+    assert set(gripper.links) == {"claw_base", "claw_jaw_a", "claw_jaw_b", "claw_tcp", "claw_status_light"}
+
+
+def test_every_link_belongs_to_at_most_one_component(toy):
+    links = [link for c in abstract(toy) for link in c.links]
+    assert len(links) == len(set(links))
+
+
+def test_confidence_is_the_product_along_the_descent(toy):
+    def unsure(q):
+        if q.key == "pre:front_scanner@Sensor":
+            return {"ranging sensor": 0.6, "vision sensor": 0.4}
+        if q.key == "pre:front_scanner@RangingSensor":
+            return {"lidar": 0.8, "sonar": 0.2}
+        return perfect(q)
+    lidar = next(c for c in abstract(toy, unsure) if c.root == "chassis")
+    assert lidar.cls == "Lidar" and lidar.confidence == pytest.approx(0.48, abs=1e-3)
+
+
+def test_sampled_voting_reaches_the_same_devices(toy):
+    assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
+
+
+def test_a_camera_without_an_optical_frame_gets_one_by_asking(toy):
+    asked = []
+
+    def no_optics(q):
+        if q.key.startswith("part:mast_rgbd_") and "@SensorSubpart" in q.key:
+            return "sensor housing"
+        if q.key.startswith("optical:"):
+            asked.append(q.options)
+            return "mast_rgbd_color_optical"
+        if q.key == "part:mast_rgbd_color_optical@OpticalFrame":
+            return "RGB frame"
+        return perfect(q)
+    camera = next(c for c in abstract(toy, no_optics) if c.cls == "RGBDCamera")
+    assert asked == [("mast_rgbd_body", "mast_rgbd_color_optical", "mast_rgbd_depth_optical")]
+    assert {s.link: s.cls for s in camera.subcomponents}["mast_rgbd_color_optical"] == "RgbFrame"
+
+
+@pytest.mark.parametrize("failure", [RuntimeError("model crashed"), TimeoutError("no answer")])
+def test_backend_failure_is_a_clear_error(toy, failure):
+    def broken(q):
+        raise failure
+    with pytest.raises(BackendError, match="scripted"):
+        abstract(toy, broken)
+
+
+def test_answers_outside_the_options_are_abstentions_not_classes(toy):
+    def wild(q):
+        return "GalacticSensor" if q.key.startswith("pre:") else perfect(q)
+    comps = abstract(toy, wild, vote="sample")
+    assert all(c.cls in TAX for c in comps)
+
+
+def test_identification_offers_the_component_kinds_and_none(toy):
+    seen = {}
+
+    def spy(q):
+        seen[q.key] = q.options
+        return perfect(q)
+    Abstractor(Oracle(ScriptedBackend(spy)), TAX).run(toy)
+    assert seen["identify:front_scanner"] == ("sensor", "end effector", "body part", NONE)
+
+
+def test_mount_candidates_stop_at_the_first_link_carrying_another_kind(toy):
+    blocked = lambda link: link.startswith("drive_wheel")  # noqa: E731 - wheels are body parts
+    assert mount_candidates(toy, "mast_rgbd_color_optical", blocked) == ["mast_rgbd_body", "mast", "chassis"]
+    assert mount_candidates(toy, "front_scanner", blocked) == ["chassis"]
+
+
+def test_descend_passes_through_lone_subclasses_without_asking():
+    asked = []
+
+    def rule(q):
+        asked.append(q.key)
+        return "vision sensor" if q.key.endswith("@Sensor") else "stereo camera"
+    (typed,) = descend(Oracle(ScriptedBackend(rule)), TAX, "Sensor", [Subject("pre:x", "The link below belongs to a {concept}.", "Link: x")], "pre")
+    assert typed.cls == "StereoCamera"
+    assert asked == ["pre:x@Sensor", "pre:x@Camera"]  # VisionSensor has one subclass: not asked
+
+
+def test_name_prefixes_break_at_underscores_and_case_changes():
+    assert name_prefixes("SurroundingFrontLaser_device_frame") == (
+        "Surrounding", "SurroundingFront", "SurroundingFrontLaser", "SurroundingFrontLaser_device",
+        "SurroundingFrontLaser_device_frame")
+    assert name_prefixes("imu") == ("imu",)
+
+
+def test_merge_is_a_partition_joining_near_chains_with_one_device_name():
+    chains = [SubChain("cam_a_rgb", "mount", ("cam_a_rgb",), 1.0), SubChain("cam_a_depth", "mount", ("cam_a_depth",), 1.0),
+              SubChain("cam_b_rgb", "mount", ("cam_b_rgb",), 1.0), SubChain("cam_a_far", "elsewhere", ("cam_a_far",), 1.0)]
+    names = {"cam_a_rgb": "cam_a", "cam_a_depth": "cam_a", "cam_b_rgb": "cam_b", "cam_a_far": "cam_a"}
+    groups = merge(Oracle(ScriptedBackend(lambda q: names[q.key.split(":")[1]])), chains, "sensor")
+    assert sorted(sorted(g.leaves) for g in groups) == [["cam_a_depth", "cam_a_rgb"], ["cam_a_far"], ["cam_b_rgb"]]
+
+
+def test_end_effector_chains_on_one_mount_form_one_tool():
+    chains = [SubChain("finger1", "wrist", ("finger1",), 1.0), SubChain("thumb", "wrist", ("thumb",), 1.0)]
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), chains, "end_effector")
+    assert [g.leaves for g in groups] == [["finger1", "thumb"]]
+
+
+def test_verification_reroots_a_device_that_carries_other_things(toy):
+    # mounted too high: the chassis-level chain would swallow the mast, which carries the camera
+    chain = SubChain("front_scanner", "chassis", ("front_scanner",), 1.0)
+    too_high = SubChain("mast_rgbd_color_optical", "chassis", ("mast", "mast_rgbd_body", "mast_rgbd_color_optical"), 1.0)
+    notes = []
+    groups = verify(toy, [Group([too_high]), Group([chain])], lambda link: False, notes.append)
+    camera = next(g for g in groups if g.leaves == ["mast_rgbd_color_optical"])
+    assert camera.members == ["mast_rgbd_color_optical"] and any("re-root" in n for n in notes)
+
+
+def test_verification_absorbs_unclaimed_links(toy):
+    chain = SubChain("claw_tcp", "arm_flange", ("claw_base", "claw_tcp"), 1.0)
+    notes = []
+    (group,) = verify(toy, [Group([chain])], lambda link: True, notes.append)
+    assert set(group.members) == {"claw_base", "claw_tcp", "claw_jaw_a", "claw_jaw_b", "claw_status_light"}
+    assert notes and notes[0].startswith("absorb")
+
+
+def test_trace_records_every_question(toy):
+    out = io.StringIO()
+    Abstractor(Oracle(ScriptedBackend(perfect), trace=out), TAX).run(toy)
+    records = [json.loads(line) for line in out.getvalue().splitlines()]
+    assert {r["key"].split(":")[0] for r in records} >= {"identify", "root", "pre", "device", "post", "part"}
+    assert all(r["answer"] in r["options"] for r in records)
