@@ -1,7 +1,7 @@
 """Speed of the embedded llama.cpp backend: cold vs warm prefix, batched vs one question at a time.
 
 Usage: python benchmarks/llm_bench.py [--test-model] [--reps 3]
-Prints medians. Each question has ~30 user tokens and 5 options of 2-5 tokens.
+Prints medians over rounds that interleave the cases. Each question has ~30 user tokens and 5 options of 2-5 tokens.
 """
 from __future__ import annotations
 
@@ -41,22 +41,20 @@ def question(link: str) -> Question:
     return Question(SYSTEM, user, OPTIONS, key=f"kind:{link}")
 
 
-def timed(fn, reps: int) -> float:
-    """Median wall time of fn() over reps runs."""
-    times = []
+def run_interleaved(backend: LlamaBackend, cases: list[tuple[str, object, int]], reps: int) -> None:
+    """Run every case once per round (so load from other processes hits all alike); print medians."""
+    times: dict[str, list[float]] = {label: [] for label, _, _ in cases}
+    tokens: dict[str, list[int]] = {label: [] for label, _, _ in cases}
     for _ in range(reps):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
-def measure(backend: LlamaBackend, label: str, fn, n_questions: int, reps: int) -> None:
-    before = backend.stats.prompt_tokens
-    seconds = timed(fn, reps)
-    tokens = (backend.stats.prompt_tokens - before) / reps
-    print(f"{label:<44} {seconds / n_questions:7.3f} s/question  {tokens / n_questions:6.1f} tok/question"
-          f"  {tokens / seconds:6.1f} tok/s")
+        for label, fn, _ in cases:
+            before, start = backend.stats.prompt_tokens, time.perf_counter()
+            fn()
+            times[label].append(time.perf_counter() - start)
+            tokens[label].append(backend.stats.prompt_tokens - before)
+    for label, _, n in cases:
+        seconds, evaluated = statistics.median(times[label]), statistics.median(tokens[label])
+        print(f"{label:<44} {seconds / n:7.3f} s/question  {evaluated / n:6.1f} tok/question"
+              f"  {evaluated / seconds:6.1f} tok/s")
 
 
 def main() -> None:
@@ -80,11 +78,15 @@ def main() -> None:
         backend.reset()
         backend.score([one])
 
-    measure(backend, "cold prefix, 1 question (prefix + question)", cold, 1, args.reps)
-    measure(backend, "warm prefix, 1 question", lambda: backend.score([one]), 1, args.reps)
-    measure(backend, f"warm prefix, {len(qs)} questions one at a time", lambda: [backend.score([q]) for q in qs], len(qs), args.reps)
-    measure(backend, f"warm prefix, {len(qs)} questions in one batch", lambda: backend.score(qs), len(qs), args.reps)
-    measure(backend, "sample 5 votes, 1 question (grammar)", lambda: backend.sample(one, 5, 0.7), 1, args.reps)
+    backend.score([one])  # warm-up: first decode allocates buffers
+    run_interleaved(backend, [
+        ("cold prefix, 1 question (prefix + question)", cold, 1),
+        ("warm prefix, 1 question", lambda: backend.score([one]), 1),
+        (f"warm prefix, {len(qs)} questions one at a time", lambda: [backend.score([q]) for q in qs], len(qs)),
+        (f"warm prefix, {len(qs)} questions in one batch", lambda: backend.score(qs), len(qs)),
+        ("sample 5 votes, 1 question (grammar)", lambda: backend.sample(one, 5, 0.7), 1),
+    ], args.reps)
+    print(f"load average at the end {os.getloadavg()[0]:.1f}")
 
     batched = backend.score(qs)
     alone = [backend.score([q])[0] for q in qs]

@@ -243,21 +243,17 @@ class LlamaBackend(Backend):
         try:
             self._fill(entries)
             self._decode()
-            return [[self._option_logprob(r, o) for r, o in zip(rows, job.options)] for rows, job in zip(wanted, jobs)]
+            logprobs = _RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab)
+            return [[self._option_logprob(logprobs, r, o) for r, o in zip(rows, job.options)]
+                    for rows, job in zip(wanted, jobs)]
         finally:
             for s in range(first_seq, seq):
                 self._lib.llama_memory_seq_rm(self._ctx.memory, s, -1, -1)
 
-    def _option_logprob(self, rows: list[int], option: list[int]) -> float:
+    def _option_logprob(self, logprobs: "_RowLogprobs", rows: list[int], option: list[int]) -> float:
         """Sum of log P(token | before) over the option's tokens and the end-of-turn token."""
         targets = option + [self.eot]
-        return float(sum(self._logprob(row, t) for row, t in zip(rows, targets)))
-
-    def _logprob(self, row: int, token: int) -> float:
-        ptr = self._lib.llama_get_logits_ith(self._ctx.ctx, row)
-        logits = np.ctypeslib.as_array(ptr, shape=(self.n_vocab,)).astype(np.float64)
-        top = logits.max()
-        return float(logits[token] - top - np.log(np.exp(logits - top).sum()))
+        return float(sum(logprobs(row, t) for row, t in zip(rows, targets)))
 
     def _fill(self, entries: list[tuple[int, int, tuple[int, ...], bool]]) -> None:
         """Write (token, position, sequence ids, wants logits) entries into the batch."""
@@ -296,6 +292,8 @@ class LlamaBackend(Backend):
         try:
             grammar = LlamaGrammar.from_string(gbnf(question.options), verbose=False)
             return [self._complete(prompt, grammar, max_tokens, temperature) for _ in range(n)]
+        except BackendError:
+            raise
         except Exception as exc:
             raise BackendError(f"{self.name}: sampling failed: {type(exc).__name__}: {exc}") from exc
 
@@ -314,6 +312,23 @@ class LlamaBackend(Backend):
         self._batch.close()
         self._ctx.close()
         self.llm.close()
+
+
+class _RowLogprobs:
+    """log P(token) from the logits of one batch row; each row's normaliser is computed once."""
+
+    def __init__(self, lib, ctx, n_vocab: int):
+        self.lib, self.ctx, self.n_vocab = lib, ctx, n_vocab
+        self.rows: dict[int, tuple[np.ndarray, float]] = {}
+
+    def __call__(self, row: int, token: int) -> float:
+        if row not in self.rows:
+            ptr = self.lib.llama_get_logits_ith(self.ctx, row)
+            logits = np.ctypeslib.as_array(ptr, shape=(self.n_vocab,)).astype(np.float64)
+            top = logits.max()
+            self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum())))
+        logits, logz = self.rows[row]
+        return float(logits[token] - logz)
 
 
 def gbnf(options: Sequence[str]) -> str:
