@@ -109,31 +109,36 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from pipeline import evaluation
-    from pipeline.export import robot_graph
+    from pipeline.truth_run import run_truth_robot
     truth_dir = Path(args.truth_dir)
     files = sorted(truth_dir.glob("*.yaml"))
-    if args.traces:
-        Path(args.traces).mkdir(parents=True, exist_ok=True)
     if not files:
         raise UrdfkbError(f"no truth files (*.yaml) in {truth_dir}")
+    if args.traces:
+        Path(args.traces).mkdir(parents=True, exist_ok=True)
     settings = _settings(args)
     per_robot, extra = {}, {k: {} for k in ("model", "vote", "llm calls", "tokens", "seconds")}
     for path in files:
-        truth = evaluation.load_truth(path)
-        urdf = truth_dir.parent.parent / truth.urdf
-        print(f"== {truth.robot} ({urdf})", file=sys.stderr)
+        robot = path.stem
+        print(f"== {robot}", file=sys.stderr)
+        bars = StageBars(args.quiet)
+        trace_path = Path(args.traces) / f"{robot}.jsonl" if args.traces else None
         try:
-            trace = str(Path(args.traces) / f"{truth.robot}.jsonl") if args.traces else None
-            tree, name, abstraction, seconds = _abstract(str(urdf), truth.robot, settings, args.quiet, trace, 10_000_000)
-            graph = robot_graph(_robot_ontology(tree, name, abstraction))
-            per_robot[truth.robot] = evaluation.score(truth, graph, set(tree.leaves()))
-            prov = abstraction.provenance
-            for col, key in (("model", "model"), ("vote", "vote"), ("llm calls", "llm_calls"), ("tokens", "prompt_tokens")):
-                extra[col][truth.robot] = Path(prov.get(key, "?")).name if key == "model" else prov.get(key, "?")
-            extra["seconds"][truth.robot] = f"{seconds:.1f}"
+            with open(trace_path, "w") if trace_path else contextlib.nullcontext() as trace:
+                result = run_truth_robot(path, settings, progress=bars, trace=trace)
         except UrdfkbError as exc:
-            print(f"{truth.robot}: run failed: {exc}", file=sys.stderr)
-            per_robot[truth.robot] = evaluation.failed_scores()
+            print(f"{robot}: run failed: {exc}", file=sys.stderr)
+            per_robot[robot] = evaluation.failed_scores()
+            continue
+        finally:
+            bars.close()
+        per_robot[robot] = result.scores
+        prov = result.abstraction.provenance
+        extra["model"][robot] = prov.get("model", "?").removeprefix("llama.cpp:")
+        extra["vote"][robot] = prov.get("vote", "?") + (f" x{prov.get('votes')}" if prov.get("vote") == "sample" else "")
+        extra["llm calls"][robot] = prov.get("llm_calls", "?")
+        extra["tokens"][robot] = prov.get("prompt_tokens", "?")
+        extra["seconds"][robot] = f"{result.seconds:.1f}"
     print(evaluation.format_table(per_robot, extra))
     if args.json:
         Path(args.json).write_text(json.dumps({"robots": per_robot, "mean": evaluation.mean_scores(per_robot), "run": extra}, indent=2))

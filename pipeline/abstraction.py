@@ -100,8 +100,9 @@ class Abstractor:
         """Type every member link in the Subpart branch, then assemble the components."""
         roots = [group_root(tree, g) for g in groups]
         subjects = [
-            Subject(f"part:{link}", "The link below is a {concept} of a %s device." % label,
-                    f"Link: {link}\nDevice: {self.tax.label(t.cls)} with frames {', '.join(g.leaves)}")
+            Subject(f"part:{link}", "What role does the link below play in its %s device? Choose the {concept}." % label,
+                    f"Link: {link}\nDevice: {self.tax.label(t.cls)} with frames {', '.join(g.leaves)}",
+                    self.tax.excluded_parts(t.cls))
             for g, t in zip(groups, post) for link in g.members
         ]
         parts = descend(self.oracle, self.tax, subpart_cls, subjects, "sub-part classification", self.progress)

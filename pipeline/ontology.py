@@ -69,6 +69,7 @@ class Taxonomy:
         self._label: dict[str, str] = {}
         self._comment: dict[str, str] = {}
         self._example: dict[str, str] = {}
+        self._excluded: dict[str, set[str]] = {}
         for name in self._order:
             node = rdflib.URIRef(CORE_IRI + name)
             parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
@@ -79,6 +80,7 @@ class Taxonomy:
             self._label[name] = str(graph.value(node, RDFS.label) or name)
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
+            self._excluded[name] = _excluded_parts(graph, node)
         for kids in self._children.values():
             kids.sort(key=self._order.__getitem__)
 
@@ -123,9 +125,27 @@ class Taxonomy:
         """The class definition shown to the model when it chooses among siblings."""
         return self._comment[self._check(name)]
 
+    def excluded_parts(self, name: str) -> frozenset[str]:
+        """Classes a `name` device may not have as sub-components (∀hasComponent.¬X on it or an
+        ancestor), with their subclasses."""
+        direct = set().union(*(self._excluded[c] for c in (self._check(name), *self.ancestors(name))))
+        return frozenset(c for c in self._order if any(self.is_a(c, x) for x in direct))
+
     def example(self, name: str) -> str:
         """An invented link name typical of the class (skos:example), or ''."""
         return self._example[self._check(name)]
+
+
+def _excluded_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> set[str]:
+    """X for each `node ⊑ ∀hasComponent.¬X` axiom."""
+    out = set()
+    for restriction in graph.objects(node, RDFS.subClassOf):
+        if graph.value(restriction, OWL.onProperty) != rdflib.URIRef(CORE_IRI + "hasComponent"):
+            continue
+        excluded = graph.value(graph.value(restriction, OWL.allValuesFrom), OWL.complementOf)
+        if excluded is not None and _local(excluded):
+            out.add(_local(excluded))
+    return out
 
 
 def _declared_classes(path: pathlib.Path) -> list[str]:

@@ -58,6 +58,8 @@ def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Seque
         _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(tax, kinds)
         + f"\n- {NONE}: part of none of these: actuators and emitters (motors, lights, loudspeakers, displays,"
         " projectors), fasteners, covers, cables, and purely virtual reference frames."
+        "\nSensors and their frames are fixed to their parent; a leaf that moves on a revolute, continuous or"
+        " prismatic joint is a finger, a wheel or another moving part, not a sensor."
         "\nReply with the kind only."
     )
     user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}"
@@ -78,9 +80,15 @@ def root_question(kind_label: str, link: str, candidates: Sequence[str]) -> Ques
     return Question(system, user, tuple(candidates), key=f"root:{link}")
 
 
-def level_choice(tax: Taxonomy, concept: str, framing: str, evidence: str, key: str) -> Choice:
-    """Pick among the direct subclasses of `concept` for one subject (a sub-chain, a link, a group)."""
-    options = tax.subclasses(concept)
+def level_options(tax: Taxonomy, concept: str, exclude: frozenset[str] = frozenset()) -> tuple[str, ...]:
+    """The direct subclasses of `concept` the schema allows here."""
+    return tuple(c for c in tax.subclasses(concept) if c not in exclude)
+
+
+def level_choice(tax: Taxonomy, concept: str, framing: str, evidence: str, key: str,
+                 exclude: frozenset[str] = frozenset()) -> Choice:
+    """Pick among the allowed direct subclasses of `concept` for one subject (a sub-chain, a link, a group)."""
+    options = level_options(tax, concept, exclude)
     label = tax.label(concept)
     system = (
         _PREAMBLE + framing.format(concept=label) + f" Choose the most fitting kind of {label}:\n"

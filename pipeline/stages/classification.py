@@ -1,8 +1,9 @@
 """Stages 3 and 5, pre- and post-classification, and sub-part typing: descents of the taxonomy.
 
 Each subject starts at a concept and goes down one level per question, choosing among the direct
-subclasses the ontology offers, until it reaches a leaf concept or the model abstains. A concept
-with a lone subclass is no choice and is passed through without a question. Subjects at the same concept share one system prompt, so each
+subclasses the ontology offers (minus those the schema rules out for the subject), until it
+reaches a leaf concept or the model abstains. A concept with a lone allowed subclass is no choice
+and is passed through without a question. Subjects at the same concept share one system prompt, so each
 level is asked breadth-first for all subjects at once.
 """
 from __future__ import annotations
@@ -11,7 +12,7 @@ from dataclasses import dataclass
 
 from ..ontology import Taxonomy
 from ..oracle import Oracle
-from ..prompts import level_choice
+from ..prompts import level_choice, level_options
 from .asking import Progress, ask
 
 
@@ -22,6 +23,7 @@ class Subject:
     key: str
     framing: str
     evidence: str
+    exclude: frozenset[str] = frozenset()  # classes the schema rules out for this subject
 
 
 @dataclass(frozen=True)
@@ -35,11 +37,11 @@ class Typed:
 def descend(oracle: Oracle, tax: Taxonomy, start: str, subjects: list[Subject], stage: str,
             progress: Progress | None = None) -> list[Typed]:
     """Classify every subject below `start`, breadth-first."""
-    typed = [_through_lone(tax, Typed(start, 1.0))] * len(subjects)
-    active = [i for i in range(len(subjects)) if tax.subclasses(typed[i].cls)]
+    typed = [_through_lone(tax, Typed(start, 1.0), s.exclude) for s in subjects]
+    active = [i for i in range(len(subjects)) if level_options(tax, typed[i].cls, subjects[i].exclude)]
     while active:
         choices = [
-            level_choice(tax, typed[i].cls, subjects[i].framing, subjects[i].evidence, subjects[i].key)
+            level_choice(tax, typed[i].cls, subjects[i].framing, subjects[i].evidence, subjects[i].key, subjects[i].exclude)
             for i in active
         ]
         verdicts = ask(oracle, [c.question for c in choices], stage, progress)
@@ -48,15 +50,15 @@ def descend(oracle: Oracle, tax: Taxonomy, start: str, subjects: list[Subject], 
             cls = c.meaning.get(v.answer)
             if cls is None or cls == typed[i].cls:
                 continue  # abstention or the model stopped at the current concept: converged
-            typed[i] = _through_lone(tax, Typed(cls, typed[i].confidence * v.confidence))
-            if tax.subclasses(typed[i].cls):
+            typed[i] = _through_lone(tax, Typed(cls, typed[i].confidence * v.confidence), subjects[i].exclude)
+            if level_options(tax, typed[i].cls, subjects[i].exclude):
                 still.append(i)
         active = still
     return typed
 
 
-def _through_lone(tax: Taxonomy, typed: Typed) -> Typed:
-    """Follow lone-subclass links down (VisionSensor → Camera): there is nothing to ask."""
-    while len(subs := tax.subclasses(typed.cls)) == 1:
+def _through_lone(tax: Taxonomy, typed: Typed, exclude: frozenset[str]) -> Typed:
+    """Follow lone allowed subclasses down (VisionSensor → Camera): there is nothing to ask."""
+    while len(subs := level_options(tax, typed.cls, exclude)) == 1:
         typed = Typed(subs[0], typed.confidence)
     return typed

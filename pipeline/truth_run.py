@@ -1,0 +1,40 @@
+"""Run the pipeline on one ground-truth robot and score it: what `urdfkb eval` and the benchmarks share."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import owlready2
+
+from . import evaluation
+from .components import Abstraction
+from .export import robot_graph
+from .ingest import load_urdf
+from .llm.base import Backend
+from .population import build_robot
+from .runner import Progress, Settings, run
+
+
+@dataclass(frozen=True)
+class RobotRun:
+    """One truth robot's scores, the abstraction behind them and the wall time (ingestion included)."""
+
+    robot: str
+    scores: dict
+    abstraction: Abstraction
+    seconds: float
+
+
+def run_truth_robot(truth_path: str | Path, settings: Settings, backend: Backend | None = None,
+                    progress: Progress | None = None, trace: TextIO | None = None) -> RobotRun:
+    """The URDF named by the truth file (relative to the truth folder's grandparent), abstracted and scored."""
+    truth = evaluation.load_truth(truth_path)
+    urdf = Path(truth_path).resolve().parent.parent.parent / truth.urdf
+    started = time.monotonic()
+    tree = load_urdf(urdf)
+    abstraction = run(tree, settings, backend=backend, progress=progress, trace=trace)
+    seconds = time.monotonic() - started
+    graph = robot_graph(build_robot(owlready2.World(), tree, truth.robot, abstraction))
+    return RobotRun(truth.robot, evaluation.score(truth, graph, set(tree.leaves())), abstraction, seconds)
