@@ -64,7 +64,7 @@ class Abstractor:
         pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
         groups = merge(self.oracle, chains, kind, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        post = self._post_classify(tree, groups, pre_by_leaf, cls, label)
+        post = self._post_classify(groups, pre_by_leaf, cls)
         return self._components(tree, kind, subpart_cls, label, groups, post)
 
     def _blocked(self, tree: KinematicTree, cls: str) -> Callable[[str], bool]:
@@ -83,8 +83,7 @@ class Abstractor:
             return not tree.is_leaf(link) or self.claims.get(link) == NONE
         return unclaimed
 
-    def _post_classify(self, tree: KinematicTree, groups: list[Group], pre: dict[str, Typed], cls: str,
-                       label: str) -> list[Typed]:
+    def _post_classify(self, groups: list[Group], pre: dict[str, Typed], cls: str) -> list[Typed]:
         """Multi-chain groups descend again given their members' classes; a lone chain keeps its class."""
         multi = [g for g in groups if len(g.chains) > 1]
         typed = descend(self.oracle, self.tax, cls, [
