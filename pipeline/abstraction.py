@@ -18,7 +18,7 @@ from .stages.attachment import detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
 from .stages.identification import identify
-from .stages.verification import group_root, verify
+from .stages.verification import group_root, join_by_mount, verify
 from .tree import KinematicTree
 
 # kind → (its class under Component, its branch under Subpart, how prompts name it)
@@ -27,7 +27,7 @@ PASSES = {
     END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
 }
 Log = Callable[[str], None]
-CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape in ontologies/shapes.ttl
+CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
 
 
 class Abstractor:
@@ -64,6 +64,8 @@ class Abstractor:
         pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
         groups = merge(self.oracle, chains, kind, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
+        if kind == END_EFFECTOR:  # repairs may have moved tools onto one mount: one tool per mount
+            groups = join_by_mount(tree, groups)
         post = self._post_classify(groups, pre_by_leaf, cls)
         return self._components(tree, kind, subpart_cls, label, groups, post)
 
@@ -96,51 +98,56 @@ class Abstractor:
 
     def _components(self, tree: KinematicTree, kind: str, subpart_cls: str, label: str, groups: list[Group],
                     post: list[Typed]) -> list[Component]:
-        """Type every member link in the Subpart branch, then assemble the components."""
-        roots = [group_root(tree, g) for g in groups]
-        subjects = [
-            Subject(f"part:{link}", "What role does the link below play in its %s device? Choose the {concept}." % label,
-                    f"Link: {link}\nDevice: {self.tax.label(t.cls)} with frames {', '.join(g.leaves)}",
-                    self.tax.excluded_parts(t.cls))
-            for g, t in zip(groups, post) for link in g.members
+        """Type every member link in the Subpart branch, then assemble the components.
+
+        A camera must have optical frames (ontologies/shapes.ttl), and a small model tells which
+        of a chain's links is the optical frame far better than it classifies links one by one:
+        so each camera sub-chain first selects its optical frame, which is then typed below
+        OpticalFrame, and the camera's other links are typed with optical frames ruled out.
+        """
+        optical = self._optical_frames(groups, post)
+        optical_branch = frozenset(c for c in self.tax._order if self.tax.is_a(c, OPTICAL_FRAME))
+        framing = "What role does the link below play in its %s device? Choose the {concept}." % label
+        rest = [
+            (link, Subject(f"part:{link}", framing,
+                           f"Link: {link}\nDevice: {self.tax.label(t.cls)} with frames {', '.join(g.leaves)}",
+                           self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())))
+            for g, t in zip(groups, post) for link in g.members if link not in optical
         ]
-        parts = descend(self.oracle, self.tax, subpart_cls, subjects, "sub-part classification", self.progress)
-        members = [g.members for g in groups]
-        self._ensure_optical_frames(post, members, parts)
-        parts = iter(parts)
+        frames = [
+            (link, Subject(f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
+                           f"Link: {link}\nCamera: {camera}"))
+            for link, (camera, _share) in optical.items()
+        ]
+        typed = dict(zip([link for link, _ in rest], descend(
+            self.oracle, self.tax, subpart_cls, [s for _, s in rest], "sub-part classification", self.progress)))
+        for (link, _), t in zip(frames, descend(
+                self.oracle, self.tax, OPTICAL_FRAME, [s for _, s in frames], "optical frames", self.progress)):
+            typed[link] = Typed(t.cls, t.confidence * optical[link][1])
         return [
             Component(
                 name=f"{kind}_{i}_{g.leaves[0]}",
                 kind=kind,
                 cls=t.cls,
                 confidence=round(t.confidence, 4),
-                root=root,
-                subcomponents=tuple(SubComponent(link, p.cls, round(p.confidence, 4))
-                                    for link, p in zip(links, parts)),
+                root=group_root(tree, g),
+                subcomponents=tuple(SubComponent(link, typed[link].cls, round(typed[link].confidence, 4))
+                                    for link in g.members),
             )
-            for i, (g, t, root, links) in enumerate(zip(groups, post, roots, members))
+            for i, (g, t) in enumerate(zip(groups, post))
         ]
 
-    def _ensure_optical_frames(self, post: list[Typed], members: list[list[str]], parts: list[Typed]) -> None:
-        """A camera must have an optical frame (ontologies/shapes.ttl): where typing found none, ask
-        which of the camera's links is its optical frame, then type that link below OpticalFrame."""
-        offsets, start = [], 0
-        for links in members:
-            offsets.append(start)
-            start += len(links)
-        lacking = [
-            i for i, (t, links) in enumerate(zip(post, members))
-            if self.tax.is_a(t.cls, CAMERA)
-            and not any(self.tax.is_a(p.cls, OPTICAL_FRAME) for p in parts[offsets[i]:offsets[i] + len(links)])
-        ]
-        if not lacking:
-            return
-        picks = ask(self.oracle, [optical_frame_question(members[i]) for i in lacking], "optical frames", self.progress)
-        chosen = [(i, v.answer or members[i][-1]) for i, v in zip(lacking, picks)]
-        typed = descend(self.oracle, self.tax, OPTICAL_FRAME, [
-            Subject(f"part:{link}", "The link below is an {concept} of a camera.",
-                    f"Link: {link}\nCamera: {self.tax.label(post[i].cls)} with links {', '.join(members[i])}")
-            for i, link in chosen
-        ], "optical frames", self.progress)
-        for (i, link), (v, t) in zip(chosen, zip(picks, typed)):
-            parts[offsets[i] + members[i].index(link)] = Typed(t.cls, round(v.confidence * t.confidence, 4))
+    def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, tuple[str, float]]:
+        """For each camera sub-chain, the link the model selects as its optical frame → (camera label, share)."""
+        asked, found = [], {}
+        for g, t in zip(groups, post):
+            if not self.tax.is_a(t.cls, CAMERA):
+                continue
+            for chain in g.chains:
+                if len(chain.links) == 1:
+                    found[chain.leaf] = (self.tax.label(t.cls), 1.0)
+                else:
+                    asked.append((self.tax.label(t.cls), optical_frame_question(chain.links)))
+        for (camera, q), v in zip(asked, ask(self.oracle, [q for _, q in asked], "optical frames", self.progress)):
+            found.setdefault(v.answer or q.options[-1], (camera, v.confidence))
+        return found

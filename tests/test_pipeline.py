@@ -50,6 +50,8 @@ def perfect(q: Question) -> str:
         return ROOT[subject]
     if stage == "device":
         return DEVICE.get(subject, subject)
+    if stage == "optical":  # asked per camera sub-chain, keyed by its leaf: the leaf is the optical frame
+        return subject
     target = CLASS[f"{stage}:{subject}"]
     return next(o for o in q.options if TAX.is_a(target, LABELS[o]))
 
@@ -98,21 +100,30 @@ def test_sampled_voting_reaches_the_same_devices(toy):
     assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
 
 
-def test_a_camera_without_an_optical_frame_gets_one_by_asking(toy):
+def test_camera_chains_select_their_optical_frame_and_the_rest_is_housing(toy):
     asked = []
 
-    def no_optics(q):
-        if q.key.startswith("part:mast_rgbd_") and "@SensorSubpart" in q.key:
-            return "sensor housing"
-        if q.key.startswith("optical:"):
-            asked.append(q.options)
-            return "mast_rgbd_color_optical"
-        if q.key == "part:mast_rgbd_color_optical@OpticalFrame":
-            return "RGB frame"
+    def spy(q):
+        asked.append(q.key)
         return perfect(q)
-    camera = next(c for c in abstract(toy, no_optics) if c.cls == "RGBDCamera")
-    assert asked == [("mast_rgbd_body", "mast_rgbd_color_optical", "mast_rgbd_depth_optical")]
-    assert {s.link: s.cls for s in camera.subcomponents}["mast_rgbd_color_optical"] == "RgbFrame"
+    camera = next(c for c in abstract(toy, spy) if c.cls == "RGBDCamera")
+    assert "optical:mast_rgbd_color_optical" in asked and "optical:mast_rgbd_depth_optical" in asked
+    # the body is not an optical frame and a camera has no sensing element: housing is the only
+    # class left, so it is typed without a question
+    assert not any(k.startswith("part:mast_rgbd_body") for k in asked)
+    assert {s.link: s.cls for s in camera.subcomponents}["mast_rgbd_body"] == "SensorHousing"
+
+
+def test_end_effector_groups_repaired_onto_one_mount_are_one_tool(toy):
+    def jaws_split(q):
+        if q.key == "root:claw_tcp":
+            return "arm_fore"  # too high, so the tool frame starts a group of its own
+        return perfect(q)
+    # verification re-roots both groups below the links they share (claw_base also carries the
+    # other group's links); the end-effector rule then joins them again on that one mount
+    grippers = [c for c in abstract(toy, jaws_split) if c.kind == "end_effector"]
+    assert len(grippers) == 1 and grippers[0].root == "claw_base"
+    assert set(grippers[0].links) == {"claw_jaw_a", "claw_jaw_b", "claw_tcp"}  # the light hangs off the mount
 
 
 @pytest.mark.parametrize("failure", [RuntimeError("model crashed"), TimeoutError("no answer")])
