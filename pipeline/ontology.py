@@ -67,6 +67,7 @@ class Taxonomy:
         self._parents: dict[str, tuple[str, ...]] = {}
         self._children: dict[str, list[str]] = {n: [] for n in self._order}
         self._label: dict[str, str] = {}
+        self._answer: dict[str, str] = {}
         self._comment: dict[str, str] = {}
         self._example: dict[str, str] = {}
         self._excluded: dict[str, set[str]] = {}
@@ -78,6 +79,7 @@ class Taxonomy:
             for p in parents:
                 self._children[p].append(name)
             self._label[name] = str(graph.value(node, RDFS.label) or name)
+            self._answer[name] = str(graph.value(node, SKOS.altLabel) or self._label[name])
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
             self._excluded[name] = _excluded_parts(graph, node)
@@ -120,6 +122,10 @@ class Taxonomy:
 
     def label(self, name: str) -> str:
         return self._label[self._check(name)]
+
+    def answer(self, name: str) -> str:
+        """The phrase offered to the model for this class: skos:altLabel where given, else the label."""
+        return self._answer[self._check(name)]
 
     def comment(self, name: str) -> str:
         """The class definition shown to the model when it chooses among siblings."""

@@ -2,9 +2,10 @@
 
 Static parts (instructions, the definitions of the options at one taxonomy level) go in the
 system text so the backend evaluates them once and reuses them from its KV cache; the user
-text carries only what differs per question. Options are the classes' natural-language labels
-(a small model reads "vision sensor" far better than "VisionSensor"); each Choice maps them
-back to ontology local names. Definitions and examples are the ontology's own rdfs:comment and
+text carries only what differs per question. Options are the classes' natural-language labels,
+or their skos:altLabel where a short phrase answers the question better (a small model reads
+"vision sensor" far better than "VisionSensor", and "color image" better than "RGB frame"); each
+Choice maps them back to ontology local names. Definitions and examples are the ontology's own rdfs:comment and
 skos:example, so the taxonomy, not this file, says what each class means.
 """
 from __future__ import annotations
@@ -36,13 +37,13 @@ def _definitions(tax: Taxonomy, classes: Sequence[str]) -> str:
     lines = []
     for c in classes:
         example = tax.example(c)
-        lines.append(f"- {tax.label(c)}: {tax.comment(c)}" + (f" Example: {example}" if example else ""))
+        lines.append(f"- {tax.answer(c)}: {tax.comment(c)}" + (f" Example: {example}" if example else ""))
     return "\n".join(lines)
 
 
 def _class_choice(system: str, user: str, tax: Taxonomy, classes: Sequence[str], key: str,
                   extra: dict[str, str] | None = None) -> Choice:
-    meaning = {tax.label(c): c for c in classes} | (extra or {})
+    meaning = {tax.answer(c): c for c in classes} | (extra or {})
     return Choice(Question(system, user, tuple(meaning), key=key), meaning)
 
 

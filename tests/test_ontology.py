@@ -92,7 +92,8 @@ def test_taxonomy_queries():
     assert tax.subclasses("Joint") == ("FixedJoint", "RevoluteJoint", "ContinuousJoint", "PrismaticJoint",
                                        "FloatingJoint", "PlanarJoint")
     assert tax.label("RGBDCamera") == "RGB-D camera"
-    assert "colour image sensor" in tax.comment("RgbFrame")
+    assert "colour camera" in tax.comment("RgbFrame")
+    assert tax.answer("RgbFrame") == "color image" and tax.answer("Camera") == tax.label("Camera")  # altLabel, else label
     assert "Camera" in tax and "Platform" not in tax and "Nope" not in tax
     with pytest.raises(OntologyError, match="Nope"):
         tax.subclasses("Nope")

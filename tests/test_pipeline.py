@@ -22,7 +22,7 @@ from pipeline.stages.verification import verify
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 TAX = taxonomy()
-LABELS = {TAX.label(c): c for c in TAX._order}  # label → class, for the scripted model
+LABELS = {TAX.answer(c): c for c in TAX._order}  # answer phrase → class, for the scripted model
 
 # What a perfect model would answer about the toy robot.
 KIND = {"front_scanner": "sensor", "mast_rgbd_color_optical": "sensor", "mast_rgbd_depth_optical": "sensor",
