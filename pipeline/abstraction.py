@@ -62,12 +62,17 @@ class Abstractor:
             for c in chains
         ], "pre-classification", self.progress)
         pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
-        groups = merge(self.oracle, chains, kind, self.progress)
+        categories = {leaf: self._category(t.cls, cls) for leaf, t in pre_by_leaf.items()}
+        groups = merge(self.oracle, tree, chains, kind, categories, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
         if kind == END_EFFECTOR:  # repairs may have moved tools onto one mount: one tool per mount
             groups = join_by_mount(tree, groups)
         post = self._post_classify(groups, pre_by_leaf, cls)
         return self._components(tree, kind, subpart_cls, label, groups, post)
+
+    def _category(self, cls: str, top: str) -> str:
+        """The class directly under `top` that `cls` falls in (itself if it is `top`)."""
+        return next((c for c in self.tax.subclasses(top) if self.tax.is_a(cls, c)), cls)
 
     def _blocked(self, tree: KinematicTree, cls: str) -> Callable[[str], bool]:
         """A link a device of class `cls` cannot contain: a leaf identified as another kind of component.

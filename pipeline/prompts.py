@@ -67,13 +67,20 @@ def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Seque
     return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 
+_MOUNTS = {
+    "sensor": "the mount is a body part or bracket (base, torso, head, arm, wrist or mount link) that is not"
+    " named after the sensor.",
+    "end-effector": "the mount is the last link of the arm that carries it: its wrist or flange link, not the"
+    " forearm, elbow or shoulder.",
+}
+
+
 def root_question(kind_label: str, link: str, candidates: Sequence[str]) -> Question:
     """Which of the offered ancestors is the mount of the device that `link` belongs to."""
     system = (
         _PREAMBLE + f"A {kind_label} is fixed to the robot body at one link, its mount. The links between the"
-        f" mount and the {kind_label}'s own frames belong to the {kind_label} (its housing, body and frames,"
-        " usually named after it); the mount is a body part or bracket (base, torso, head, arm, wrist or"
-        f" mount link) that is not named after the {kind_label}."
+        f" mount and the {kind_label}'s own frames belong to the {kind_label} (its housing, palm, fingers,"
+        f" adapters and frames); {_MOUNTS[kind_label]}"
         f"\nGiven one link of a {kind_label} and its ancestors, name the mount."
         "\nReply with the link name only."
     )

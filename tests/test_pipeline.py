@@ -18,7 +18,7 @@ from pipeline.prompts import NONE
 from pipeline.stages.attachment import SubChain, mount_candidates
 from pipeline.stages.classification import Subject, descend
 from pipeline.stages.grouping import Group, merge, name_prefixes
-from pipeline.stages.verification import verify
+from pipeline.stages.verification import join_by_mount, verify
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 TAX = taxonomy()
@@ -37,7 +37,7 @@ CLASS = {"pre:front_scanner": "Lidar", "pre:mast_rgbd_color_optical": "Monocular
          "post:claw_jaw_a": "ParallelGripper",
          "part:front_scanner": "SensingElement", "part:mast_rgbd_body": "SensorHousing",
          "part:mast_rgbd_color_optical": "RgbFrame", "part:mast_rgbd_depth_optical": "DepthFrame",
-         "part:claw_base": "Palm", "part:claw_jaw_a": "Finger", "part:claw_jaw_b": "Finger",
+         "part:claw_base": "Palm", "part:arm_flange": "ToolHousing", "part:claw_jaw_a": "Finger", "part:claw_jaw_b": "Finger",
          "part:claw_tcp": "ToolCenterPoint", "part:claw_status_light": "StructuralSubpart"}
 
 
@@ -114,16 +114,14 @@ def test_camera_chains_select_their_optical_frame_and_the_rest_is_housing(toy):
     assert {s.link: s.cls for s in camera.subcomponents}["mast_rgbd_body"] == "SensorHousing"
 
 
-def test_end_effector_groups_repaired_onto_one_mount_are_one_tool(toy):
-    def jaws_split(q):
+def test_end_effector_chains_meeting_inside_a_mount_are_one_tool(toy):
+    def tcp_high(q):
         if q.key == "root:claw_tcp":
-            return "arm_fore"  # too high, so the tool frame starts a group of its own
+            return "arm_fore"  # higher than the jaws' mount: the chains still meet at claw_base
         return perfect(q)
-    # verification re-roots both groups below the links they share (claw_base also carries the
-    # other group's links); the end-effector rule then joins them again on that one mount
-    grippers = [c for c in abstract(toy, jaws_split) if c.kind == "end_effector"]
-    assert len(grippers) == 1 and grippers[0].root == "claw_base"
-    assert set(grippers[0].links) == {"claw_jaw_a", "claw_jaw_b", "claw_tcp"}  # the light hangs off the mount
+    (gripper,) = [c for c in abstract(toy, tcp_high) if c.kind == "end_effector"]
+    assert gripper.root == "arm_fore"
+    assert {"claw_jaw_a", "claw_jaw_b", "claw_tcp", "claw_status_light"} <= set(gripper.links)
 
 
 @pytest.mark.parametrize("failure", [RuntimeError("model crashed"), TimeoutError("no answer")])
@@ -175,18 +173,30 @@ def test_name_prefixes_break_at_underscores_and_case_changes():
     assert name_prefixes("imu") == ("imu",)
 
 
-def test_merge_is_a_partition_joining_near_chains_with_one_device_name():
+def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_category(toy):
     chains = [SubChain("cam_a_rgb", "mount", ("cam_a_rgb",), 1.0), SubChain("cam_a_depth", "mount", ("cam_a_depth",), 1.0),
-              SubChain("cam_b_rgb", "mount", ("cam_b_rgb",), 1.0), SubChain("cam_a_far", "elsewhere", ("cam_a_far",), 1.0)]
-    names = {"cam_a_rgb": "cam_a", "cam_a_depth": "cam_a", "cam_b_rgb": "cam_b", "cam_a_far": "cam_a"}
-    groups = merge(Oracle(ScriptedBackend(lambda q: names[q.key.split(":")[1]])), chains, "sensor")
-    assert sorted(sorted(g.leaves) for g in groups) == [["cam_a_depth", "cam_a_rgb"], ["cam_a_far"], ["cam_b_rgb"]]
+              SubChain("cam_b_rgb", "mount", ("cam_b_rgb",), 1.0), SubChain("cam_a_far", "elsewhere", ("cam_a_far",), 1.0),
+              SubChain("cam_a_led", "mount", ("cam_a_led",), 1.0)]
+    names = {"cam_a_rgb": "cam_a", "cam_a_depth": "cam_a", "cam_b_rgb": "cam_b", "cam_a_far": "cam_a", "cam_a_led": "cam_a"}
+    categories = dict.fromkeys(names, "VisionSensor") | {"cam_a_led": "ContactSensor"}
+    groups = merge(Oracle(ScriptedBackend(lambda q: names[q.key.split(":")[1]])), toy, chains, "sensor", categories)
+    assert sorted(sorted(g.leaves) for g in groups) == [["cam_a_depth", "cam_a_rgb"], ["cam_a_far"], ["cam_a_led"], ["cam_b_rgb"]]
 
 
-def test_end_effector_chains_on_one_mount_form_one_tool():
-    chains = [SubChain("finger1", "wrist", ("finger1",), 1.0), SubChain("thumb", "wrist", ("thumb",), 1.0)]
-    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), chains, "end_effector")
-    assert [g.leaves for g in groups] == [["finger1", "thumb"]]
+def test_end_effector_chains_merge_where_their_leaves_meet_inside_a_mount(toy):
+    jaw = SubChain("claw_jaw_a", "arm_flange", ("claw_base", "claw_jaw_a"), 1.0)
+    tcp = SubChain("claw_tcp", "claw_base", ("claw_tcp",), 1.0)
+    scanner = SubChain("front_scanner", "chassis", ("front_scanner",), 1.0)
+    groups = merge(Oracle(ScriptedBackend(perfect)), toy, [jaw, tcp, scanner], "end_effector", {})
+    assert sorted(sorted(g.leaves) for g in groups) == [["claw_jaw_a", "claw_tcp"], ["front_scanner"]]
+
+
+def test_groups_on_one_mount_are_joined(toy):
+    a = Group([SubChain("claw_jaw_a", "claw_base", ("claw_jaw_a",), 1.0)])
+    b = Group([SubChain("claw_tcp", "claw_base", ("claw_tcp",), 1.0)])
+    c = Group([SubChain("front_scanner", "chassis", ("front_scanner",), 1.0)])
+    joined = join_by_mount(toy, [a, b, c])
+    assert sorted(sorted(g.leaves) for g in joined) == [["claw_jaw_a", "claw_tcp"], ["front_scanner"]]
 
 
 def test_verification_reroots_a_device_that_carries_other_things(toy):

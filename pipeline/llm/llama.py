@@ -1,7 +1,9 @@
 """Embedded llama.cpp backend: whole-option scoring with a KV-cached shared prefix and batched decodes."""
 from __future__ import annotations
 
+import math
 import os
+import random
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -223,7 +225,14 @@ class LlamaBackend(Backend):
         self._slots[slot] = []
 
     def _decode_jobs(self, jobs: list[_Job], slot: int, n_prefix: int) -> list[list[float]]:
-        """One decode for all options of all jobs; option sequences copy the prefix from the slot."""
+        """Whole-option log-probabilities of every job, from one decode."""
+        logprobs, wanted = self._decode_rows(jobs, slot, n_prefix)
+        return [[self._option_logprob(logprobs, r, o) for r, o in zip(rows, job.options)]
+                for rows, job in zip(wanted, jobs)]
+
+    def _decode_rows(self, jobs: list[_Job], slot: int, n_prefix: int) -> tuple["_RowLogprobs", list[list[list[int]]]]:
+        """One decode for all options of all jobs (option sequences copy the prefix from the slot);
+        returns the row reader and, per job and option, the batch rows predicting each of its tokens."""
         entries, wanted = [], []
         first_seq = seq = len(self._slots)
         for job in jobs:
@@ -243,9 +252,7 @@ class LlamaBackend(Backend):
         try:
             self._fill(entries)
             self._decode()
-            logprobs = _RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab)
-            return [[self._option_logprob(logprobs, r, o) for r, o in zip(rows, job.options)]
-                    for rows, job in zip(wanted, jobs)]
+            return _RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab), wanted
         finally:
             for s in range(first_seq, seq):
                 self._lib.llama_memory_seq_rm(self._ctx.memory, s, -1, -1)
@@ -281,31 +288,49 @@ class LlamaBackend(Backend):
     # --- sampling ---------------------------------------------------------------------------
 
     def sample(self, question: Question, n: int, temperature: float) -> list[str]:
-        """n completions constrained by a grammar whose alternatives are exactly the options."""
-        from llama_cpp import LlamaGrammar
+        """n answers drawn token by token at `temperature`, each step restricted to the tokens that
+        continue some option (the option trie, as a grammar would constrain it).
 
-        prompt = self.prompt_tokens(question)
-        if self.llm._model.add_bos_token() and prompt[:1] == [self.llm.token_bos()]:
-            prompt = prompt[1:]  # create_completion adds the BOS itself
-        # the grammar may spell an option in more tokens than its usual tokenization: one per byte at worst
-        max_tokens = max(len(o.encode("utf-8")) for o in question.options) + 1
+        The rows every step needs are those scoring already computes, so all n draws come from one
+        decode. Within one row a tempered softmax over the allowed tokens is the same from logits
+        or from log-probabilities (they differ by a constant), so draws read the log-probabilities.
+        """
         try:
-            grammar = LlamaGrammar.from_string(gbnf(question.options), verbose=False)
-            return [self._complete(prompt, grammar, max_tokens, temperature) for _ in range(n)]
+            prefix, prompt = self.prefix_tokens(question.system), self.prompt_tokens(question)
+            shared = min(_common_prefix(prefix, prompt), len(prompt) - 1)
+            job = self._job(question, prompt, shared)
+            slot = self._load_prefix(prefix[:shared], job.size)
+            logprobs, (rows,) = self._decode_rows([job], slot, shared)
+            targets = [option + [self.eot] for option in job.options]
+            return [question.options[self._draw(targets, rows, logprobs, temperature)] for _ in range(n)]
         except BackendError:
             raise
         except Exception as exc:
+            self.reset()
             raise BackendError(f"{self.name}: sampling failed: {type(exc).__name__}: {exc}") from exc
 
-    def _complete(self, prompt: list[int], grammar, max_tokens: int, temperature: float) -> str:
-        cached = _common_prefix(self.llm._input_ids[: self.llm.n_tokens].tolist(), prompt)
+    def _draw(self, targets: list[list[int]], rows: list[list[int]], logprobs: "_RowLogprobs",
+              temperature: float) -> int:
+        """One walk down the option trie; returns the index of the option it ends in."""
         self._draws += 1
-        out = self.llm.create_completion(prompt, grammar=grammar, max_tokens=max_tokens, temperature=temperature,
-                                         seed=self.seed + self._draws)
-        self.stats.calls += 1
-        self.stats.prompt_tokens += len(prompt) - min(cached, len(prompt) - 1)
-        self.stats.generated_tokens += out["usage"]["completion_tokens"]
-        return out["choices"][0]["text"]
+        rng = random.Random(self.seed * 1_000_003 + self._draws)
+        alive, step = list(range(len(targets))), 0
+        while True:
+            branches: dict[int, list[int]] = {}
+            for i in alive:
+                branches.setdefault(targets[i][step], []).append(i)
+            tokens = list(branches)
+            scores = [logprobs(rows[alive[0]][step], t) for t in tokens]
+            if temperature <= 0:
+                pick = max(range(len(tokens)), key=scores.__getitem__)
+            else:
+                top = max(scores)
+                pick = rng.choices(range(len(tokens)), [math.exp((x - top) / temperature) for x in scores])[0]
+            alive = branches[tokens[pick]]
+            if tokens[pick] == self.eot:
+                return alive[0]
+            step += 1
+            self.stats.generated_tokens += 1
 
     def close(self) -> None:
         """Free the scoring context, the batch and the model."""
@@ -329,16 +354,6 @@ class _RowLogprobs:
             self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum())))
         logits, logz = self.rows[row]
         return float(logits[token] - logz)
-
-
-def gbnf(options: Sequence[str]) -> str:
-    """A GBNF grammar whose root is exactly one of the options."""
-    return "root ::= " + " | ".join(_literal(o) for o in options) + "\n"
-
-
-def _literal(text: str) -> str:
-    escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r").replace("\t", "\\t")
-    return f'"{escaped}"'
 
 
 def _common_prefix(a: Sequence[int], b: Sequence[int]) -> int:

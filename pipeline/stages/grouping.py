@@ -1,11 +1,14 @@
 """Stage 4, group merging: partition the classified sub-chains into physical devices.
 
-The model names each sub-chain's device: it picks, among the beginnings of the leaf's own name
-(a URDF identifier, so the answer set is finite and checkable), the part that names the whole
-device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). Sub-chains that are near each other
-in the tree (same mount, or sharing links) and carry the same device name form one device. For
-end-effectors, every sub-chain on one mount belongs to the one tool at that arm end, whatever
-its fingers are called. Each sub-chain lands in exactly one group: a partition by construction.
+Sensors: the model names each sub-chain's device, picking among the beginnings of the leaf's own
+name (a URDF identifier, so the answer set is finite and checkable) the part that names the whole
+device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). Sub-chains near each other in the
+tree (same mount, or sharing links), with the same device name and pre-classes in the same sensor
+category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and an
+accelerometer on one palm are not) form one device.
+End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
+at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called.
+Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
 
@@ -17,6 +20,7 @@ from ..oracle import Oracle
 from ..prompts import device_name_question
 from .asking import Progress, ask
 from .attachment import SubChain
+from ..tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 
@@ -50,10 +54,22 @@ def _near(a: SubChain, b: SubChain) -> bool:
     return a.root == b.root or bool(set(a.links) & set(b.links)) or a.root in b.links or b.root in a.links
 
 
-def merge(oracle: Oracle, chains: list[SubChain], kind: str, progress: Progress | None = None) -> list[Group]:
-    """Partition `chains` into devices (see the module docstring)."""
-    verdicts = ask(oracle, [device_name_question(c.leaf, name_prefixes(c.leaf)) for c in chains], "group merging", progress)
-    device = [v.answer or c.leaf for c, v in zip(chains, verdicts)]
+def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    below_b = set(tree.chain_to_root(b.leaf))
+    meet = next(link for link in tree.chain_to_root(a.leaf) if link in below_b)
+    return meet in a.links or meet in b.links or meet == a.root == b.root
+
+
+def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str, categories: dict[str, str],
+          progress: Progress | None = None) -> list[Group]:
+    """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category."""
+    if kind == END_EFFECTOR:
+        same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
+    else:
+        verdicts = ask(oracle, [device_name_question(c.leaf, name_prefixes(c.leaf)) for c in chains], "group merging", progress)
+        device = [v.answer or c.leaf for c, v in zip(chains, verdicts)]
+        same = [[device[i] == device[j] and categories[a.leaf] == categories[b.leaf] and _near(a, b)
+                 for j, b in enumerate(chains)] for i, a in enumerate(chains)]
     parent = list(range(len(chains)))
 
     def find(i: int) -> int:
@@ -62,11 +78,9 @@ def merge(oracle: Oracle, chains: list[SubChain], kind: str, progress: Progress 
             i = parent[i]
         return i
 
-    for i, a in enumerate(chains):
+    for i in range(len(chains)):
         for j in range(i):
-            b = chains[j]
-            same = (kind == END_EFFECTOR and a.root == b.root) or (device[i] == device[j] and _near(a, b))
-            if same:
+            if same[i][j]:
                 parent[find(i)] = find(j)
     groups: dict[int, Group] = {}
     for i, chain in enumerate(chains):
