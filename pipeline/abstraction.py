@@ -91,15 +91,31 @@ class Abstractor:
         return unclaimed
 
     def _post_classify(self, groups: list[Group], pre: dict[str, Typed], cls: str) -> list[Typed]:
-        """Multi-chain groups descend again given their members' classes; a lone chain keeps its class."""
-        multi = [g for g in groups if len(g.chains) > 1]
-        typed = descend(self.oracle, self.tax, cls, [
-            Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
-                    "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves))
-            for g in multi
-        ], "post-classification", self.progress)
-        by_group = {id(g): t for g, t in zip(multi, typed)}
-        return [by_group.get(id(g), pre[g.leaves[0]]) for g in groups]
+        """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
+
+        The descent starts at the deepest class common to the members' pre-classes, or one level
+        above it when that is a leaf class, so that siblings stay open (several sonar frames may
+        still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
+        """
+        typed = {id(g): pre[g.leaves[0]] for g in groups}
+        by_start: dict[str, list[Group]] = {}
+        for g in groups:
+            if len(g.chains) > 1:
+                by_start.setdefault(self._shared_class({pre[leaf].cls for leaf in g.leaves}, cls), []).append(g)
+        for start, members in by_start.items():
+            results = descend(self.oracle, self.tax, start, [
+                Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
+                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves))
+                for g in members
+            ], "post-classification", self.progress)
+            typed.update({id(g): t for g, t in zip(members, results)})
+        return [typed[id(g)] for g in groups]
+
+    def _shared_class(self, classes: set[str], top: str) -> str:
+        """The deepest class every one of `classes` falls under (at most `top`), lifted off a leaf."""
+        common = [c for c in (top, *self.tax.subclasses_below(top)) if all(self.tax.is_a(x, c) for x in classes)]
+        deepest = max(common, key=lambda c: len(self.tax.ancestors(c)))
+        return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
     def _components(self, tree: KinematicTree, kind: str, subpart_cls: str, label: str, groups: list[Group],
                     post: list[Typed]) -> list[Component]:

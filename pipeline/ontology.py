@@ -98,6 +98,10 @@ class Taxonomy:
         """Direct named subclasses, in the file's order."""
         return tuple(self._children[self._check(name)])
 
+    def subclasses_below(self, name: str) -> tuple[str, ...]:
+        """Every named class under `name`, in the file's order."""
+        return tuple(c for c in self._order if c != name and name in self.ancestors(c))
+
     def parents(self, name: str) -> tuple[str, ...]:
         """Direct named core superclasses (alignment classes such as sosa:Sensor excluded)."""
         return self._parents[self._check(name)]

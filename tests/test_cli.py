@@ -80,3 +80,18 @@ def test_console_script_help_lists_every_command():
     sub = subprocess.run([sys.executable, "-m", "kb_server.cli", "populate", "--help"], capture_output=True, text=True, check=True).stdout
     for option in ("--structure-only", "--format", "--trace", "--vote", "--votes", "--model", "--llm-url", "--quiet"):
         assert option in sub
+
+
+def test_a_failing_model_backend_is_a_clear_error_and_writes_nothing(tmp_path, capsys, monkeypatch):
+    import socket
+    monkeypatch.setenv("URDFKB_CACHE", str(tmp_path / "cache"))
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    out = tmp_path / "toy.owl"
+    out.write_text("earlier result")
+    code = main(["populate", str(TOY), "-o", str(out), "--llm-url", f"http://127.0.0.1:{port}/v1", "--llm-model", "m", "--quiet"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("urdfkb: error:") and f"127.0.0.1:{port}" in err
+    assert out.read_text() == "earlier result"

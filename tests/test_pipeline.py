@@ -120,8 +120,8 @@ def test_end_effector_chains_meeting_inside_a_mount_are_one_tool(toy):
             return "arm_fore"  # higher than the jaws' mount: the chains still meet at claw_base
         return perfect(q)
     (gripper,) = [c for c in abstract(toy, tcp_high) if c.kind == "end_effector"]
-    assert gripper.root == "arm_fore"
-    assert {"claw_jaw_a", "claw_jaw_b", "claw_tcp", "claw_status_light"} <= set(gripper.links)
+    assert gripper.root == "arm_flange"  # the deepest named mount that carries every chain
+    assert set(gripper.links) == {"claw_base", "claw_jaw_a", "claw_jaw_b", "claw_tcp", "claw_status_light"}
 
 
 @pytest.mark.parametrize("failure", [RuntimeError("model crashed"), TimeoutError("no answer")])
@@ -223,3 +223,16 @@ def test_trace_records_every_question(toy):
     records = [json.loads(line) for line in out.getvalue().splitlines()]
     assert {r["key"].split(":")[0] for r in records} >= {"identify", "root", "pre", "device", "post", "part"}
     assert all(r["answer"] in r["options"] for r in records)
+
+
+def test_post_classification_starts_from_what_the_members_share(toy):
+    asked = []
+
+    def spy(q):
+        asked.append(q.key)
+        return perfect(q)
+    abstract(toy, spy)
+    posts = [k for k in asked if k.startswith("post:")]
+    # colour (monocular) and depth frames share Camera: the group is asked below Camera, not Sensor
+    assert "post:mast_rgbd_color_optical@Camera" in posts
+    assert not any(k.endswith("@Sensor") for k in posts)

@@ -7,7 +7,8 @@ tree (same mount, or sharing links), with the same device name and pre-classes i
 category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and an
 accelerometer on one palm are not) form one device.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
-at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called.
+at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
+the tool's mount is the deepest mount the model named for any of its chains that carries them all.
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
@@ -19,7 +20,7 @@ from ..components import END_EFFECTOR
 from ..oracle import Oracle
 from ..prompts import device_name_question
 from .asking import Progress, ask
-from .attachment import SubChain
+from .attachment import SubChain, sub_chain
 from ..tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
@@ -85,4 +86,16 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     groups: dict[int, Group] = {}
     for i, chain in enumerate(chains):
         groups.setdefault(find(i), Group([])).chains.append(chain)
+    if kind == END_EFFECTOR:
+        for group in groups.values():
+            group.chains = _one_mount(tree, group.chains)
     return list(groups.values())
+
+
+def _one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
+    """Re-mount a tool's chains on the deepest named mount that is an ancestor of every leaf."""
+    carrying = [c.root for c in chains if all(c.root in tree.chain_to_root(x.leaf)[1:] for x in chains)]
+    if not carrying:
+        return chains
+    mount = max(carrying, key=lambda r: len(tree.chain_to_root(r)))
+    return [sub_chain(tree, c.leaf, mount, c.root_confidence) for c in chains]
