@@ -23,9 +23,21 @@ class _Job:
     suffix: list[int]
     options: list[list[int]]
 
+    def trie(self) -> dict[tuple[int, ...], list[int]]:
+        """Every distinct option token prefix → the indices of the options that start with it.
+
+        Options sharing leading tokens share those batch entries (a token may belong to several
+        sequences), so each distinct prefix is evaluated once. A prefix always comes after its parent.
+        """
+        nodes: dict[tuple[int, ...], list[int]] = {}
+        for i, option in enumerate(self.options):
+            for k in range(1, len(option) + 1):
+                nodes.setdefault(tuple(option[:k]), []).append(i)
+        return nodes
+
     @property
     def size(self) -> int:
-        return len(self.suffix) + sum(map(len, self.options))
+        return len(self.suffix) + len(self.trie())
 
 
 class LlamaBackend(Backend):
@@ -231,8 +243,9 @@ class LlamaBackend(Backend):
                 for rows, job in zip(wanted, jobs)]
 
     def _decode_rows(self, jobs: list[_Job], slot: int, n_prefix: int) -> tuple["_RowLogprobs", list[list[list[int]]]]:
-        """One decode for all options of all jobs (option sequences copy the prefix from the slot);
-        returns the row reader and, per job and option, the batch rows predicting each of its tokens."""
+        """One decode for all options of all jobs (option sequences copy the prefix from the slot; the
+        options of a job are laid out as a token trie); returns the row reader and, per job and
+        option, the batch rows predicting each of its tokens."""
         entries, wanted = [], []
         first_seq = seq = len(self._slots)
         for job in jobs:
@@ -243,12 +256,12 @@ class LlamaBackend(Backend):
             for k, t in enumerate(job.suffix):
                 entries.append((t, n_prefix + k, seqs, k == len(job.suffix) - 1))
             first_row = len(entries) - 1
-            rows = []
-            for s, option in zip(seqs, job.options):
-                start = len(entries)
-                entries += [(t, n_prefix + len(job.suffix) + k, (s,), True) for k, t in enumerate(option)]
-                rows.append([first_row] + list(range(start, len(entries))))
-            wanted.append(rows)
+            base, row_of = n_prefix + len(job.suffix), {}
+            for prefix, members in job.trie().items():
+                row_of[prefix] = len(entries)
+                entries.append((prefix[-1], base + len(prefix) - 1, tuple(seqs[i] for i in members), True))
+            wanted.append([[first_row] + [row_of[tuple(option[:k])] for k in range(1, len(option) + 1)]
+                           for option in job.options])
         try:
             self._fill(entries)
             self._decode()
