@@ -131,7 +131,7 @@ class Abstractor:
         framing = "What role does the link below play in its %s device? Choose the {concept}." % label
         rest = [
             (link, Subject(f"part:{link}", framing,
-                           f"Link: {link}\nDevice: {self.tax.label(t.cls)} with frames {', '.join(g.leaves)}",
+                           f"Link: {link}\nDevice: {self.tax.label(t.cls)}",
                            self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())))
             for g, t in zip(groups, post) for link in g.members if link not in optical
         ]

@@ -353,7 +353,8 @@ class LlamaBackend(Backend):
 
 
 class _RowLogprobs:
-    """log P(token) from the logits of one batch row; each row's normaliser is computed once."""
+    """log P(token) read in place from the logits of one batch row (valid until the next decode);
+    each row's normaliser is computed once."""
 
     def __init__(self, lib, ctx, n_vocab: int):
         self.lib, self.ctx, self.n_vocab = lib, ctx, n_vocab
@@ -362,11 +363,11 @@ class _RowLogprobs:
     def __call__(self, row: int, token: int) -> float:
         if row not in self.rows:
             ptr = self.lib.llama_get_logits_ith(self.ctx, row)
-            logits = np.ctypeslib.as_array(ptr, shape=(self.n_vocab,)).astype(np.float64)
-            top = logits.max()
-            self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum())))
+            logits = np.ctypeslib.as_array(ptr, shape=(self.n_vocab,))
+            top = float(logits.max())
+            self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum(dtype=np.float64))))
         logits, logz = self.rows[row]
-        return float(logits[token] - logz)
+        return float(logits[token]) - logz
 
 
 def _common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
