@@ -174,9 +174,9 @@ def test_name_prefixes_break_at_underscores_and_case_changes():
 
 
 def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_category(toy):
-    chains = [SubChain("cam_a_rgb", "mount", ("cam_a_rgb",), 1.0), SubChain("cam_a_depth", "mount", ("cam_a_depth",), 1.0),
-              SubChain("cam_b_rgb", "mount", ("cam_b_rgb",), 1.0), SubChain("cam_a_far", "elsewhere", ("cam_a_far",), 1.0),
-              SubChain("cam_a_led", "mount", ("cam_a_led",), 1.0)]
+    chains = [SubChain("cam_a_rgb", "mount", ("cam_a_rgb",)), SubChain("cam_a_depth", "mount", ("cam_a_depth",)),
+              SubChain("cam_b_rgb", "mount", ("cam_b_rgb",)), SubChain("cam_a_far", "elsewhere", ("cam_a_far",)),
+              SubChain("cam_a_led", "mount", ("cam_a_led",))]
     names = {"cam_a_rgb": "cam_a", "cam_a_depth": "cam_a", "cam_b_rgb": "cam_b", "cam_a_far": "cam_a", "cam_a_led": "cam_a"}
     categories = dict.fromkeys(names, "VisionSensor") | {"cam_a_led": "ContactSensor"}
     groups = merge(Oracle(ScriptedBackend(lambda q: names[q.key.split(":")[1]])), toy, chains, "sensor", categories)
@@ -184,25 +184,25 @@ def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_categ
 
 
 def test_end_effector_chains_merge_where_their_leaves_meet_inside_a_mount(toy):
-    jaw = SubChain("claw_jaw_a", "arm_flange", ("claw_base", "claw_jaw_a"), 1.0)
-    tcp = SubChain("claw_tcp", "claw_base", ("claw_tcp",), 1.0)
-    scanner = SubChain("front_scanner", "chassis", ("front_scanner",), 1.0)
+    jaw = SubChain("claw_jaw_a", "arm_flange", ("claw_base", "claw_jaw_a"))
+    tcp = SubChain("claw_tcp", "claw_base", ("claw_tcp",))
+    scanner = SubChain("front_scanner", "chassis", ("front_scanner",))
     groups = merge(Oracle(ScriptedBackend(perfect)), toy, [jaw, tcp, scanner], "end_effector", {})
     assert sorted(sorted(g.leaves) for g in groups) == [["claw_jaw_a", "claw_tcp"], ["front_scanner"]]
 
 
 def test_groups_on_one_mount_are_joined(toy):
-    a = Group([SubChain("claw_jaw_a", "claw_base", ("claw_jaw_a",), 1.0)])
-    b = Group([SubChain("claw_tcp", "claw_base", ("claw_tcp",), 1.0)])
-    c = Group([SubChain("front_scanner", "chassis", ("front_scanner",), 1.0)])
+    a = Group([SubChain("claw_jaw_a", "claw_base", ("claw_jaw_a",))])
+    b = Group([SubChain("claw_tcp", "claw_base", ("claw_tcp",))])
+    c = Group([SubChain("front_scanner", "chassis", ("front_scanner",))])
     joined = join_by_mount(toy, [a, b, c])
     assert sorted(sorted(g.leaves) for g in joined) == [["claw_jaw_a", "claw_tcp"], ["front_scanner"]]
 
 
 def test_verification_reroots_a_device_that_carries_other_things(toy):
     # mounted too high: the chassis-level chain would swallow the mast, which carries the camera
-    chain = SubChain("front_scanner", "chassis", ("front_scanner",), 1.0)
-    too_high = SubChain("mast_rgbd_color_optical", "chassis", ("mast", "mast_rgbd_body", "mast_rgbd_color_optical"), 1.0)
+    chain = SubChain("front_scanner", "chassis", ("front_scanner",))
+    too_high = SubChain("mast_rgbd_color_optical", "chassis", ("mast", "mast_rgbd_body", "mast_rgbd_color_optical"))
     notes = []
     groups = verify(toy, [Group([too_high]), Group([chain])], lambda link: False, notes.append)
     camera = next(g for g in groups if g.leaves == ["mast_rgbd_color_optical"])
@@ -210,7 +210,7 @@ def test_verification_reroots_a_device_that_carries_other_things(toy):
 
 
 def test_verification_absorbs_unclaimed_links(toy):
-    chain = SubChain("claw_tcp", "arm_flange", ("claw_base", "claw_tcp"), 1.0)
+    chain = SubChain("claw_tcp", "arm_flange", ("claw_base", "claw_tcp"))
     notes = []
     (group,) = verify(toy, [Group([chain])], lambda link: True, notes.append)
     assert set(group.members) == {"claw_base", "claw_tcp", "claw_jaw_a", "claw_jaw_b", "claw_status_light"}

@@ -26,13 +26,12 @@ class SubChain:
     leaf: str
     root: str
     links: tuple[str, ...]
-    root_confidence: float
 
 
-def sub_chain(tree: KinematicTree, leaf: str, root: str, confidence: float) -> SubChain:
+def sub_chain(tree: KinematicTree, leaf: str, root: str) -> SubChain:
     """The trimmed chain root (exclusive) → leaf."""
     chain = tree.chain_to_root(leaf)
-    return SubChain(leaf, root, tuple(reversed(chain[:chain.index(root)])), confidence)
+    return SubChain(leaf, root, tuple(reversed(chain[:chain.index(root)])))
 
 
 def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool]) -> list[str]:
@@ -52,11 +51,11 @@ def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind_la
     for leaf in leaves:
         candidates = mount_candidates(tree, leaf, blocked)
         if len(candidates) == 1:
-            chains[leaf] = sub_chain(tree, leaf, candidates[0], 1.0)
+            chains[leaf] = sub_chain(tree, leaf, candidates[0])
         else:
             asked.append((leaf, root_question(kind_label, leaf, candidates)))
     verdicts = ask(oracle, [q for _, q in asked], "attachment root detection", progress)
     for (leaf, q), v in zip(asked, verdicts):
         root = v.answer or q.options[0]  # an abstention mounts the device on its parent
-        chains[leaf] = sub_chain(tree, leaf, root, v.confidence)
+        chains[leaf] = sub_chain(tree, leaf, root)
     return [chains[leaf] for leaf in leaves]

@@ -98,4 +98,4 @@ def _one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
     if not carrying:
         return chains
     mount = max(carrying, key=lambda r: len(tree.chain_to_root(r)))
-    return [sub_chain(tree, c.leaf, mount, c.root_confidence) for c in chains]
+    return [sub_chain(tree, c.leaf, mount) for c in chains]

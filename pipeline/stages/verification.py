@@ -59,7 +59,7 @@ def _reroot(tree: KinematicTree, group: Group, member: str) -> None:
     chains = []
     for c in group.chains:
         if member in c.links:
-            c = SubChain(c.leaf, member, c.links[c.links.index(member) + 1:], c.root_confidence)
+            c = SubChain(c.leaf, member, c.links[c.links.index(member) + 1:])
         chains.append(c)
     group.chains = chains
     group.absorbed = [a for a in group.absorbed if member in tree.chain_to_root(a)[1:]]
