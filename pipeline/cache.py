@@ -1,6 +1,7 @@
-"""A result cache: an identical run (same URDF, model, ontology, settings) is answered from disk."""
+"""A result cache: an identical run (same robot, model, ontology, settings and code) is answered from disk."""
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -11,7 +12,15 @@ import platformdirs
 
 from .components import Abstraction
 
-SCHEMA = 1  # bump when the abstraction algorithm changes what it produces
+
+
+@functools.cache
+def code_version() -> str:
+    """A digest of the pipeline's own source: any change to prompts or stages misses old entries."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.rglob("*.py")):
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 def cache_dir() -> Path:
@@ -20,9 +29,10 @@ def cache_dir() -> Path:
     return Path(base) / "results"
 
 
-def key(urdf_sha256: str, model: str, ontology: str, settings: dict) -> str:
-    """A digest of everything that determines the result."""
-    blob = json.dumps([SCHEMA, urdf_sha256, model, ontology, settings], sort_keys=True)
+def key(tree_digest: str, model: str, ontology: str, settings: dict) -> str:
+    """A digest of everything that determines the result: the robot, the model, the ontology,
+    the settings and the pipeline code."""
+    blob = json.dumps([code_version(), tree_digest, model, ontology, settings], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
 

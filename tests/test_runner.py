@@ -77,3 +77,12 @@ def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     again = run(tree, Settings(), backend=ScriptedBackend(perfect))
     assert again == first
     assert cache.load(entry.stem) == first  # rewritten whole
+
+
+def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):
+    tree = load_urdf(TOY)
+    run(tree, Settings(), backend=ScriptedBackend(perfect))
+    monkeypatch.setattr(cache, "code_version", lambda: "an upgraded pipeline")
+    again = ScriptedBackend(perfect)
+    run(tree, Settings(), backend=again)
+    assert again.stats.calls > 0
