@@ -18,7 +18,7 @@ from .stages.attachment import detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
 from .stages.identification import identify
-from .stages.verification import group_root, join_by_mount, verify
+from .stages.verification import Log, group_root, join_by_mount, verify
 from .tree import KinematicTree
 
 # kind → (its class under Component, its branch under Subpart, how prompts name it)
@@ -26,7 +26,6 @@ PASSES = {
     SENSOR: ("Sensor", "SensorSubpart", "sensor"),
     END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
 }
-Log = Callable[[str], None]
 CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
 
 
@@ -127,7 +126,7 @@ class Abstractor:
         OpticalFrame, and the camera's other links are typed with optical frames ruled out.
         """
         optical = self._optical_frames(groups, post)
-        optical_branch = frozenset(c for c in self.tax._order if self.tax.is_a(c, OPTICAL_FRAME))
+        optical_branch = frozenset((OPTICAL_FRAME, *self.tax.subclasses_below(OPTICAL_FRAME)))
         framing = "What role does the link below play in its %s device? Choose the {concept}." % label
         rest = [
             (link, Subject(f"part:{link}", framing,

@@ -5,8 +5,8 @@ system text so the backend evaluates them once and reuses them from its KV cache
 text carries only what differs per question. Options are the classes' natural-language labels,
 or their skos:altLabel where a short phrase answers the question better (a small model reads
 "vision sensor" far better than "VisionSensor", and "color image" better than "RGB frame"); each
-Choice maps them back to ontology local names. Definitions and examples are the ontology's own rdfs:comment and
-skos:example, so the taxonomy, not this file, says what each class means.
+Choice maps them back to ontology local names. Definitions and examples are the ontology's own
+rdfs:comment and skos:example, so the taxonomy, not this file, says what each class means.
 """
 from __future__ import annotations
 

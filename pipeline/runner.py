@@ -6,7 +6,7 @@ import hashlib
 import json
 import time
 from dataclasses import dataclass
-from typing import Callable, Mapping, TextIO
+from typing import Mapping, TextIO
 
 from . import cache
 from .abstraction import Abstractor
@@ -14,9 +14,8 @@ from .components import Abstraction
 from .llm.base import Backend
 from .ontology import core_version, taxonomy
 from .oracle import Oracle
+from .stages.asking import Progress
 from .tree import KinematicTree
-
-Progress = Callable[[str, int, int], None]
 
 
 @dataclass(frozen=True)

@@ -1,10 +1,10 @@
 """Stage 2, attachment root detection: the link each selected leaf's device is mounted on.
 
 Code offers the candidates, the model picks. Candidates are the leaf's ancestors, nearest first,
-up to and including the first one that also carries something the device cannot contain (a
-leaf identified as another kind of component, or the mount of a device already abstracted):
-anything higher would make that link a member of the device with a child outside it, which
-verification must reject.
+up to and including the first one that also carries a leaf identified as another kind of
+component: anything higher would make that link a member of the device with a child outside it,
+which verification must reject. (The mount of a device abstracted in an earlier pass may lie
+inside: a sensor on a gripper's palm.)
 """
 from __future__ import annotations
 

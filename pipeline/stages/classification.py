@@ -3,8 +3,8 @@
 Each subject starts at a concept and goes down one level per question, choosing among the direct
 subclasses the ontology offers (minus those the schema rules out for the subject), until it
 reaches a leaf concept or the model abstains. A concept with a lone allowed subclass is no choice
-and is passed through without a question. Subjects at the same concept share one system prompt, so each
-level is asked breadth-first for all subjects at once.
+and is passed through without a question. Subjects at the same concept share one system prompt,
+so each level is asked breadth-first for all subjects at once.
 """
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Callable
 
 from ..tree import KinematicTree
-from .attachment import SubChain
+from .attachment import sub_chain
 from .grouping import Group
 
 Log = Callable[[str], None]
@@ -56,12 +56,7 @@ def _absorbable(tree: KinematicTree, outside: list[str], unclaimed: Callable[[st
 
 
 def _reroot(tree: KinematicTree, group: Group, member: str) -> None:
-    chains = []
-    for c in group.chains:
-        if member in c.links:
-            c = SubChain(c.leaf, member, c.links[c.links.index(member) + 1:])
-        chains.append(c)
-    group.chains = chains
+    group.chains = [sub_chain(tree, c.leaf, member) if member in c.links else c for c in group.chains]
     group.absorbed = [a for a in group.absorbed if member in tree.chain_to_root(a)[1:]]
 
 
