@@ -23,6 +23,7 @@ from pipeline.errors import URDFError
 from pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
 
 DEFAULT_MAX_BYTES = 10_000_000
+DEFAULT_MAX_LINKS = 5_000  # the largest real robots have a few hundred links
 MAX_DEPTH = 100  # real URDFs nest under 10 levels
 
 
@@ -57,18 +58,21 @@ _SHAPES = {
 }
 
 
-def load_urdf(source: str | os.PathLike | bytes, *, max_bytes: int = DEFAULT_MAX_BYTES) -> KinematicTree:
+def load_urdf(source: str | os.PathLike | bytes, *, max_bytes: int = DEFAULT_MAX_BYTES,
+              max_links: int = DEFAULT_MAX_LINKS) -> KinematicTree:
     """Read a URDF (bytes = the document, str/PathLike = a file path) into its kinematic tree.
 
-    Raises URDFError for oversize, hostile, malformed or structurally invalid input.
+    Raises URDFError for oversize, hostile, malformed or structurally invalid input, and for
+    more than `max_links` links or joints (checked before any per-element work).
     """
     robot = _parse_hardened(_read(source, max_bytes))
+    _check_counts(robot, max_links)
     _validate(robot)
     _drop_invalid_geometry(robot)
     return _tree_from(_parse_with_yourdfpy(robot), robot)
 
 
-# -- 1. size ---------------------------------------------------------------------------
+# -- 1. size and counts ----------------------------------------------------------------
 
 
 def _read(source: str | os.PathLike | bytes, max_bytes: int) -> bytes:
@@ -90,6 +94,13 @@ def _read(source: str | os.PathLike | bytes, max_bytes: int) -> bytes:
 def _check_size(size: int, max_bytes: int, where: str) -> None:
     if size > max_bytes:
         raise URDFError(f"URDF too large: over the {max_bytes}-byte limit ({size} bytes or more)", where)
+
+
+def _check_counts(robot: ET.Element, max_links: int) -> None:
+    for tag in ("link", "joint"):
+        count = sum(1 for child in robot if child.tag == tag)
+        if count > max_links:
+            raise URDFError(f"too many {tag}s: {count}, over the limit of {max_links}", "robot")
 
 
 # -- 2. hardened XML ----------------------------------------------------------------------

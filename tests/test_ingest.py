@@ -8,7 +8,7 @@ import pytest
 import yourdfpy
 
 from pipeline.errors import URDFError
-from pipeline.ingest import DEFAULT_MAX_BYTES, load_urdf
+from pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
 
 GOOD = b"""<?xml version="1.0"?>
 <!-- xacro leftovers: <xacro:property name="x" value="1"/> ${x} -->
@@ -130,6 +130,33 @@ def external_entity(url: str) -> bytes:
 <!DOCTYPE robot [ <!ENTITY xxe SYSTEM "{url}"> ]>
 <robot name="r"><link name="&xxe;"/></robot>
 """.encode()
+
+
+def star(links: int, extra_joints: int = 0) -> bytes:
+    """A base link with `links - 1` children (and `extra_joints` more joints naming nobody)."""
+    body = ['<link name="base"/>'] + [f'<link name="l{i}"/>' for i in range(1, links)]
+    body += [f'<joint name="j{i}" type="fixed"><parent link="base"/><child link="l{i}"/></joint>' for i in range(1, links)]
+    body += [f'<joint name="x{i}" type="fixed"><parent link="base"/><child link="nobody"/></joint>' for i in range(extra_joints)]
+    return robot("".join(body))
+
+
+def test_link_count_limit_is_generous_for_real_robots():
+    assert DEFAULT_MAX_LINKS == 5_000
+    assert len(load_urdf(star(200)).links) == 200
+    assert len(load_urdf(star(50), max_links=50).links) == 50
+
+
+def test_too_many_links_are_refused_before_any_per_element_work():
+    """50,000 links (5 MB, under the byte limit) would hold the store for minutes."""
+    document = star(50_000)
+    assert len(document) < DEFAULT_MAX_BYTES
+    error = refused(document, "too many links: 50000, over the limit of 5000")
+    assert error.element == "robot"
+    refused(star(101), "too many links: 101, over the limit of 100", max_links=100)
+
+
+def test_too_many_joints_are_refused():
+    refused(star(10, extra_joints=200), "too many joints: 209, over the limit of 100", max_links=100)
 
 
 def test_billion_laughs_is_refused_without_expansion():
