@@ -120,17 +120,25 @@ def test_http_out_of_set_answers_abstain(serve):
     assert v.answer is None and v.confidence == 0
 
 
-def test_http_500_is_backend_error(serve):
-    url, _ = serve(lambda body: (500, b'{"error": "model crashed"}'))
-    with pytest.raises(BackendError, match=r"127\.0\.0\.1.*HTTP 500.*model crashed"):
+def test_http_500_is_backend_error_that_never_quotes_the_body(serve):
+    url, _ = serve(lambda body: (500, b'{"error": "secret internal detail"}'))
+    with pytest.raises(BackendError, match=r"127\.0\.0\.1.*HTTP 500 Internal Server Error \(body of 35 bytes") as err:
         Oracle(OpenAIBackend(url, "m")).ask([q()])
+    assert "secret" not in str(err.value)
 
 
-@pytest.mark.parametrize("payload", [b"<html>not json", b'{"choices": [{"text": 1}]}', b"[1, 2]", b'{"choices": []}'])
-def test_http_garbage_is_backend_error(serve, payload):
+@pytest.mark.parametrize("payload", [b"<html>secret", b'{"choices": [{"text": "secret"}]}', b'["secret"]', b'{"choices": []}'])
+def test_http_garbage_is_backend_error_that_never_quotes_it(serve, payload):
     url, _ = serve(lambda body: (200, payload))
-    with pytest.raises(BackendError, match="127.0.0.1"):
+    with pytest.raises(BackendError, match="127.0.0.1") as err:
         OpenAIBackend(url, "m").sample(q(), 1, 0.7)
+    assert "secret" not in str(err.value)
+
+
+@pytest.mark.parametrize("url", ["file:///etc/passwd#", "ftp://127.0.0.1/x", "http:///v1", "127.0.0.1:8080"])
+def test_http_backend_opens_only_http_urls(url):
+    with pytest.raises(BackendError, match="must be http"):
+        OpenAIBackend(url, "m")
 
 
 def test_http_hang_times_out(serve):

@@ -3,20 +3,31 @@ from __future__ import annotations
 
 import json
 import socket
+from http import HTTPStatus
 import urllib.error
+import urllib.parse
 import urllib.request
 from typing import Sequence
 
 from ..errors import BackendError
 from .base import Backend, Question, Stats
 
+MAX_REPLY = 10_000_000  # a chat completion of a few short answers is a few kilobytes
+
 
 class OpenAIBackend(Backend):
-    """Samples answers from `/v1/chat/completions`; no log-probabilities, so the Oracle votes by sampling."""
+    """Samples answers from `/v1/chat/completions`; no log-probabilities, so the Oracle votes by sampling.
+
+    Only http(s) URLs are opened, and errors never quote what the server sent (a status and a
+    length), so a URL pointed at some other service cannot be used to read it.
+    """
 
     exposes_logits = False
 
     def __init__(self, base_url: str, model: str, api_key: str | None = None, timeout: float = 60):
+        parts = urllib.parse.urlsplit(base_url)
+        if parts.scheme not in ("http", "https") or not parts.hostname:
+            raise BackendError(f"LLM server URL must be http:// or https:// with a host, not {base_url[:100]!r}")
         base = base_url.rstrip("/")
         self.url = base + ("/chat/completions" if base.endswith("/v1") else "/v1/chat/completions")
         self.name = f"openai:{base_url}:{model}"
@@ -50,7 +61,7 @@ class OpenAIBackend(Backend):
         try:
             texts = [c["message"]["content"] or "" for c in reply["choices"]]
         except (KeyError, TypeError) as exc:
-            raise BackendError(f"{self.name}: malformed response from {self.url}: {str(reply)[:200]}") from exc
+            raise BackendError(f"{self.name}: {self.url} answered JSON without choices[].message.content") from exc
         if not texts:
             raise BackendError(f"{self.name}: no choices in the response from {self.url}")
         usage = reply.get("usage") or {}
@@ -66,18 +77,28 @@ class OpenAIBackend(Backend):
         self.stats.calls += 1
         try:
             with urllib.request.urlopen(request, timeout=self.timeout) as response:
-                raw = response.read()
+                raw = response.read(MAX_REPLY + 1)
         except urllib.error.HTTPError as exc:
-            detail = exc.read()[:200].decode("utf-8", "replace")
-            raise BackendError(f"{self.name}: {self.url} answered HTTP {exc.code}: {detail}") from exc
+            raise BackendError(f"{self.name}: {self.url} answered HTTP {exc.code} {_phrase(exc.code)} "
+                               f"(body of {len(exc.read(MAX_REPLY))} bytes not shown)") from exc
         except (TimeoutError, socket.timeout) as exc:
             raise BackendError(f"{self.name}: {self.url} timed out after {self.timeout}s") from exc
         except (urllib.error.URLError, OSError) as exc:
             raise BackendError(f"{self.name}: cannot reach {self.url}: {getattr(exc, 'reason', exc)}") from exc
+        if len(raw) > MAX_REPLY:
+            raise BackendError(f"{self.name}: {self.url} answered more than {MAX_REPLY} bytes")
         try:
             reply = json.loads(raw)
-        except ValueError as exc:
-            raise BackendError(f"{self.name}: {self.url} sent malformed JSON: {raw[:200]!r}") from exc
+        except ValueError:
+            reply = None
         if not isinstance(reply, dict):
-            raise BackendError(f"{self.name}: {self.url} sent malformed JSON: {raw[:200]!r}")
+            raise BackendError(f"{self.name}: {self.url} answered {len(raw)} bytes that are not a JSON object")
         return reply
+
+
+def _phrase(code: int) -> str:
+    """The standard reason phrase (the server's own one is its text, not shown)."""
+    try:
+        return HTTPStatus(code).phrase
+    except ValueError:
+        return ""
