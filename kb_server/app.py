@@ -2,10 +2,12 @@
 
 Writes (SPARQL updates, DELETE /robots/<name>, and POST /populate when a token is configured)
 need `Authorization: Bearer <token>`; with no token configured, updates and deletes are refused.
+Every request first passes the checks of kb_server.security (Host, cross-site writes).
 """
 from __future__ import annotations
 
 import hmac
+import threading
 
 import rdflib
 from flask import Flask, Response, jsonify, request
@@ -13,37 +15,48 @@ from rdflib.namespace import RDF
 from werkzeug.exceptions import HTTPException
 
 from kb_server import queries
-from kb_server.jobs import JobManager
+from kb_server.jobs import JobManager, QueueFull
+from kb_server.security import Policy, Refused
 from kb_server.sparql import QueryError, QueryTimeout, Result, negotiate, offers_for, serialize
 from kb_server.store import EXPORT_FORMATS, RobotNameError, Store, check_robot_name
 from pipeline.errors import URDFError
-from pipeline.ingest import load_urdf
+from pipeline.ingest import DEFAULT_MAX_LINKS, load_urdf
 from pipeline.runner import Settings
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
-MAX_WAIT = 600.0
+MAX_WAIT = 30.0
 
 
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = 10_000_000,
-               query_timeout: float = 10.0) -> Flask:
-    """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413."""
+               query_timeout: float = 10.0, policy: Policy | None = None, max_links: int = DEFAULT_MAX_LINKS,
+               max_waiters: int = 4) -> Flask:
+    """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
+
+    `policy` (default: a loopback server with nothing opened) checks every request; at most
+    `max_waiters` clients wait on a job at once (GET /jobs/<id>?wait=1), so waits never hold
+    every server thread."""
     app = Flask(__name__)
     app.config["MAX_CONTENT_LENGTH"] = max_body
+    policy = policy or Policy()
+    waiters = threading.BoundedSemaphore(max_waiters)
 
     def authorized() -> bool:
         sent = request.headers.get("Authorization", "")
         return bool(token) and hmac.compare_digest(sent.encode(), f"Bearer {token}".encode())
 
     def error(status: int, message: str, plain: bool = False) -> Response:
+        """A refusal as JSON, or as text for /sparql; a lone surrogate in `message` is escaped, never a 500."""
         if plain:
-            return Response(message + "\n", status, mimetype="text/plain")
+            return Response((message + "\n").encode("utf-8", "backslashreplace"), status, mimetype="text/plain")
         return Response(jsonify(error=message).get_data(), status, mimetype="application/json")
+
+    policy.install(app, lambda status, message: error(status, message, request.path == "/sparql"))
 
     def results(result: Result) -> Response:
         media = negotiate(request.headers.get("Accept"), offers_for(result))
-        if media is None:
-            return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(offers_for(result))}", True)
+        if media is None:  # the Accept header is never echoed
+            return error(406, f"no media type the Accept header allows is offered; offered: {', '.join(offers_for(result))}", True)
         charset = "" if media.endswith("+xml") or media == "application/rdf+xml" else "; charset=utf-8"
         return Response(serialize(result, media), 200, content_type=media + charset)
 
@@ -135,18 +148,25 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         if not data:
             return error(400, "empty body: send the URDF as the raw body or as multipart field 'urdf'")
         try:
-            settings = Settings.from_mapping(fields)
+            settings = policy.check_settings(Settings.from_mapping(fields))
         except ValueError as e:
             return error(400, f"bad pipeline settings: {e}")
+        except Refused as e:
+            return error(e.status, str(e))
         try:
-            tree = load_urdf(data, max_bytes=max_body)
+            tree = load_urdf(data, max_bytes=max_body, max_links=max_links)
         except URDFError as e:
             return error(400, f"not a valid URDF: {e}")
         try:
             name = check_robot_name(name or tree.robot_name)
         except RobotNameError as e:
             return error(400, f"{e}: pass ?name=...")
-        job = jobs.submit(tree, name, settings)
+        try:
+            job = jobs.submit(tree, name, settings)
+        except QueueFull as e:
+            resp = error(429, str(e))
+            resp.headers["Retry-After"] = str(e.retry_after)
+            return resp
         resp = jsonify(job.to_dict())
         resp.status_code = 202
         resp.headers["Location"] = f"/jobs/{job.id}"
@@ -156,13 +176,23 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     def job_status(job_id: str):
         job = jobs.get(job_id)
         if job is None:
-            return error(404, f"no job {job_id!r}")
+            return error(404, f"no job {job_id[:64]!r}: {jobs.retention}")
         if request.args.get("wait") not in (None, "", "0", "false"):
             try:
-                timeout = min(float(request.args.get("timeout", MAX_WAIT)), MAX_WAIT)
+                timeout = float(request.args.get("timeout", MAX_WAIT))
             except ValueError:
-                return error(400, "timeout must be a number of seconds")
-            job.wait(timeout)
+                timeout = -1.0
+            if not 0 <= timeout:  # also NaN
+                return error(400, f"timeout must be a number of seconds (at most {MAX_WAIT:g} are waited)")
+            timeout = min(timeout, MAX_WAIT)
+            if not waiters.acquire(blocking=False):
+                resp = error(429, f"{max_waiters} clients are already waiting on jobs: poll without wait=1, or retry")
+                resp.headers["Retry-After"] = "1"
+                return resp
+            try:
+                job.wait(timeout)
+            finally:
+                waiters.release()
         return jsonify(job.to_dict())
 
     # --- robots ----------------------------------------------------------------------------

@@ -56,11 +56,16 @@ def _settings(args: argparse.Namespace, structure_only: bool = False):
     return settings
 
 
-def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, max_bytes: int):
+def _limits(args: argparse.Namespace) -> dict:
+    """load_urdf's size and count limits from the command line (the library's defaults where not given)."""
+    return {k: v for k in ("max_bytes", "max_links") if (v := getattr(args, k, None)) is not None}
+
+
+def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, limits: dict):
     """Ingest and abstract one URDF; returns (tree, robot name, abstraction, seconds)."""
     from pipeline.ingest import load_urdf
     from pipeline.runner import run
-    tree = load_urdf(urdf, max_bytes=max_bytes)
+    tree = load_urdf(urdf, **limits)
     bars = StageBars(quiet)
     started = time.monotonic()
     with open(trace_path, "w") if trace_path else contextlib.nullcontext() as trace:
@@ -81,7 +86,7 @@ def cmd_populate(args: argparse.Namespace) -> int:
     from pipeline.export import export_robot, robot_graph
     from pipeline.shacl import validate
     settings = _settings(args, args.structure_only)
-    tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, args.max_bytes)
+    tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, _limits(args))
     onto = _robot_ontology(tree, name, abstraction)
     conforms, report = validate(robot_graph(onto))
     if not conforms:
@@ -154,7 +159,9 @@ def cmd_model(args: argparse.Namespace) -> int:
 def cmd_serve(args: argparse.Namespace) -> int:
     from kb_server.serve import serve
     serve(store_path=args.store, host=args.host, port=args.port, token=args.token or os.environ.get("URDFKB_TOKEN"),
-          remote_store=args.remote_store, populate=args.populate)
+          remote_store=args.remote_store, populate=args.populate, allowed_hosts=args.allowed_host,
+          model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
+          **_limits(args))
     return 0
 
 
@@ -177,7 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
     p.add_argument("--structure-only", action="store_true", help="skip the model: links and joints only")
     p.add_argument("--trace", metavar="FILE", help="write a JSON-lines audit of every question: candidates, distribution, answer")
-    p.add_argument("--max-bytes", type=int, default=10_000_000, help="refuse URDFs larger than this (default 10 MB)")
+    p.add_argument("--max-bytes", type=int, help="refuse URDFs larger than this (default 10 MB)")
+    p.add_argument("--max-links", type=int, help="refuse URDFs with more links or joints than this (default 5,000)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     _add_model_options(p)
     p.set_defaults(func=cmd_populate)
@@ -207,6 +215,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--token", help="bearer token allowing SPARQL updates and deletions (or env URDFKB_TOKEN)")
     p.add_argument("--remote-store", metavar="URL", help="mirror every robot as a named graph into this SPARQL 1.1 Graph Store endpoint")
     p.add_argument("--populate", metavar="URDF", action="append", default=[], help="populate this URDF into the store before serving (repeatable)")
+    g = p.add_argument_group("security (what strangers may make the server do; see README, Security)")
+    g.add_argument("--allowed-host", metavar="NAME", action="append", default=[], help="also answer to this Host name, or NAME:PORT (repeatable; default: only the bind address, or the loopback names on a loopback bind)")
+    g.add_argument("--model-dir", metavar="DIR", help="let POST /populate choose model=FILE.gguf among the GGUF files of this directory (default: model= refused)")
+    g.add_argument("--allow-llm-url", metavar="URL", action="append", default=[], help="let POST /populate use this OpenAI-compatible http(s) server as llm_url (repeatable; default: llm_url= refused)")
+    g.add_argument("--insecure-no-token", action="store_true", help="serve on a non-loopback --host without --token: anyone who can reach the port can populate robots")
+    g.add_argument("--max-links", type=int, help="refuse URDFs with more links or joints than this (default 5,000)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

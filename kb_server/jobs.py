@@ -4,6 +4,8 @@ Job states: queued -> running -> succeeded | failed | mirror_failed. `mirror_fai
 robot *was* stored and is served locally, but the remote store (--remote-store) was not updated;
 the reason is in `errors`; re-populating the robot, or restarting the server (mirror_all), retries. A failed job leaves the
 store as it was. Jobs for the same robot run one after the other (a lock per robot name).
+At most `max_queued` jobs wait for a worker (QueueFull beyond), and finished jobs are forgotten
+after `keep_seconds` or when more than `keep` have finished since.
 """
 from __future__ import annotations
 
@@ -27,6 +29,14 @@ log = logging.getLogger(__name__)
 
 Runner = Callable[[KinematicTree, Settings, Progress], Abstraction]
 FINISHED = ("succeeded", "failed", "mirror_failed")
+
+
+class QueueFull(Exception):
+    """Too many populate jobs are waiting for a worker; retry after `retry_after` seconds."""
+
+    def __init__(self, message: str, retry_after: int):
+        super().__init__(message)
+        self.retry_after = retry_after
 
 
 def pipeline_runner(tree: KinematicTree, settings: Settings, progress: Progress) -> Abstraction:
@@ -61,32 +71,44 @@ class Job:
 
 
 class JobManager:
-    """Runs populate jobs on a small thread pool and remembers the last `keep` of them."""
+    """Runs populate jobs on a small thread pool; remembers unfinished jobs and recently finished ones."""
 
     def __init__(self, store: Store, runner: Runner = pipeline_runner, remote: RemoteStore | None = None,
-                 workers: int = 2, keep: int = 1000):
+                 workers: int = 2, max_queued: int = 8, keep: int = 100, keep_seconds: float = 3600.0):
         self.store = store
         self.runner = runner
         self.remote = remote
-        self.keep = keep
+        self.max_queued, self.keep, self.keep_seconds = max_queued, keep, keep_seconds
+        self.retention = (f"finished jobs are kept for {keep_seconds / 60:g} minutes, "
+                          f"and only the last {keep} of them")
         self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="urdfkb-job")
         self._jobs: OrderedDict[str, Job] = OrderedDict()
         self._robot_locks: dict[str, threading.Lock] = {}
         self._guard = threading.Lock()
 
     def submit(self, tree: KinematicTree, robot: str, settings: Settings) -> Job:
-        """Queue populating `robot` from an already ingested tree; returns at once."""
+        """Queue populating `robot` from an already ingested tree; returns at once (QueueFull if full)."""
         job = Job(uuid.uuid4().hex, robot)
         with self._guard:
+            self._expire()
+            if sum(j.state == "queued" for j in self._jobs.values()) >= self.max_queued:
+                raise QueueFull(f"{self.max_queued} populate jobs are already queued; retry later", 30)
             self._jobs[job.id] = job
-            while len(self._jobs) > self.keep:
-                self._jobs.popitem(last=False)
         self._pool.submit(self._run, job, tree, settings)
         return job
 
     def get(self, job_id: str) -> Job | None:
         with self._guard:
+            self._expire()
             return self._jobs.get(job_id)
+
+    def _expire(self) -> None:
+        """Forget finished jobs older than keep_seconds, and all but the newest `keep` finished (under _guard)."""
+        finished = sorted((j for j in self._jobs.values() if j.finished is not None), key=lambda j: j.finished)
+        cutoff = time.time() - self.keep_seconds
+        for i, job in enumerate(finished):
+            if job.finished < cutoff or i < len(finished) - self.keep:
+                del self._jobs[job.id]
 
     def delete_robot(self, robot: str):
         """Delete a robot (after any job on it) and its remote graph.

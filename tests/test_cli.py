@@ -44,6 +44,16 @@ def test_a_bad_urdf_is_a_clear_error_and_writes_nothing(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_max_links_and_max_bytes_limit_populate(tmp_path, capsys):
+    out = tmp_path / "toy.owl"
+    assert main(["populate", str(TOY), "--structure-only", "--max-links", "16", "-o", str(out)]) == 2
+    assert "too many links: 17, over the limit of 16" in capsys.readouterr().err
+    assert main(["populate", str(TOY), "--structure-only", "--max-bytes", "100", "-o", str(out)]) == 2
+    assert "over the 100-byte limit" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["populate", str(TOY), "--structure-only", "--max-links", "17", "-o", str(out)]) == 0
+
+
 def test_an_existing_output_survives_a_failed_populate(tmp_path):
     out = tmp_path / "robot.owl"
     out.write_text("earlier result")

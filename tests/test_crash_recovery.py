@@ -56,7 +56,7 @@ class Server:
         raise RuntimeError("server did not start")
 
     def populate(self, urdf: Path, query: str = "") -> str:
-        status, _, out = http("POST", f"{self.base}/populate{query}", urdf.read_bytes())
+        status, _, out = http("POST", f"{self.base}/populate{query}", urdf.read_bytes(), {"Content-Type": "application/xml"})
         assert status == 202
         return json.loads(out)["id"]
 
