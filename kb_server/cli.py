@@ -185,7 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--structure-only", action="store_true", help="skip the model: links and joints only")
     p.add_argument("--trace", metavar="FILE", help="write a JSON-lines audit of every question: candidates, distribution, answer")
     p.add_argument("--max-bytes", type=int, help="refuse URDFs larger than this (default 10 MB)")
-    p.add_argument("--max-links", type=int, help="refuse URDFs with more links or joints than this (default 5,000)")
+    p.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     _add_model_options(p)
     p.set_defaults(func=cmd_populate)
@@ -220,7 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--model-dir", metavar="DIR", help="let POST /populate choose model=FILE.gguf among the GGUF files of this directory (default: model= refused)")
     g.add_argument("--allow-llm-url", metavar="URL", action="append", default=[], help="let POST /populate use this OpenAI-compatible http(s) server as llm_url (repeatable; default: llm_url= refused)")
     g.add_argument("--insecure-no-token", action="store_true", help="serve on a non-loopback --host without --token: anyone who can reach the port can populate robots")
-    g.add_argument("--max-links", type=int, help="refuse URDFs with more links or joints than this (default 5,000)")
+    g.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

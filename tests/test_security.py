@@ -426,3 +426,12 @@ def test_lone_surrogate_in_an_error_message_is_escaped_not_a_500(kb):
                headers={"Authorization": "Bearer t"})
     assert 400 <= r.status_code < 500
     r.get_data().decode("utf-8")  # well-formed
+
+
+def test_bad_security_options_stop_the_server_with_a_clear_error(tmp_path):
+    for options, message in ((dict(model_dir=tmp_path / "nope"), "--model-dir .*not a directory"),
+                             (dict(llm_urls=["ftp://llm.lan"]), "--allow-llm-url .*http:// or https://"),
+                             (dict(llm_urls=["http://llm.lan/v1#x"]), "no credentials, query or fragment"),
+                             (dict(allowed_hosts=["a:b:c"]), "--allowed-host 'a:b:c'")):
+        with pytest.raises(UrdfkbError, match=message):
+            make_server(tmp_path / "kb.sqlite3", port=0, **options)
