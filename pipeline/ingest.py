@@ -19,6 +19,7 @@ import defusedxml.ElementTree as DET
 import yourdfpy
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
+from pipeline import evidence
 from pipeline.errors import URDFError
 from pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
 
@@ -280,14 +281,14 @@ def _parse_with_yourdfpy(robot: ET.Element) -> yourdfpy.URDF:
 
 
 def _tree_from(model: yourdfpy.URDF, robot: ET.Element) -> KinematicTree:
-    """Names, types and links from yourdfpy; origins as written in the validated document."""
+    """Names, types and links from yourdfpy; origins and per-link evidence from the validated document."""
     origins = {joint.get("name"): _origin(joint.find("origin")) for joint in robot.findall("joint")}
     links = tuple(link.name for link in model.robot.links)
     validated_links = tuple(link.get("name") for link in robot.findall("link"))
     if links != validated_links or [j.name for j in model.robot.joints] != list(origins):
         raise URDFError("yourdfpy read other links or joints than were validated", "robot")
     edges = tuple(Edge(j.name, j.type, j.parent, j.child, origins[j.name]) for j in model.robot.joints)
-    return KinematicTree(model.robot.name, links, edges)
+    return KinematicTree(model.robot.name, links, edges, evidence.extract(robot, links))
 
 
 def _origin(element: ET.Element | None) -> Origin:

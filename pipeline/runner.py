@@ -89,8 +89,9 @@ def _backend_id(settings: Settings, backend: Backend | None) -> str:
 
 
 def tree_digest(tree: KinematicTree) -> str:
-    """A digest of everything in the tree the pipeline reads (names, edges, joint types, origins)."""
-    blob = json.dumps([tree.robot_name, tree.links, [dataclasses.asdict(e) for e in tree.edges]])
+    """A digest of everything in the tree the pipeline reads (names, edges, joint types, origins, evidence)."""
+    evidence = {link: dataclasses.asdict(facts) for link, facts in sorted(tree.evidence.items())}
+    blob = json.dumps([tree.robot_name, tree.links, [dataclasses.asdict(e) for e in tree.edges], evidence])
     return hashlib.sha256(blob.encode()).hexdigest()
 
 

@@ -1,9 +1,11 @@
 """The kinematic tree of a robot: links joined by joints, one root, no cycles."""
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from math import cos, sin
+
+from .evidence import LinkEvidence
 
 JOINT_TYPES = ("fixed", "revolute", "continuous", "prismatic", "floating", "planar")
 
@@ -132,6 +134,7 @@ class KinematicTree:
     robot_name: str
     links: tuple[str, ...]
     edges: tuple[Edge, ...]
+    evidence: Mapping[str, LinkEvidence] = field(default_factory=dict, hash=False)  # link → what the URDF says of it
     root: str = field(init=False)
     _parent_edge: dict[str, Edge] = field(init=False, repr=False, compare=False)
     _children: dict[str, tuple[str, ...]] = field(init=False, repr=False, compare=False)
@@ -183,6 +186,15 @@ class KinematicTree:
             chain.append(edge.parent)
         return tuple(chain)
 
+    def own_chain(self, link: str, limit: int = 3) -> tuple[str, ...]:
+        """`link` and the ancestors that carry nothing else (each the only child of the next), nearest
+        first, at most `limit` links and never the root: the body a leaf frame is part of."""
+        chain = [self._known(link)]
+        while len(chain) < limit and (parent := self.parent(chain[-1])) not in (None, self.root) \
+                and len(self._children[parent]) == 1:
+            chain.append(parent)
+        return tuple(chain)
+
     def descendants(self, link: str) -> tuple[str, ...]:
         """All links below `link`, depth-first in document order, excluding `link`."""
         found: list[str] = []
@@ -225,4 +237,5 @@ class KinematicTree:
             self.robot_name,
             tuple(link for link in self.links if link not in removed),
             tuple(edge for edge in self.edges if edge.child not in removed),
+            {link: facts for link, facts in self.evidence.items() if link not in removed},
         )

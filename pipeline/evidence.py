@@ -1,0 +1,254 @@
+"""What a URDF says about each link besides its name: meshes, geometry, mass, simulator sensors.
+
+Extracted once at ingestion from the validated document and carried by the KinematicTree, then
+rendered as a few words in the questions that concern a link (the model still decides). Simulator
+sensor declarations use SDF's closed vocabulary of sensor types (`camera`, `depth`, `ray`, `imu`,
+`contact`, ...); the older Gazebo form `<sensor:camera>` / `<sensor:ray>` of PR2-era files is read
+as the same types. A declaration is attached to the link it references and to the link its
+plugin publishes in (`frameName`), when that is another link of the robot.
+"""
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from typing import Iterable, Mapping
+
+MAX_MESHES = 2  # mesh stems shown per link (visual first)
+_PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
+
+
+@dataclass(frozen=True)
+class SimSensor:
+    """One simulator sensor declaration: its SDF type, plugin library stems and a short detail."""
+
+    type: str
+    plugins: tuple[str, ...] = ()
+    detail: str = ""
+
+    def text(self) -> str:
+        extra = [self.detail] if self.detail else []
+        extra += [f"plugin {p}" for p in self.plugins]
+        return f"simulated {self.type} sensor" + (f" ({', '.join(extra)})" if extra else "")
+
+
+@dataclass(frozen=True)
+class LinkEvidence:
+    """Facts about one link: mesh file stems, its first primitive shape, mass, declared sensors."""
+
+    meshes: tuple[str, ...] = ()
+    shape: str = ""            # "box 0.1x0.2x0.3 m", "cylinder r=0.05 l=0.1 m", "sphere r=0.02 m", or ""
+    mass: float | None = None  # None when the link has no <inertial>
+    sensors: tuple[SimSensor, ...] = ()
+
+    @property
+    def is_pure_frame(self) -> bool:
+        """No geometry at all: a coordinate frame rather than a body."""
+        return not self.meshes and not self.shape
+
+    def text(self, sensors: bool = True) -> str:
+        """The facts in a few words, or '' when the link has none worth saying; `sensors=False` leaves
+        out the declared simulator sensors."""
+        parts = [f"mesh {', '.join(self.meshes)}"] if self.meshes else []
+        if self.shape:
+            parts.append(self.shape)
+        if self.is_pure_frame:
+            parts.append("no geometry" + (", massless" if not self.mass else ""))
+        parts += [s.text() for s in self.sensors] if sensors else []
+        return "; ".join(parts)
+
+
+def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
+    """Evidence for every link of a validated <robot> element."""
+    known = set(links)
+    sensors = _declared_sensors(robot, known)
+    found = {}
+    for link in robot.findall("link"):
+        name = link.get("name", "")
+        if name in known:
+            declared = tuple(dict.fromkeys(sensors.get(name, ())))  # one sensor may name a link twice
+            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared)
+    return found
+
+
+def describe(evidence: Mapping[str, LinkEvidence], links: Iterable[str], sensors: bool = True) -> list[str]:
+    """'link: facts' lines for those of `links` that have facts, in the given order."""
+    lines = []
+    for link in links:
+        text = evidence[link].text(sensors) if link in evidence else ""
+        if text:
+            lines.append(f"{link}: {text}")
+    return lines
+
+
+# -- geometry ---------------------------------------------------------------------------
+
+
+def _meshes(link: ET.Element) -> tuple[str, ...]:
+    stems = []
+    for part in ("visual", "collision"):
+        for mesh in link.findall(f"{part}/geometry/mesh"):
+            stem = mesh_stem(mesh.get("filename", ""))
+            if stem and stem not in stems:
+                stems.append(stem)
+    return tuple(stems[:MAX_MESHES])
+
+
+def mesh_stem(filename: str) -> str:
+    """The informative end of a mesh path: what follows its `meshes` folder (or its package),
+    at most two components, without extension ('package://p/meshes/sensors/lds.stl' → 'sensors/lds')."""
+    path = re.sub(r"^[a-z]+://", "", filename).replace("\\", "/").strip("/")
+    parts = [p for p in path.split("/") if p]
+    if not parts:
+        return ""
+    lowered = [p.lower() for p in parts]
+    if "meshes" in lowered[:-1]:
+        parts = parts[len(lowered) - lowered[::-1].index("meshes"):]
+    elif len(parts) > 1 and filename.startswith("package://"):
+        parts = parts[1:]
+    parts[-1] = parts[-1].rsplit(".", 1)[0]
+    return "/".join(parts[-2:])
+
+
+def _shape(link: ET.Element) -> str:
+    for part in ("visual", "collision"):
+        geometry = link.find(f"{part}/geometry")
+        if geometry is None:
+            continue
+        for shape in geometry:
+            text = _shape_text(shape)
+            if text:
+                return text
+    return ""
+
+
+def _shape_text(shape: ET.Element) -> str:
+    try:
+        if shape.tag == "box":
+            return "box " + "x".join(_num(v) for v in shape.get("size", "").split()) + " m"
+        if shape.tag == "cylinder":
+            return f"cylinder r={_num(shape.get('radius'))} l={_num(shape.get('length'))} m"
+        if shape.tag == "sphere":
+            return f"sphere r={_num(shape.get('radius'))} m"
+    except (TypeError, ValueError):
+        return ""
+    return ""
+
+
+def _num(value: str | None) -> str:
+    return f"{float(value):.3g}"  # type: ignore[arg-type]
+
+
+def _mass(link: ET.Element) -> float | None:
+    mass = link.find("inertial/mass")
+    if mass is None:
+        return None
+    try:
+        value = float(mass.get("value", "0"))
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
+
+
+# -- simulator sensors ------------------------------------------------------------------
+
+
+def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimSensor]]:
+    """link → sensors declared in `<gazebo reference="link">` blocks (and at their output frame)."""
+    found: dict[str, list[SimSensor]] = {}
+    for gazebo in robot.findall("gazebo"):
+        reference = gazebo.get("reference")
+        if reference not in known:
+            continue
+        for element in gazebo:
+            sensor_type = _sensor_type(element)
+            if sensor_type is None:
+                continue
+            sensor = SimSensor(sensor_type, _plugins(element), _detail(element, sensor_type))
+            for link in dict.fromkeys([reference, *_output_frames(element, known)]):
+                found.setdefault(link, []).append(sensor)
+    return found
+
+
+def _local(tag: str) -> tuple[str, str]:
+    """(namespace, local name) of an ElementTree tag."""
+    if tag.startswith("{"):
+        ns, local = tag[1:].split("}", 1)
+        return ns, local
+    return "", tag
+
+
+def _sensor_type(element: ET.Element) -> str | None:
+    """SDF's `<sensor type="T">`, or T of the old Gazebo `<sensor:T>` (namespace ending '#sensor')."""
+    ns, local = _local(element.tag)
+    if not ns and local == "sensor":
+        kind = (element.get("type") or "").strip().lower()
+        return kind or None
+    if ns.endswith("#sensor"):
+        return local.lower()
+    return None
+
+
+def _plugins(sensor: ET.Element) -> tuple[str, ...]:
+    stems = []
+    for element in sensor.iter():
+        library = element.get("filename") or element.get("plugin")
+        if library and (match := _PLUGIN_STEM.match(library.rsplit("/", 1)[-1])):
+            if match.group(1) not in stems:
+                stems.append(match.group(1))
+    return tuple(stems)
+
+
+def _output_frames(sensor: ET.Element, known: set[str]) -> list[str]:
+    """Links named by the plugin as the frame its data is expressed in."""
+    frames = []
+    for element in sensor.iter():
+        if _local(element.tag)[1] in ("frameName", "frame_name", "frame_id", "gaussianNoiseFrame"):
+            name = (element.text or "").strip().lstrip("/")
+            if name in known:
+                frames.append(name)
+    return frames
+
+
+def _child_text(element: ET.Element, path: str) -> str | None:
+    """Text at `path` (local names, '/'-separated), ignoring namespaces."""
+    current = [element]
+    for step in path.split("/"):
+        current = [c for e in current for c in e if _local(c.tag)[1] == step]
+    return (current[0].text or "").strip() if current else None
+
+
+def _detail(sensor: ET.Element, sensor_type: str) -> str:
+    """A few words from the sensor's own sub-block: image size, or ray count, span and range."""
+    try:
+        cameras = [c for c in sensor.iter() if _local(c.tag)[1] == "camera"]
+        if cameras and (width := _child_text(cameras[0], "image/width")):
+            size = f"{width}x{_child_text(cameras[0], 'image/height')} image"
+            return f"{len(cameras)} cameras, {size}" if len(cameras) > 1 else size
+        if sensor_type.endswith("ray") or sensor_type in ("lidar", "gpu_lidar"):
+            return _ray_detail(sensor)
+        if sensor_type == "camera" and (width := _child_text(sensor, "imageSize")):
+            return f"{width.replace(' ', 'x')} image"
+    except (TypeError, ValueError):
+        return ""
+    return ""
+
+
+def _ray_detail(sensor: ET.Element) -> str:
+    """'640 rays over 260°, up to 10 m' from SDF `<ray><scan>` or the old `rayCount/maxAngle`."""
+    samples = _child_text(sensor, "ray/scan/horizontal/samples") or _child_text(sensor, "rayCount")
+    low = _child_text(sensor, "ray/scan/horizontal/min_angle")
+    high = _child_text(sensor, "ray/scan/horizontal/max_angle")
+    if low is not None and high is not None:
+        span = math.degrees(float(high) - float(low))
+    else:
+        low, high = _child_text(sensor, "minAngle"), _child_text(sensor, "maxAngle")
+        span = float(high) - float(low) if low is not None and high is not None else None
+    reach = _child_text(sensor, "ray/range/max") or _child_text(sensor, "maxRange")
+    words = []
+    if samples:
+        words.append(f"{int(float(samples))} rays" + (f" over {span:.0f}°" if span is not None else ""))
+    if reach:
+        words.append(f"up to {float(reach):g} m")
+    return ", ".join(words)
