@@ -122,7 +122,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.traces:
         Path(args.traces).mkdir(parents=True, exist_ok=True)
     settings = _settings(args)
-    per_robot, extra = {}, {k: {} for k in ("model", "vote", "llm calls", "tokens", "seconds")}
+    per_robot, extra = {}, {k: {} for k in ("model", "vote", "llm calls", "tokens", "declared", "seconds")}
     for path in files:
         robot = path.stem
         print(f"== {robot}", file=sys.stderr)
@@ -143,6 +143,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         extra["vote"][robot] = prov.get("vote", "?") + (f" x{prov.get('votes')}" if prov.get("vote") == "sample" else "")
         extra["llm calls"][robot] = prov.get("llm_calls", "?")
         extra["tokens"][robot] = prov.get("prompt_tokens", "?")
+        extra["declared"][robot] = prov.get("declared_constraints", "?")
         extra["seconds"][robot] = f"{result.seconds:.1f}"
     print(evaluation.format_table(per_robot, extra))
     if args.json:

@@ -10,15 +10,16 @@ from __future__ import annotations
 from typing import Callable
 
 from .components import END_EFFECTOR, SENSOR, Component, SubComponent
+from .evidence import LinkEvidence, describe
 from .ontology import Taxonomy
 from .oracle import Oracle
-from .prompts import NONE, optical_frame_question
+from .prompts import NONE, facts_text, optical_frame_question
 from .stages.asking import Progress, ask
-from .stages.attachment import detect_roots
+from .stages.attachment import SubChain, detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
 from .stages.identification import identify
-from .stages.verification import Log, group_root, join_by_mount, verify
+from .stages.verification import Log, group_root, indexed_units, join_by_mount, verify
 from .tree import KinematicTree
 
 # kind → (its class under Component, its branch under Subpart, how prompts name it)
@@ -27,6 +28,9 @@ PASSES = {
     END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
 }
 CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
+ARRAY = "SensorArray"
+MAX_FACTS = 3  # evidence lines shown per subject
+_NO_FACTS = LinkEvidence()
 
 
 class Abstractor:
@@ -36,6 +40,7 @@ class Abstractor:
         self.oracle, self.tax = oracle, tax
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
+        self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
 
     def run(self, tree: KinematicTree) -> tuple[Component, ...]:
         components: list[Component] = []
@@ -54,20 +59,45 @@ class Abstractor:
         selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
         if not selected:
             return []
-        chains = detect_roots(self.oracle, tree, selected, label, self._blocked(tree, cls), self.progress)
-        pre = descend(self.oracle, self.tax, cls, [
-            Subject(f"pre:{c.leaf}", "The link below belongs to a {concept}.",
-                    f"Link: {c.leaf}" + (f"\nBetween it and its mount: {', '.join(c.links[:-1])}" if len(c.links) > 1 else ""))
-            for c in chains
-        ], "pre-classification", self.progress)
+        chains = detect_roots(self.oracle, tree, selected, label, self._blocked(tree, cls), self.progress,
+                              rigid=kind == SENSOR)
+        pre = descend(self.oracle, self.tax, cls, [self._chain_subject(tree, c, cls) for c in chains],
+                      "pre-classification", self.progress)
         pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
         categories = {leaf: self._category(t.cls, cls) for leaf, t in pre_by_leaf.items()}
         groups = merge(self.oracle, tree, chains, kind, categories, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
         if kind == END_EFFECTOR:  # repairs may have moved tools onto one mount: one tool per mount
             groups = join_by_mount(tree, groups)
-        post = self._post_classify(groups, pre_by_leaf, cls)
+        post = self._post_classify(tree, groups, pre_by_leaf, cls)
+        if kind == SENSOR:
+            groups, post = self._split_units(tree, groups, post, pre_by_leaf)
         return self._components(tree, kind, subpart_cls, label, groups, post)
+
+    def _chain_subject(self, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
+        """A sub-chain to pre-classify below `cls`: its links, their facts, what a declaration rules out.
+
+        Declared simulator sensors speak here only by narrowing the options: shown as words (type,
+        plugin, ray counts) they pulled a 1.5B model off the right class (a 'depth' declaration or a
+        'depth_camera' plugin towards depth camera for RGB-D and monocular cameras, ray counts
+        towards lidar for sonars), while identification gains from them."""
+        key = f"pre:{chain.leaf}"
+        ruled_out = self._ruled_out(tree, chain.links, cls, key)
+        between = f"\nBetween it and its mount: {', '.join(chain.links[:-1])}" if len(chain.links) > 1 else ""
+        facts = describe(tree.evidence, reversed(chain.links), sensors=False)[:MAX_FACTS]
+        return Subject(key, "The link below belongs to a {concept}.", f"Link: {chain.leaf}{between}" + facts_text(facts),
+                       ruled_out)
+
+    def _ruled_out(self, tree: KinematicTree, links, below: str, key: str) -> frozenset[str]:
+        """Classes under `below` that the simulator sensors declared on `links` rule out (the
+        ontology's core:simulatorSensorType alignment); each narrowing is counted and traced."""
+        types = {s.type for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors}
+        declared = self.tax.declared_classes(types)
+        ruled_out = self.tax.disagreeing(declared, below)
+        if ruled_out:
+            self.declared += 1
+            self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
+        return ruled_out
 
     def _category(self, cls: str, top: str) -> str:
         """The class directly under `top` that `cls` falls in (itself if it is `top`)."""
@@ -89,7 +119,7 @@ class Abstractor:
             return not tree.is_leaf(link) or self.claims.get(link) == NONE
         return unclaimed
 
-    def _post_classify(self, groups: list[Group], pre: dict[str, Typed], cls: str) -> list[Typed]:
+    def _post_classify(self, tree: KinematicTree, groups: list[Group], pre: dict[str, Typed], cls: str) -> list[Typed]:
         """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
 
         The descent starts at the deepest class common to the members' pre-classes, or one level
@@ -104,11 +134,27 @@ class Abstractor:
         for start, members in by_start.items():
             results = descend(self.oracle, self.tax, start, [
                 Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
-                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves))
+                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves),
+                        self._ruled_out(tree, g.members, start, f"post:{g.leaves[0]}"))
                 for g in members
             ], "post-classification", self.progress)
             typed.update({id(g): t for g, t in zip(members, results)})
         return [typed[id(g)] for g in groups]
+
+    def _split_units(self, tree: KinematicTree, groups: list[Group], post: list[Typed],
+                     pre: dict[str, Typed]) -> tuple[list[Group], list[Typed]]:
+        """Numbered units of one type given one device name are separate devices unless the
+        device was classified as an array (SensorArray): each keeps its own pre-class."""
+        out_groups, out_post = [], []
+        for g, t in zip(groups, post):
+            if len(g.chains) > 1 and not self.tax.is_a(t.cls, ARRAY) and indexed_units(tree, g):
+                self.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
+                out_groups += [Group([c]) for c in g.chains]
+                out_post += [pre[c.leaf] for c in g.chains]
+            else:
+                out_groups.append(g)
+                out_post.append(t)
+        return out_groups, out_post
 
     def _shared_class(self, classes: set[str], top: str) -> str:
         """The deepest class every one of `classes` falls under (at most `top`), lifted off a leaf."""
@@ -130,13 +176,14 @@ class Abstractor:
         framing = "What role does the link below play in its %s device? Choose the {concept}." % label
         rest = [
             (link, Subject(f"part:{link}", framing,
-                           f"Link: {link}\nDevice: {self.tax.label(t.cls)}",
+                           f"Link: {link}\nDevice: {self.tax.label(t.cls)}" + facts_text(describe(tree.evidence, [link], sensors=False)),
                            self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())))
             for g, t in zip(groups, post) for link in g.members if link not in optical
         ]
         frames = [
             (link, Subject(f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
-                           f"Link: {link}\nCamera: {camera}"))
+                           f"Link: {link}\nCamera: {self.tax.label(camera)}" + facts_text(describe(tree.evidence, [link], sensors=False)),
+                           self.tax.excluded_parts(camera)))
             for link, (camera, _share) in optical.items()
         ]
         typed = dict(zip([link for link, _ in rest], descend(
@@ -158,16 +205,16 @@ class Abstractor:
         ]
 
     def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, tuple[str, float]]:
-        """For each camera sub-chain, the link the model selects as its optical frame → (camera label, share)."""
+        """For each camera sub-chain, the link the model selects as its optical frame → (camera class, share)."""
         asked, found = [], {}
         for g, t in zip(groups, post):
             if not self.tax.is_a(t.cls, CAMERA):
                 continue
             for chain in g.chains:
                 if len(chain.links) == 1:
-                    found[chain.leaf] = (self.tax.label(t.cls), 1.0)
+                    found[chain.leaf] = (t.cls, 1.0)
                 else:
-                    asked.append((self.tax.label(t.cls), optical_frame_question(chain.links)))
+                    asked.append((t.cls, optical_frame_question(chain.links)))
         for (camera, q), v in zip(asked, ask(self.oracle, [q for _, q in asked], "optical frames", self.progress)):
             found.setdefault(v.answer or q.options[-1], (camera, v.confidence))
         return found

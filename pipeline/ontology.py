@@ -10,6 +10,7 @@ import hashlib
 import importlib.resources
 import pathlib
 import xml.etree.ElementTree as ET
+from typing import Iterable
 
 import owlready2
 import rdflib
@@ -20,6 +21,7 @@ from pipeline.errors import OntologyError
 CORE_IRI = "https://w3id.org/urdfkb/core#"
 CORE_ONTOLOGY_IRI = CORE_IRI[:-1]
 _LOADED_MARK = CORE_IRI + "ontologyVersion"
+_SIM_TYPE = rdflib.URIRef(CORE_IRI + "simulatorSensorType")
 
 
 def core_path() -> pathlib.Path:
@@ -71,6 +73,7 @@ class Taxonomy:
         self._comment: dict[str, str] = {}
         self._example: dict[str, str] = {}
         self._excluded: dict[str, set[str]] = {}
+        self._declared_by: dict[str, set[str]] = {}  # SDF sensor type → classes aligned to it
         for name in self._order:
             node = rdflib.URIRef(CORE_IRI + name)
             parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
@@ -83,6 +86,8 @@ class Taxonomy:
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
             self._excluded[name] = _excluded_parts(graph, node)
+            for sim_type in graph.objects(node, _SIM_TYPE):
+                self._declared_by.setdefault(str(sim_type).strip().lower(), set()).add(name)
         for kids in self._children.values():
             kids.sort(key=self._order.__getitem__)
 
@@ -140,6 +145,19 @@ class Taxonomy:
         ancestor), with their subclasses."""
         direct = set().union(*(self._excluded[c] for c in (self._check(name), *self.ancestors(name))))
         return frozenset(c for c in self._order if any(self.is_a(c, x) for x in direct))
+
+    def declared_classes(self, sim_types: Iterable[str]) -> frozenset[str]:
+        """Classes the ontology aligns to any of these simulator (SDF) sensor types (core:simulatorSensorType)."""
+        return frozenset(c for t in sim_types for c in self._declared_by.get(t.strip().lower(), ()))
+
+    def disagreeing(self, declared: frozenset[str], below: str) -> frozenset[str]:
+        """Classes under `below` that agree with none of `declared` (neither above nor below one of them):
+        what a declaration rules out. Empty when nothing is declared or nothing declared lies under `below`."""
+        declared = frozenset(d for d in declared if self.is_a(d, below))
+        if not declared:
+            return frozenset()
+        return frozenset(c for c in self.subclasses_below(below)
+                         if not any(self.is_a(c, d) or self.is_a(d, c) for d in declared))
 
     def example(self, name: str) -> str:
         """An invented link name typical of the class (skos:example), or ''."""

@@ -35,6 +35,7 @@ PROVENANCE_ALIASES = {
     "mode": "abstractionMode",
     "llm_calls": "llmCalls",
     "prompt_tokens": "tokensEvaluated",
+    "declared_constraints": "declaredSensorConstraints",
     "seconds": "wallTimeSeconds",
 }
 

@@ -114,10 +114,12 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
         started = time.monotonic()
         log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
-        components = Abstractor(oracle, taxonomy(), progress, log).run(tree)
+        abstractor = Abstractor(oracle, taxonomy(), progress, log)
+        components = abstractor.run(tree)
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),
+            "declared_constraints": str(abstractor.declared),
             "llm_calls": str(stats.calls),
             "prompt_tokens": str(stats.prompt_tokens),
             "seconds": f"{time.monotonic() - started:.1f}",

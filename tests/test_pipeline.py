@@ -14,7 +14,7 @@ from pipeline.llm.base import Question
 from pipeline.llm.scripted import ScriptedBackend
 from pipeline.ontology import taxonomy
 from pipeline.oracle import Oracle
-from pipeline.prompts import NONE
+from pipeline.prompts import NONE, NONE_ANSWERS
 from pipeline.stages.attachment import SubChain, mount_candidates
 from pipeline.stages.classification import Subject, descend
 from pipeline.stages.grouping import Group, merge, name_prefixes
@@ -146,13 +146,30 @@ def test_identification_offers_the_component_kinds_and_none(toy):
         seen[q.key] = q.options
         return perfect(q)
     Abstractor(Oracle(ScriptedBackend(spy)), TAX).run(toy)
-    assert seen["identify:front_scanner"] == ("sensor", "end effector", "body part", NONE)
+    assert seen["identify:front_scanner"] == ("sensor", "end effector", "body part", *NONE_ANSWERS)
+
+
+def test_answers_meaning_none_are_summed_before_the_kind_is_chosen(toy):
+    def split(q):  # "sensor" is the single likeliest answer, but the none answers together outweigh it
+        if q.key == "identify:claw_status_light":
+            return {"sensor": 0.4, "light or display": 0.3, "motor or fastener": 0.2, NONE: 0.1}
+        return perfect(q)
+    found = Abstractor(Oracle(ScriptedBackend(split)), TAX).run(toy)
+    assert not any(sc.link == "claw_status_light" for c in found if c.kind == "sensor" for sc in c.subcomponents)
 
 
 def test_mount_candidates_stop_at_the_first_link_carrying_another_kind(toy):
     blocked = lambda link: link.startswith("drive_wheel")  # noqa: E731 - wheels are body parts
     assert mount_candidates(toy, "mast_rgbd_color_optical", blocked) == ["mast_rgbd_body", "mast", "chassis"]
     assert mount_candidates(toy, "front_scanner", blocked) == ["chassis"]
+
+
+def test_sensor_mount_candidates_end_at_the_first_joint_that_moves(toy):
+    never = lambda link: False  # noqa: E731
+    assert mount_candidates(toy, "claw_tcp", never) == ["claw_base", "arm_flange", "arm_fore", "arm_upper", "arm_base", "chassis"]
+    assert mount_candidates(toy, "claw_tcp", never, rigid=True) == ["claw_base", "arm_flange", "arm_fore"]
+    assert mount_candidates(toy, "drive_wheel_left", never, rigid=True) == ["chassis"]
+    assert mount_candidates(toy, "mast_rgbd_color_optical", never, rigid=True) == ["mast_rgbd_body", "mast", "chassis"]
 
 
 def test_descend_passes_through_lone_subclasses_without_asking():

@@ -4,7 +4,9 @@ Code offers the candidates, the model picks. Candidates are the leaf's ancestors
 up to and including the first one that also carries a leaf identified as another kind of
 component: anything higher would make that link a member of the device with a child outside it,
 which verification must reject. (The mount of a device abstracted in an earlier pass may lie
-inside: a sensor on a gripper's palm.)
+inside: a sensor on a gripper's palm.) A sensor is rigidly fixed to its mount, so for sensors the
+candidates also end at the first ancestor reached through a joint that moves: a link beyond it
+moves relative to the sensor and cannot be what it is fixed to.
 """
 from __future__ import annotations
 
@@ -34,22 +36,25 @@ def sub_chain(tree: KinematicTree, leaf: str, root: str) -> SubChain:
     return SubChain(leaf, root, tuple(reversed(chain[:chain.index(root)])))
 
 
-def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool]) -> list[str]:
-    """Ancestors that could be the mount, nearest first."""
+def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool], rigid: bool = False) -> list[str]:
+    """Ancestors that could be the mount, nearest first; `rigid`: the device is fixed to its mount."""
     candidates = []
-    for ancestor in tree.chain_to_root(leaf)[1:1 + MAX_CANDIDATES]:
+    chain = tree.chain_to_root(leaf)
+    for below, ancestor in zip(chain, chain[1:1 + MAX_CANDIDATES]):
         candidates.append(ancestor)
-        if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)):
+        moved = tree.parent_edge(below).joint_type != "fixed"
+        if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)) or (rigid and moved):
             break
     return candidates
 
 
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind_label: str,
-                 blocked: Callable[[str], bool], progress: Progress | None = None) -> list[SubChain]:
-    """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device."""
+                 blocked: Callable[[str], bool], progress: Progress | None = None, rigid: bool = False) -> list[SubChain]:
+    """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device;
+    `rigid`: devices of this kind are fixed to their mount (sensors)."""
     asked, chains = [], {}
     for leaf in leaves:
-        candidates = mount_candidates(tree, leaf, blocked)
+        candidates = mount_candidates(tree, leaf, blocked, rigid)
         if len(candidates) == 1:
             chains[leaf] = sub_chain(tree, leaf, candidates[0])
         else:

@@ -11,6 +11,7 @@ is split into one group per mount.
 """
 from __future__ import annotations
 
+import re
 from typing import Callable
 
 from ..tree import KinematicTree
@@ -97,3 +98,15 @@ def join_by_mount(tree: KinematicTree, groups: list[Group]) -> list[Group]:
         else:
             by_root[root] = group
     return list(by_root.values())
+
+
+_INDEX = re.compile(r"\d+")
+
+
+def indexed_units(tree: KinematicTree, group: Group) -> bool:
+    """True when the group's sub-chains are numbered units of one type: each hangs by its own joint
+    from one shared parent, and their top links' names differ only by a number (sonar_1, sonar_2)."""
+    tops = {c.links[0] for c in group.chains}
+    if len(tops) < 2 or len(tops) != len(group.chains) or len({tree.parent(t) for t in tops}) != 1:
+        return False
+    return len({_INDEX.sub("#", t) for t in tops}) == 1

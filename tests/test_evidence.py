@@ -1,0 +1,136 @@
+"""Evidence read from the whole URDF, and how it reaches the model and narrows its options."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pipeline.abstraction import Abstractor
+from pipeline.evidence import SimSensor, mesh_stem
+from pipeline.ingest import load_urdf
+from pipeline.llm.base import Question
+from pipeline.llm.scripted import ScriptedBackend
+from pipeline.ontology import taxonomy
+from pipeline.oracle import Oracle
+from pipeline.prompts import NONE
+from pipeline.runner import Settings, run, tree_digest
+
+BOT = Path(__file__).parent / "data" / "sensor_bot.urdf"
+TAX = taxonomy()
+
+
+@pytest.fixture(scope="module")
+def bot():
+    return load_urdf(BOT)
+
+
+@pytest.mark.parametrize("filename, stem", [
+    ("package://turtle_description/meshes/sensors/lds.stl", "sensors/lds"),
+    ("package://arm_description/meshes/gripper_v0/l_finger_tip.dae", "gripper_v0/l_finger_tip"),
+    ("package://cam_description/models/eye.dae", "models/eye"),
+    ("file:///opt/robot/meshes/hand.STL", "hand"),
+    ("meshes/a/b/c/wrist.obj", "c/wrist"),
+    ("", ""),
+])
+def test_mesh_stems_keep_the_informative_end_of_the_path(filename, stem):
+    assert mesh_stem(filename) == stem
+
+
+def test_meshes_shapes_and_mass_are_read_per_link(bot):
+    hull, nose, eye = bot.evidence["hull"], bot.evidence["nose_scanner"], bot.evidence["mast_eye_body"]
+    assert hull.meshes == ("body/hull_v2",) and hull.shape == "box 0.6x0.4x0.2 m" and hull.mass == 12.0
+    assert nose.meshes == ("sensors/spinner_x9",) and nose.mass is None
+    assert eye.shape == "cylinder r=0.03 l=0.05 m"
+    assert bot.evidence["mast_eye_optical"].is_pure_frame
+    assert bot.evidence["mast_eye_optical"].text().startswith("no geometry, massless")
+
+
+def test_sdf_sensor_declarations_with_plugin_and_detail(bot):
+    assert bot.evidence["nose_scanner"].sensors == (
+        SimSensor("gpu_ray", ("gazebo_ros_gpu_laser",), "720 rays over 180°, up to 30 m"),)
+    assert bot.evidence["hull"].sensors == ()  # a <gazebo> block without a sensor declares nothing
+
+
+def test_old_gazebo_sensor_form_is_read_as_the_same_type(bot):
+    assert bot.evidence["tail_scanner"].sensors == (
+        SimSensor("ray", ("gazebo_ros_laser",), "181 rays over 180°, up to 8 m"),)
+
+
+def test_a_declaration_also_reaches_the_frame_its_plugin_publishes_in(bot):
+    camera = SimSensor("camera", ("gazebo_ros_camera",), "1280x720 image")
+    assert bot.evidence["mast_eye_body"].sensors == (camera,)
+    assert bot.evidence["mast_eye_optical"].sensors == (camera,)
+
+
+def test_evidence_survives_condensing_and_changes_the_cache_digest(bot):
+    smaller = bot.without({"echo_1_link"})
+    assert "echo_1_link" not in smaller.evidence and smaller.evidence["hull"] == bot.evidence["hull"]
+    bare = load_urdf(BOT.read_bytes().replace(b"spinner_x9", b"spinner_x8"))
+    assert tree_digest(bare) != tree_digest(bot)
+
+
+def test_the_ontology_aligns_simulator_sensor_types_to_classes():
+    assert TAX.declared_classes(["ray"]) == {"RangingSensor"}
+    assert TAX.declared_classes(["depth"]) == {"RGBDCamera", "DepthCamera"}
+    assert TAX.declared_classes(["GPU_RAY", "no_such_type"]) == {"Lidar"}
+    ruled_out = TAX.disagreeing(TAX.declared_classes(["ray"]), "Sensor")
+    assert {"VisionSensor", "ContactSensor"} <= ruled_out and not {"RangingSensor", "Lidar", "Sonar"} & ruled_out
+    assert TAX.disagreeing(TAX.declared_classes(["ray"]), "EndEffector") == frozenset()
+
+
+KIND = {"nose_scanner": "sensor", "mast_eye_optical": "sensor", "tail_scanner": "sensor",
+        "echo_1_link": "sensor", "echo_2_link": "sensor", "echo_3_link": "sensor"}
+
+
+def _rover_model(seen: dict[str, Question]):
+    """A model that finds every sensor, names the three rangers one device, and always prefers the
+    first option it is offered (so only what the code offers decides the class)."""
+    def rule(q: Question):
+        seen[q.key] = q
+        stage, _, subject = q.key.partition(":")
+        subject = subject.partition("@")[0]
+        if stage == "identify":
+            return KIND.get(subject, NONE)
+        if stage == "device":
+            return "echo" if subject.startswith("echo") else subject
+        return q.options[0]
+    return rule
+
+
+def test_facts_reach_the_questions_about_the_link(bot):
+    seen: dict[str, Question] = {}
+    Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX).run(bot)
+    identify = seen["identify:mast_eye_optical"].user
+    assert "Facts: mast_eye_optical: no geometry, massless; simulated camera sensor" in identify
+    assert "Facts: mast_eye_body: cylinder" in identify  # the body the frame belongs to
+    assert "mesh sensors/spinner_x9" in seen["identify:nose_scanner"].user
+    assert seen["identify:echo_1_link"].user.endswith(
+        "Facts: echo_1_link: sphere r=0.01 m; simulated ray sensor (plugin gazebo_ros_range)")
+
+
+def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
+    seen: dict[str, Question] = {}
+    trace = []
+    abstractor = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append)
+    components = {c.subcomponents[-1].link: c for c in abstractor.run(bot)}
+    assert components["nose_scanner"].cls == "Lidar"  # gpu_ray: no question left to ask
+    assert "pre:nose_scanner@Sensor" not in seen
+    assert seen["pre:tail_scanner@RangingSensor"].options == ("lidar", "sonar")
+    assert components["mast_eye_optical"].cls in TAX.subclasses("Camera")  # the first option was "vision"
+    assert abstractor.declared >= 4 and any("declared ['gpu_ray']" in line for line in trace)
+
+
+def test_numbered_units_named_as_one_device_stay_separate_unless_an_array(bot):
+    seen: dict[str, Question] = {}
+    trace = []
+    found = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append).run(bot)
+    echoes = [c for c in found if c.subcomponents[0].link.startswith("echo")]
+    assert [c.subcomponents[0].link for c in echoes] == ["echo_1_link", "echo_2_link", "echo_3_link"]
+    assert all(c.cls == "Lidar" and c.root == "hull" for c in echoes)  # each its own first-option ranging sensor
+    assert any(line.startswith("split numbered units") for line in trace)
+
+
+def test_provenance_reports_how_many_decisions_a_declaration_constrained(bot):
+    seen: dict[str, Question] = {}
+    result = run(bot, Settings(use_cache=False), backend=ScriptedBackend(_rover_model(seen)))
+    assert int(result.provenance["declared_constraints"]) >= 4
