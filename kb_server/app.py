@@ -14,8 +14,9 @@ from werkzeug.exceptions import HTTPException
 
 from kb_server import queries
 from kb_server.jobs import JobManager
-from kb_server.sparql import QueryError, QueryTimeout, Result, negotiate, offers_for, serialize
-from kb_server.store import EXPORT_FORMATS, RobotNameError, Store, check_robot_name
+from kb_server.index import WorkerCrashed
+from kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
+from kb_server.store import EXPORT_FORMATS, ReadOnlyGraph, RobotNameError, Store, check_robot_name
 from pipeline.errors import URDFError
 from pipeline.ingest import load_urdf
 from pipeline.runner import Settings
@@ -40,20 +41,26 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             return Response(message + "\n", status, mimetype="text/plain")
         return Response(jsonify(error=message).get_data(), status, mimetype="application/json")
 
-    def results(result: Result) -> Response:
-        media = negotiate(request.headers.get("Accept"), offers_for(result))
-        if media is None:
-            return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(offers_for(result))}", True)
-        charset = "" if media.endswith("+xml") or media == "application/rdf+xml" else "; charset=utf-8"
-        return Response(serialize(result, media), 200, content_type=media + charset)
+    def results(result: Result | Response) -> Response:
+        if isinstance(result, Response):
+            return result
+        media = result.media_type
+        charset = "" if media.endswith("xml") else "; charset=utf-8"
+        return Response(result.body, 200, content_type=media + charset)
 
     def run_query(run) -> Response:
         try:
             return results(run())
         except QueryError as e:
             return error(400, str(e), True)
+        except ReadOnlyGraph as e:
+            return error(403, str(e), True)
+        except NotAcceptable as e:
+            return error(406, str(e), True)
         except QueryTimeout as e:
             return error(503, str(e), True)
+        except WorkerCrashed as e:
+            return error(500, str(e), True)
 
     @app.errorhandler(HTTPException)
     def http_error(e: HTTPException):
@@ -65,8 +72,6 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
 
     @app.route("/sparql", methods=["GET", "POST"])
     def sparql():
-        if request.args.get("default-graph-uri") or request.args.get("named-graph-uri"):
-            return error(400, "default-graph-uri/named-graph-uri are not supported: the default graph is the union of all robots", True)
         query, update = _protocol_operation()
         if query is None and update is None:
             if request.method == "GET":
@@ -81,16 +86,12 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
                 return error(400, "updates must be sent by POST", True)
             if not authorized():
                 return error(403, "SPARQL updates need the server's token (Authorization: Bearer ...)", True)
-            try:
-                store.update(update, query_timeout)
-            except QueryError as e:
-                return error(400, str(e), True)
-            except QueryTimeout as e:
-                return error(503, str(e), True)
-            except Exception as e:  # the update could not be applied; nothing was committed
-                return error(400, f"update failed: {e}", True)
-            return Response(status=204)
-        return run_query(lambda: store.query(query, query_timeout))
+            return run_query(lambda: store.update(update, query_timeout) or Response(status=204))
+        dataset = request.values if request.mimetype in _FORM_TYPES else request.args
+        default, named = dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri")
+        given = bool(default or named)  # the protocol's dataset, instead of the union default graph
+        return run_query(lambda: store.query(query, query_timeout, request.headers.get("Accept"),
+                                             default if given else None, named if given else None))
 
     def service_description() -> Response:
         g = rdflib.Graph()
@@ -110,12 +111,16 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         g.add((dataset, RDF.type, SD.Dataset))
         g.add((dataset, SD.defaultGraph, default))
         g.add((default, RDF.type, SD.Graph))
-        for entry in store.robots():
+        for iri in [CORE_GRAPH] + [entry.ontology_iri for entry in store.robots()]:
             named = rdflib.BNode()
             g.add((dataset, SD.namedGraph, named))
             g.add((named, RDF.type, SD.NamedGraph))
-            g.add((named, SD.name, rdflib.URIRef(entry.ontology_iri)))
-        return results(Result("graph", graph=g))
+            g.add((named, SD.name, rdflib.URIRef(iri)))
+        media = negotiate(request.headers.get("Accept"), list(GRAPH_TYPES))
+        if media is None:
+            return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(GRAPH_TYPES)}", True)
+        body = g.serialize(format={"text/turtle": "turtle", "application/rdf+xml": "xml"}.get(media, "nt"), encoding="utf-8")
+        return Response(body, 200, content_type=media + ("" if media.endswith("xml") else "; charset=utf-8"))
 
     # --- populate and jobs ---------------------------------------------------------------------
 
@@ -210,7 +215,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         if not robot_name:
             return error(400, "give the robot: ?robot=NAME")
         try:
-            return run_query(lambda: queries.run_named(store, name, robot_name, args, query_timeout))
+            return run_query(lambda: queries.run_named(store, name, robot_name, args, query_timeout,
+                                                        request.headers.get("Accept")))
         except (queries.UnknownQuery, queries.UnknownRobot) as e:
             return error(404, e.args[0])
         except queries.ParamError as e:

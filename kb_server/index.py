@@ -1,0 +1,197 @@
+"""The SPARQL index: every graph of the quadstore in Oxigraph, queried in worker processes.
+
+The owlready2 quadstore stays the store of record; this index is derived from it (rebuilt at
+start) and kept in step by the store's writes. A master pyoxigraph Store lives in this process;
+each of `workers` worker processes holds a replica and answers one operation at a time.
+
+Why processes: pyoxigraph 0.5 cannot cancel a running query (Oxigraph's Rust API can, its Python
+binding does not expose it) and evaluates outside the GIL with no hook, so a query past its
+deadline would keep a core busy for as long as it likes (measured: a 100k-item IN filter over 3,000
+triples runs 54 s in one call). A worker past the deadline is killed and replaced from the master,
+so a deadline is a deadline; a crash in Oxigraph costs one worker, not the server. Readers on
+different workers never wait for each other, nor for a populate or a write: a write is queued
+behind whatever its worker is answering (each replica applies its messages in order, so a query
+sent after a write returned sees it).
+"""
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import queue
+import threading
+import time
+from collections.abc import Mapping
+
+import pyoxigraph as ox
+
+from pipeline.errors import UrdfkbError
+
+from kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
+                              run_update)
+
+log = logging.getLogger(__name__)
+Changes = dict[str, tuple[bytes | None, bytes | None]]
+
+
+class WorkerCrashed(UrdfkbError, RuntimeError):
+    """A worker process died while evaluating an operation (a bug in the engine); it was replaced."""
+
+
+_ERRORS = {"QueryError": QueryError, "NotAcceptable": NotAcceptable}
+
+
+def _serve(inbox, outbox) -> None:
+    """A worker's loop: ('graphs', {iri: data}) replaces graphs; 'query'/'update' answer on outbox."""
+    store = ox.Store()
+    while True:
+        op, *args = inbox.get()
+        if op == "graphs":
+            for graph, data in args[0].items():
+                put_graph(store, graph, data)
+            continue
+        try:
+            outbox.put(("ok", (run_query if op == "query" else run_update)(store, *args)))
+        except (QueryError, NotAcceptable) as e:
+            outbox.put((type(e).__name__, str(e)))
+
+
+class _Worker:
+    def __init__(self, ctx, graphs: Mapping[str, bytes]):
+        self.inbox, self.outbox = ctx.Queue(), ctx.Queue()
+        self.proc = ctx.Process(target=_serve, args=(self.inbox, self.outbox), daemon=True, name="urdfkb-sparql")
+        self.proc.start()
+        self.inbox.put(("graphs", dict(graphs)))
+
+    def call(self, message: tuple, deadline: float):
+        self.inbox.put(message)
+        while True:
+            try:
+                status, value = self.outbox.get(timeout=min(max(deadline - time.monotonic(), 0.001), 0.5))
+                break
+            except queue.Empty:
+                if not self.proc.is_alive():
+                    raise WorkerCrashed("the query engine's worker process crashed on this operation "
+                                        "(it was replaced)") from None
+                if time.monotonic() >= deadline:
+                    raise QueryTimeout("operation stopped after its timeout") from None
+        if status != "ok":
+            raise _ERRORS[status](value)
+        return value
+
+    def alive(self) -> bool:
+        return self.proc.is_alive()
+
+    def kill(self) -> None:
+        self.proc.kill()
+        self.proc.join(5)
+        for q in (self.inbox, self.outbox):
+            q.cancel_join_thread()
+            q.close()
+
+
+class Index:
+    """The master store plus `workers` query processes (0: evaluate in this process, no deadline)."""
+
+    def __init__(self, graphs: Mapping[str, bytes], workers: int = 2):
+        self.master = ox.Store()
+        for graph, data in graphs.items():
+            put_graph(self.master, graph, data)
+        self._ctx = mp.get_context("spawn")
+        self._guard = threading.Lock()  # master, worker list, broadcasts
+        self._workers: list[_Worker] = []
+        self._idle: queue.Queue[_Worker] = queue.Queue()
+        for _ in range(workers):
+            self._spawn()
+
+    def _spawn(self) -> None:
+        with self._guard:
+            worker = _Worker(self._ctx, graph_dumps(self.master))
+            self._workers.append(worker)
+        self._idle.put(worker)
+
+    def _retire(self, worker: _Worker) -> None:
+        with self._guard:
+            self._workers.remove(worker)
+        worker.kill()
+        self._spawn()
+
+    def _run(self, message: tuple, timeout: float):
+        if not self._workers:
+            fn = run_query if message[0] == "query" else run_update
+            return fn(self.master, *message[1:])
+        deadline = time.monotonic() + timeout
+        try:
+            worker = self._idle.get(timeout=timeout)
+        except queue.Empty:
+            raise QueryTimeout(f"no query worker free within the {timeout:g} s timeout") from None
+        try:
+            value = worker.call(message, deadline)
+        except QueryTimeout:
+            self._retire(worker)
+            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
+        except (QueryError, NotAcceptable):
+            self._idle.put(worker)
+            raise
+        except BaseException:
+            self._retire(worker)
+            raise
+        if not worker.alive():  # crashed after answering: replace it
+            self._retire(worker)
+        else:
+            self._idle.put(worker)
+        return value
+
+    def query(self, text: str, accept: str | None = None, timeout: float = 10.0,
+              default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
+        """Evaluate a query on a free worker; QueryError, NotAcceptable, or QueryTimeout past `timeout`."""
+        return self._run(("query", text, accept, default_graphs, named_graphs), timeout)
+
+    def update(self, text: str, timeout: float = 10.0) -> tuple[Changes, _Worker | None]:
+        """Apply an update on one replica (the master without workers), which is held until
+        `release`; returns {graph: (before, after)} for the graphs it changed."""
+        if not self._workers:
+            return run_update(self.master, text), None
+        deadline = time.monotonic() + timeout
+        try:
+            worker = self._idle.get(timeout=timeout)
+        except queue.Empty:
+            raise QueryTimeout(f"no worker free within the {timeout:g} s timeout") from None
+        try:
+            return worker.call(("update", text), deadline), worker
+        except (QueryError, NotAcceptable):
+            self._idle.put(worker)
+            raise
+        except QueryTimeout:
+            self._retire(worker)
+            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
+        except BaseException:
+            self._retire(worker)
+            raise
+
+    def release(self, worker: _Worker | None, changes: Changes) -> None:
+        """Undo an `update`'s changes on the replica that evaluated it (the store then `put`s what
+        it actually stored), and free that replica."""
+        revert = {g: before for g, (before, _) in changes.items()}
+        if worker is None:
+            for g, data in revert.items():
+                put_graph(self.master, g, data)
+            return
+        if revert:
+            worker.inbox.put(("graphs", revert))
+        self._idle.put(worker)
+
+    def put(self, graphs: Mapping[str, bytes | None]) -> None:
+        """Replace graphs (None drops one) in the master and every worker, in order with other writes."""
+        if not graphs:
+            return
+        with self._guard:
+            for g, data in graphs.items():
+                put_graph(self.master, g, data)
+            for w in self._workers:
+                w.inbox.put(("graphs", dict(graphs)))
+
+    def close(self) -> None:
+        with self._guard:
+            workers, self._workers = self._workers, []
+        for w in workers:
+            w.kill()
