@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+import os
 import queue
 import threading
 import time
@@ -42,9 +43,14 @@ _ERRORS = {"QueryError": QueryError, "NotAcceptable": NotAcceptable}
 
 def _serve(inbox, outbox) -> None:
     """A worker's loop: ('graphs', {iri: data}) replaces graphs; 'query'/'update' answer on outbox."""
-    store = ox.Store()
+    store, parent = ox.Store(), os.getppid()
     while True:
-        op, *args = inbox.get()
+        try:
+            op, *args = inbox.get(timeout=1.0)
+        except queue.Empty:
+            if os.getppid() != parent:  # the server is gone (even by kill -9): so is this worker
+                return
+            continue
         if op == "graphs":
             for graph, data in args[0].items():
                 put_graph(store, graph, data)
