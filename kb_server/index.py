@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+from multiprocessing.connection import wait
 import os
 import queue
 import threading
@@ -41,45 +42,65 @@ class WorkerCrashed(UrdfkbError, RuntimeError):
 _ERRORS = {"QueryError": QueryError, "NotAcceptable": NotAcceptable}
 
 
-def _serve(inbox, outbox) -> None:
-    """A worker's loop: ('graphs', {iri: data}) replaces graphs; 'query'/'update' answer on outbox."""
-    store, parent = ox.Store(), os.getppid()
+def _serve(inbox, requests, replies) -> None:
+    """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
+    (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`."""
+    store, parent, applied = ox.Store(), os.getppid(), 0
+
+    def apply(block: bool) -> None:
+        nonlocal applied
+        seq, graphs = inbox.get() if block else inbox.get_nowait()
+        for graph, data in graphs.items():
+            put_graph(store, graph, data)
+        applied = seq
+
     while True:
         try:
-            op, *args = inbox.get(timeout=1.0)
+            while True:
+                apply(block=False)
         except queue.Empty:
+            pass
+        if not requests.poll(0.05):
             if os.getppid() != parent:  # the server is gone (even by kill -9): so is this worker
                 return
             continue
-        if op == "graphs":
-            for graph, data in args[0].items():
-                put_graph(store, graph, data)
-            continue
+        seq, op, args = requests.recv()
+        while applied < seq:
+            apply(block=True)
         try:
-            outbox.put(("ok", (run_query if op == "query" else run_update)(store, *args)))
+            replies.send(("ok", (run_query if op == "query" else run_update)(store, *args)))
         except (QueryError, NotAcceptable) as e:
-            outbox.put((type(e).__name__, str(e)))
+            replies.send((type(e).__name__, str(e)))
 
 
 class _Worker:
-    def __init__(self, ctx, graphs: Mapping[str, bytes]):
-        self.inbox, self.outbox = ctx.Queue(), ctx.Queue()
-        self.proc = ctx.Process(target=_serve, args=(self.inbox, self.outbox), daemon=True, name="urdfkb-sparql")
-        self.proc.start()
-        self.inbox.put(("graphs", dict(graphs)))
+    """A worker process: graph replacements go through a queue (never blocking the writer), each
+    operation through a pipe, carrying the sequence number of the last replacement it must see."""
 
-    def call(self, message: tuple, deadline: float):
-        self.inbox.put(message)
-        while True:
-            try:
-                status, value = self.outbox.get(timeout=min(max(deadline - time.monotonic(), 0.001), 0.5))
-                break
-            except queue.Empty:
-                if not self.proc.is_alive():
-                    raise WorkerCrashed("the query engine's worker process crashed on this operation "
-                                        "(it was replaced)") from None
-                if time.monotonic() >= deadline:
-                    raise QueryTimeout("operation stopped after its timeout") from None
+    def __init__(self, ctx, graphs: Mapping[str, bytes]):
+        self.inbox, self.seq = ctx.Queue(), 0
+        self.requests, requests = ctx.Pipe(duplex=False)[::-1]
+        self.replies, replies = ctx.Pipe(duplex=False)
+        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies), daemon=True, name="urdfkb-sparql")
+        self.proc.start()
+        requests.close()
+        replies.close()
+        self.put(dict(graphs))
+
+    def put(self, graphs: dict) -> None:
+        """Queue graph replacements (callers hold the index guard, so seq only grows)."""
+        self.seq += 1
+        self.inbox.put((self.seq, graphs))
+
+    def call(self, op: str, args: tuple, deadline: float):
+        self.requests.send((self.seq, op, args))
+        ready = wait([self.replies, self.proc.sentinel], timeout=max(deadline - time.monotonic(), 0))
+        if self.replies in ready:
+            status, value = self.replies.recv()
+        elif ready:
+            raise WorkerCrashed("the query engine's worker process crashed on this operation (it was replaced)")
+        else:
+            raise QueryTimeout("operation stopped after its timeout")
         if status != "ok":
             raise _ERRORS[status](value)
         return value
@@ -90,9 +111,10 @@ class _Worker:
     def kill(self) -> None:
         self.proc.kill()
         self.proc.join(5)
-        for q in (self.inbox, self.outbox):
-            q.cancel_join_thread()
-            q.close()
+        self.inbox.cancel_join_thread()
+        self.inbox.close()
+        self.requests.close()
+        self.replies.close()
 
 
 class Index:
@@ -131,7 +153,7 @@ class Index:
         except queue.Empty:
             raise QueryTimeout(f"no query worker free within the {timeout:g} s timeout") from None
         try:
-            value = worker.call(message, deadline)
+            value = worker.call(message[0], message[1:], deadline)
         except QueryTimeout:
             self._retire(worker)
             raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
@@ -163,7 +185,7 @@ class Index:
         except queue.Empty:
             raise QueryTimeout(f"no worker free within the {timeout:g} s timeout") from None
         try:
-            return worker.call(("update", text), deadline), worker
+            return worker.call("update", (text,), deadline), worker
         except (QueryError, NotAcceptable):
             self._idle.put(worker)
             raise
@@ -183,7 +205,8 @@ class Index:
                 put_graph(self.master, g, data)
             return
         if revert:
-            worker.inbox.put(("graphs", revert))
+            with self._guard:
+                worker.put(revert)
         self._idle.put(worker)
 
     def put(self, graphs: Mapping[str, bytes | None]) -> None:
@@ -194,7 +217,7 @@ class Index:
             for g, data in graphs.items():
                 put_graph(self.master, g, data)
             for w in self._workers:
-                w.inbox.put(("graphs", dict(graphs)))
+                w.put(dict(graphs))
 
     def close(self) -> None:
         with self._guard:
