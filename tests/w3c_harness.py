@@ -9,8 +9,8 @@ Also a command: `python tests/w3c_harness.py URL [TOKEN]` prints the pass count 
 """
 from __future__ import annotations
 
+import csv
 import io
-import json
 import sys
 import urllib.error
 import urllib.parse
@@ -152,6 +152,11 @@ def _compare(case: Case, ctype: str, body: bytes, ordered: bool) -> str | None:
         for d in (got, want):
             d.canonicalize(ox.CanonicalizationAlgorithm.UNSTABLE)
         return None if got == want else f"graph differs: got {len(got)} triples, want {len(want)}"
+    if path.suffix == ".csv":  # lossy: pyoxigraph will not parse it back into terms, so compare the text
+        def table(data: bytes):  # rows as sorted (column, value) lists: SELECT * fixes no column order
+            head, *rows = list(csv.reader(io.StringIO(data.decode("utf-8"))))
+            return sorted(sorted((h, "_:" if v.startswith("_:") else v) for h, v in zip(head, r)) for r in rows)
+        return None if table(body) == table(path.read_bytes()) else f"CSV differs: {body[:300]!r}"
     got = _solutions(body, _RESULT_FORMATS[ctype])
     if path.suffix in (".ttl", ".rdf"):
         want = _rdf_result_set(case.result)
@@ -159,13 +164,7 @@ def _compare(case: Case, ctype: str, body: bytes, ordered: bool) -> str | None:
         want = _solutions(path.read_bytes(), ox.QueryResultsFormat.from_extension(path.suffix[1:]))
     if isinstance(got, bool) or isinstance(want, bool):
         return None if got == want else f"boolean {got} != {want}"
-    if path.suffix in (".csv", ".tsv"):  # lexical comparison (CSV loses term kinds)
-        got, want = [{k: _lexical(v) for k, v in r.items()} for r in got], [{k: _lexical(v) for k, v in r.items()} for r in want]
     return None if _same_rows(got, want, ordered) else f"rows differ: got {got[:5]}..., want {want[:5]}..."
-
-
-def _lexical(term) -> str:
-    return f"_:{'b'}" if isinstance(term, ox.BlankNode) else term.value
 
 
 def _solutions(data: bytes, fmt):
