@@ -41,16 +41,14 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             return Response(message + "\n", status, mimetype="text/plain")
         return Response(jsonify(error=message).get_data(), status, mimetype="application/json")
 
-    def results(result: Result | Response) -> Response:
-        if isinstance(result, Response):
-            return result
-        media = result.media_type
-        charset = "" if media.endswith("xml") else "; charset=utf-8"
-        return Response(result.body, 200, content_type=media + charset)
+    def results(result: Result) -> Response:
+        charset = "" if result.media_type.endswith("xml") else "; charset=utf-8"
+        return Response(result.body, 200, content_type=result.media_type + charset)
 
-    def run_query(run) -> Response:
+    def answer(run) -> Response:
+        """`run()`'s response, or the SPARQL error it raised as a plain-text status."""
         try:
-            return results(run())
+            return run()
         except QueryError as e:
             return error(400, str(e), True)
         except ReadOnlyGraph as e:
@@ -86,12 +84,17 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
                 return error(400, "updates must be sent by POST", True)
             if not authorized():
                 return error(403, "SPARQL updates need the server's token (Authorization: Bearer ...)", True)
-            return run_query(lambda: store.update(update, query_timeout) or Response(status=204))
+
+            def apply() -> Response:
+                store.update(update, query_timeout)
+                return Response(status=204)
+
+            return answer(apply)
         dataset = request.values if request.mimetype in _FORM_TYPES else request.args
         default, named = dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri")
         given = bool(default or named)  # the protocol's dataset, instead of the union default graph
-        return run_query(lambda: store.query(query, query_timeout, request.headers.get("Accept"),
-                                             default if given else None, named if given else None))
+        return answer(lambda: results(store.query(query, query_timeout, request.headers.get("Accept"),
+                                                  default if given else None, named if given else None)))
 
     def service_description() -> Response:
         g = rdflib.Graph()
@@ -215,8 +218,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         if not robot_name:
             return error(400, "give the robot: ?robot=NAME")
         try:
-            return run_query(lambda: queries.run_named(store, name, robot_name, args, query_timeout,
-                                                        request.headers.get("Accept")))
+            return answer(lambda: results(queries.run_named(store, name, robot_name, args, query_timeout,
+                                                            request.headers.get("Accept"))))
         except (queries.UnknownQuery, queries.UnknownRobot) as e:
             return error(404, e.args[0])
         except queries.ParamError as e:

@@ -10,28 +10,25 @@ deadline would keep a core busy for as long as it likes (measured: a 100k-item I
 triples runs 54 s in one call). A worker past the deadline is killed and replaced from the master,
 so a deadline is a deadline; a crash in Oxigraph costs one worker, not the server. Readers on
 different workers never wait for each other, nor for a populate or a write: a write is queued
-behind whatever its worker is answering (each replica applies its messages in order, so a query
-sent after a write returned sees it).
+behind whatever its worker is answering, and each operation carries the sequence number of the
+last write it must see, so a query sent after a write returned sees it.
 """
 from __future__ import annotations
 
-import logging
 import multiprocessing as mp
-from multiprocessing.connection import wait
 import os
 import queue
 import threading
 import time
 from collections.abc import Mapping
+from multiprocessing.connection import wait
 
 import pyoxigraph as ox
 
-from pipeline.errors import UrdfkbError
-
 from kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
                               run_update)
+from pipeline.errors import UrdfkbError
 
-log = logging.getLogger(__name__)
 Changes = dict[str, tuple[bytes | None, bytes | None]]
 
 
@@ -143,58 +140,45 @@ class Index:
         worker.kill()
         self._spawn()
 
-    def _run(self, message: tuple, timeout: float):
+    def _call(self, op: str, args: tuple, timeout: float, hold: bool = False):
+        """Run `op` on a free worker within `timeout` (waiting for one included); the worker goes back
+        to the pool unless `hold` (then (value, worker) is returned), and is replaced if it overran or died."""
         if not self._workers:
-            fn = run_query if message[0] == "query" else run_update
-            return fn(self.master, *message[1:])
+            value = (run_query if op == "query" else run_update)(self.master, *args)
+            return (value, None) if hold else value
         deadline = time.monotonic() + timeout
         try:
             worker = self._idle.get(timeout=timeout)
         except queue.Empty:
             raise QueryTimeout(f"no query worker free within the {timeout:g} s timeout") from None
         try:
-            value = worker.call(message[0], message[1:], deadline)
-        except QueryTimeout:
-            self._retire(worker)
-            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
+            value = worker.call(op, args, deadline)
         except (QueryError, NotAcceptable):
             self._idle.put(worker)
             raise
+        except QueryTimeout:
+            self._retire(worker)
+            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
         except BaseException:
             self._retire(worker)
             raise
-        if not worker.alive():  # crashed after answering: replace it
-            self._retire(worker)
-        else:
+        if hold:
+            return value, worker
+        if worker.alive():
             self._idle.put(worker)
+        else:  # crashed after answering
+            self._retire(worker)
         return value
 
     def query(self, text: str, accept: str | None = None, timeout: float = 10.0,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Evaluate a query on a free worker; QueryError, NotAcceptable, or QueryTimeout past `timeout`."""
-        return self._run(("query", text, accept, default_graphs, named_graphs), timeout)
+        return self._call("query", (text, accept, default_graphs, named_graphs), timeout)
 
     def update(self, text: str, timeout: float = 10.0) -> tuple[Changes, _Worker | None]:
         """Apply an update on one replica (the master without workers), which is held until
-        `release`; returns {graph: (before, after)} for the graphs it changed."""
-        if not self._workers:
-            return run_update(self.master, text), None
-        deadline = time.monotonic() + timeout
-        try:
-            worker = self._idle.get(timeout=timeout)
-        except queue.Empty:
-            raise QueryTimeout(f"no worker free within the {timeout:g} s timeout") from None
-        try:
-            return worker.call("update", (text,), deadline), worker
-        except (QueryError, NotAcceptable):
-            self._idle.put(worker)
-            raise
-        except QueryTimeout:
-            self._retire(worker)
-            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
-        except BaseException:
-            self._retire(worker)
-            raise
+        `release`; returns ({graph: (before, after)} for the graphs it changed, the replica)."""
+        return self._call("update", (text,), timeout, hold=True)
 
     def release(self, worker: _Worker | None, changes: Changes) -> None:
         """Undo an `update`'s changes on the replica that evaluated it (the store then `put`s what

@@ -160,7 +160,7 @@ def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path
              "tsv": "text/tab-separated-values", "xml": "application/sparql-results+xml"}
     if fmt not in media:
         raise ParamError(f"unknown format {fmt!r}; choose one of {', '.join(media)}")
-    store = Store(store_path, workers=0)
+    store = Store(store_path, workers=1)  # one worker process: the timeout is enforced
     try:
         result = run_named(store, name, robot, params, timeout, media[fmt])
     finally:
