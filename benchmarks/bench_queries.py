@@ -3,7 +3,8 @@
 The urdfkb store holds N robots (default 100) populated from the shared URDFs (distinct names;
 PR2 with the hand-written test abstraction, the others with keyword-made abstractions). Oxigraph
 (`oxigraph serve --union-default-graph`, the same default-graph semantics) is loaded with the very
-graphs urdfkb's index holds (N-Quads). Both get the same query text (POST
+graphs urdfkb's index holds (N-Quads). Both run as their own server processes (`urdfkb serve`
+with its defaults) and get the same query text (POST
 application/sparql-query, keep-alive connections); printed: p50 latency with one client and
 throughput with 1 and 8 concurrent clients, side by side.
 
@@ -13,12 +14,10 @@ from __future__ import annotations
 
 import argparse
 import http.client
-import logging
 import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -28,9 +27,8 @@ import pyoxigraph
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
-from kb_fixtures import PR2, fake_runner, free_port  # noqa: E402
+from kb_fixtures import PR2, free_port  # noqa: E402
 from kb_server.queries import load_queries  # noqa: E402
-from kb_server.serve import make_server  # noqa: E402
 from kb_server.store import Store  # noqa: E402
 from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent  # noqa: E402
 from pipeline.ingest import load_urdf  # noqa: E402
@@ -100,6 +98,19 @@ def measure(port: int, path: str, text: str, clients: int, seconds: float) -> tu
     return 1000 * statistics.median(samples), len(samples) / (time.perf_counter() - t0)
 
 
+def _ready(port: int, path: str, body: bytes | None = None) -> None:
+    """Wait for a server to answer `path` (GET, or POST `body`) with a 2xx."""
+    for _ in range(300):
+        try:
+            c = http.client.HTTPConnection("127.0.0.1", port)
+            c.request("POST" if body else "GET", path, body, {"Content-Type": "application/n-quads"} if body else {})
+            if c.getresponse().status < 300:
+                return
+        except OSError:
+            time.sleep(0.1)
+    raise RuntimeError(f"no server on port {port}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robots", type=int, default=100)
@@ -107,44 +118,42 @@ def main() -> None:
     args = ap.parse_args()
     trees = {p.stem: load_urdf(p) for p in sorted(SHARED.glob("*.urdf"))}
     trees = {"pr2": trees.pop("pr2"), **trees}  # robot 0 is always PR2: the one queried
-    logging.getLogger("waitress.queue").setLevel(logging.ERROR)
     with tempfile.TemporaryDirectory() as tmp:
-        server, store, jobs = make_server(Path(tmp) / "kb.sqlite3", port=0, runner=fake_runner())
-        threading.Thread(target=server.run, daemon=True).start()
+        path = Path(tmp) / "kb.sqlite3"
+        store = Store(path, workers=0)
         t0 = time.perf_counter()
         robots = populate(store, args.robots, trees)
         print(f"# {args.robots} robots populated in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        target = store.robot(robots[0]).robot_iri
+        store.close()
+        t0 = time.perf_counter()
+        store = Store(path, workers=0)
+        print(f"# store reopened, index rebuilt from the quadstore, in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
         nquads = store.index.master.dump(format=pyoxigraph.RdfFormat.N_QUADS)
-        oport = free_port()
-        oxi = subprocess.Popen([str(Path(sys.executable).with_name("oxigraph")), "serve", "--union-default-graph",
-                                "--bind", f"127.0.0.1:{oport}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        store.close()
+        kport, oport = free_port(), free_port()
+        bin_dir = Path(sys.executable).parent
+        servers = [subprocess.Popen([str(bin_dir / "urdfkb"), "serve", "--store", str(path), "--port", str(kport)],
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
+                   subprocess.Popen([str(bin_dir / "oxigraph"), "serve", "--union-default-graph", "--bind",
+                                     f"127.0.0.1:{oport}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
         try:
-            for _ in range(100):
-                try:
-                    c = http.client.HTTPConnection("127.0.0.1", oport)
-                    c.request("POST", "/store", nquads, {"Content-Type": "application/n-quads"})
-                    assert c.getresponse().status in (200, 204)
-                    break
-                except OSError:
-                    time.sleep(0.1)
+            _ready(kport, "/robots")
+            _ready(oport, "/store", nquads)
             print(f"# {len(nquads) // 1024} KiB of N-Quads in both", file=sys.stderr)
-            target, named, rows = store.robot(robots[0]).robot_iri, load_queries(), []
+            named, rows = load_queries(), []
             for qname, params in QUERIES.items():
                 text = named[qname].bind(target, params)
-                a = Client(server.effective_port, "/sparql")(text)
+                a = Client(kport, "/sparql")(text)
                 b = Client(oport, "/query")(text)
                 assert a.count(b"{") == b.count(b"{"), qname  # same number of terms in the answer
-                kb1, kb8 = (measure(server.effective_port, "/sparql", text, c, args.seconds) for c in (1, 8))
+                kb1, kb8 = (measure(kport, "/sparql", text, c, args.seconds) for c in (1, 8))
                 ox1, ox8 = (measure(oport, "/query", text, c, args.seconds) for c in (1, 8))
                 rows.append((qname, kb1, kb8, ox1, ox8))
         finally:
-            oxi.kill()
-            server.close()
-            jobs.shutdown()
-            store.close()
-        t0 = time.perf_counter()
-        Store(Path(tmp) / "kb.sqlite3", workers=0).close()
-        print(f"# store reopened, index rebuilt from the quadstore, in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+            for proc in servers:
+                proc.terminate()
+                proc.wait(10)
     print(f"{args.robots} robots, HTTP, same query text; p50 with 1 client, throughput (q/s) with 1 and 8 clients")
     print(f"{'query':<15} | {'urdfkb p50':>10} {'q/s 1c':>7} {'q/s 8c':>7} {'8c/1c':>6} | "
           f"{'oxigraph p50':>12} {'q/s 1c':>7} {'q/s 8c':>7} | {'kb/oxi 8c':>9}")
