@@ -1,24 +1,24 @@
-"""HRI query latency/throughput: the KB store (as served: native SQL, else rdflib), rdflib alone, pyoxigraph.
+"""HRI queries over HTTP: urdfkb serve vs `oxigraph serve` holding the same triples, 1 and 8 clients.
 
-Stores hold 1, 10 and 100 robots populated from the shared URDFs (distinct names; PR2 with the
-hand-written test abstraction, the others with keyword-made abstractions). pyoxigraph holds the
-same triples (each robot's self-contained export, in its default graph). Then, on the largest
-store: the same queries over HTTP (waitress; 1 and 8 concurrent clients), and the KB's latency
-while another thread re-populates a robot continuously (store-lock contention).
+The urdfkb store holds N robots (default 100) populated from the shared URDFs (distinct names;
+PR2 with the hand-written test abstraction, the others with keyword-made abstractions). Oxigraph
+(`oxigraph serve --union-default-graph`, the same default-graph semantics) is loaded with the very
+graphs urdfkb's index holds (N-Quads). Both run as their own server processes (`urdfkb serve`
+with its defaults) and get the same query text (POST
+application/sparql-query, keep-alive connections); printed: p50 latency with one client and
+throughput with 1 and 8 concurrent clients, side by side.
 
-    .venv/bin/python benchmarks/bench_queries.py [--sizes 1,10,100] [--iterations 40]
+    .venv/bin/python benchmarks/bench_queries.py [--robots 100] [--seconds 3]
 """
 from __future__ import annotations
 
 import argparse
-import logging
+import http.client
 import statistics
+import subprocess
 import sys
 import tempfile
-import threading
 import time
-import urllib.parse
-import urllib.request
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -27,7 +27,7 @@ import pyoxigraph
 REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
-from kb_fixtures import PR2, live, make_app  # noqa: E402
+from kb_fixtures import PR2, free_port  # noqa: E402
 from kb_server.queries import load_queries  # noqa: E402
 from kb_server.store import Store  # noqa: E402
 from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent  # noqa: E402
@@ -35,7 +35,7 @@ from pipeline.ingest import load_urdf  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "urdf"
 QUERIES = {"cameras": {}, "sensors": {}, "mounted_below": {"link": "base_link"}, "end_effectors": {},
-           "low_confidence": {"threshold": "0.5"}}
+           "low_confidence": {"threshold": "0.5"}, "components": {}}
 KEYWORDS = (("optical", SENSOR, "MonocularCamera", "RgbFrame"), ("camera", SENSOR, "MonocularCamera", "RgbFrame"),
             ("laser", SENSOR, "Lidar", "SensingElement"), ("imu", SENSOR, "IMU", "SensingElement"),
             ("tool", END_EFFECTOR, "Gripper", "ToolCenterPoint"), ("finger", END_EFFECTOR, "Gripper", "ContactSurface"))
@@ -54,129 +54,112 @@ def keyword_abstraction(tree) -> Abstraction:
     return Abstraction(tuple(comps))
 
 
-def build(n: int, trees: dict, tmp: Path) -> tuple[Store, pyoxigraph.Store, list[str]]:
-    store = Store(tmp / f"kb{n}.sqlite3")
-    oxi = pyoxigraph.Store()
-    names = list(trees)
-    robots = []
+def populate(store, n: int, trees: dict) -> list[str]:
+    names, robots = list(trees), []
     for i in range(n):
         urdf = names[i % len(names)]
         name = f"{urdf}_{i}"
-        tree = trees[urdf]
-        store.replace_robot(name, tree, PR2 if urdf == "pr2" else keyword_abstraction(tree))
+        store.replace_robot(name, trees[urdf], PR2 if urdf == "pr2" else keyword_abstraction(trees[urdf]))
         robots.append(name)
-        data = store.graph(name).serialize(format="nt", encoding="utf-8")
-        oxi.bulk_load(data, pyoxigraph.RdfFormat.N_TRIPLES)
-    return store, oxi, robots
+    return robots
 
 
-def stats(samples: list[float]) -> tuple[float, float, float]:
-    """p50 ms, p99 ms, queries/s."""
-    s = sorted(samples)
-    return 1000 * statistics.median(s), 1000 * s[min(len(s) - 1, int(0.99 * len(s)))], len(s) / sum(s)
+class Client:
+    """One keep-alive HTTP connection posting queries to `path`."""
+
+    def __init__(self, port: int, path: str):
+        self.conn, self.path = http.client.HTTPConnection("127.0.0.1", port), path
+
+    def __call__(self, text: str) -> bytes:
+        self.conn.request("POST", self.path, text.encode(), {"Content-Type": "application/sparql-query",
+                                                             "Accept": "application/sparql-results+json"})
+        r = self.conn.getresponse()
+        body = r.read()
+        assert r.status == 200, body[:300]
+        return body
 
 
-def timed(fn, iterations: int) -> list[float]:
-    for _ in range(3):
-        fn()
-    out = []
-    for _ in range(iterations):
-        t = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - t)
-    return out
+def measure(port: int, path: str, text: str, clients: int, seconds: float) -> tuple[float, float]:
+    """(p50 ms, queries/s) with `clients` concurrent clients for about `seconds`."""
+    def run(_):
+        c, out = Client(port, path), []
+        for _ in range(5):
+            c(text)
+        end = time.perf_counter() + seconds
+        while time.perf_counter() < end:
+            t = time.perf_counter()
+            c(text)
+            out.append(time.perf_counter() - t)
+        return out
+
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(clients) as pool:
+        samples = [x for xs in pool.map(run, range(clients)) for x in xs]
+    return 1000 * statistics.median(samples), len(samples) / (time.perf_counter() - t0)
+
+
+def _ready(port: int, path: str, body: bytes | None = None) -> None:
+    """Wait for a server to answer `path` (GET, or POST `body`) with a 2xx."""
+    for _ in range(300):
+        try:
+            c = http.client.HTTPConnection("127.0.0.1", port)
+            c.request("POST" if body else "GET", path, body, {"Content-Type": "application/n-quads"} if body else {})
+            if c.getresponse().status < 300:
+                return
+        except OSError:
+            time.sleep(0.1)
+    raise RuntimeError(f"no server on port {port}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="1,10,100")
-    ap.add_argument("--iterations", type=int, default=40)
+    ap.add_argument("--robots", type=int, default=100)
+    ap.add_argument("--seconds", type=float, default=3.0)
     args = ap.parse_args()
     trees = {p.stem: load_urdf(p) for p in sorted(SHARED.glob("*.urdf"))}
     trees = {"pr2": trees.pop("pr2"), **trees}  # robot 0 is always PR2: the one queried
-    named = load_queries()
-    rows, busy_rows = [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for n in (int(x) for x in args.sizes.split(",")):
-            t0 = time.perf_counter()
-            store, oxi, robots = build(n, trees, Path(tmp))
-            print(f"# {n} robots populated in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-            target = store.robot(robots[0]).robot_iri
+        path = Path(tmp) / "kb.sqlite3"
+        store = Store(path, workers=0)
+        t0 = time.perf_counter()
+        robots = populate(store, args.robots, trees)
+        print(f"# {args.robots} robots populated in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        target = store.robot(robots[0]).robot_iri
+        store.close()
+        t0 = time.perf_counter()
+        store = Store(path, workers=0)
+        print(f"# store reopened, index rebuilt from the quadstore, in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        nquads = store.index.master.dump(format=pyoxigraph.RdfFormat.N_QUADS)
+        store.close()
+        kport, oport = free_port(), free_port()
+        bin_dir = Path(sys.executable).parent
+        servers = [subprocess.Popen([str(bin_dir / "urdfkb"), "serve", "--store", str(path), "--port", str(kport)],
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
+                   subprocess.Popen([str(bin_dir / "oxigraph"), "serve", "--union-default-graph", "--bind",
+                                     f"127.0.0.1:{oport}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+        try:
+            _ready(kport, "/robots")
+            _ready(oport, "/store", nquads)
+            print(f"# {len(nquads) // 1024} KiB of N-Quads in both", file=sys.stderr)
+            named, rows = load_queries(), []
             for qname, params in QUERIES.items():
                 text = named[qname].bind(target, params)
-                kb_rows = store.query(text).rows
-                ox_rows = list(oxi.query(text))
-                assert len(kb_rows) == len(ox_rows), (qname, len(kb_rows), len(ox_rows))
-                engine = store.query(text).engine
-                kb = stats(timed(lambda: store.query(text), args.iterations))
-                rdf = stats(timed(lambda: store.query(text, engine="rdflib"), max(5, args.iterations // 4)))
-                ox = stats(timed(lambda: list(oxi.query(text)), args.iterations))
-                rows.append((n, qname, engine, len(kb_rows), *kb, rdf[0], *ox, kb[0] / ox[0]))
-            if n == max(int(x) for x in args.sizes.split(",")):
-                http_rows = over_http(store, robots[0], args.iterations)
-                busy_rows = under_populate(store, trees["pr2"], target, named, args.iterations)
-            store.close()
-    print(f"{'robots':>6} {'query':<15} {'engine':<9} {'rows':>4} | {'KB p50':>8} {'p99':>8} {'q/s':>7} |"
-          f" {'rdflib p50':>10} | {'oxi p50':>8} {'p99':>8} {'q/s':>7} | {'KB/oxi':>6}")
-    for n, q, engine, nrows, kp50, kp99, kqps, rp50, op50, op99, oqps, ratio in rows:
-        print(f"{n:>6} {q:<15} {engine:<9} {nrows:>4} | {kp50:>6.2f}ms {kp99:>6.2f}ms {kqps:>7.0f} |"
-              f" {rp50:>8.1f}ms | {op50:>6.3f}ms {op99:>6.3f}ms {oqps:>7.0f} | {ratio:>5.1f}x")
-    print("\nOver HTTP (waitress, GET /queries/<name>, largest store): 1 client, then 8 concurrent clients:")
-    print(f"{'query':<15} | {'p50':>8} {'p99':>8} {'q/s':>6} | {'8c p50':>8} {'p99':>8} {'q/s':>6}")
-    for q, one, many in http_rows:
-        print(f"{q:<15} | {one[0]:>6.2f}ms {one[1]:>6.2f}ms {one[2]:>6.0f} | {many[0]:>6.2f}ms {many[1]:>6.2f}ms {many[2]:>6.0f}")
-    print("\nKB latency while another thread re-populates PR2 continuously (largest store):")
-    print(f"{'query':<15} | {'idle p50':>9} {'p99':>8} | {'busy p50':>9} {'p99':>8} | {'p50 x':>6} | populates")
-    for q, idle, busy, pops in busy_rows:
-        print(f"{q:<15} | {idle[0]:>7.2f}ms {idle[1]:>6.2f}ms | {busy[0]:>7.2f}ms {busy[1]:>6.2f}ms |"
-              f" {busy[0] / idle[0]:>5.1f}x | {pops}")
-
-
-def over_http(store: Store, robot: str, iterations: int) -> list:
-    """Per query: (p50, p99, q/s) with one client, and with 8 concurrent clients (aggregate q/s)."""
-    app, jobs = make_app(store)
-    logging.getLogger("waitress.queue").setLevel(logging.ERROR)  # 8 clients > 6 threads: expected
-    out = []
-    with live(app) as base:
-        for qname, params in QUERIES.items():
-            url = f"{base}/queries/{qname}?" + urllib.parse.urlencode({"robot": robot, **params})
-
-            def get():
-                with urllib.request.urlopen(url) as r:
-                    r.read()
-
-            one = stats(timed(get, iterations))
-            with ThreadPoolExecutor(8) as pool:
-                t0 = time.perf_counter()
-                samples = [x for xs in pool.map(lambda _: timed(get, iterations), range(8)) for x in xs]
-                wall = time.perf_counter() - t0
-            p50, p99, _ = stats(samples)
-            out.append((qname, one, (p50, p99, len(samples) / wall)))
-    jobs.shutdown()
-    return out
-
-
-def under_populate(store: Store, tree, target: str, named, iterations: int) -> list:
-    out = []
-    for qname, params in QUERIES.items():
-        text = named[qname].bind(target, params)
-        idle = stats(timed(lambda: store.query(text), iterations))
-        stop, pops = threading.Event(), [0]
-
-        def writer():
-            while not stop.is_set():
-                store.replace_robot("busy", tree, PR2)
-                pops[0] += 1
-
-        thread = threading.Thread(target=writer)
-        thread.start()
-        try:
-            busy = stats(timed(lambda: store.query(text), iterations))
+                a = Client(kport, "/sparql")(text)
+                b = Client(oport, "/query")(text)
+                assert a.count(b"{") == b.count(b"{"), qname  # same number of terms in the answer
+                kb1, kb8 = (measure(kport, "/sparql", text, c, args.seconds) for c in (1, 8))
+                ox1, ox8 = (measure(oport, "/query", text, c, args.seconds) for c in (1, 8))
+                rows.append((qname, kb1, kb8, ox1, ox8))
         finally:
-            stop.set()
-            thread.join()
-        out.append((qname, idle, busy, pops[0]))
-    return out
+            for proc in servers:
+                proc.terminate()
+                proc.wait(10)
+    print(f"{args.robots} robots, HTTP, same query text; p50 with 1 client, throughput (q/s) with 1 and 8 clients")
+    print(f"{'query':<15} | {'urdfkb p50':>10} {'q/s 1c':>7} {'q/s 8c':>7} {'8c/1c':>6} | "
+          f"{'oxigraph p50':>12} {'q/s 1c':>7} {'q/s 8c':>7} | {'kb/oxi 8c':>9}")
+    for q, kb1, kb8, ox1, ox8 in rows:
+        print(f"{q:<15} | {kb1[0]:>8.2f}ms {kb1[1]:>7.0f} {kb8[1]:>7.0f} {kb8[1] / kb1[1]:>5.2f}x | "
+              f"{ox1[0]:>10.2f}ms {ox1[1]:>7.0f} {ox8[1]:>7.0f} | {kb8[1] / ox8[1]:>8.2f}x")
 
 
 if __name__ == "__main__":

@@ -15,10 +15,11 @@ from rdflib.namespace import RDF
 from werkzeug.exceptions import HTTPException
 
 from kb_server import queries
+from kb_server.index import WorkerCrashed
 from kb_server.jobs import JobManager, QueueFull
 from kb_server.security import Policy, Refused
-from kb_server.sparql import QueryError, QueryTimeout, Result, negotiate, offers_for, serialize
-from kb_server.store import EXPORT_FORMATS, RobotNameError, Store, check_robot_name
+from kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
+from kb_server.store import EXPORT_FORMATS, ReadOnlyGraph, RobotNameError, Store, check_robot_name
 from pipeline.errors import URDFError
 from pipeline.ingest import DEFAULT_MAX_LINKS, load_urdf
 from pipeline.runner import Settings
@@ -54,19 +55,23 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     policy.install(app, lambda status, message: error(status, message, request.path == "/sparql"))
 
     def results(result: Result) -> Response:
-        media = negotiate(request.headers.get("Accept"), offers_for(result))
-        if media is None:  # the Accept header is never echoed
-            return error(406, f"no media type the Accept header allows is offered; offered: {', '.join(offers_for(result))}", True)
-        charset = "" if media.endswith("+xml") or media == "application/rdf+xml" else "; charset=utf-8"
-        return Response(serialize(result, media), 200, content_type=media + charset)
+        charset = "" if result.media_type.endswith("xml") else "; charset=utf-8"
+        return Response(result.body, 200, content_type=result.media_type + charset)
 
-    def run_query(run) -> Response:
+    def answer(run) -> Response:
+        """`run()`'s response, or the SPARQL error it raised as a plain-text status."""
         try:
-            return results(run())
+            return run()
         except QueryError as e:
             return error(400, str(e), True)
+        except ReadOnlyGraph as e:
+            return error(403, str(e), True)
+        except NotAcceptable as e:
+            return error(406, str(e), True)
         except QueryTimeout as e:
             return error(503, str(e), True)
+        except WorkerCrashed as e:
+            return error(500, str(e), True)
 
     @app.errorhandler(HTTPException)
     def http_error(e: HTTPException):
@@ -78,8 +83,6 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
 
     @app.route("/sparql", methods=["GET", "POST"])
     def sparql():
-        if request.args.get("default-graph-uri") or request.args.get("named-graph-uri"):
-            return error(400, "default-graph-uri/named-graph-uri are not supported: the default graph is the union of all robots", True)
         query, update = _protocol_operation()
         if query is None and update is None:
             if request.method == "GET":
@@ -94,16 +97,17 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
                 return error(400, "updates must be sent by POST", True)
             if not authorized():
                 return error(403, "SPARQL updates need the server's token (Authorization: Bearer ...)", True)
-            try:
+
+            def apply() -> Response:
                 store.update(update, query_timeout)
-            except QueryError as e:
-                return error(400, str(e), True)
-            except QueryTimeout as e:
-                return error(503, str(e), True)
-            except Exception as e:  # the update could not be applied; nothing was committed
-                return error(400, f"update failed: {e}", True)
-            return Response(status=204)
-        return run_query(lambda: store.query(query, query_timeout))
+                return Response(status=204)
+
+            return answer(apply)
+        dataset = request.values if request.mimetype in _FORM_TYPES else request.args
+        default, named = dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri")
+        given = bool(default or named)  # the protocol's dataset, instead of the union default graph
+        return answer(lambda: results(store.query(query, query_timeout, request.headers.get("Accept"),
+                                                  default if given else None, named if given else None)))
 
     def service_description() -> Response:
         g = rdflib.Graph()
@@ -123,12 +127,16 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         g.add((dataset, RDF.type, SD.Dataset))
         g.add((dataset, SD.defaultGraph, default))
         g.add((default, RDF.type, SD.Graph))
-        for entry in store.robots():
+        for iri in [CORE_GRAPH] + [entry.ontology_iri for entry in store.robots()]:
             named = rdflib.BNode()
             g.add((dataset, SD.namedGraph, named))
             g.add((named, RDF.type, SD.NamedGraph))
-            g.add((named, SD.name, rdflib.URIRef(entry.ontology_iri)))
-        return results(Result("graph", graph=g))
+            g.add((named, SD.name, rdflib.URIRef(iri)))
+        media = negotiate(request.headers.get("Accept"), list(GRAPH_TYPES))
+        if media is None:
+            return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(GRAPH_TYPES)}", True)
+        body = g.serialize(format={"text/turtle": "turtle", "application/rdf+xml": "xml"}.get(media, "nt"), encoding="utf-8")
+        return Response(body, 200, content_type=media + ("" if media.endswith("xml") else "; charset=utf-8"))
 
     # --- populate and jobs ---------------------------------------------------------------------
 
@@ -240,7 +248,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         if not robot_name:
             return error(400, "give the robot: ?robot=NAME")
         try:
-            return run_query(lambda: queries.run_named(store, name, robot_name, args, query_timeout))
+            return answer(lambda: results(queries.run_named(store, name, robot_name, args, query_timeout,
+                                                            request.headers.get("Accept"))))
         except (queries.UnknownQuery, queries.UnknownRobot) as e:
             return error(404, e.args[0])
         except queries.ParamError as e:

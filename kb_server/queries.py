@@ -22,7 +22,7 @@ from functools import cache
 from rdflib import Literal, URIRef
 from rdflib.namespace import XSD
 
-from kb_server.sparql import Result, to_csv, to_json, to_tsv, to_xml
+from kb_server.sparql import Result
 from kb_server.store import Store
 from pipeline.errors import UrdfkbError
 
@@ -116,7 +116,8 @@ def load_queries() -> dict[str, NamedQuery]:
             for f in sorted(root.iterdir(), key=lambda f: f.name) if f.name.endswith(".rq")}
 
 
-def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = 10.0) -> Result:
+def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = 10.0,
+              accept: str | None = None) -> Result:
     """Run query `name` for stored robot `robot`; UnknownQuery, UnknownRobot or ParamError on bad input."""
     query = load_queries().get(name)
     if query is None:
@@ -124,7 +125,7 @@ def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], time
     entry = store.robot(robot)
     if entry is None:
         raise UnknownRobot(f"no robot {robot!r} in the store")
-    return store.query(query.bind(entry.robot_iri, args), timeout)
+    return store.query(query.bind(entry.robot_iri, args), timeout, accept)
 
 
 def components(store: Store, robot: str) -> list[dict]:
@@ -155,19 +156,21 @@ def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path
     JSON), "csv", "tsv" or "xml". Raises UnknownQuery, UnknownRobot, ParamError, QueryError or
     QueryTimeout (all UrdfkbError) with a clear message.
     """
-    writers = {"table": _table, "json": to_json, "csv": to_csv, "tsv": to_tsv, "xml": to_xml}
-    if fmt not in writers:
-        raise ParamError(f"unknown format {fmt!r}; choose one of {', '.join(writers)}")
-    store = Store(store_path)
+    media = {"table": "application/sparql-results+json", "json": "application/sparql-results+json", "csv": "text/csv",
+             "tsv": "text/tab-separated-values", "xml": "application/sparql-results+xml"}
+    if fmt not in media:
+        raise ParamError(f"unknown format {fmt!r}; choose one of {', '.join(media)}")
+    store = Store(store_path, workers=1)  # one worker process: the timeout is enforced
     try:
-        out = writers[fmt](run_named(store, name, robot, params, timeout))
+        result = run_named(store, name, robot, params, timeout, media[fmt])
     finally:
         store.close()
-    return out if isinstance(out, str) else out.decode("utf-8")
+    return _table(result) if fmt == "table" else result.body.decode("utf-8")
 
 
 def _table(result: Result) -> str:
-    cells = [[("" if t is None else _local(str(t)) if "#" in str(t) else str(t)) for t in row] for row in result.rows]
+    rows = result.as_dicts()
+    cells = [[_local(row[v]) if "#" in row.get(v, "") else row.get(v, "") for v in result.vars] for row in rows]
     widths = [max([len(v)] + [len(r[i]) for r in cells]) for i, v in enumerate(result.vars)]
     lines = ["  ".join(v.ljust(w) for v, w in zip(result.vars, widths)).rstrip(),
              "  ".join("-" * w for w in widths)]

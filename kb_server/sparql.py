@@ -1,250 +1,229 @@
-"""SPARQL 1.1 evaluation over an owlready2 world, and the W3C result formats.
+"""SPARQL 1.1 evaluation with Oxigraph (pyoxigraph), the checks run before it, and content negotiation.
 
-Every query is parsed by rdflib first (strict SPARQL 1.1 grammar, its message on error, parses
-cached). SELECT queries owlready2's native engine can translate run natively (fast, SQL); the
-rest (ASK, CONSTRUCT, DESCRIBE, MINUS, NOT EXISTS, inverse paths, ...) run through rdflib over
-the same quadstore. Results are serialised here, never by owlready2.
+The functions `run_query` and `run_update` evaluate one operation on a pyoxigraph Store; they run
+inside the index's worker processes (kb_server/index.py). Results are serialised by Oxigraph's
+own W3C writers (SPARQL results JSON/XML/CSV/TSV; Turtle, RDF/XML, N-Triples for graphs).
+
+Before anything is evaluated, `scan` reads the operation's tokens (strings, IRIs and comments
+skipped) to refuse what would make the server fetch remote data (SERVICE, LOAD: pyoxigraph has an
+HTTP client and would use it) or overflow the parser's stack (pyoxigraph 0.5 segfaults on ~50k
+nested groups), and to find the dataset clauses (FROM / FROM NAMED must name local graphs).
 """
 from __future__ import annotations
 
-import csv
-import io
 import json
-import math
-import sqlite3
-import time
-from contextlib import contextmanager
+import re
 from dataclasses import dataclass, field
-from functools import lru_cache
-from xml.etree import ElementTree as ET
+from urllib.parse import urljoin
 
-import rdflib
-from owlready2.rdflib_store import TripleLiteRDFlibGraph
-from owlready2.sparql.main import PreparedSelectQuery
-from pyparsing import ParseException
-from rdflib import BNode, Literal, URIRef
-from rdflib.plugins.sparql import prepareQuery
-from rdflib.plugins.sparql.algebra import translateUpdate
-from rdflib.plugins.sparql.parser import parseUpdate
-from rdflib.plugins.sparql.parserutils import CompValue
+import pyoxigraph as ox
 
 from pipeline.errors import UrdfkbError
 
-XSD = "http://www.w3.org/2001/XMLSchema#"
-UPDATES_IRI = "https://w3id.org/urdfkb/updates#"
-XSD_STRING = URIRef(XSD + "string")
-SRX_NS = "http://www.w3.org/2005/sparql-results#"
+CORE_GRAPH = "https://w3id.org/urdfkb/core#"
+MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack
 
 SELECT_TYPES = {
-    "application/sparql-results+json": "json",
-    "application/json": "json",
-    "application/sparql-results+xml": "xml",
-    "application/xml": "xml",
-    "text/csv": "csv",
-    "text/tab-separated-values": "tsv",
+    "application/sparql-results+json": ox.QueryResultsFormat.JSON,
+    "application/json": ox.QueryResultsFormat.JSON,
+    "application/sparql-results+xml": ox.QueryResultsFormat.XML,
+    "application/xml": ox.QueryResultsFormat.XML,
+    "text/csv": ox.QueryResultsFormat.CSV,
+    "text/tab-separated-values": ox.QueryResultsFormat.TSV,
 }
 GRAPH_TYPES = {
-    "text/turtle": "turtle",
-    "application/rdf+xml": "xml",
-    "application/n-triples": "nt",
-    "text/plain": "nt",
+    "text/turtle": ox.RdfFormat.TURTLE,
+    "application/rdf+xml": ox.RdfFormat.RDF_XML,
+    "application/n-triples": ox.RdfFormat.N_TRIPLES,
+    "text/plain": ox.RdfFormat.N_TRIPLES,
 }
 
 
 class QueryError(UrdfkbError, ValueError):
-    """The query (or update) is not valid SPARQL 1.1; the message is the parser's."""
+    """The query (or update) is not valid SPARQL 1.1 or asks for something refused; the message says which."""
 
 
 class QueryTimeout(UrdfkbError, RuntimeError):
-    """The query ran past its deadline and was stopped."""
+    """The operation ran past its deadline and was stopped."""
+
+
+class NotAcceptable(UrdfkbError, ValueError):
+    """No offered media type matches the client's Accept header."""
 
 
 @dataclass
 class Result:
-    """A query answer: variable bindings (SELECT), a boolean (ASK) or a graph (CONSTRUCT/DESCRIBE)."""
+    """A serialised answer: kind "bindings", "boolean" or "graph", its media type and body."""
 
-    kind: str  # "bindings" | "boolean" | "graph"
-    vars: list[str] = field(default_factory=list)
-    rows: list[tuple] = field(default_factory=list)  # rdflib terms, None when unbound
-    boolean: bool = False
-    graph: rdflib.Graph | None = None
-    engine: str = "rdflib"
+    kind: str
+    media_type: str
+    body: bytes
+    _json: dict | None = field(default=None, repr=False)
+
+    @property
+    def document(self) -> dict:
+        """The SPARQL results JSON document (only for results serialised as JSON)."""
+        if self._json is None:
+            self._json = json.loads(self.body)
+        return self._json
+
+    @property
+    def vars(self) -> list[str]:
+        return self.document["head"].get("vars", [])
+
+    def bindings(self) -> list[dict[str, dict]]:
+        """Rows as {var: JSON term}, unbound variables left out."""
+        return self.document["results"]["bindings"]
 
     def as_dicts(self) -> list[dict[str, str]]:
         """Rows as {var: string value}, unbound variables left out (for JSON APIs and the CLI)."""
-        return [{v: str(t) for v, t in zip(self.vars, row) if t is not None} for row in self.rows]
+        return [{v: t["value"] for v, t in row.items()} for row in self.bindings()]
 
 
-@lru_cache(maxsize=512)
-def parse_query(text: str):
-    """rdflib's prepared query (algebra); raises QueryError with the parser's message.
+# --- lexical checks -----------------------------------------------------------------------
 
-    Anything that would make the server fetch remote data (SERVICE, FROM, FROM NAMED) is refused.
-    """
-    try:
-        prepared = prepareQuery(text)
-    except ParseException as e:
-        raise QueryError(f"SPARQL syntax error: {e}") from None
-    except Exception as e:  # rdflib raises plain Exceptions for unknown prefixes etc.
-        raise QueryError(f"invalid SPARQL query: {e}") from None
-    if prepared.algebra.get("datasetClause"):
-        raise QueryError("FROM / FROM NAMED are not supported: the default graph is the union of all "
-                         "robots; use GRAPH <robot ontology IRI> for one robot")
-    _refuse_service(prepared.algebra)
-    return prepared
+_TOKENS = re.compile(r"""
+    (?P<skip>\s+|\#[^\n]*)
+  | (?P<string>'''(?:[^'\\]|\\.|'(?!''))*'''|\"\"\"(?:[^"\\]|\\.|"(?!""))*\"\"\"|'(?:[^'\\\n]|\\.)*'|"(?:[^"\\\n]|\\.)*")
+  | (?P<iri><[^<>"{}|^`\\\x00-\x20]*>)
+  | (?P<var>[?$][\w\u00b7-\U000effff]*)
+  | (?P<pname>[A-Za-z][\w.\-]*:[^\s(){}\[\],;]*|:[^\s(){}\[\],;]*|_:[^\s(){}\[\],;]*)
+  | (?P<word>[A-Za-z_]\w*)
+  | (?P<open>[({\[])
+  | (?P<close>[)}\]])
+  | (?P<other>.)
+""", re.VERBOSE | re.DOTALL)
 
 
-def parse_update(text: str):
-    """rdflib's translated update; QueryError if malformed or if it would fetch remote data (LOAD, SERVICE)."""
-    try:
-        update = translateUpdate(parseUpdate(text))
-    except ParseException as e:
-        raise QueryError(f"SPARQL update syntax error: {e}") from None
-    except Exception as e:
-        raise QueryError(f"invalid SPARQL update: {e}") from None
-    if any(op.name == "Load" for op in update.algebra):
-        raise QueryError("LOAD is not supported: the server does not fetch remote data")
-    _refuse_service(update.algebra)
-    return update
+@dataclass
+class Scan:
+    """What the lexical pass found: keywords at any depth, dataset IRIs (resolved) at depth 0."""
+
+    keywords: set[str] = field(default_factory=set)
+    from_graphs: list[str] = field(default_factory=list)
+    from_named: list[str] = field(default_factory=list)
 
 
-def _refuse_service(algebra) -> None:
-    if _contains(algebra, "ServiceGraphPattern"):
+def scan(text: str, update: bool = False) -> Scan:
+    """Tokenise `text`; QueryError for SERVICE, LOAD, or nesting deeper than MAX_DEPTH."""
+    out, depth, base, prefixes = Scan(), 0, "", {}
+    prev: list[tuple[str, str]] = []  # the last few significant tokens at depth 0
+    for m in _TOKENS.finditer(text):
+        kind, tok = m.lastgroup, m.group()
+        if kind == "skip":
+            continue
+        if kind == "open":
+            depth += 1
+            if depth > MAX_DEPTH:
+                raise QueryError(f"query nests more than {MAX_DEPTH} levels of (), {{}} or []")
+        elif kind == "close":
+            depth = max(depth - 1, 0)
+        elif kind == "word":
+            out.keywords.add(tok.upper())
+        if depth or kind == "open":
+            continue
+        prev = (prev + [(kind, tok)])[-3:]
+        words = [t.upper() if k == "word" else t for k, t in prev]
+        if kind in ("iri", "pname"):
+            iri = _resolve(tok, base, prefixes)
+            if len(words) >= 2 and words[-2] == "BASE":
+                base = iri or base
+            elif len(words) >= 3 and words[-3] == "PREFIX" and prev[-2][0] == "pname":
+                prefixes[prev[-2][1][:-1]] = iri
+            elif len(words) >= 3 and words[-3:-1] == ["FROM", "NAMED"]:
+                out.from_named.append(iri)
+            elif len(words) >= 2 and words[-2] == "FROM":
+                out.from_graphs.append(iri)
+    if "SERVICE" in out.keywords:
         raise QueryError("SERVICE (federated query) is not supported: the server does not fetch remote data")
+    if update and "LOAD" in out.keywords:
+        raise QueryError("LOAD is not supported: the server does not fetch remote data")
+    return out
 
 
-def _contains(node, name: str) -> bool:
-    if isinstance(node, CompValue):
-        return node.name == name or any(_contains(v, name) for v in node.values())
-    if isinstance(node, (list, tuple)):
-        return any(_contains(v, name) for v in node)
-    return False
+def _resolve(tok: str, base: str, prefixes: dict[str, str]) -> str | None:
+    if tok.startswith("<"):
+        return urljoin(base, tok[1:-1]) if base else tok[1:-1]
+    prefix, _, local = tok.partition(":")
+    return prefixes[prefix] + local if prefix in prefixes else None
 
 
-class _DeadlineGraph(TripleLiteRDFlibGraph):
-    """The whole world as an rdflib graph whose triples() stops the query past `deadline`."""
+# --- evaluation (in a worker) -------------------------------------------------------------
 
-    deadline = math.inf
-
-    def triples(self, triple):
-        if time.monotonic() > self.deadline:
-            raise QueryTimeout("query timed out")
-        for i, t in enumerate(super().triples(triple)):
-            if not i & 255 and time.monotonic() > self.deadline:
-                raise QueryTimeout("query timed out")
-            yield t
+def _graph(iri: str):
+    return ox.NamedNode(iri)
 
 
-class SparqlEngine:
-    """Runs SPARQL over one owlready2 world. Not thread-safe: callers serialise access."""
+def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: list[str] | None = None,
+              named_graphs: list[str] | None = None) -> Result:
+    """Evaluate a query over `store` and serialise it for `accept`.
 
-    def __init__(self, world):
-        self.world = world
-        self.db = world.graph.db
-        self.graph = _DeadlineGraph(store=world.as_rdflib_graph().store)
-        self.graph.triplelite = world.graph
-        self.graph.onto = None
-        self._not_native: set[str] = set()
+    The default graph is the union of all graphs unless the query's FROM / FROM NAMED or the
+    protocol's default-graph-uri / named-graph-uri name a dataset (which must be local graphs).
+    QueryError (400) on a malformed query, NotAcceptable (406) if no format fits `accept`."""
+    found = scan(text)
+    kw: dict = {"use_default_graph_as_union": True}
+    if default_graphs is not None or named_graphs is not None:
+        kw = {"default_graph": [_graph(g) for g in default_graphs or []], "named_graphs": [_graph(g) for g in named_graphs or []]}
+    if found.from_graphs or found.from_named:
+        kw = {}  # the query names its own dataset
+    for iri in [*(default_graphs or []), *(named_graphs or []), *found.from_graphs, *found.from_named]:
+        if iri is None or not store.contains_named_graph(_graph(iri)):
+            raise QueryError(f"the dataset names <{iri}>, which is no graph of this store "
+                             "(the server never fetches remote data)")
+    try:
+        answer = store.query(text, **kw)
+    except SyntaxError as e:
+        raise QueryError(f"SPARQL syntax error: {e}") from None
+    except (OSError, ValueError, TypeError) as e:
+        raise QueryError(f"query failed: {e}") from None
+    if isinstance(answer, ox.QueryTriples):
+        offers, kind = GRAPH_TYPES, "graph"
+    else:
+        offers, kind = SELECT_TYPES, "boolean" if isinstance(answer, ox.QueryBoolean) else "bindings"
+    media = negotiate(accept, list(offers))
+    if media is None:
+        raise NotAcceptable(f"no media type the Accept header allows is offered; offered: {', '.join(offers)}")
+    try:
+        return Result(kind, media, answer.serialize(format=offers[media]))
+    except (OSError, ValueError) as e:  # evaluation errors surface while serialising lazily evaluated results
+        raise QueryError(f"query failed: {e}") from None
 
-    @contextmanager
-    def _deadline(self, timeout: float):
-        deadline = time.monotonic() + timeout
-        self.graph.deadline = deadline
-        self.db.set_progress_handler(lambda: time.monotonic() > deadline, 20_000)
-        try:
-            yield
-        except Exception as e:
-            if time.monotonic() > deadline:  # sqlite "interrupted", or rdflib wrapping our error
-                raise QueryTimeout(f"query stopped after its {timeout:g} s timeout") from e
-            raise
-        finally:
-            self.db.set_progress_handler(None, 0)
-            self.graph.deadline = math.inf
 
-    def query(self, text: str, timeout: float = 10.0, engine: str = "auto") -> Result:
-        """Evaluate a SPARQL 1.1 query; QueryError if malformed, QueryTimeout past `timeout` s.
+def graph_dumps(store: ox.Store) -> dict[str, bytes]:
+    """Every graph of `store` as N-Triples, keyed by graph IRI ("" for the default graph)."""
+    out = {"": store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=ox.DefaultGraph())}
+    for g in store.named_graphs():
+        out[g.value] = store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=g)
+    return out
 
-        engine="rdflib" skips the native engine (to compare the two)."""
-        prepared = parse_query(text)
-        with self._deadline(timeout):
-            use_native = engine == "auto" and prepared.algebra.name == "SelectQuery"
-            native = self._native(text) if use_native else None
-            if native is not None:
-                try:
-                    return self._run_native(native)
-                except sqlite3.OperationalError:
-                    if time.monotonic() > self.graph.deadline:
-                        raise
-                    self._not_native.add(text)  # owlready2 translated it to SQL SQLite rejects
-            return self._run_rdflib(prepared)
 
-    def update(self, text: str, timeout: float = 10.0) -> None:
-        """Apply a SPARQL 1.1 update to the world (the caller commits or rolls back).
+def run_update(store: ox.Store, text: str) -> dict[str, tuple[bytes | None, bytes | None]]:
+    """Apply an update to `store`; returns {graph: (before, after)} for every graph it changed
+    (N-Triples; None for a graph that did not / no longer exist(s))."""
+    scan(text, update=True)
+    before = graph_dumps(store)
+    try:
+        store.update(text)
+    except SyntaxError as e:
+        raise QueryError(f"SPARQL update syntax error: {e}") from None
+    except (OSError, ValueError, TypeError) as e:
+        raise QueryError(f"update failed: {e}") from None
+    after = graph_dumps(store)
+    return {g: (before.get(g), after.get(g)) for g in before.keys() | after.keys() if before.get(g) != after.get(g)}
 
-        Inserted triples go to ontology UPDATES_IRI, so they outlive re-populating a robot;
-        deletions apply wherever the triples are.
-        """
-        update = parse_update(text)
-        with self._deadline(timeout), self.world.get_ontology(UPDATES_IRI):
-            self.graph.update(update)
 
-    def _native(self, text: str) -> PreparedSelectQuery | None:
-        if text in self._not_native:
-            return None
-        try:
-            prepared = self.world.prepare_sparql(text, False)
-        except Exception:  # a construct the native translator does not support
-            return None
-        return prepared if type(prepared) is PreparedSelectQuery else None
-
-    def _run_native(self, prepared: PreparedSelectQuery) -> Result:
-        names = [c[1:] for c in prepared.column_names]
-        types = prepared.column_types
-        rows = []
-        for raw in prepared.execute_raw():
-            row, i = [], 0
-            while i < len(raw):
-                if types[i] == "objs":
-                    row.append(self._resource(raw[i]))
-                    i += 1
-                elif types[i] == "onto":
-                    row.append(URIRef(self.world.graph.c_2_onto[raw[i]].base_iri))
-                    i += 1
-                else:
-                    value, d = raw[i], raw[i + 1]
-                    row.append(self._resource(value) if d == "o" else self._literal(value, d))
-                    i += 2
-            rows.append(tuple(row))
-        return Result("bindings", names, rows, engine="owlready2")
-
-    def _resource(self, storid):
-        if storid is None:
-            return None
-        return URIRef(self.world._unabbreviate(storid)) if storid > 0 else BNode(f"r{-storid}")
-
-    def _literal(self, value, d):
-        if value is None:
-            return None
-        if isinstance(d, str) and d.startswith("@"):
-            return Literal(str(value), lang=d[1:])
-        datatype = self.world._unabbreviate(d) if d else XSD + "string"
-        if datatype == XSD + "string":  # a simple literal, as rdflib and other stores give it
-            return Literal(str(value))
-        if datatype == XSD + "boolean":
-            return Literal("true" if value in (1, True, "true", "1") else "false", datatype=URIRef(datatype))
-        return Literal(str(value), datatype=URIRef(datatype))
-
-    def _run_rdflib(self, prepared) -> Result:
-        res = self.graph.query(prepared)
-        if res.type == "ASK":
-            return Result("boolean", boolean=bool(res.askAnswer))
-        if res.type in ("CONSTRUCT", "DESCRIBE"):
-            graph = rdflib.Graph()
-            for t in res.graph:
-                graph.add(t)
-            return Result("graph", graph=graph)
-        names = [str(v) for v in res.vars]
-        return Result("bindings", names, [tuple(r) for r in res])
+def put_graph(store: ox.Store, graph: str, data: bytes | None) -> None:
+    """Replace one graph of `store` ("" the default graph) with N-Triples `data`; None drops it."""
+    target = ox.DefaultGraph() if graph == "" else _graph(graph)
+    if graph == "":
+        store.clear_graph(target)
+    elif store.contains_named_graph(target):
+        store.remove_graph(target)
+    if data is not None:
+        if graph:
+            store.add_graph(target)
+        store.load(data, format=ox.RdfFormat.N_TRIPLES, to_graph=target)
 
 
 # --- content negotiation -------------------------------------------------------------------
@@ -277,114 +256,3 @@ def negotiate(accept: str | None, offers: list[str]) -> str | None:
             if best_key is None or key > best_key:
                 best, best_key = offer, key
     return best
-
-
-def offers_for(result: Result) -> list[str]:
-    """Media types a result can be serialised as, preferred first."""
-    if result.kind == "graph":
-        return list(GRAPH_TYPES)
-    return list(SELECT_TYPES)
-
-
-def serialize(result: Result, media_type: str) -> bytes:
-    """Serialise a result as `media_type` (one of offers_for(result))."""
-    if result.kind == "graph":
-        return result.graph.serialize(format=GRAPH_TYPES[media_type], encoding="utf-8")
-    return _WRITERS[SELECT_TYPES[media_type]](result)
-
-
-def _json_term(t) -> dict:
-    if isinstance(t, URIRef):
-        return {"type": "uri", "value": str(t)}
-    if isinstance(t, BNode):
-        return {"type": "bnode", "value": str(t)}
-    out = {"type": "literal", "value": str(t)}
-    if t.language:
-        out["xml:lang"] = t.language
-    elif t.datatype and str(t.datatype) != XSD + "string":
-        out["datatype"] = str(t.datatype)
-    return out
-
-
-def to_json(result: Result) -> bytes:
-    """W3C SPARQL 1.1 Query Results JSON Format."""
-    if result.kind == "boolean":
-        doc = {"head": {}, "boolean": result.boolean}
-    else:
-        bindings = [{v: _json_term(t) for v, t in zip(result.vars, row) if t is not None} for row in result.rows]
-        doc = {"head": {"vars": result.vars}, "results": {"bindings": bindings}}
-    return json.dumps(doc, ensure_ascii=False).encode("utf-8")
-
-
-def to_xml(result: Result) -> bytes:
-    """W3C SPARQL Query Results XML Format."""
-    root = ET.Element(f"{{{SRX_NS}}}sparql")
-    head = ET.SubElement(root, f"{{{SRX_NS}}}head")
-    if result.kind == "boolean":
-        ET.SubElement(root, f"{{{SRX_NS}}}boolean").text = "true" if result.boolean else "false"
-    else:
-        for v in result.vars:
-            ET.SubElement(head, f"{{{SRX_NS}}}variable", name=v)
-        results = ET.SubElement(root, f"{{{SRX_NS}}}results")
-        for row in result.rows:
-            res = ET.SubElement(results, f"{{{SRX_NS}}}result")
-            for v, t in zip(result.vars, row):
-                if t is None:
-                    continue
-                b = ET.SubElement(res, f"{{{SRX_NS}}}binding", name=v)
-                if isinstance(t, URIRef):
-                    ET.SubElement(b, f"{{{SRX_NS}}}uri").text = str(t)
-                elif isinstance(t, BNode):
-                    ET.SubElement(b, f"{{{SRX_NS}}}bnode").text = str(t)
-                else:
-                    lit = ET.SubElement(b, f"{{{SRX_NS}}}literal")
-                    lit.text = str(t)
-                    if t.language:
-                        lit.set("{http://www.w3.org/XML/1998/namespace}lang", t.language)
-                    elif t.datatype and str(t.datatype) != XSD + "string":
-                        lit.set("datatype", str(t.datatype))
-    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
-
-
-def _csv_value(t) -> str:
-    if t is None:
-        return ""
-    return f"_:{t}" if isinstance(t, BNode) else str(t)
-
-
-def to_csv(result: Result) -> bytes:
-    """W3C SPARQL 1.1 Query Results CSV Format (lexical values, CRLF, RFC 4180 quoting)."""
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\r\n")
-    if result.kind == "boolean":
-        w.writerow(["_askResult"])
-        w.writerow(["true" if result.boolean else "false"])
-    else:
-        w.writerow(result.vars)
-        for row in result.rows:
-            w.writerow([_csv_value(t) for t in row])
-    return buf.getvalue().encode("utf-8")
-
-
-def _tsv_value(t) -> str:
-    if t is None:
-        return ""
-    if isinstance(t, BNode):
-        return f"_:{t}"
-    if isinstance(t, Literal) and t.datatype == XSD_STRING:
-        t = Literal(str(t))
-    return t.n3().replace("\t", "\\t")
-
-
-def to_tsv(result: Result) -> bytes:
-    """W3C SPARQL 1.1 Query Results TSV Format (terms in Turtle/N-Triples syntax)."""
-    if result.kind == "boolean":
-        lines = ["?_askResult", "true" if result.boolean else "false"]
-    else:
-        lines = ["\t".join(f"?{v}" for v in result.vars)]
-        lines += ["\t".join(_tsv_value(t) for t in row) for row in result.rows]
-    return ("\n".join(lines) + "\n").encode("utf-8")
-
-
-ET.register_namespace("", SRX_NS)
-_WRITERS = {"json": to_json, "xml": to_xml, "csv": to_csv, "tsv": to_tsv}

@@ -1,9 +1,15 @@
-"""The persistent knowledge base: one owlready2 SQLite quadstore, the core plus one ontology per robot.
+"""The persistent knowledge base: one owlready2 SQLite quadstore (the store of record) and its SPARQL index.
 
-owlready2 is not thread-safe, so every access to the world goes through `Store.lock`. Writes
-(populate, delete, update) happen inside that lock in one SQLite transaction committed by
-`world.save()`; a failure rolls back and reopens the world, so readers (who take the same
-lock) see the old robot or the new one, never a mix, and a crash leaves the last commit.
+The quadstore holds the core ontology, one ontology per robot (its named graph: graph IRI =
+ontology IRI), and, in table kb_graphs, the exact N-Triples of every other graph SPARQL Update
+wrote (the default graph under ""). owlready2 is not thread-safe, so every access to the world
+goes through `Store.lock`. Writes happen inside that lock in one SQLite transaction committed by
+`world.save()`; a failure rolls back and reopens the world, and a crash leaves the last commit.
+
+SPARQL is answered by the Oxigraph index (kb_server/index.py), rebuilt from the quadstore when the
+store opens. Every write names the graphs it touched; after its transaction (committed or rolled
+back) `_sync_graphs` copies those graphs from the quadstore into the index, so the index always
+shows what is stored and readers (who never take the lock) see the old graph or the new one.
 """
 from __future__ import annotations
 
@@ -19,7 +25,8 @@ import owlready2
 import rdflib
 from platformdirs import user_data_dir
 
-from kb_server.sparql import Result, SparqlEngine
+from kb_server.index import Index
+from kb_server.sparql import CORE_GRAPH, Result, scan
 from pipeline.components import Abstraction
 from pipeline.errors import UrdfkbError
 from pipeline.export import export_robot, robot_graph
@@ -29,8 +36,14 @@ from pipeline.population import build_robot
 EXPORT_FORMATS = {"owl": ("rdfxml", "application/rdf+xml"), "ttl": ("turtle", "text/turtle"),
                   "nt": ("ntriples", "application/n-triples")}
 
-_SCHEMA = """CREATE TABLE IF NOT EXISTS kb_robots (
-    name TEXT PRIMARY KEY, ontology_iri TEXT NOT NULL, robot_iri TEXT NOT NULL, updated TEXT NOT NULL)"""
+_SCHEMA = ("""CREATE TABLE IF NOT EXISTS kb_robots (
+    name TEXT PRIMARY KEY, ontology_iri TEXT NOT NULL, robot_iri TEXT NOT NULL, updated TEXT NOT NULL)""",
+           "CREATE TABLE IF NOT EXISTS kb_graphs (graph TEXT PRIMARY KEY, ntriples BLOB NOT NULL)")
+LEGACY_UPDATES_IRI = "https://w3id.org/urdfkb/updates#"  # where updates went before kb_graphs
+
+
+class ReadOnlyGraph(UrdfkbError, PermissionError):
+    """An update would change the core ontology, which is read-only to SPARQL Update."""
 
 
 ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
@@ -66,20 +79,31 @@ class RobotEntry:
 
 
 class Store:
-    """The quadstore file at `path` (created with the core if new), safe to share between threads."""
+    """The quadstore file at `path` (created with the core if new), safe to share between threads.
 
-    def __init__(self, path: str | Path | None = None):
+    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does)."""
+
+    def __init__(self, path: str | Path | None = None, workers: int = 2):
         self.path = Path(path) if path else default_store_path()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
         self._open()
+        with self.lock:
+            graphs = {CORE_GRAPH: self._graph_data(CORE_GRAPH)}
+            graphs.update({e.ontology_iri: self._graph_data(e.ontology_iri) for e in self.robots()})
+            graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
+        self.index = Index(graphs, workers)
 
     def _open(self) -> None:
         self.world = owlready2.World(filename=str(self.path), exclusive=False, journal_mode="WAL")
-        load_core(self.world)
-        self.world.graph.db.execute(_SCHEMA)
+        self.core = load_core(self.world)
+        for statement in _SCHEMA:
+            self.world.graph.db.execute(statement)
+        legacy = self.world.ontologies.get(LEGACY_UPDATES_IRI)
+        if legacy is not None:  # a store written before kb_graphs: its update triples become the default graph
+            self.world.graph.db.execute("INSERT OR REPLACE INTO kb_graphs VALUES ('', ?)", (_ntriples(legacy),))
+            legacy.destroy()
         self.world.save()
-        self.engine = SparqlEngine(self.world)
 
     def _discard(self) -> None:
         """Drop uncommitted changes and the world's in-memory caches; reopen from the file."""
@@ -89,15 +113,34 @@ class Store:
 
     @contextmanager
     def _writing(self):
+        """One write transaction; yields a set the writer adds every graph IRI it touches to."""
+        touched: set[str] = set()
         with self.lock:
             try:
-                yield
+                yield touched
                 self.world.save()
             except BaseException:
                 self._discard()
                 raise
+            finally:
+                self._sync_graphs(touched)
+
+    def _sync_graphs(self, graphs: set[str]) -> None:
+        """Copy `graphs` from the quadstore (as committed) into the SPARQL index."""
+        self.index.put({g: self._graph_data(g) for g in graphs})
+
+    def _graph_data(self, graph: str) -> bytes | None:
+        """A graph's N-Triples as stored: the core, a robot's ontology, or a kb_graphs row (None: no such graph)."""
+        if graph == CORE_GRAPH:
+            return _ntriples(self.core)
+        row = self.world.graph.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
+        if row:
+            return _ntriples(self._ontology(self.robot(row[0])))
+        row = self.world.graph.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
+        return row[0] if row else None
 
     def close(self) -> None:
+        self.index.close()
         with self.lock:
             self.world.close()
 
@@ -117,8 +160,10 @@ class Store:
                       provenance: dict[str, str] | None = None) -> RobotEntry:
         """Write robot `name` (replacing any earlier one) in one transaction; all or nothing."""
         check_robot_name(name)
-        with self._writing():
+        with self._writing() as touched:
             onto = build_robot(self.world, tree, name, abstraction, provenance)
+            touched.add(onto.base_iri)
+            self.world.graph.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
             robot_cls = self.world[CORE_IRI + "Robot"]
             (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
             entry = RobotEntry(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"))
@@ -128,13 +173,17 @@ class Store:
 
     def delete_robot(self, name: str) -> RobotEntry | None:
         """Remove robot `name`; returns what was removed, None if there was no such robot."""
-        with self._writing():
+        with self._writing() as touched:
             entry = self.robot(name)
             if entry is None:
                 return None
-            self._ontology(entry).destroy()
-            self.world.graph.db.execute("DELETE FROM kb_robots WHERE name=?", (name,))
+            touched.add(entry.ontology_iri)
+            self._unregister(entry)
         return entry
+
+    def _unregister(self, entry: RobotEntry) -> None:
+        self._ontology(entry).destroy()
+        self.world.graph.db.execute("DELETE FROM kb_robots WHERE name=?", (entry.name,))
 
     def _ontology(self, entry: RobotEntry) -> owlready2.Ontology:
         return self.world.ontologies.get(entry.ontology_iri) or self.world.get_ontology(entry.ontology_iri)
@@ -158,15 +207,54 @@ class Store:
 
     # --- SPARQL -------------------------------------------------------------------------------
 
-    def query(self, text: str, timeout: float = 10.0, engine: str = "auto") -> Result:
-        """Run a SPARQL query over everything stored (see SparqlEngine.query)."""
-        with self.lock:
-            try:
-                return self.engine.query(text, timeout, engine)
-            finally:
-                self.world.save()  # commits IRIs the engine interned while reading, if any
+    def query(self, text: str, timeout: float = 10.0, accept: str | None = None,
+              default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
+        """Run a SPARQL query over everything stored (see Index.query); never waits for writers."""
+        return self.index.query(text, accept, timeout, default_graphs, named_graphs)
 
     def update(self, text: str, timeout: float = 10.0) -> None:
-        """Apply a SPARQL update atomically."""
-        with self._writing():
-            self.engine.update(text, timeout)
+        """Apply a SPARQL update atomically: Oxigraph evaluates it on one replica, the graphs it changed
+        are written to the quadstore in one transaction, and the index then takes them from there.
+
+        The core is read-only: an update that would change it raises ReadOnlyGraph, except
+        CLEAR/DROP ALL and NAMED, which mean "every writable graph" and leave the core as it is.
+        A robot graph an update empties is no longer a robot (it leaves /robots)."""
+        with self._writing() as touched:
+            changes, replica = self.index.update(text, timeout)
+            try:
+                accepted = set(changes)
+                if CORE_GRAPH in changes:
+                    found = scan(text, update=True).keywords
+                    if not (found & {"CLEAR", "DROP"} and found & {"ALL", "NAMED"}):
+                        raise ReadOnlyGraph(f"the core ontology graph <{CORE_GRAPH}> is read-only to SPARQL Update")
+                    accepted.discard(CORE_GRAPH)
+                for graph in accepted:
+                    self._persist(graph, changes[graph][1])
+                touched.update(accepted)
+            finally:
+                self.index.release(replica, changes)
+
+    def _persist(self, graph: str, data: bytes | None) -> None:
+        """Store one graph's new content: into the robot's ontology, or as a kb_graphs row."""
+        db = self.world.graph.db
+        row = db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
+        if row is None:
+            if data is None:
+                db.execute("DELETE FROM kb_graphs WHERE graph=?", (graph,))
+            else:
+                db.execute("INSERT OR REPLACE INTO kb_graphs VALUES (?, ?)", (graph, data))
+            return
+        entry = self.robot(row[0])
+        if not data:
+            self._unregister(entry)
+            if data is not None:  # cleared, not dropped: the empty graph stays
+                db.execute("INSERT OR REPLACE INTO kb_graphs VALUES (?, ?)", (graph, b""))
+            return
+        self._ontology(entry).destroy()
+        self.world.get_ontology(graph).load(fileobj=io.BytesIO(data), format="ntriples")
+
+
+def _ntriples(onto: owlready2.Ontology) -> bytes:
+    buf = io.BytesIO()
+    onto.save(buf, format="ntriples")
+    return buf.getvalue()

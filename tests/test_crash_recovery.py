@@ -1,15 +1,18 @@
-"""kill -9 during a populate: after restart every earlier robot is intact and no half-written one exists.
+"""kill -9 during a populate, an update, or a burst of readers: after restart nothing stored is lost,
+nothing half-written exists, and queries answer as before.
 
-The real server runs in a subprocess (SERVER below). Its test-only hook wraps build_robot so that,
-for the robot named in URDFKB_TEST_HANG_ON, it touches a marker file and sleeps *inside* the store
-lock and the open SQLite transaction (old robot destroyed, new one written, nothing committed);
-the test then kills the process with SIGKILL.
+The real server runs in a subprocess (SERVER below). Its test-only hooks wrap build_robot (for the
+robot named in URDFKB_TEST_HANG_ON) and Store._persist (for an update writing the graph named in
+URDFKB_TEST_HANG_ON) so that they touch a marker file and sleep *inside* the store lock and the open
+SQLite transaction (old content destroyed, new written, nothing committed); the test then kills
+the process with SIGKILL.
 """
 import json
 import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import urllib.parse
 from pathlib import Path
@@ -24,7 +27,7 @@ import kb_server.store as store_mod
 from kb_fixtures import PR2, fake_runner
 from kb_server.serve import make_server
 
-real_build, hang_on, marker = store_mod.build_robot, os.environ.get("URDFKB_TEST_HANG_ON"), os.environ["URDFKB_TEST_MARKER"]
+real_build, hang_on, marker = store_mod.build_robot, os.environ.get("URDFKB_TEST_HANG_ON") or None, os.environ["URDFKB_TEST_MARKER"]
 
 def build_then_hang(world, tree, name, *args, **kw):
     onto = real_build(world, tree, name, *args, **kw)
@@ -33,8 +36,17 @@ def build_then_hang(world, tree, name, *args, **kw):
         time.sleep(3600)
     return onto
 
+real_persist = store_mod.Store._persist
+
+def persist_then_hang(self, graph, data):
+    real_persist(self, graph, data)
+    if graph == hang_on:
+        open(marker, "w").close()
+        time.sleep(3600)
+
 store_mod.build_robot = build_then_hang
-server, store, jobs = make_server(sys.argv[1], port=int(sys.argv[2]), runner=fake_runner({{"pr2": PR2}}))
+store_mod.Store._persist = persist_then_hang
+server, store, jobs = make_server(sys.argv[1], port=int(sys.argv[2]), runner=fake_runner({{"pr2": PR2}}), token="t")
 server.run()
 """.format(repo=str(REPO), tests=str(REPO / "tests"))
 
@@ -56,9 +68,20 @@ class Server:
         raise RuntimeError("server did not start")
 
     def populate(self, urdf: Path, query: str = "") -> str:
-        status, _, out = http("POST", f"{self.base}/populate{query}", urdf.read_bytes(), {"Content-Type": "application/xml"})
+        status, _, out = http("POST", f"{self.base}/populate{query}", urdf.read_bytes(),
+                              {"Content-Type": "application/xml", "Authorization": "Bearer t"})
         assert status == 202
         return json.loads(out)["id"]
+
+    def update(self, text: str) -> int:
+        try:
+            return http("POST", self.base + "/sparql", text.encode(),
+                        {"Content-Type": "application/sparql-update", "Authorization": "Bearer t"}, timeout=60)[0]
+        except OSError:  # killed while answering
+            return 0
+
+    def answers(self) -> list[bytes]:
+        return [http("GET", f"{self.base}/sparql?" + urllib.parse.urlencode({"query": q}))[2] for q in ANSWERS]
 
     def wait(self, job_id: str) -> dict:
         return json.loads(http("GET", f"{self.base}/jobs/{job_id}?wait=1&timeout=60")[2])
@@ -67,9 +90,13 @@ class Server:
         os.kill(self.proc.pid, signal.SIGKILL)
         self.proc.wait(10)
 
-    def crash_during(self, urdf: Path, query: str) -> None:
-        """Populate, wait until it is inside the store transaction, then kill -9."""
-        self.populate(urdf, query)
+    def crash_during(self, urdf: Path | None, query: str) -> None:
+        """Populate (or, without a URDF, send update `query`), wait until it is inside the store
+        transaction, then kill -9."""
+        if urdf is None:
+            threading.Thread(target=self.update, args=(query,), daemon=True).start()
+        else:
+            self.populate(urdf, query)
         for _ in range(300):
             if self.marker.exists():
                 break
@@ -77,6 +104,12 @@ class Server:
         assert self.marker.exists(), "the populate never reached the store transaction"
         self.kill()
         self.marker.unlink()
+
+
+PR2_GRAPH = "https://w3id.org/urdfkb/robot/pr2#"
+ANSWERS = ["SELECT ?g (COUNT(*) AS ?n) WHERE { GRAPH ?g { ?s ?p ?o } } GROUP BY ?g ORDER BY ?g",
+           "SELECT ?s ?p ?o WHERE { ?s ?p ?o FILTER(isLiteral(?o) && CONTAINS(STR(?o), 'note')) } ORDER BY ?s ?p ?o",
+           "PREFIX core: <https://w3id.org/urdfkb/core#> SELECT ?c WHERE { ?c a/rdfs:subClassOf* core:Camera } ORDER BY ?c"]
 
 
 def robot(server, name):
@@ -106,5 +139,46 @@ def test_kill_9_inside_the_store_transaction(shared, tmp_path):
         status, _, out = http("GET", f"{s.base}/sparql?" + urllib.parse.urlencode({"query": q}))
         assert status == 200 and json.loads(out)["boolean"] is False  # not a triple of the half-written robot
         assert s.wait(s.populate(panda, "?name=doomed"))["state"] == "succeeded"  # and the store still writes
+    finally:
+        s.kill()
+
+
+def test_kill_9_inside_an_update_and_during_a_burst_of_readers(shared, tmp_path):
+    store, marker = tmp_path / "kb.sqlite3", tmp_path / "in-transaction"
+    s = Server(store, marker, hang_on=PR2_GRAPH)
+    assert s.wait(s.populate(shared / "urdf" / "pr2.urdf"))["state"] == "succeeded"
+    assert s.update("INSERT DATA { <urn:a> <urn:says> 'note one' . GRAPH <urn:mine> { <urn:b> <urn:says> 'note two' } }") == 204
+    before = s.answers()
+    # an update writing the default graph and PR2's graph, killed after PR2's graph was written
+    s.crash_during(None, f"INSERT DATA {{ <urn:c> <urn:says> 'note three' . GRAPH <{PR2_GRAPH}> {{ <urn:d> <urn:says> 'note four' }} }}")
+
+    s = Server(store, marker)
+    try:
+        assert s.answers() == before  # all or nothing: none of the killed update, all of the earlier one
+        stop, statuses = threading.Event(), []
+
+        def reader():
+            while not stop.is_set():
+                try:
+                    statuses.append(http("GET", f"{s.base}/sparql?" + urllib.parse.urlencode({"query": ANSWERS[0]}), timeout=5)[0])
+                except OSError:
+                    return
+
+        readers = [threading.Thread(target=reader) for _ in range(8)]
+        for t in readers:
+            t.start()
+        time.sleep(1.0)
+        s.kill()
+        stop.set()
+        for t in readers:
+            t.join(10)
+        assert statuses and set(statuses) == {200}
+    finally:
+        if s.proc.poll() is None:
+            s.kill()
+    s = Server(store, marker)
+    try:
+        assert s.answers() == before
+        assert s.update("INSERT DATA { <urn:e> <urn:says> 'note five' }") == 204  # and the store still writes
     finally:
         s.kill()

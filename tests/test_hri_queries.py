@@ -3,6 +3,7 @@ import json
 import urllib.parse
 
 import pytest
+import rdflib
 
 from kb_fixtures import PR2, http, live, make_app
 from kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
@@ -81,14 +82,20 @@ def test_low_confidence_for_review(store):
 
 @pytest.mark.parametrize("name,args", [("cameras", {}), ("sensors", {}), ("mounted_below", {"link": "torso_lift_link"}),
                                        ("end_effectors", {}), ("low_confidence", {}), ("components", {})])
-def test_native_engine_agrees_with_rdflib(store, name, args):
+def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
+    """An independent engine (rdflib) over the robot's self-contained export gives the same rows."""
     text = load_queries()[name].bind(R + "robot", args)
-    native, reference = store.query(text), store.query(text, engine="rdflib")
-    assert native.engine == "owlready2" and reference.engine == "rdflib"
-    norm = [tuple(" ".join(sorted(str(t).split())) if t is not None else None for t in row) for row in reference.rows]
-    assert sorted(norm, key=str) == sorted(
-        [tuple(" ".join(sorted(str(t).split())) if t is not None else None for t in row) for row in native.rows], key=str)
-    assert native.vars == reference.vars
+    answer = store.query(text)
+    # rdflib still tells "x" from "x"^^xsd:string (RDF 1.1 makes them one term): give it plain literals
+    export = store.export("pr2", "nt").replace(b"^^<http://www.w3.org/2001/XMLSchema#string>", b"")
+    reference = rdflib.Graph().parse(data=export, format="nt").query(text)
+
+    def norm(rows):
+        return sorted((tuple(" ".join(sorted(r[v].split())) if r.get(v) is not None else None for v in answer.vars)
+                       for r in rows), key=str)
+
+    assert norm(answer.as_dicts()) == norm([{v: (str(row[v]) if row[v] is not None else None) for v in answer.vars}
+                                           for row in reference])
 
 
 def test_parameters_are_typed_and_checked(store):

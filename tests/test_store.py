@@ -1,6 +1,8 @@
 """The persistent store: restart, atomic replace, failures leave it as it was, exports, timeouts."""
+import io
 import threading
 
+import owlready2
 import pytest
 import rdflib
 
@@ -11,6 +13,7 @@ from kb_server.store import Store
 from pipeline.components import Abstraction
 from pipeline.errors import OntologyError
 from pipeline.ingest import load_urdf
+from pipeline.ontology import load_core
 
 COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 SELECT (COUNT(?c) AS ?n) WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c }"""
@@ -22,7 +25,7 @@ def trees(shared):
 
 
 def components(store) -> int:
-    return int(store.query(COUNT_COMPONENTS).rows[0][0])
+    return int(store.query(COUNT_COMPONENTS).as_dicts()[0]["n"])
 
 
 def test_restart_serves_everything_stored(tmp_path, trees):
@@ -58,7 +61,7 @@ def test_replace_is_whole_and_failures_leave_the_old_robot(tmp_path, trees, monk
     with pytest.raises(RuntimeError):
         s.replace_robot("pr2", trees["pr2"], PR2)
     assert components(s) == 2
-    assert s.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).rows[0][0].toPython() == len(trees["pr2"].links)
+    assert s.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).as_dicts()[0]["n"] == str(len(trees["pr2"].links))
     s.close()
 
 
@@ -100,8 +103,23 @@ def test_timeout_stops_the_query_and_the_store_keeps_serving(tmp_path, trees):
     s = Store(tmp_path / "kb.sqlite3")
     s.replace_robot("pr2", trees["pr2"], PR2)
     cross = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"
-    for q in (cross, cross.replace("}", "MINUS { ?a a <urn:x> } }")):  # native SQL, then rdflib
+    for q in (cross, cross.replace("}", "MINUS { ?a a <urn:x> } }")):
         with pytest.raises(QueryTimeout):
             s.query(q, timeout=0.5)
-    assert components(s) == len(PR2.components)
+    assert components(s) == len(PR2.components)  # the worker past its deadline was replaced
+    s.close()
+
+
+def test_updates_from_before_kb_graphs_become_the_default_graph(tmp_path):
+    """Stores written by the owlready2 engine kept update triples in an 'updates' ontology."""
+    path = tmp_path / "kb.sqlite3"
+    world = owlready2.World(filename=str(path))
+    load_core(world)
+    legacy = world.get_ontology(store_mod.LEGACY_UPDATES_IRI)
+    legacy.load(fileobj=io.BytesIO(b'<urn:a> <urn:says> "kept" .\n'), format="ntriples")
+    world.save()
+    world.close()
+    s = Store(path, workers=0)
+    assert s.query("SELECT ?g WHERE { GRAPH ?g { <urn:a> ?p ?o } }").as_dicts() == []  # no internal graph
+    assert s.query('ASK { <urn:a> <urn:says> "kept" }').document["boolean"] is True
     s.close()

@@ -1,0 +1,210 @@
+"""The SPARQL index: every graph of the quadstore in Oxigraph, queried in worker processes.
+
+The owlready2 quadstore stays the store of record; this index is derived from it (rebuilt at
+start) and kept in step by the store's writes. A master pyoxigraph Store lives in this process;
+each of `workers` worker processes holds a replica and answers one operation at a time.
+
+Why processes: pyoxigraph 0.5 cannot cancel a running query (Oxigraph's Rust API can, its Python
+binding does not expose it) and evaluates outside the GIL with no hook, so a query past its
+deadline would keep a core busy for as long as it likes (measured: a 100k-item IN filter over 3,000
+triples runs 54 s in one call). A worker past the deadline is killed and replaced from the master,
+so a deadline is a deadline; a crash in Oxigraph costs one worker, not the server. Readers on
+different workers never wait for each other, nor for a populate or a write: a write is queued
+behind whatever its worker is answering, and each operation carries the sequence number of the
+last write it must see, so a query sent after a write returned sees it.
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import queue
+import threading
+import time
+from collections.abc import Mapping
+from multiprocessing.connection import wait
+
+import pyoxigraph as ox
+
+from kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
+                              run_update)
+from pipeline.errors import UrdfkbError
+
+Changes = dict[str, tuple[bytes | None, bytes | None]]
+
+
+class WorkerCrashed(UrdfkbError, RuntimeError):
+    """A worker process died while evaluating an operation (a bug in the engine); it was replaced."""
+
+
+_ERRORS = {"QueryError": QueryError, "NotAcceptable": NotAcceptable}
+
+
+def _serve(inbox, requests, replies) -> None:
+    """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
+    (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`."""
+    store, parent, applied = ox.Store(), os.getppid(), 0
+
+    def apply(block: bool) -> None:
+        nonlocal applied
+        seq, graphs = inbox.get() if block else inbox.get_nowait()
+        for graph, data in graphs.items():
+            put_graph(store, graph, data)
+        applied = seq
+
+    while True:
+        try:
+            while True:
+                apply(block=False)
+        except queue.Empty:
+            pass
+        if not requests.poll(0.05):
+            if os.getppid() != parent:  # the server is gone (even by kill -9): so is this worker
+                return
+            continue
+        seq, op, args = requests.recv()
+        while applied < seq:
+            apply(block=True)
+        try:
+            replies.send(("ok", (run_query if op == "query" else run_update)(store, *args)))
+        except (QueryError, NotAcceptable) as e:
+            replies.send((type(e).__name__, str(e)))
+
+
+class _Worker:
+    """A worker process: graph replacements go through a queue (never blocking the writer), each
+    operation through a pipe, carrying the sequence number of the last replacement it must see."""
+
+    def __init__(self, ctx, graphs: Mapping[str, bytes]):
+        self.inbox, self.seq = ctx.Queue(), 0
+        self.requests, requests = ctx.Pipe(duplex=False)[::-1]
+        self.replies, replies = ctx.Pipe(duplex=False)
+        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies), daemon=True, name="urdfkb-sparql")
+        self.proc.start()
+        requests.close()
+        replies.close()
+        self.put(dict(graphs))
+
+    def put(self, graphs: dict) -> None:
+        """Queue graph replacements (callers hold the index guard, so seq only grows)."""
+        self.seq += 1
+        self.inbox.put((self.seq, graphs))
+
+    def call(self, op: str, args: tuple, deadline: float):
+        self.requests.send((self.seq, op, args))
+        ready = wait([self.replies, self.proc.sentinel], timeout=max(deadline - time.monotonic(), 0))
+        if self.replies in ready:
+            status, value = self.replies.recv()
+        elif ready:
+            raise WorkerCrashed("the query engine's worker process crashed on this operation (it was replaced)")
+        else:
+            raise QueryTimeout("operation stopped after its timeout")
+        if status != "ok":
+            raise _ERRORS[status](value)
+        return value
+
+    def alive(self) -> bool:
+        return self.proc.is_alive()
+
+    def kill(self) -> None:
+        self.proc.kill()
+        self.proc.join(5)
+        self.inbox.cancel_join_thread()
+        self.inbox.close()
+        self.requests.close()
+        self.replies.close()
+
+
+class Index:
+    """The master store plus `workers` query processes (0: evaluate in this process, no deadline)."""
+
+    def __init__(self, graphs: Mapping[str, bytes], workers: int = 2):
+        self.master = ox.Store()
+        for graph, data in graphs.items():
+            put_graph(self.master, graph, data)
+        self._ctx = mp.get_context("spawn")
+        self._guard = threading.Lock()  # master, worker list, broadcasts
+        self._workers: list[_Worker] = []
+        self._idle: queue.Queue[_Worker] = queue.Queue()
+        for _ in range(workers):
+            self._spawn()
+
+    def _spawn(self) -> None:
+        with self._guard:
+            worker = _Worker(self._ctx, graph_dumps(self.master))
+            self._workers.append(worker)
+        self._idle.put(worker)
+
+    def _retire(self, worker: _Worker) -> None:
+        with self._guard:
+            self._workers.remove(worker)
+        worker.kill()
+        self._spawn()
+
+    def _call(self, op: str, args: tuple, timeout: float, hold: bool = False):
+        """Run `op` on a free worker within `timeout` (waiting for one included); the worker goes back
+        to the pool unless `hold` (then (value, worker) is returned), and is replaced if it overran or died."""
+        if not self._workers:
+            value = (run_query if op == "query" else run_update)(self.master, *args)
+            return (value, None) if hold else value
+        deadline = time.monotonic() + timeout
+        try:
+            worker = self._idle.get(timeout=timeout)
+        except queue.Empty:
+            raise QueryTimeout(f"no query worker free within the {timeout:g} s timeout") from None
+        try:
+            value = worker.call(op, args, deadline)
+        except (QueryError, NotAcceptable):
+            self._idle.put(worker)
+            raise
+        except QueryTimeout:
+            self._retire(worker)
+            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
+        except BaseException:
+            self._retire(worker)
+            raise
+        if hold:
+            return value, worker
+        if worker.alive():
+            self._idle.put(worker)
+        else:  # crashed after answering
+            self._retire(worker)
+        return value
+
+    def query(self, text: str, accept: str | None = None, timeout: float = 10.0,
+              default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
+        """Evaluate a query on a free worker; QueryError, NotAcceptable, or QueryTimeout past `timeout`."""
+        return self._call("query", (text, accept, default_graphs, named_graphs), timeout)
+
+    def update(self, text: str, timeout: float = 10.0) -> tuple[Changes, _Worker | None]:
+        """Apply an update on one replica (the master without workers), which is held until
+        `release`; returns ({graph: (before, after)} for the graphs it changed, the replica)."""
+        return self._call("update", (text,), timeout, hold=True)
+
+    def release(self, worker: _Worker | None, changes: Changes) -> None:
+        """Undo an `update`'s changes on the replica that evaluated it (the store then `put`s what
+        it actually stored), and free that replica."""
+        revert = {g: before for g, (before, _) in changes.items()}
+        if worker is None:
+            for g, data in revert.items():
+                put_graph(self.master, g, data)
+            return
+        if revert:
+            with self._guard:
+                worker.put(revert)
+        self._idle.put(worker)
+
+    def put(self, graphs: Mapping[str, bytes | None]) -> None:
+        """Replace graphs (None drops one) in the master and every worker, in order with other writes."""
+        if not graphs:
+            return
+        with self._guard:
+            for g, data in graphs.items():
+                put_graph(self.master, g, data)
+            for w in self._workers:
+                w.put(dict(graphs))
+
+    def close(self) -> None:
+        with self._guard:
+            workers, self._workers = self._workers, []
+        for w in workers:
+            w.kill()
