@@ -6,19 +6,21 @@ need `Authorization: Bearer <token>`; with no token configured, updates and dele
 from __future__ import annotations
 
 import hmac
+from collections.abc import Mapping
+from pathlib import Path
 
 import rdflib
 from flask import Flask, Response, jsonify, request
 from rdflib.namespace import RDF
 from werkzeug.exceptions import HTTPException
 
-from kb_server import queries
+from kb_server import queries, ui
 from kb_server.jobs import JobManager
 from kb_server.sparql import QueryError, QueryTimeout, Result, negotiate, offers_for, serialize
 from kb_server.store import EXPORT_FORMATS, RobotNameError, Store, check_robot_name
 from pipeline.errors import URDFError
-from pipeline.ingest import load_urdf
 from pipeline.runner import Settings
+from pipeline.xacro_input import XacroError, load_description, parse_args
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
@@ -26,8 +28,10 @@ MAX_WAIT = 600.0
 
 
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = 10_000_000,
-               query_timeout: float = 10.0) -> Flask:
-    """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413."""
+               query_timeout: float = 10.0, package_paths: Mapping[str, Path] | None = None) -> Flask:
+    """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
+
+    Uploaded xacro files may include only from `package_paths` (none: they read no server file)."""
     app = Flask(__name__)
     app.config["MAX_CONTENT_LENGTH"] = max_body
 
@@ -55,6 +59,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except QueryTimeout as e:
             return error(503, str(e), True)
 
+    app.register_blueprint(ui.blueprint(store, lambda: not token or authorized()))
+
     @app.errorhandler(HTTPException)
     def http_error(e: HTTPException):
         plain = request.path == "/sparql"
@@ -69,6 +75,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             return error(400, "default-graph-uri/named-graph-uri are not supported: the default graph is the union of all robots", True)
         query, update = _protocol_operation()
         if query is None and update is None:
+            if request.method == "GET" and ui.wants_html():
+                return ui.sparql_page()
             if request.method == "GET":
                 return service_description()
             return error(415 if request.mimetype not in _FORM_TYPES else 400,
@@ -127,11 +135,15 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             upload = request.files.get("urdf") or next(iter(request.files.values()), None)
             if upload is None:
                 return error(400, "multipart request without a file (send the URDF as field 'urdf')")
-            data, fields = upload.read(), request.form.to_dict()
+            data, fields, filename = upload.read(), request.form.to_dict(), upload.filename
         else:
-            data, fields = request.get_data(), {}
+            data, fields, filename = request.get_data(), {}, None
+        xacro_args = request.args.getlist("xacro_arg") + request.form.getlist("xacro_arg")
         fields = {**request.args.to_dict(), **fields}
+        fields.pop("xacro_arg", None)
+        xacro_args += fields.pop("xacro_args", "").split()
         name = fields.pop("name", None)
+        filename = fields.pop("filename", None) or filename  # for a raw body: e.g. ?filename=arm.urdf.xacro
         if not data:
             return error(400, "empty body: send the URDF as the raw body or as multipart field 'urdf'")
         try:
@@ -139,7 +151,10 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except ValueError as e:
             return error(400, f"bad pipeline settings: {e}")
         try:
-            tree = load_urdf(data, max_bytes=max_body)
+            tree = load_description(data, filename=filename, args=parse_args(xacro_args),
+                                    packages=package_paths, max_bytes=max_body)
+        except XacroError as e:
+            return error(400, f"cannot expand the xacro: {e}")
         except URDFError as e:
             return error(400, f"not a valid URDF: {e}")
         try:
@@ -183,6 +198,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             resp = Response(data, 200, content_type=EXPORT_FORMATS[ext][1])
             resp.headers["Content-Disposition"] = f'attachment; filename="{name}.{ext}"'
             return resp
+        if ui.wants_html():
+            return ui.robot_page(store, name)
         entry = store.robot(name)
         if entry is None:
             return error(404, f"no robot {name!r}")
