@@ -59,7 +59,7 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except QueryTimeout as e:
             return error(503, str(e), True)
 
-    app.register_blueprint(ui.blueprint(store, lambda: not token or authorized()))
+    app.register_blueprint(ui.blueprint(store, jobs, lambda: not token or authorized()))
 
     @app.errorhandler(HTTPException)
     def http_error(e: HTTPException):

@@ -13,9 +13,11 @@ from flask import Blueprint, Response, jsonify, render_template, request
 
 from kb_server import corrections as review
 from kb_server import queries, tree_svg
+from kb_server.jobs import JobManager
 from kb_server.store import Store
 from pipeline.ontology import taxonomy
 from pipeline.population import escape
+from pipeline.runner import Settings
 from pipeline.tree import KinematicTree
 
 JSON_TYPES = ("application/json", "application/sparql-results+json")
@@ -27,8 +29,9 @@ def wants_html() -> bool:
     return "text/html" in accept.values() and accept.best_match((*JSON_TYPES, "text/html")) == "text/html"
 
 
-def blueprint(store: Store, may_write: Callable[[], bool]) -> Blueprint:
-    """The index page and the corrections routes; `may_write()` says whether this request may correct."""
+def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> Blueprint:
+    """The index page, the corrections routes and re-populating a stored robot; `may_write()` says
+    whether this request may correct or populate."""
     bp = Blueprint("ui", __name__)
 
     @bp.get("/")
@@ -67,6 +70,21 @@ def blueprint(store: Store, may_write: Callable[[], bool]) -> Blueprint:
             return _error(404 if store.robot(name) is None else 409, e.args[0])
         resp = jsonify({"correction": correction.to_dict(), "corrections": entry.corrections})
         resp.status_code = 201
+        return resp
+
+    @bp.post("/robots/<name>/populate")
+    def repopulate(name: str):
+        """Populate a stored robot again from its stored URDF tree (same mode as last time)."""
+        if not may_write():
+            return _error(403, "populating needs the server's token (Authorization: Bearer ...)")
+        source = store.source(name)
+        if source is None:
+            return _error(404, f"no stored URDF for robot {name!r}")
+        tree, model = source
+        job = jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only"))
+        resp = jsonify(job.to_dict())
+        resp.status_code = 202
+        resp.headers["Location"] = f"/jobs/{job.id}"
         return resp
 
     return bp

@@ -140,6 +140,13 @@ def test_upload_review_repopulate_in_the_browser(server, browser):
     browser.get(server + "/robots/toy_robot")
     assert row_of(browser, "front_scanner").find_element("css selector", ".cls").text == "Sonar"
 
+    # and from the robot page itself, from the stored URDF
+    browser.find_element("id", "repopulate").click()
+    wait_for(browser, "#job-state", text="succeeded")
+    assert "re-applied: front_scanner: class -> Sonar" in browser.find_element("id", "job-corrections").text
+    browser.refresh()
+    assert row_of(browser, "front_scanner").find_element("css selector", ".cls").text == "Sonar"
+
 
 def test_query_page_runs_a_bundled_query(server, browser):
     from selenium.webdriver.support.ui import Select

@@ -133,6 +133,16 @@ if (robot) {
     }
   });
 
+  const again = document.getElementById("repopulate");
+  if (again) {
+    again.addEventListener("click", async () => {
+      document.getElementById("job").hidden = false;
+      const resp = await fetch(`/robots/${encodeURIComponent(name)}/populate`, { method: "POST", headers: authHeaders() });
+      if (resp.status !== 202) return say(await errorText(resp), true);
+      follow((await resp.json()).id);
+    });
+  }
+
   const add = document.getElementById("add");
   if (add) {
     add.addEventListener("submit", (event) => {
