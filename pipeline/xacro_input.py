@@ -12,6 +12,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
@@ -24,6 +25,7 @@ TIMEOUT = 20.0          # seconds of wall time for one expansion
 CPU_SECONDS = 10
 MEMORY = 1 << 30        # address space of the child
 XACRO_NS = b"http://www.ros.org/wiki/xacro"
+_RUNNING = threading.BoundedSemaphore(2)  # at most two children (2 x MEMORY) at once per process
 
 
 class XacroError(URDFError):
@@ -75,7 +77,7 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
                "args": dict(args or {}), "packages": {k: str(v) for k, v in (packages or {}).items()},
                "max_bytes": max_bytes}
     limits = json.dumps({"memory": MEMORY, "cpu": CPU_SECONDS})
-    with tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
+    with _RUNNING, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
         try:
             proc = subprocess.run([sys.executable, "-I", str(WORKER), limits], input=json.dumps(request).encode(),
                                   capture_output=True, timeout=timeout, cwd=empty, env={"PATH": "/usr/bin:/bin"})

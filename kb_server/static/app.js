@@ -115,7 +115,7 @@ if (robot) {
     const button = event.target.closest("button[data-action]");
     if (button) {
       const row = button.closest("tr");
-      const body = { action: button.dataset.action, links: row.dataset.links.split(" ").filter(Boolean) };
+      const body = { action: button.dataset.action, links: JSON.parse(row.dataset.linkset) };
       if (body.action === "reclassify") body.class = $(".class-choice", row).value;
       if (body.action === "remount") body.mount = $(".mount-choice", row).value;
       if (body.action === "reject" && !confirm("Reject this component (not a component)?")) return;
