@@ -73,7 +73,7 @@ class Correction:
             raise CorrectionError("remount needs a mount link")
         who = " ".join(str(reviewer or "").split())[:MAX_REVIEWER] or "anonymous reviewer"
         return cls(uuid.uuid4().hex[:12], action, tuple(sorted(set(links))), who,
-                   datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                   datetime.now(timezone.utc).isoformat(timespec="microseconds"),
                    klass if action in ("reclassify", "add") else None,
                    mount if action in ("remount", "add") else None)
 
