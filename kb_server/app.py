@@ -8,21 +8,24 @@ from __future__ import annotations
 
 import hmac
 import threading
+from collections.abc import Mapping
+from pathlib import Path
 
 import rdflib
 from flask import Flask, Response, jsonify, request
 from rdflib.namespace import RDF
 from werkzeug.exceptions import HTTPException
 
-from kb_server import queries
+from kb_server import queries, ui
 from kb_server.index import WorkerCrashed
 from kb_server.jobs import JobManager, QueueFull
 from kb_server.security import Policy, Refused
 from kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
 from kb_server.store import EXPORT_FORMATS, ReadOnlyGraph, RobotNameError, Store, check_robot_name
 from pipeline.errors import URDFError
-from pipeline.ingest import DEFAULT_MAX_LINKS, load_urdf
+from pipeline.ingest import DEFAULT_MAX_LINKS
 from pipeline.runner import Settings
+from pipeline.xacro_input import XacroError, load_description, parse_args
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
@@ -31,12 +34,13 @@ MAX_WAIT = 30.0
 
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = 10_000_000,
                query_timeout: float = 10.0, policy: Policy | None = None, max_links: int = DEFAULT_MAX_LINKS,
-               max_waiters: int = 4) -> Flask:
+               max_waiters: int = 4, package_paths: Mapping[str, Path] | None = None) -> Flask:
     """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
 
     `policy` (default: a loopback server with nothing opened) checks every request; at most
     `max_waiters` clients wait on a job at once (GET /jobs/<id>?wait=1), so waits never hold
-    every server thread."""
+    every server thread. Uploaded xacro files may include only from `package_paths` (none: they
+    read no server file)."""
     app = Flask(__name__)
     app.config["MAX_CONTENT_LENGTH"] = max_body
     policy = policy or Policy()
@@ -73,6 +77,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except WorkerCrashed as e:
             return error(500, str(e), True)
 
+    app.register_blueprint(ui.blueprint(store, jobs, lambda: not token or authorized()))
+
     @app.errorhandler(HTTPException)
     def http_error(e: HTTPException):
         plain = request.path == "/sparql"
@@ -85,6 +91,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     def sparql():
         query, update = _protocol_operation()
         if query is None and update is None:
+            if request.method == "GET" and ui.wants_html():
+                return ui.sparql_page()
             if request.method == "GET":
                 return service_description()
             return error(415 if request.mimetype not in _FORM_TYPES else 400,
@@ -148,11 +156,15 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             upload = request.files.get("urdf") or next(iter(request.files.values()), None)
             if upload is None:
                 return error(400, "multipart request without a file (send the URDF as field 'urdf')")
-            data, fields = upload.read(), request.form.to_dict()
+            data, fields, filename = upload.read(), request.form.to_dict(), upload.filename
         else:
-            data, fields = request.get_data(), {}
+            data, fields, filename = request.get_data(), {}, None
+        xacro_args = request.args.getlist("xacro_arg") + request.form.getlist("xacro_arg")
         fields = {**request.args.to_dict(), **fields}
+        fields.pop("xacro_arg", None)
+        xacro_args += fields.pop("xacro_args", "").split()
         name = fields.pop("name", None)
+        filename = fields.pop("filename", None) or filename  # for a raw body: e.g. ?filename=arm.urdf.xacro
         if not data:
             return error(400, "empty body: send the URDF as the raw body or as multipart field 'urdf'")
         try:
@@ -162,7 +174,10 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except Refused as e:
             return error(e.status, str(e))
         try:
-            tree = load_urdf(data, max_bytes=max_body, max_links=max_links)
+            tree = load_description(data, filename=filename, args=parse_args(xacro_args),
+                                    packages=package_paths, max_bytes=max_body, max_links=max_links)
+        except XacroError as e:
+            return error(400, f"cannot expand the xacro: {e}")
         except URDFError as e:
             return error(400, f"not a valid URDF: {e}")
         try:
@@ -221,6 +236,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             resp = Response(data, 200, content_type=EXPORT_FORMATS[ext][1])
             resp.headers["Content-Disposition"] = f'attachment; filename="{name}.{ext}"'
             return resp
+        if ui.wants_html():
+            return ui.robot_page(store, name)
         entry = store.robot(name)
         if entry is None:
             return error(404, f"no robot {name!r}")

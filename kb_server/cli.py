@@ -45,6 +45,13 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-cache", action="store_true", help="ignore and do not write the result cache")
 
 
+def _add_xacro_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("xacro")
+    g.add_argument("--xacro-arg", metavar="NAME:=VALUE", action="append", default=[], help="a xacro:arg value (repeatable)")
+    g.add_argument("--package-path", metavar="NAME=DIR", action="append", default=[],
+                   help="where $(find NAME) and package://NAME/ point (repeatable); includes may read only these folders and the file's own")
+
+
 def _settings(args: argparse.Namespace, structure_only: bool = False):
     from pipeline.runner import Settings
     settings = Settings(structure_only=structure_only, model=args.model, llm_url=args.llm_url,
@@ -61,11 +68,12 @@ def _limits(args: argparse.Namespace) -> dict:
     return {k: v for k in ("max_bytes", "max_links") if (v := getattr(args, k, None)) is not None}
 
 
-def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, limits: dict):
-    """Ingest and abstract one URDF; returns (tree, robot name, abstraction, seconds)."""
-    from pipeline.ingest import load_urdf
+def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, limits: dict,
+              xacro_args: list[str] = (), package_paths: list[str] = ()):
+    """Ingest (expanding xacro) and abstract one robot; returns (tree, robot name, abstraction, seconds)."""
     from pipeline.runner import run
-    tree = load_urdf(urdf, **limits)
+    from pipeline.xacro_input import load_description, parse_args, parse_package_paths
+    tree = load_description(urdf, args=parse_args(xacro_args), packages=parse_package_paths(package_paths), **limits)
     bars = StageBars(quiet)
     started = time.monotonic()
     with open(trace_path, "w") if trace_path else contextlib.nullcontext() as trace:
@@ -86,12 +94,13 @@ def cmd_populate(args: argparse.Namespace) -> int:
     from pipeline.export import export_robot, robot_graph
     from pipeline.shacl import validate
     settings = _settings(args, args.structure_only)
-    tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, _limits(args))
+    tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, _limits(args),
+                                                 args.xacro_arg, args.package_path)
     onto = _robot_ontology(tree, name, abstraction)
     conforms, report = validate(robot_graph(onto))
     if not conforms:
         raise UrdfkbError(f"the populated robot breaks the SHACL shapes; nothing written:\n{report}")
-    out = args.output or f"{Path(args.urdf).stem}.{ {'rdfxml': 'owl', 'turtle': 'ttl', 'ntriples': 'nt'}[args.format] }"
+    out = args.output or f"{Path(Path(args.urdf).name.removesuffix('.xacro')).stem}.{ {'rdfxml': 'owl', 'turtle': 'ttl', 'ntriples': 'nt'}[args.format] }"
     export_robot(onto, out, args.format)
     what = "structure only" if settings.structure_only else f"{len(abstraction.components)} components"
     print(f"{name}: {len(tree.links)} links, {len(tree.edges)} joints, {what} in {seconds:.1f} s -> {Path(out).resolve()}")
@@ -162,7 +171,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     serve(store_path=args.store, host=args.host, port=args.port, token=args.token or os.environ.get("URDFKB_TOKEN"),
           remote_store=args.remote_store, populate=args.populate, allowed_hosts=args.allowed_host,
           model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
-          **_limits(args))
+          package_paths=args.package_path, **_limits(args))
     return 0
 
 
@@ -179,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("populate", help="abstract a URDF and write the populated ontology to a file",
                        description="Ingest a URDF, run the LLM-guided abstraction (sensors, then end-effectors), check the result against the SHACL shapes and write a self-contained ontology file that opens in Protégé offline.")
-    p.add_argument("urdf", help="the robot's URDF file")
+    p.add_argument("urdf", help="the robot's URDF or xacro file (.xacro, or a document declaring the xacro namespace)")
     p.add_argument("-o", "--output", help="output file (default: <urdf stem>.owl/.ttl/.nt in the current directory)")
     p.add_argument("--format", choices=("rdfxml", "turtle", "ntriples"), default="rdfxml", help="output syntax (default rdfxml)")
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
@@ -188,6 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-bytes", type=int, help="refuse URDFs larger than this (default 10 MB)")
     p.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    _add_xacro_options(p)
     _add_model_options(p)
     p.set_defaults(func=cmd_populate)
 
@@ -222,6 +232,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--allow-llm-url", metavar="URL", action="append", default=[], help="let POST /populate use this OpenAI-compatible http(s) server as llm_url (repeatable; default: llm_url= refused)")
     g.add_argument("--insecure-no-token", action="store_true", help="serve on a non-loopback --host without --token: anyone who can reach the port can populate robots")
     g.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
+    g.add_argument("--package-path", metavar="NAME=DIR", action="append", default=[],
+                   help="let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
+                        "(repeatable; without it, uploads read no server file)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

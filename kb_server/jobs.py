@@ -59,12 +59,13 @@ class Job:
     started: float | None = None
     finished: float | None = None
     ontology: str | None = None
+    corrections: dict | None = None  # reviewers' corrections applied / no longer fitting (review.Report)
     finished_event: threading.Event = field(default_factory=threading.Event, repr=False)
 
     def to_dict(self) -> dict:
         return {"id": self.id, "robot": self.robot, "state": self.state, "stage": self.stage,
                 "progress": {"done": self.done, "total": self.total}, "errors": list(self.errors),
-                "ontology": self.ontology, "created": self.created, "started": self.started, "finished": self.finished}
+                "ontology": self.ontology, "corrections": self.corrections, "created": self.created, "started": self.started, "finished": self.finished}
 
     def wait(self, timeout: float | None) -> bool:
         return self.finished_event.wait(timeout)
@@ -157,7 +158,7 @@ class JobManager:
                 abstraction = self.runner(tree, settings, progress)
                 progress("store", 0, 1)
                 entry = self.store.replace_robot(job.robot, tree, abstraction)
-                job.ontology = entry.ontology_iri
+                job.ontology, job.corrections = entry.ontology_iri, entry.corrections
                 progress("store", 1, 1)
                 job.state = self._mirror(job)
         except UrdfkbError as e:

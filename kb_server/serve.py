@@ -13,8 +13,9 @@ from kb_server.jobs import JobManager, Runner, pipeline_runner
 from kb_server.remote import RemoteStore
 from kb_server.security import Policy, check_bind
 from kb_server.store import Store, check_robot_name
-from pipeline.ingest import DEFAULT_MAX_LINKS, load_urdf
+from pipeline.ingest import DEFAULT_MAX_LINKS
 from pipeline.runner import Settings
+from pipeline.xacro_input import load_description, parse_package_paths
 
 log = logging.getLogger(__name__)
 
@@ -24,8 +25,8 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 max_body: int = 10_000_000, threads: int = 16, runner: Runner = pipeline_runner,
                 allowed_hosts: Sequence[str] = (), model_dir: str | Path | None = None,
                 llm_urls: Sequence[str] = (), insecure_no_token: bool = False,
-                max_links: int = DEFAULT_MAX_LINKS, max_header: int = 32_768
-                ) -> tuple[BaseWSGIServer, Store, JobManager]:
+                max_links: int = DEFAULT_MAX_LINKS, max_header: int = 32_768,
+                package_paths: dict[str, Path] | None = None) -> tuple[BaseWSGIServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
@@ -38,7 +39,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
-                     max_links=max_links, max_waiters=max(1, threads // 4))
+                     max_links=max_links, max_waiters=max(1, threads // 4), package_paths=package_paths)
     server = create_server(app, host=host, port=port, threads=threads, max_request_header_size=max_header)
     policy.port = int(server.effective_port)
     return server, store, jobs
@@ -46,23 +47,26 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
 
 def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
           token: str | None = None, remote_store: str | None = None, populate: Sequence[str] = (),
-          query_timeout: float = 10.0, max_body: int = 10_000_000, threads: int = 16, **options) -> None:
+          query_timeout: float = 10.0, max_body: int = 10_000_000, threads: int = 16,
+          package_paths: Sequence[str] = (), **options) -> None:
     """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3.
 
-    Each URDF in `populate` is ingested first (a bad one raises URDFError before anything is
-    served) and populated with default settings as a background job, logged when it finishes.
+    Each URDF or xacro in `populate` is ingested first (a bad one raises URDFError before anything
+    is served) and populated with default settings as a background job, logged when it finishes.
+    `package_paths` (NAME=DIR) are the only folders uploaded xacro files may include from;
     `options` are make_server's security and limit options.
     """
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
-    trees = [load_urdf(path, max_bytes=max_body, max_links=options.get("max_links", DEFAULT_MAX_LINKS))
-             for path in populate]
+    packages = parse_package_paths(package_paths)
+    trees = [load_description(path, packages=packages, max_bytes=max_body,
+                              max_links=options.get("max_links", DEFAULT_MAX_LINKS)) for path in populate]
     for tree in trees:
         check_robot_name(tree.robot_name)
     server, store, jobs = make_server(store_path, host, port, token, remote_store, query_timeout, max_body, threads,
-                                      **options)
+                                      package_paths=packages, **options)
     for tree in trees:
         jobs.submit(tree, tree.robot_name, Settings())
-    log.info("serving %s at http://%s:%s/sparql", store.path, host, server.effective_port)
+    log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, server.effective_port)
     try:
         server.run()
     except KeyboardInterrupt:

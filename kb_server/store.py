@@ -14,10 +14,11 @@ shows what is stored and readers (who never take the lock) see the old graph or 
 from __future__ import annotations
 
 import io
+import json
 import re
 import threading
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import owlready2
 import rdflib
 from platformdirs import user_data_dir
 
+from kb_server import corrections as review
 from kb_server.index import Index
 from kb_server.sparql import CORE_GRAPH, Result, scan
 from pipeline.components import Abstraction
@@ -32,13 +34,17 @@ from pipeline.errors import UrdfkbError
 from pipeline.export import export_robot, robot_graph
 from pipeline.ontology import CORE_IRI, load_core
 from pipeline.population import build_robot
+from pipeline.tree import KinematicTree
 
 EXPORT_FORMATS = {"owl": ("rdfxml", "application/rdf+xml"), "ttl": ("turtle", "text/turtle"),
                   "nt": ("ntriples", "application/n-triples")}
 
+# kb_sources: the model's own answer per robot (tree and abstraction as JSON), so reviewers'
+# corrections can be laid over it again whenever they change; the robot graph is model + corrections.
 _SCHEMA = ("""CREATE TABLE IF NOT EXISTS kb_robots (
     name TEXT PRIMARY KEY, ontology_iri TEXT NOT NULL, robot_iri TEXT NOT NULL, updated TEXT NOT NULL)""",
-           "CREATE TABLE IF NOT EXISTS kb_graphs (graph TEXT PRIMARY KEY, ntriples BLOB NOT NULL)")
+           "CREATE TABLE IF NOT EXISTS kb_graphs (graph TEXT PRIMARY KEY, ntriples BLOB NOT NULL)",
+           "CREATE TABLE IF NOT EXISTS kb_sources (name TEXT PRIMARY KEY, tree TEXT NOT NULL, abstraction TEXT NOT NULL)")
 LEGACY_UPDATES_IRI = "https://w3id.org/urdfkb/updates#"  # where updates went before kb_graphs
 
 
@@ -73,6 +79,7 @@ class RobotEntry:
     ontology_iri: str
     robot_iri: str
     updated: str
+    corrections: dict | None = field(default=None, compare=False)  # the last build's review.Report, as a dict
 
     def to_dict(self) -> dict:
         return {"name": self.name, "ontology": self.ontology_iri, "robot": self.robot_iri, "updated": self.updated}
@@ -136,6 +143,8 @@ class Store:
         row = self.world.graph.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row:
             return _ntriples(self._ontology(self.robot(row[0])))
+        if (onto := self.world.ontologies.get(graph)) is not None:  # a robot's corrections
+            return _ntriples(onto)
         row = self.world.graph.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
         return row[0] if row else None
 
@@ -158,27 +167,93 @@ class Store:
 
     def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
                       provenance: dict[str, str] | None = None) -> RobotEntry:
-        """Write robot `name` (replacing any earlier one) in one transaction; all or nothing."""
+        """Write robot `name` (replacing any earlier one) in one transaction; all or nothing.
+
+        Reviewers' corrections stored for `name` are laid over the abstraction; the entry's
+        `corrections` says which applied and which no longer fit."""
         check_robot_name(name)
+        abstraction = abstraction or Abstraction()
+        model = Abstraction(abstraction.components, {**abstraction.provenance, **(provenance or {})})
         with self._writing() as touched:
-            onto = build_robot(self.world, tree, name, abstraction, provenance)
-            touched.add(onto.base_iri)
-            self.world.graph.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
-            robot_cls = self.world[CORE_IRI + "Robot"]
-            (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
-            entry = RobotEntry(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"))
-            self.world.graph.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
-                                        (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
+            self.world.graph.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)",
+                                        (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))
+            return self._build(name, tree, model, touched)
+
+    def _build(self, name: str, tree, model: Abstraction, touched: set[str]) -> RobotEntry:
+        """(Inside _writing) the robot graph from the model's answer and the stored corrections."""
+        corrected, report = review.apply(tree, model, self._corrections(name))
+        onto = build_robot(self.world, tree, name, corrected)
+        touched.add(onto.base_iri)
+        self.world.graph.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
+        influenced_by = self.world._abbreviate(str(review.PROV.wasInfluencedBy))
+        for comp, corr in review.influences(onto.base_iri, name, report):
+            onto._add_obj_triple_spo(self.world._abbreviate(comp), influenced_by, self.world._abbreviate(corr))
+        robot_cls = self.world[CORE_IRI + "Robot"]
+        (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
+        entry = RobotEntry(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                           report.to_dict())
+        self.world.graph.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
+                                    (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
         return entry
 
+    # --- reviewers' corrections (graph review.corrections_iri(name)) ----------------------------
+
+    def source(self, name: str) -> tuple[KinematicTree, Abstraction] | None:
+        """The tree and the model's own abstraction robot `name` was last populated from (None for
+        robots stored before corrections existed, or never)."""
+        with self.lock:
+            row = self.world.graph.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
+        if row is None:
+            return None
+        return KinematicTree.from_dict(json.loads(row[0])), Abstraction.from_dict(json.loads(row[1]))
+
+    def corrections(self, name: str) -> list[review.Correction]:
+        """Robot `name`'s stored corrections, oldest first."""
+        with self.lock:
+            return self._corrections(name)
+
+    def _corrections(self, name: str) -> list[review.Correction]:
+        onto = self.world.ontologies.get(review.corrections_iri(name))
+        if onto is None:
+            return []
+        buf = io.BytesIO()
+        onto.save(buf, format="ntriples")
+        return review.from_graph(rdflib.Graph().parse(data=buf.getvalue(), format="nt"))
+
+    def _write_corrections(self, name: str, items: list[review.Correction]) -> None:
+        iri = review.corrections_iri(name)
+        if (old := self.world.ontologies.get(iri)) is not None:
+            old.destroy()
+        if items:
+            data = review.to_graph(name, items).serialize(format="nt", encoding="utf-8")
+            self.world.get_ontology(iri).load(fileobj=io.BytesIO(data), format="ntriples")
+
+    def add_correction(self, name: str, correction: review.Correction) -> RobotEntry:
+        """Store `correction` (CorrectionError if it does not fit the robot as it is now, LookupError
+        if the robot is unknown or was populated before corrections existed) and rebuild the robot
+        graph with it, in one transaction. Writes the robot's graph and its corrections graph."""
+        with self._writing() as touched:
+            touched.add(review.corrections_iri(name))
+            source = self.source(name)
+            if source is None:
+                raise LookupError(f"no robot {name!r}" if self.robot(name) is None else
+                                  f"robot {name!r} was stored before corrections existed: populate it again first")
+            tree, model = source
+            existing = self._corrections(name)
+            current, _ = review.apply(tree, model, existing)
+            review.check(tree, current, correction)
+            self._write_corrections(name, existing + [correction])
+            return self._build(name, tree, model, touched)
     def delete_robot(self, name: str) -> RobotEntry | None:
         """Remove robot `name`; returns what was removed, None if there was no such robot."""
         with self._writing() as touched:
             entry = self.robot(name)
             if entry is None:
                 return None
-            touched.add(entry.ontology_iri)
+            touched.update((entry.ontology_iri, review.corrections_iri(name)))
             self._unregister(entry)
+            self._write_corrections(name, [])
+            self.world.graph.db.execute("DELETE FROM kb_sources WHERE name=?", (name,))
         return entry
 
     def _unregister(self, entry: RobotEntry) -> None:
@@ -188,11 +263,15 @@ class Store:
     def _ontology(self, entry: RobotEntry) -> owlready2.Ontology:
         return self.world.ontologies.get(entry.ontology_iri) or self.world.get_ontology(entry.ontology_iri)
 
+    def _corrections_graph(self, name: str) -> rdflib.Graph | None:
+        items = self._corrections(name)
+        return review.to_graph(name, items) if items else None
+
     def graph(self, name: str) -> rdflib.Graph | None:
-        """The robot and the core as one self-contained in-memory graph (for mirrors)."""
+        """The robot, its corrections and the core as one self-contained in-memory graph (for mirrors)."""
         with self.lock:
             entry = self.robot(name)
-            return robot_graph(self._ontology(entry)) if entry else None
+            return robot_graph(self._ontology(entry), self._corrections_graph(name)) if entry else None
 
     def export(self, name: str, ext: str) -> bytes | None:
         """The robot as a file (`ext` a key of EXPORT_FORMATS) that opens in Protégé offline."""
@@ -202,7 +281,7 @@ class Store:
             entry = self.robot(name)
             if entry is None:
                 return None
-            export_robot(self._ontology(entry), buf, fmt)
+            export_robot(self._ontology(entry), buf, fmt, self._corrections_graph(name))
         return buf.getvalue()
 
     # --- SPARQL -------------------------------------------------------------------------------

@@ -42,6 +42,12 @@ class LinkEvidence:
     mass: float | None = None  # None when the link has no <inertial>
     sensors: tuple[SimSensor, ...] = ()
 
+    @classmethod
+    def from_dict(cls, data: dict) -> LinkEvidence:
+        """Inverse of dataclasses.asdict."""
+        sensors = tuple(SimSensor(s["type"], tuple(s["plugins"]), s["detail"]) for s in data["sensors"])
+        return cls(tuple(data["meshes"]), data["shape"], data["mass"], sensors)
+
     @property
     def is_pure_frame(self) -> bool:
         """No geometry at all: a coordinate frame rather than a body."""

@@ -26,14 +26,20 @@ def _core_triples() -> tuple:
     return tuple(t for t in graph if t[0] != header)
 
 
-def robot_graph(onto: owlready2.Ontology) -> rdflib.Graph:
-    """The robot ontology's own triples plus the core's axioms, as one rdflib graph."""
+def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None) -> rdflib.Graph:
+    """The robot ontology's own triples plus the core's axioms (and `extra`, e.g. reviewers'
+    corrections), as one rdflib graph."""
     buf = io.BytesIO()
     onto.save(buf, format="ntriples")
     graph = rdflib.Graph()
     graph.parse(data=buf.getvalue(), format="nt")
     for triple in _core_triples():
         graph.add(triple)
+    if extra is not None:
+        graph += extra
+        for prefix, ns in extra.namespaces():
+            if prefix in ("prov", "review"):
+                graph.bind(prefix, ns)
     graph.remove((None, OWL.imports, None))
     graph.bind("core", CORE_IRI)
     graph.bind("robot", onto.base_iri)
@@ -41,11 +47,12 @@ def robot_graph(onto: owlready2.Ontology) -> rdflib.Graph:
     return graph
 
 
-def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml") -> None:
-    """Write `robot_graph(onto)` to a path (atomically: temp file then rename) or a binary stream."""
+def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml",
+                 extra: rdflib.Graph | None = None) -> None:
+    """Write `robot_graph(onto, extra)` to a path (atomically: temp file then rename) or a binary stream."""
     if fmt not in FORMATS:
         raise OntologyError(f"unknown export format {fmt!r}; choose one of {', '.join(FORMATS)}")
-    data = robot_graph(onto).serialize(format=_RDFLIB_FORMATS[fmt], encoding="utf-8")
+    data = robot_graph(onto, extra).serialize(format=_RDFLIB_FORMATS[fmt], encoding="utf-8")
     if hasattr(dest, "write"):
         dest.write(data)
         return

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from math import cos, sin
 
 from .evidence import LinkEvidence
@@ -53,6 +53,11 @@ def _rotate(rpy: Vector, v: Vector) -> Vector:
     x, z = cos(pitch) * x + sin(pitch) * z, -sin(pitch) * x + cos(pitch) * z
     x, y = cos(yaw) * x - sin(yaw) * y, sin(yaw) * x + cos(yaw) * y
     return (x, y, z)
+
+
+def _tupled(value):
+    """JSON arrays back to the tuples the dataclasses hold."""
+    return tuple(value) if isinstance(value, list) else value
 
 
 def _first_duplicate(names: Iterable[str]) -> str | None:
@@ -153,6 +158,18 @@ class KinematicTree:
             ("_children", {link: tuple(kids) for link, kids in children.items()}),
         ):
             object.__setattr__(self, name, value)
+
+    def to_dict(self) -> dict:
+        """A JSON-ready form of the tree (from_dict rebuilds it): what a store keeps of a robot."""
+        return {"robot_name": self.robot_name, "links": list(self.links), "edges": [asdict(e) for e in self.edges],
+                "evidence": {link: asdict(facts) for link, facts in self.evidence.items()}}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> KinematicTree:
+        edges = tuple(Edge(**{k: _tupled(v) for k, v in e.items()} | {"origin": Origin(*map(tuple, e["origin"].values()))})
+                      for e in data["edges"])
+        evidence = {link: LinkEvidence.from_dict(facts) for link, facts in data.get("evidence", {}).items()}
+        return cls(data["robot_name"], tuple(data["links"]), edges, evidence)
 
     def _known(self, link: str) -> str:
         if link not in self._children:

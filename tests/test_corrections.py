@@ -1,0 +1,171 @@
+"""Reviewers' corrections: each action, their provenance in exports, re-application on re-populate,
+corrections that no longer fit, the token, the low_confidence query, the pages' negotiation."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pytest
+import rdflib
+
+from kb_fixtures import PR2, http, live, make_app
+from kb_server import queries
+from kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
+from kb_server.store import Store
+from pipeline.components import Abstraction
+from pipeline.ingest import load_urdf
+
+TOKEN = "s3cret"
+
+
+@pytest.fixture(scope="module")
+def pr2_tree(shared):
+    return load_urdf(shared / "urdf" / "pr2.urdf")
+
+
+@pytest.fixture
+def store(tmp_path, pr2_tree):
+    s = Store(tmp_path / "kb.sqlite3")
+    s.replace_robot("pr2", pr2_tree, PR2)
+    yield s
+    s.close()
+
+
+def correct(store, who="ann", **data):
+    return store.add_correction("pr2", Correction.new(data, who))
+
+
+def components(store):
+    return {c["iri"].rsplit("#comp_", 1)[1]: c for c in queries.components(store, "pr2")}
+
+
+def test_each_action_changes_the_stored_robot(store):
+    correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "InfraredCamera"})
+    correct(store, action="remount", links=["base_laser_link"], mount="base_footprint")
+    correct(store, action="reject", links=["r_gripper_motor_accelerometer_link"])
+    entry = correct(store, action="add", links=["l_forearm_cam_optical_frame", "l_forearm_cam_frame"],
+                    **{"class": "MonocularCamera"})
+    comps = components(store)
+    assert comps["prosilica"]["class"] == "InfraredCamera" and comps["prosilica"]["confidence"] == 1.0
+    assert comps["base_laser"]["mount"] == "base_footprint"
+    assert "r_gripper_accelerometer" not in comps
+    added = comps["reviewed_l_forearm_cam_frame"]
+    assert added["class"] == "MonocularCamera" and added["mount"] == "l_forearm_roll_link"
+    assert {s["link"] for s in added["subcomponents"]} == {"l_forearm_cam_optical_frame", "l_forearm_cam_frame"}
+    assert len(entry.corrections["applied"]) == 4 and entry.corrections["stale"] == []
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"action": "reclassify", "links": ["base_laser_link"], "class": "ParallelGripper"}, "not a class the ontology allows"),
+    ({"action": "reclassify", "links": ["head_mount_kinect_ir_link", "head_mount_kinect_rgb_optical_frame",
+                                        "head_mount_kinect_ir_optical_frame"], "class": "Lidar"}, "not a class the ontology allows"),
+    ({"action": "remount", "links": ["base_laser_link"], "mount": "r_gripper_palm_link"}, "not above every link"),
+    ({"action": "confirm", "links": ["torso_lift_link"]}, "no component with link"),
+    ({"action": "confirm", "links": ["no_such_link"]}, "not in the URDF"),
+    ({"action": "add", "links": ["base_link"], "class": "Palm"}, "not a sensor or end-effector class"),
+    ({"action": "explode", "links": ["base_link"]}, "action must be one of"),
+])
+def test_corrections_that_do_not_fit_are_refused_and_change_nothing(store, data, message):
+    before = store.export("pr2", "nt")
+    with pytest.raises(CorrectionError, match=message):
+        store.add_correction("pr2", Correction.new(data, "ann"))
+    assert store.export("pr2", "nt") == before and store.corrections("pr2") == []
+
+
+def test_corrections_carry_provenance_into_exports(store):
+    correct(store, who="Ann Reviewer", action="confirm", links=["base_laser_link"])
+    graph = rdflib.Graph().parse(data=store.export("pr2", "ttl"), format="turtle")
+    (activity,) = graph.subjects(REVIEW.action, rdflib.Literal("confirm"))
+    assert (activity, rdflib.RDF.type, PROV.Activity) in graph
+    agent = graph.value(activity, PROV.wasAssociatedWith)
+    assert str(graph.value(agent, rdflib.RDFS.label)) == "Ann Reviewer"
+    assert graph.value(activity, PROV.endedAtTime).datatype == rdflib.XSD.dateTime
+    assert str(activity).startswith(corrections_iri("pr2"))
+    assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#comp_base_laser"), PROV.wasInfluencedBy, activity) in graph
+
+
+def test_corrections_survive_repopulation_and_report_what_no_longer_fits(store, pr2_tree):
+    correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "InfraredCamera"})
+    correct(store, action="reject", links=["laser_tilt_link"])
+    entry = store.replace_robot("pr2", pr2_tree, PR2)
+    assert [a["component"] for a in entry.corrections["applied"]] == ["prosilica", "tilt_laser"]
+    assert components(store)["prosilica"]["class"] == "InfraredCamera" and "tilt_laser" not in components(store)
+    # a new URDF without the tilting laser: that correction no longer fits, the other still applies
+    smaller = replace(pr2_tree, links=tuple(l for l in pr2_tree.links if l != "laser_tilt_link"),
+                      edges=tuple(e for e in pr2_tree.edges if e.child != "laser_tilt_link"))
+    model = Abstraction(tuple(c for c in PR2.components if c.name != "tilt_laser"), PR2.provenance)
+    entry = store.replace_robot("pr2", smaller, model)
+    assert [a["component"] for a in entry.corrections["applied"]] == ["prosilica"]
+    (stale,) = entry.corrections["stale"]
+    assert stale["action"] == "reject" and "laser_tilt_link is not in the URDF" in stale["reason"]
+    assert len(store.corrections("pr2")) == 2  # kept: it applies again if the link comes back
+
+
+def test_low_confidence_skips_confirmed_components_and_their_parts(store):
+    def low():
+        return {d["individual"].rsplit("#", 1)[1] for d in queries.run_named(store, "low_confidence", "pr2", {}).as_dicts()}
+    assert {"comp_r_gripper_accelerometer", "comp_prosilica"} <= low()
+    correct(store, action="confirm", links=["r_gripper_motor_accelerometer_link"])
+    assert not {i for i in low() if "accelerometer" in i}
+    assert "comp_prosilica" in low()
+
+
+def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):
+    correct(store, action="confirm", links=["base_laser_link"])
+    store.delete_robot("pr2")
+    assert store.corrections("pr2") == [] and store.source("pr2") is None
+    store.replace_robot("pr2", pr2_tree, PR2)
+    assert store.corrections("pr2") == []
+
+
+def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shared):
+    store = Store(tmp_path / "kb.sqlite3")
+    app, jobs = make_app(store, token=TOKEN)
+    auth = {"Authorization": f"Bearer {TOKEN}"}
+    try:
+        with live(app) as base:
+            status, _, out = http("POST", f"{base}/populate", (shared / "urdf" / "pr2.urdf").read_bytes(), auth)
+            http("GET", f"{base}/jobs/{json.loads(out)['id']}?wait=1")
+            body = json.dumps({"action": "confirm", "links": ["base_laser_link"], "reviewer": "Ann"}).encode()
+            json_type = {"Content-Type": "application/json"}
+            assert http("POST", f"{base}/robots/pr2/corrections", body, json_type)[0] == 403
+            status, _, out = http("POST", f"{base}/robots/pr2/corrections", body, {**json_type, **auth})
+            assert status == 201 and json.loads(out)["correction"]["reviewer"] == "Ann"
+            status, _, out = http("POST", f"{base}/robots/pr2/corrections", b"[1]", {**json_type, **auth})
+            assert status == 400
+            status, _, out = http("POST", f"{base}/robots/ghost/corrections", body, {**json_type, **auth})
+            assert status == 404
+            status, _, out = http("GET", f"{base}/robots/pr2/corrections")
+            assert status == 200 and json.loads(out)["applied"][0]["summary"] == "base_laser_link: confirmed"
+
+            browser = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
+            status, ctype, page = http("GET", f"{base}/robots/pr2", headers=browser)
+            assert status == 200 and ctype.startswith("text/html")
+            assert b"<svg" in page and b"confirmed by Ann" in page and b'data-links="base_laser_link"' in page
+            assert http("GET", f"{base}/robots/pr2")[1].startswith("application/json")
+            assert http("GET", f"{base}/robots/pr2", headers={"Accept": "application/json"})[1].startswith("application/json")
+            assert http("GET", f"{base}/robots/ghost", headers=browser)[0] == 404
+            status, ctype, page = http("GET", f"{base}/sparql", headers=browser)
+            assert status == 200 and ctype.startswith("text/html") and b"low_confidence" in page
+            assert http("GET", f"{base}/sparql")[1].startswith("text/turtle")  # the service description
+            status, ctype, page = http("GET", f"{base}/", headers=browser)
+            assert status == 200 and b'data-robot="pr2"' in page
+    finally:
+        jobs.shutdown()
+        store.close()
+
+
+def test_robots_stored_before_corrections_still_get_a_page(store):
+    with store.lock:  # as a store written by an earlier version: no kept source
+        store.world.graph.db.execute("DELETE FROM kb_sources")
+        store.world.save()
+    app, jobs = make_app(store)
+    try:
+        client = app.test_client()
+        page = client.get("/robots/pr2", headers={"Accept": "text/html"})
+        assert page.status_code == 200 and b"<svg" in page.data and b"populate it again" in page.data
+        assert page.data.count(b'class="component"') == len(PR2.components)
+        resp = client.post("/robots/pr2/corrections", json={"action": "confirm", "links": ["base_laser_link"]})
+        assert resp.status_code == 409 and "populate it again" in resp.get_json()["error"]
+    finally:
+        jobs.shutdown()

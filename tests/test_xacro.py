@@ -1,0 +1,126 @@
+"""xacro input: an invented rover with a package include and arguments, from the CLI and over HTTP;
+hostile documents refused with file and line, nothing stored."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from kb_fixtures import http, live, make_app, multipart
+from kb_server.cli import main
+from kb_server.store import Store
+from pipeline.errors import URDFError
+from pipeline.xacro_input import XacroError, expand, load_description, parse_args, parse_package_paths
+
+DATA = Path(__file__).parent / "data" / "xacro"
+ROVER = DATA / "main" / "rover.urdf.xacro"
+PACKAGES = {"quokka_parts": DATA / "parts_pkg"}
+XNS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
+
+
+def doc(body: str) -> bytes:
+    return f'<robot name="hostile" {XNS}>\n{body}\n</robot>'.encode()
+
+
+def test_rover_expands_with_includes_and_arguments():
+    tree = load_description(ROVER, packages=PACKAGES, args={"prefix": "zz"})
+    assert tree.robot_name == "quokka_rover"
+    assert set(tree.links) == {"zz_footprint", "zz_body", "zz_snoutcam_link", "zz_snoutcam_color_optical_frame"}
+    no_cam = load_description(ROVER, packages=PACKAGES, args={"with_camera": "false"})
+    assert set(no_cam.links) == {"qk_footprint", "qk_body"}
+
+
+def test_argument_and_package_path_syntax():
+    assert parse_args(["a:=1", "b_c:=x y"]) == {"a": "1", "b_c": "x y"}
+    with pytest.raises(XacroError, match="NAME:=VALUE"):
+        parse_args(["a=1"])
+    with pytest.raises(XacroError, match="no such directory"):
+        parse_package_paths(["ghost=/nonexistent/dir"])
+
+
+@pytest.mark.parametrize("body, message", [
+    ('<xacro:include filename="/etc/hostname"/>', "hostile.urdf.xacro:2: include 'hostname' is outside the allowed directories"),
+    ('<xacro:include filename="$(find quokka_parts)/../../../../etc/passwd"/>', "outside the allowed directories"),
+    ('<xacro:include filename="$(find ghost)/x.xacro"/>', "hostile.urdf.xacro:2: $(find ghost): unknown package"),
+    ('<xacro:include filename="package://ghost/x.xacro"/>', "unknown package 'ghost'"),
+    ('<xacro:include filename="missing.xacro"/>', "outside the allowed directories"),
+    ('<link name="$(eval open(\'/etc/passwd\').read())"/>', "$(eval ...) is not supported"),
+    ('<link name="$(env HOME)"/>', "$(env HOME) is not available"),
+    ('<link name="${xacro.load_yaml(\'/etc/passwd\')}"/>', "outside the allowed directories"),
+    ('<link name="${nowhere}"/>', "hostile.urdf.xacro:2: name 'nowhere' is not defined"),
+    ('<xacro:macro name="loop" params=""><xacro:loop/></xacro:macro>\n<xacro:loop/>', "hostile.urdf.xacro:3: macros nested deeper"),
+    ('<xacro:undefined_macro/>', "hostile.urdf.xacro:2: unknown macro name"),
+    ('<link name="x">', "hostile.urdf.xacro:3: not well-formed XML"),
+])
+def test_hostile_or_broken_xacro_is_refused_naming_file_and_line(body, message):
+    with pytest.raises(XacroError) as err:
+        load_description(doc(body), filename="hostile.urdf.xacro", packages=PACKAGES)
+    assert message in str(err.value)
+
+
+def test_include_loops_oversize_and_runaway_expressions_are_bounded(tmp_path):
+    loop = tmp_path / "loop.urdf.xacro"
+    loop.write_text(f'<robot name="l" {XNS}><xacro:include filename="loop.urdf.xacro"/></robot>')
+    with pytest.raises(XacroError, match="includes nested deeper"):
+        load_description(loop)
+    missing = tmp_path / "missing.urdf.xacro"
+    missing.write_text(f'<robot name="m" {XNS}>\n\n<xacro:include filename="nothere.xacro"/></robot>')
+    with pytest.raises(XacroError, match=r"missing.urdf.xacro:3: cannot read include .*nothere.xacro"):
+        load_description(missing)
+    with pytest.raises(XacroError, match="byte limit"):
+        load_description(doc('<link name="${\'x\' * 300000}"/>'), filename="big.xacro", max_bytes=200_000)
+    with pytest.raises(XacroError, match="longer than 2 s|CPU or memory limit"):
+        expand(doc('<link name="${9**9**9}"/>'), "slow.xacro", timeout=2)
+
+
+def test_cli_populates_a_xacro_robot(tmp_path, capsys):
+    out = tmp_path / "rover.ttl"
+    code = main(["populate", str(ROVER), "--structure-only", "--format", "turtle", "-o", str(out), "-q",
+                 "--xacro-arg", "prefix:=cli", "--package-path", f"quokka_parts={PACKAGES['quokka_parts']}"])
+    assert code == 0 and "cli_snoutcam_color_optical_frame" in out.read_text()
+    code = main(["populate", str(ROVER), "--structure-only", "-o", str(tmp_path / "x.owl"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "urdfkb: error: rover.urdf.xacro:7: $(find quokka_parts): unknown package" in err
+    assert not (tmp_path / "x.owl").exists()
+
+
+def test_http_populate_of_xacro_reads_only_configured_packages(tmp_path):
+    store = Store(tmp_path / "kb.sqlite3")
+    rover = ROVER.read_bytes()
+    try:
+        app, jobs = make_app(store)  # no package paths: the upload can include nothing
+        with live(app) as base:
+            body, ctype = multipart({"structure_only": "true"}, {"urdf": ("rover.urdf.xacro", rover)})
+            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype})
+            assert status == 400 and "rover.urdf.xacro:7" in json.loads(out)["error"]
+            assert store.robots() == []
+        jobs.shutdown()
+        app, jobs = make_app(store, package_paths=PACKAGES)
+        with live(app) as base:
+            # the upload's own folder is not readable: chassis.xacro must come from a package too
+            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype})
+            assert status == 400 and "chassis.xacro" in json.loads(out)["error"]
+            flat = rover.replace(b'<xacro:include filename="chassis.xacro"/>',
+                                 b'<xacro:include filename="package://quokka_parts/../main/chassis.xacro"/>')
+            status, _, out = http("POST", f"{base}/populate", multipart({}, {"urdf": ("r.urdf.xacro", flat)})[0],
+                                  {"Content-Type": ctype})
+            assert status == 400 and "outside the allowed directories" in json.loads(out)["error"]
+            chassis = (DATA / "main" / "chassis.xacro").read_bytes()
+            inline = rover.replace(b'<xacro:include filename="chassis.xacro"/>', chassis.split(b"?>", 1)[1]
+                                   .replace(b"<robot", b"<xacro:if value=\"true\"").replace(b"</robot>", b"</xacro:if>"))
+            status, _, out = http("POST", f"{base}/populate?xacro_arg=prefix:=web&structure_only=true", inline,
+                                  {"Content-Type": "application/xml"})
+            assert status == 202, out
+            job = json.loads(http("GET", f"{base}/jobs/{json.loads(out)['id']}?wait=1")[2])
+            assert job["state"] == "succeeded"
+            robot = json.loads(http("GET", f"{base}/robots/quokka_rover")[2])
+            assert robot["name"] == "quokka_rover"
+        jobs.shutdown()
+    finally:
+        store.close()
+
+
+def test_plain_urdf_with_xacro_arguments_is_an_error():
+    with pytest.raises(URDFError, match="not a xacro file"):
+        load_description(b'<robot name="r"><link name="a"/></robot>', filename="r.urdf", args={"x": "1"})
