@@ -42,7 +42,7 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> 
             low = queries.run_named(store, "low_confidence", entry.name, {})
             kinds = Counter(review.kind_of(c["class"]) or "other" for c in comps)
             robots.append({"name": entry.name, "updated": entry.updated, "sensors": kinds["sensor"],
-                           "end_effectors": kinds["end_effector"], "low": len(low.rows)})
+                           "end_effectors": kinds["end_effector"], "low": len(low.bindings())})
         return render_template("index.html", robots=robots)
 
     @bp.get("/robots/<name>/corrections")

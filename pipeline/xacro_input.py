@@ -71,7 +71,7 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
     then nothing beside the package paths) and `packages` only; `args` are the xacro:arg values.
     """
     if len(data) > max_bytes:
-        raise XacroError(f"{name}: larger than the {max_bytes} byte limit")
+        raise XacroError(f"{name}: too large: over the {max_bytes}-byte limit")
     request = {"text": data.decode("utf-8", "replace"), "name": name,
                "main_dir": str(Path(main_dir).resolve()) if main_dir else None,
                "args": dict(args or {}), "packages": {k: str(v) for k, v in (packages or {}).items()},
@@ -115,7 +115,7 @@ def load_description(source: str | os.PathLike | bytes, *, filename: str | None 
         except OSError as e:
             raise URDFError(f"cannot read {path}: {e.strerror}") from None
         if size > max_bytes:
-            raise URDFError(f"{path}: {size} bytes, over the {max_bytes} byte limit")
+            raise URDFError(f"{path}: too large: over the {max_bytes}-byte limit ({size} bytes)")
         data, filename = path.read_bytes(), filename or path.name
         main_dir = path.parent if trust_folder else None
     if not is_xacro(filename, data):

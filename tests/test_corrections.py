@@ -40,13 +40,13 @@ def components(store):
 
 
 def test_each_action_changes_the_stored_robot(store):
-    correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "InfraredCamera"})
+    correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "StereoCamera"})
     correct(store, action="remount", links=["base_laser_link"], mount="base_footprint")
     correct(store, action="reject", links=["r_gripper_motor_accelerometer_link"])
     entry = correct(store, action="add", links=["l_forearm_cam_optical_frame", "l_forearm_cam_frame"],
                     **{"class": "MonocularCamera"})
     comps = components(store)
-    assert comps["prosilica"]["class"] == "InfraredCamera" and comps["prosilica"]["confidence"] == 1.0
+    assert comps["prosilica"]["class"] == "StereoCamera" and comps["prosilica"]["confidence"] == 1.0
     assert comps["base_laser"]["mount"] == "base_footprint"
     assert "r_gripper_accelerometer" not in comps
     added = comps["reviewed_l_forearm_cam_frame"]
@@ -85,11 +85,11 @@ def test_corrections_carry_provenance_into_exports(store):
 
 
 def test_corrections_survive_repopulation_and_report_what_no_longer_fits(store, pr2_tree):
-    correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "InfraredCamera"})
+    correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "StereoCamera"})
     correct(store, action="reject", links=["laser_tilt_link"])
     entry = store.replace_robot("pr2", pr2_tree, PR2)
     assert [a["component"] for a in entry.corrections["applied"]] == ["prosilica", "tilt_laser"]
-    assert components(store)["prosilica"]["class"] == "InfraredCamera" and "tilt_laser" not in components(store)
+    assert components(store)["prosilica"]["class"] == "StereoCamera" and "tilt_laser" not in components(store)
     # a new URDF without the tilting laser: that correction no longer fits, the other still applies
     smaller = replace(pr2_tree, links=tuple(l for l in pr2_tree.links if l != "laser_tilt_link"),
                       edges=tuple(e for e in pr2_tree.edges if e.child != "laser_tilt_link"))

@@ -92,19 +92,19 @@ def test_http_populate_of_xacro_reads_only_configured_packages(tmp_path):
         app, jobs = make_app(store)  # no package paths: the upload can include nothing
         with live(app) as base:
             body, ctype = multipart({"structure_only": "true"}, {"urdf": ("rover.urdf.xacro", rover)})
-            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype})
+            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
             assert status == 400 and "rover.urdf.xacro:7" in json.loads(out)["error"]
             assert store.robots() == []
         jobs.shutdown()
         app, jobs = make_app(store, package_paths=PACKAGES)
         with live(app) as base:
             # the upload's own folder is not readable: chassis.xacro must come from a package too
-            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype})
+            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
             assert status == 400 and "chassis.xacro" in json.loads(out)["error"]
             flat = rover.replace(b'<xacro:include filename="chassis.xacro"/>',
                                  b'<xacro:include filename="package://quokka_parts/../main/chassis.xacro"/>')
             status, _, out = http("POST", f"{base}/populate", multipart({}, {"urdf": ("r.urdf.xacro", flat)})[0],
-                                  {"Content-Type": ctype})
+                                  {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
             assert status == 400 and "outside the allowed directories" in json.loads(out)["error"]
             chassis = (DATA / "main" / "chassis.xacro").read_bytes()
             inline = rover.replace(b'<xacro:include filename="chassis.xacro"/>', chassis.split(b"?>", 1)[1]
