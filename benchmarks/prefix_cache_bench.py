@@ -7,7 +7,8 @@ cache root (models linked from the real one):
   cold          the robot with an empty prefix-state cache (what a first run pays)
   first robot   another robot, which fills the prefix-state cache
   second robot  the robot again, with the cache of states warm and the result cache cold
-It prints wall time, prompt tokens evaluated and decodes side by side (medians over rounds), the
+It prints wall time, CPU time (user + system: less sensitive to other load on the machine, though
+llama.cpp's spinning threads inflate it too when cores are oversubscribed), prompt tokens evaluated and decodes side by side (medians over rounds), the
 size of the state cache, and how far the second-robot answers move from the cold ones (traces).
 """
 from __future__ import annotations
@@ -16,6 +17,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import shutil
 import statistics
 import subprocess
@@ -37,15 +39,20 @@ def populate(urdf: Path, root: Path, label: str) -> dict:
     out, trace = root / f"{label}.ttl", root / f"{label}.jsonl"
     cmd = [str(URDFKB), "populate", str(urdf), "--no-cache", "--quiet", "--format", "turtle",
            "-o", str(out), "--trace", str(trace)]
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), _child_cpu()
     proc = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "URDFKB_CACHE": str(root)})
-    seconds = time.perf_counter() - start
+    seconds, cpu = time.perf_counter() - start, _child_cpu() - cpu
     if proc.returncode != 0:
         sys.exit(f"{label}: urdfkb failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     text = out.read_text()
     number = lambda prop: int(re.search(rf"core:{prop}\s+\"?(\d+)", text).group(1))  # noqa: E731
-    return {"seconds": seconds, "tokens": number("tokensEvaluated"), "decodes": number("llmCalls"),
+    return {"seconds": seconds, "cpu": cpu, "tokens": number("tokensEvaluated"), "decodes": number("llmCalls"),
             "trace": [json.loads(line) for line in trace.read_text().splitlines()]}
+
+
+def _child_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def drift(cold: list[dict], warm: list[dict]) -> str:
@@ -84,11 +91,11 @@ def main() -> None:
         size = sum(f.stat().st_size for f in files)
     print(f"robot {args.robot.name}, first robot {args.first.name}; {args.reps} round(s); "
           f"load average at the end {os.getloadavg()[0]:.1f}")
-    print(f"{'run':<14} {'robot':<12} {'wall s':>8} {'tokens evaluated':>17} {'decodes':>8}")
+    print(f"{'run':<14} {'robot':<12} {'wall s':>8} {'CPU s':>8} {'tokens evaluated':>17} {'decodes':>8}")
     for label, rs in runs.items():
         robot = args.first if label == "first robot" else args.robot
         med = lambda key: statistics.median(r[key] for r in rs)  # noqa: E731
-        print(f"{label:<14} {robot.stem:<12} {med('seconds'):8.1f} {med('tokens'):17,.0f} {med('decodes'):8.0f}")
+        print(f"{label:<14} {robot.stem:<12} {med('seconds'):8.1f} {med('cpu'):8.1f} {med('tokens'):17,.0f} {med('decodes'):8.0f}")
     cold, warm = runs["cold"], runs["second robot"]
     ratio = statistics.median(c["seconds"] / w["seconds"] for c, w in zip(cold, warm))
     saved = statistics.median(c["tokens"] - w["tokens"] for c, w in zip(cold, warm))

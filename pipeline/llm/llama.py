@@ -226,14 +226,12 @@ class LlamaBackend(Backend):
     def _load_prefix(self, prefix: list[int], room: int) -> int:
         """A slot whose sequence holds `prefix` (at the start), decoding only what no slot already has.
 
-        Extends or reuses the slot with the longest common prefix; otherwise restores the whole
-        prefix from the on-disk store, or copies the common part into the least recently used slot
-        and evaluates the rest (then stores it). Evicts other slots while `room` more cells would not fit.
+        Extends or reuses the slot with the longest common prefix; otherwise copies that common part
+        into the least recently used slot. The rest is restored from the on-disk store when it holds
+        it (after evaluating whatever comes before the stored part), else evaluated and then stored.
+        Evicts other slots while `room` more cells would not fit.
         """
         best, keep = self._best_slot(prefix)
-        if keep < len(prefix) and self._restore(prefix, room):
-            return self._recent[-1]
-        best, keep = self._best_slot(prefix)  # a failed restore may have cleared a slot
         slot = best
         if keep < len(prefix) and keep < len(self._slots[best]):  # diverges: keep `best`, use another slot
             slot = next((i for i in self._recent if i != best), best)
@@ -244,14 +242,15 @@ class LlamaBackend(Backend):
                 self._lib.llama_memory_seq_cp(self._ctx.memory, best, slot, 0, keep)
             self._slots[slot] = prefix[:keep]
         self._use(slot)
-        self._make_room(len(prefix) - keep + room)
-        for start in range(len(self._slots[slot]), len(prefix), self.n_batch):
-            piece = prefix[start: start + self.n_batch]
-            self._fill([(t, start + k, (slot,), False) for k, t in enumerate(piece)])
-            self._decode()
-            self._slots[slot] = prefix[: start + len(piece)]
+        split = self._stored_split(prefix, keep)
+        self._make_room(len(prefix) - min(keep, len(prefix) if split is None else split) + room)
+        if split is not None:
+            self._evaluate(slot, prefix[:max(split, keep)])
+            if self._restore(slot, prefix, split):
+                return slot
+        self._evaluate(slot, prefix)
         if keep < len(prefix) and self._store is not None:
-            self._save(slot, prefix)
+            self._save(slot, prefix, keep)
         return slot
 
     def _best_slot(self, prefix: list[int]) -> tuple[int, int]:
@@ -270,35 +269,60 @@ class LlamaBackend(Backend):
                 break
             self._clear_slot(other)
 
-    def _restore(self, prefix: list[int], room: int) -> bool:
-        """Load the prefix's KV state from the on-disk store into a slot (the slot holding a shorter
-        part of it, else the least recently used one); False, with nothing held, when absent or unusable."""
-        if self._store is None or (payload := self._store.load(prefix)) is None:
+    def _evaluate(self, slot: int, tokens: list[int]) -> None:
+        """Decode what the slot lacks of `tokens` (it holds a prefix of them) into its sequence."""
+        for start in range(len(self._slots[slot]), len(tokens), self.n_batch):
+            piece = tokens[start: start + self.n_batch]
+            self._fill([(t, start + k, (slot,), False) for k, t in enumerate(piece)])
+            self._decode()
+            self._slots[slot] = tokens[: start + len(piece)]
+
+    # --- the on-disk store of prefix states ---------------------------------------------------
+    # A stored state covers positions split.. of a prefix, the part that was evaluated after copying
+    # the first `split` tokens from another resident prefix. Restoring it the same way (copy, then
+    # the stored cells) puts the same bytes in the same cells as evaluating did, when the cache is in
+    # the same state, as in a rerun: the scores are then bit-identical.
+
+    def _stored_split(self, prefix: list[int], keep: int) -> int | None:
+        """The stored split to restore from: the largest one the slot's `keep` tokens cover, else
+        the smallest (the tokens before it are evaluated first); None without a stored state."""
+        if self._store is None or keep >= len(prefix):
+            return None
+        splits = self._store.splits(prefix)
+        return max((s for s in splits if s <= keep), default=min(splits, default=None))
+
+    def _restore(self, slot: int, prefix: list[int], split: int) -> bool:
+        """Complete the slot (holding prefix[:split] or more) from the stored state of positions
+        split..; False, with the slot unchanged, when the file is absent or unusable."""
+        if (payload := self._store.load(prefix, split)) is None:
             return False
-        best, keep = self._best_slot(prefix)
-        slot = best if keep == len(self._slots[best]) else next((i for i in self._recent if i != best), best)
-        self._clear_slot(slot)
-        self._use(slot)
-        self._make_room(len(prefix) + room)
+        scratch, start = len(self._slots), len(self._slots[slot])  # the first option sequence is free here
         buf = (ctypes.c_uint8 * len(payload)).from_buffer(payload)
-        loaded = self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), slot)
-        held = (self._lib.llama_memory_seq_pos_min(self._ctx.memory, slot),
-                self._lib.llama_memory_seq_pos_max(self._ctx.memory, slot))
-        if not loaded or held != (0, len(prefix) - 1):
-            self._clear_slot(slot)
-            self._store.discard(prefix, f"llama.cpp restored {loaded} bytes, positions {held}")
+        loaded = self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), scratch)
+        held = (self._lib.llama_memory_seq_pos_min(self._ctx.memory, scratch),
+                self._lib.llama_memory_seq_pos_max(self._ctx.memory, scratch))
+        if loaded and held == (split, len(prefix) - 1):
+            self._lib.llama_memory_seq_cp(self._ctx.memory, scratch, slot, start, -1)
+        self._lib.llama_memory_seq_rm(self._ctx.memory, scratch, -1, -1)
+        if not loaded or held != (split, len(prefix) - 1):
+            self._store.discard(prefix, split, f"llama.cpp restored {loaded} bytes, positions {held}")
             return False
         self._slots[slot] = list(prefix)
-        self.stats.restored_tokens += len(prefix)
+        self.stats.restored_tokens += len(prefix) - start
         return True
 
-    def _save(self, slot: int, prefix: list[int]) -> None:
-        """Write the slot's state (exactly `prefix`) to the on-disk store."""
-        size = self._lib.llama_state_seq_get_size(self._ctx.ctx, slot)
-        buf = (ctypes.c_uint8 * size)()
-        written = self._lib.llama_state_seq_get_data(self._ctx.ctx, buf, size, slot)
+    def _save(self, slot: int, prefix: list[int], split: int) -> None:
+        """Store the state of the slot's positions split.. (the slot holds exactly `prefix`)."""
+        scratch = len(self._slots)
+        self._lib.llama_memory_seq_cp(self._ctx.memory, slot, scratch, split, -1)
+        try:
+            size = self._lib.llama_state_seq_get_size(self._ctx.ctx, scratch)
+            buf = (ctypes.c_uint8 * size)()
+            written = self._lib.llama_state_seq_get_data(self._ctx.ctx, buf, size, scratch)
+        finally:
+            self._lib.llama_memory_seq_rm(self._ctx.memory, scratch, -1, -1)
         if written:
-            self._store.save(prefix, memoryview(buf)[:written])
+            self._store.save(prefix, split, memoryview(buf)[:written])
 
     def _clear_slot(self, slot: int) -> None:
         self._lib.llama_memory_seq_rm(self._ctx.memory, slot, -1, -1)

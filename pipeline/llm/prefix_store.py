@@ -1,8 +1,9 @@
 """A persistent on-disk cache of the KV states of static prompt prefixes, one file per prefix.
 
 A file is valid only for the identity it was written under (model file, llama.cpp build, context
-parameters) and the exact prefix tokens: both go into its name, and its header repeats that key
-with the payload's length and sha256. Anything that does not check out is logged and ignored (the
+parameters), the exact prefix tokens and the split (the leading tokens whose state is not in the
+file, shared with another resident prefix when it was written): all go into its name, and its
+header repeats that key with the payload's length and sha256. Anything that does not check out is logged and ignored (the
 caller evaluates the prefix instead); writes are atomic; the directory is kept under a size bound
 by deleting the least recently used files.
 """
@@ -41,7 +42,8 @@ def enabled_by_env() -> bool:
 
 
 class PrefixStore:
-    """KV-state payloads (opaque bytes) keyed by an identity and a token sequence."""
+    """KV-state payloads (opaque bytes) keyed by an identity, a token sequence and a split: a file
+    holds the state of positions split..len(tokens)-1, computed after tokens[:split]."""
 
     def __init__(self, directory: Path, identity: dict, max_bytes: int = DEFAULT_MAX_BYTES):
         self.directory = Path(directory)
@@ -49,15 +51,27 @@ class PrefixStore:
         self.max_bytes = max_bytes
         self.hits = self.writes = self.rejected = 0
 
-    def _key(self, tokens: Sequence[int]) -> bytes:
-        return hashlib.sha256(json.dumps([FORMAT, self.identity, list(tokens)]).encode()).digest()
+    def _stem(self, tokens: Sequence[int]) -> str:
+        return hashlib.sha256(json.dumps([FORMAT, self.identity, list(tokens)]).encode()).hexdigest()
 
-    def path(self, tokens: Sequence[int]) -> Path:
-        return self.directory / (self._key(tokens).hex() + SUFFIX)
+    def _key(self, tokens: Sequence[int], split: int) -> bytes:
+        return hashlib.sha256(f"{self._stem(tokens)}-{split}".encode()).digest()
 
-    def load(self, tokens: Sequence[int]) -> memoryview | None:
-        """The stored payload for `tokens`, or None when absent, unreadable, corrupt or mismatched."""
-        path, key = self.path(tokens), self._key(tokens)
+    def path(self, tokens: Sequence[int], split: int = 0) -> Path:
+        return self.directory / f"{self._stem(tokens)}-{split}{SUFFIX}"
+
+    def splits(self, tokens: Sequence[int]) -> list[int]:
+        """The splits stored for `tokens`, ascending."""
+        found = []
+        for path in self.directory.glob(f"{self._stem(tokens)}-*{SUFFIX}"):
+            number = path.name[:-len(SUFFIX)].rpartition("-")[2]
+            if number.isdigit() and int(number) < len(tokens):
+                found.append(int(number))
+        return sorted(found)
+
+    def load(self, tokens: Sequence[int], split: int = 0) -> memoryview | None:
+        """The stored payload, or None when absent, unreadable, corrupt or mismatched."""
+        path, key = self.path(tokens, split), self._key(tokens, split)
         try:
             blob = bytearray(path.read_bytes())
         except FileNotFoundError:
@@ -80,9 +94,9 @@ class PrefixStore:
         self.hits += 1
         return payload
 
-    def discard(self, tokens: Sequence[int], reason: str) -> None:
-        """Drop the file for `tokens` (the backend could not restore it)."""
-        self._reject(self.path(tokens), reason)
+    def discard(self, tokens: Sequence[int], split: int, reason: str) -> None:
+        """Drop a file the backend could not restore."""
+        self._reject(self.path(tokens, split), reason)
 
     def _reject(self, path: Path, reason: str) -> None:
         self.rejected += 1
@@ -93,13 +107,13 @@ class PrefixStore:
             pass
         return None
 
-    def save(self, tokens: Sequence[int], payload: bytes | memoryview) -> None:
+    def save(self, tokens: Sequence[int], split: int, payload: bytes | memoryview) -> None:
         """Store atomically (temporary file, then rename), then evict beyond the size bound.
 
         A failure to write is logged, never raised: the cache only saves time.
         """
-        header = MAGIC + _HEADER.pack(FORMAT, len(payload), hashlib.sha256(payload).digest(), self._key(tokens))
-        target = self.path(tokens)
+        header = MAGIC + _HEADER.pack(FORMAT, len(payload), hashlib.sha256(payload).digest(), self._key(tokens, split))
+        target = self.path(tokens, split)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=self.directory, prefix=".", suffix=".tmp")
