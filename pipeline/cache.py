@@ -23,10 +23,15 @@ def code_version() -> str:
     return digest.hexdigest()[:16]
 
 
+def cache_root() -> Path:
+    """The root of everything urdfkb caches (results, models, prompt states): $URDFKB_CACHE, else the
+    user cache directory."""
+    return Path(os.environ.get("URDFKB_CACHE") or platformdirs.user_cache_dir("urdfkb"))
+
+
 def cache_dir() -> Path:
-    """Where results are kept: $URDFKB_CACHE/results, else the user cache directory."""
-    base = os.environ.get("URDFKB_CACHE") or platformdirs.user_cache_dir("urdfkb")
-    return Path(base) / "results"
+    """Where results are kept: cache_root()/results."""
+    return cache_root() / "results"
 
 
 def key(tree_digest: str, model: str, ontology: str, settings: dict) -> str:

