@@ -7,6 +7,7 @@ sees a smaller tree and never claims a link twice.
 """
 from __future__ import annotations
 
+import json
 from typing import Callable
 
 from .components import END_EFFECTOR, SENSOR, Component, SubComponent
@@ -14,11 +15,14 @@ from .ontology import Taxonomy
 from .oracle import Oracle
 from .prompts import NONE, optical_frame_question
 from .stages.asking import Progress, ask
-from .stages.attachment import detect_roots
+from . import reasoning
+from .stages import tools
+from .stages.attachment import SubChain, detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
 from .stages.identification import identify
-from .stages.verification import Log, group_root, join_by_mount, verify
+from .stages.verification import Log, group_root, verify
+from .structure import ToolStructure
 from .tree import KinematicTree
 
 # kind → (its class under Component, its branch under Subpart, how prompts name it)
@@ -27,6 +31,7 @@ PASSES = {
     END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
 }
 CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
+TOOL_PART, FINGER, CONTACT = "EndEffectorSubpart", "Finger", "ContactSurface"
 
 
 class Abstractor:
@@ -55,6 +60,8 @@ class Abstractor:
         if not selected:
             return []
         chains = detect_roots(self.oracle, tree, selected, label, self._blocked(tree, cls), self.progress)
+        if kind == END_EFFECTOR:
+            return self._tools(tree, chains, mounts)
         pre = descend(self.oracle, self.tax, cls, [
             Subject(f"pre:{c.leaf}", "The link below belongs to a {concept}.",
                     f"Link: {c.leaf}" + (f"\nBetween it and its mount: {', '.join(c.links[:-1])}" if len(c.links) > 1 else ""))
@@ -64,10 +71,35 @@ class Abstractor:
         categories = {leaf: self._category(t.cls, cls) for leaf, t in pre_by_leaf.items()}
         groups = merge(self.oracle, tree, chains, kind, categories, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        if kind == END_EFFECTOR:  # repairs may have moved tools onto one mount: one tool per mount
-            groups = join_by_mount(tree, groups)
         post = self._post_classify(groups, pre_by_leaf, cls)
         return self._components(tree, kind, subpart_cls, label, groups, post)
+
+    def _tools(self, tree: KinematicTree, chains: list[SubChain], mounts: set[str]) -> list[Component]:
+        """The end-effector pass after attachment: group, verify, settle extent and mount by structure,
+        classify by the ontology's definitions (reasoner), and ask the model only what they leave open."""
+        cls, subpart_cls, label = PASSES[END_EFFECTOR]
+        groups = merge(self.oracle, tree, chains, END_EFFECTOR, {}, self.progress)
+        groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
+        settled = tools.settle(tree, groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
+        groups = [g for g, _ in settled]
+        structures = [s for _, s in settled]
+        inferred, seconds = reasoning.classify(structures)
+        self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
+            {"leaves": g.leaves, "facts": s.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
+            for g, s, i in zip(groups, structures, inferred)]})
+        open_groups = [(g, s) for (g, s), i in zip(settled, inferred) if not i.settled]
+        asked = descend(self.oracle, self.tax, cls, [
+            Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
+                    f"Links: {', '.join(g.leaves)}\nStructure: {s.describe()}")
+            for g, s in open_groups
+        ], "end-effector classification", self.progress)
+        by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
+        post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(groups, inferred)]
+        return self._components(tree, END_EFFECTOR, subpart_cls, label, groups, post, structures)
+
+    def _trace(self, record: dict) -> None:
+        if self.oracle.trace is not None:
+            self.oracle.trace.write(json.dumps(record) + "\n")
 
     def _category(self, cls: str, top: str) -> str:
         """The class directly under `top` that `cls` falls in (itself if it is `top`)."""
@@ -117,7 +149,7 @@ class Abstractor:
         return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
     def _components(self, tree: KinematicTree, kind: str, subpart_cls: str, label: str, groups: list[Group],
-                    post: list[Typed]) -> list[Component]:
+                    post: list[Typed], structures: list[ToolStructure] | None = None) -> list[Component]:
         """Type every member link in the Subpart branch, then assemble the components.
 
         A camera must have optical frames (ontologies/shapes.ttl), and a small model tells which
@@ -128,10 +160,12 @@ class Abstractor:
         optical = self._optical_frames(groups, post)
         optical_branch = frozenset((OPTICAL_FRAME, *self.tax.subclasses_below(OPTICAL_FRAME)))
         framing = "What role does the link below play in its %s device? Choose the {concept}." % label
+        structural = self._structural_parts(structures)
         rest = [
             (link, Subject(f"part:{link}", framing,
                            f"Link: {link}\nDevice: {self.tax.label(t.cls)}",
-                           self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())))
+                           self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())
+                           | structural(link)))
             for g, t in zip(groups, post) for link in g.members if link not in optical
         ]
         frames = [
@@ -156,6 +190,15 @@ class Abstractor:
             )
             for i, (g, t) in enumerate(zip(groups, post))
         ]
+
+    def _structural_parts(self, structures: list[ToolStructure] | None) -> Callable[[str], frozenset[str]]:
+        """Sub-part classes a tool's structure rules out for a link: a link of a finger chain is a finger
+        or its contact surface; any other link of the tool is no finger. (Nothing for sensors.)"""
+        if structures is None:
+            return lambda _link: frozenset()
+        fingers = {link for s in structures for f in s.fingers for link in f.links}
+        on_finger = frozenset(set(self.tax.subclasses_below(TOOL_PART)) - {FINGER, CONTACT})
+        return lambda link: on_finger if link in fingers else frozenset({FINGER})
 
     def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, tuple[str, float]]:
         """For each camera sub-chain, the link the model selects as its optical frame → (camera label, share)."""

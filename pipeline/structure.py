@@ -5,10 +5,13 @@
   (any type but fixed, or a fixed joint a <transmission> drives) whose motion moves the subtree's
   farthest link, its tip. The chain's *drive* is the first such joint below the fork; its motion is
   prismatic (sliding), pivoting (revolute or continuous) or frozen (written fixed, yet driven).
-- Two chains *oppose* when their tips move in opposite directions as the tool closes (cosine of
-  the tip velocities below OPPOSED), each drive taken moving positively, times the sign of its mimic
-  multiplier when it follows another joint. A movable subtree that opposes no other, or whose tip
+- Two chains *oppose* when their tips move towards (or away from) each other along the line joining
+  them as the tool closes, or, where the tips coincide, in opposite directions. Motions are taken
+  with every joint halfway through its range (a hand written closed shows no opposition), the drive
+  moving positively and each joint of the chain coupled to it by <mimic> moving with it. A movable subtree that opposes no other, or whose tip
   sits on its own axis, is a *mechanism* (a motor, a lead screw), not a finger.
+- Two chains *move together* when their tips' directions of motion are within 60 degrees
+  (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
 - The *mount* is the link the tool is bolted to: the fork's parent when the fork is rigidly fixed
   to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
@@ -25,6 +28,7 @@ from dataclasses import dataclass
 from .tree import Edge, KinematicTree, Vector, rotate_rpy
 
 OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
+ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together
 APPROACH = 0.4   # separate tips: share of each tip's motion along the line joining them, with opposite signs
 _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
@@ -43,6 +47,7 @@ class FingerChain:
     joint_types: tuple[str, ...]  # types of the chain's movable joints, top down
     mimics: str | None        # the finger chain whose joint this one's drive follows
     opposes: tuple[str, ...]  # the finger chains it closes against
+    moves_with: tuple[str, ...] = ()  # the finger chains whose tips move alongside its own
 
 
 @dataclass(frozen=True)
@@ -102,6 +107,8 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         for a in moving
     }
     finger_names = [a for a in moving if opposes[a]]
+    alongside = {a: tuple(b for b in finger_names if b != a and _alongside(moving[a][2], moving[b][2]))
+                 for a in finger_names}
     joint_owner = {tree.parent_edge(link).joint: a for a in finger_names for link in moving[a][0]}
     fingers = tuple(
         FingerChain(
@@ -112,6 +119,7 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
             joint_types=tuple(e.joint_type for link in links if (e := tree.parent_edge(link)).movable),
             mimics=joint_owner.get(drive.mimic) if joint_owner.get(drive.mimic) != a else None,
             opposes=opposes[a],
+            moves_with=alongside[a],
         )
         for a in finger_names
         for links, drive, _ in [moving[a]]
@@ -209,6 +217,11 @@ def _opposed(a: Motion | None, b: Motion | None) -> bool:
         return _dot(va, vb) < OPPOSED
     along_a, along_b = _dot(va, line), _dot(vb, line)
     return along_a * along_b < 0 and min(abs(along_a), abs(along_b)) >= APPROACH
+
+
+def _alongside(a: Motion | None, b: Motion | None) -> bool:
+    """Tips that move in nearly the same direction (fingers side by side)."""
+    return a is not None and b is not None and _dot(a[1], b[1]) > ALONGSIDE
 
 
 def _dot(a: Vector, b: Vector) -> float:
