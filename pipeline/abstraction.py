@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 from typing import Callable
 
-from .components import END_EFFECTOR, SENSOR, Component, SubComponent
+from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
 from .ontology import Taxonomy
 from .oracle import Oracle
 from .prompts import NONE, optical_frame_question
@@ -95,7 +95,10 @@ class Abstractor:
         ], "end-effector classification", self.progress)
         by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
         post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(groups, inferred)]
-        return self._components(tree, END_EFFECTOR, subpart_cls, label, groups, post, structures)
+        fingers = [tuple(FingerFact(f.name, f.drive, reasoning.CHAIN_CLASSES[f.motion], f.name in i.thumbs,
+                                    f.opposes, f.moves_with, f.mimics) for f in s.fingers)
+                   for s, i in zip(structures, inferred)]
+        return self._components(tree, END_EFFECTOR, subpart_cls, label, groups, post, structures, fingers)
 
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:
@@ -149,7 +152,8 @@ class Abstractor:
         return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
     def _components(self, tree: KinematicTree, kind: str, subpart_cls: str, label: str, groups: list[Group],
-                    post: list[Typed], structures: list[ToolStructure] | None = None) -> list[Component]:
+                    post: list[Typed], structures: list[ToolStructure] | None = None,
+                    fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
         """Type every member link in the Subpart branch, then assemble the components.
 
         A camera must have optical frames (ontologies/shapes.ttl), and a small model tells which
@@ -187,6 +191,7 @@ class Abstractor:
                 root=group_root(tree, g),
                 subcomponents=tuple(SubComponent(link, typed[link].cls, round(typed[link].confidence, 4))
                                     for link in g.members),
+                fingers=fingers[i] if fingers else (),
             )
             for i, (g, t) in enumerate(zip(groups, post))
         ]
