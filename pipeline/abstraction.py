@@ -1,7 +1,10 @@
 """One abstraction pass per component kind, sensors first, each condensing what it abstracted.
 
 Data path: tree → identification → attachment roots → pre-classification → group merging →
-verification → post-classification → sub-part typing → Components. After a pass, the links of
+verification → post-classification → sub-part typing → Components. End-effectors skip pre- and
+post-classification: after verification their extent and mount are settled from structure and their
+kind inferred by a reasoner from the ontology's definitions (stages.tools, structure, reasoning); the
+model is asked the kind only where the structure settles none. After a pass, the links of
 its components are removed from the tree (each device condensed onto its mount), so the next pass
 sees a smaller tree and never claims a link twice.
 """
