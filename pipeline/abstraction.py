@@ -13,13 +13,13 @@ from __future__ import annotations
 import json
 from typing import Callable
 
+from . import reasoning
 from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
 from .ontology import Taxonomy
 from .oracle import Oracle
 from .prompts import NONE, optical_frame_question
-from .stages.asking import Progress, ask
-from . import reasoning
 from .stages import tools
+from .stages.asking import Progress, ask
 from .stages.attachment import SubChain, detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
