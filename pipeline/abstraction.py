@@ -34,7 +34,7 @@ PASSES = {
     END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
 }
 CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
-TOOL_PART, FINGER, CONTACT = "EndEffectorSubpart", "Finger", "ContactSurface"
+TOOL_PART, FINGER, CONTACT, PALM = "EndEffectorSubpart", "Finger", "ContactSurface", "Palm"
 
 
 class Abstractor:
@@ -167,12 +167,12 @@ class Abstractor:
         optical = self._optical_frames(groups, post)
         optical_branch = frozenset((OPTICAL_FRAME, *self.tax.subclasses_below(OPTICAL_FRAME)))
         framing = "What role does the link below play in its %s device? Choose the {concept}." % label
-        structural = self._structural_parts(structures)
+        structural = self._structural_parts(tree, groups, structures)
         rest = [
             (link, Subject(f"part:{link}", framing,
                            f"Link: {link}\nDevice: {self.tax.label(t.cls)}",
                            self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())
-                           | structural(link)))
+                           | structural.get(link, frozenset())))
             for g, t in zip(groups, post) for link in g.members if link not in optical
         ]
         frames = [
@@ -199,14 +199,26 @@ class Abstractor:
             for i, (g, t) in enumerate(zip(groups, post))
         ]
 
-    def _structural_parts(self, structures: list[ToolStructure] | None) -> Callable[[str], frozenset[str]]:
-        """Sub-part classes a tool's structure rules out for a link: a link of a finger chain is a finger
-        or its contact surface; any other link of the tool is no finger. (Nothing for sensors.)"""
+    def _structural_parts(self, tree: KinematicTree, groups: list[Group], structures: list[ToolStructure] | None
+                          ) -> dict[str, frozenset[str]]:
+        """Sub-part classes a tool's structure rules out for its links: a link of a finger chain is a
+        finger or its contact surface; any other link is no finger, nor a palm if the tool has fingers
+        and none hangs from it. (Nothing for sensors.)"""
         if structures is None:
-            return lambda _link: frozenset()
-        fingers = {link for s in structures for f in s.fingers for link in f.links}
+            return {}
         on_finger = frozenset(set(self.tax.subclasses_below(TOOL_PART)) - {FINGER, CONTACT})
-        return lambda link: on_finger if link in fingers else frozenset({FINGER})
+        excluded = {}
+        for group, structure in zip(groups, structures):
+            fingers = {link for f in structure.fingers for link in f.links}
+            carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
+            for link in group.members:
+                if link in fingers:
+                    excluded[link] = on_finger
+                elif fingers and link not in carriers:
+                    excluded[link] = frozenset({FINGER, PALM})
+                else:
+                    excluded[link] = frozenset({FINGER})
+        return excluded
 
     def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, tuple[str, float]]:
         """For each camera sub-chain, the link the model selects as its optical frame → (camera label, share)."""
