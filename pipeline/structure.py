@@ -1,15 +1,16 @@
 """Structural facts about a candidate tool, read from the kinematic tree alone (never from names).
 
 - The *fork* of a tool is the lowest common ancestor of its leaves: where its fingers part.
-- A *finger chain* is the subtree hanging from one child of the fork that holds a movable joint
-  (any type but fixed, or a fixed joint a <transmission> drives) whose motion moves the subtree's
-  farthest link, its tip. The chain's *drive* is the first such joint below the fork; its motion is
-  prismatic (sliding), pivoting (revolute or continuous) or frozen (written fixed, yet driven).
+- A *finger chain* is a subtree hung on the fork's rigid body (the fork and its fixed descendants)
+  by a driven joint, its *drive*: any type but fixed, or a fixed joint a <transmission> drives,
+  moving prismatic (sliding), pivoting (revolute, continuous) or frozen (written fixed, yet driven),
+  whose tip (its deepest link) closes against another chain's tip.
 - Two chains *oppose* when their tips move towards (or away from) each other along the line joining
   them as the tool closes, or, where the tips coincide, in opposite directions. Motions are taken
   with every joint halfway through its range (a hand written closed shows no opposition), the drive
-  moving positively and each joint of the chain coupled to it by <mimic> moving with it. A movable subtree that opposes no other, or whose tip
-  sits on its own axis, is a *mechanism* (a motor, a lead screw), not a finger.
+  moving positively and each joint of the chain coupled to it by <mimic> moving with it. A driven
+  subtree that opposes no other, whose tip sits on its drive's axis, or that hangs on a planar or
+  floating joint, is a *mechanism* (a motor, a lead screw), not a finger.
 - Two chains *move together* when their tips' directions of motion are within 60 degrees
   (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
@@ -101,7 +102,8 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         links = (child, *tree.descendants(child))
         tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), _norm(tree.position_in(link, fork))))
         drive = tree.parent_edge(child)
-        moving[child] = (links, drive, _tip_motion(tree, fork, drive, tip, pose))
+        motion = _tip_motion(tree, fork, drive, tip, pose) if drive.joint_type in MOTIONS else None
+        moving[child] = (links, drive, motion)
     opposes = {
         a: tuple(b for b in moving if b != a and _opposed(moving[a][2], moving[b][2]))
         for a in moving
@@ -115,7 +117,7 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
             name=a,
             links=links,
             drive=drive.joint,
-            motion=MOTIONS[drive.joint_type] if drive.joint_type in MOTIONS else drive.joint_type,
+            motion=MOTIONS[drive.joint_type],
             joint_types=tuple(e.joint_type for link in links if (e := tree.parent_edge(link)).movable),
             mimics=joint_owner.get(drive.mimic) if joint_owner.get(drive.mimic) != a else None,
             opposes=opposes[a],
