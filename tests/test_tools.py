@@ -100,7 +100,11 @@ def group_root_of(group):
 KIND = {leaf: "end effector" for leaf in VISE + TRIDENT + MITT} | {"cuff_cam_optical": "sensor"}
 
 
+OFFERED: dict[str, tuple[str, ...]] = {}
+
+
 def perfect(q: Question) -> str | dict:
+    OFFERED[q.key] = q.options
     stage, _, subject = q.key.partition(":")
     subject = subject.partition("@")[0]
     if stage == "identify":
@@ -123,6 +127,8 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     hand = {s.link: s.cls for s in tools["AnthropomorphicHand"].subcomponents}
     assert hand["mitt_opposer_end"] in ("Finger", "ContactSurface")  # a finger chain's link: nothing else offered
     assert hand["mitt_drive"] != "Finger"  # the motor joint's link is no finger
+    assert "palm" in OFFERED["part:vise_body@EndEffectorSubpart"]  # the jaws hang from it
+    assert not {"palm", "finger"} & set(OFFERED["part:vise_grip_point@EndEffectorSubpart"])
 
     onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps))
     graph = robot_graph(onto)
