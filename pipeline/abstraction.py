@@ -59,6 +59,8 @@ class Abstractor:
         leaves = [leaf for leaf in tree.leaves() if leaf not in mounts]
         unasked = [leaf for leaf in leaves if leaf not in self.claims]
         self.claims.update(identify(self.oracle, self.tax, tree, unasked, self.progress))
+        if kind == SENSOR:
+            self._veto_coupled(tree, leaves)
         selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
         if not selected:
             return []
@@ -102,6 +104,15 @@ class Abstractor:
                                     f.opposes, f.moves_with, f.mimics) for f in s.fingers)
                    for s, i in zip(structures, inferred)]
         return self._components(tree, END_EFFECTOR, subpart_cls, label, groups, post, structures, fingers)
+
+    def _veto_coupled(self, tree: KinematicTree, leaves: list[str]) -> None:
+        """A leaf that itself moves on a <mimic> joint is a finger segment or a linkage, never a sensor
+        frame (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools
+        keep every finger chain."""
+        for leaf in leaves:
+            if self.claims[leaf] == PASSES[SENSOR][0] and tree.parent_edge(leaf).mimic is not None:
+                self.claims[leaf] = NONE
+                self.log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
 
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:

@@ -139,3 +139,16 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     opposed = set(graph.objects(thumbs[0], core.opposes)) | set(graph.subjects(core.opposes, thumbs[0]))
     assert len(opposed) == 4  # opposes is symmetric: each pair is written once
     assert (None, core.isMimicOf, None) in graph  # the starboard slide follows the port slide
+
+
+def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
+    def jaw_as_sensor(q: Question) -> str:
+        if q.key == "identify:vise_jaw_starboard":
+            return "sensor"  # the model's mistake: the jaw that follows the other is taken for a sensor
+        return perfect(q)
+    notes = []
+    comps = Abstractor(Oracle(ScriptedBackend(jaw_as_sensor)), TAX, log=notes.append).run(rack)
+    vise = next(c for c in comps if c.root == "left_flange")
+    assert vise.cls == "ParallelGripper" and "vise_jaw_starboard" in vise.links
+    assert not any(c.kind == "sensor" and "vise_jaw_starboard" in c.links for c in comps)
+    assert any(n.startswith("not a sensor: vise_jaw_starboard") for n in notes)
