@@ -36,6 +36,7 @@ bench: install
 	$(BIN)/python benchmarks/bench_queries.py
 	$(BIN)/python benchmarks/vote_bench.py
 	$(BIN)/python benchmarks/ui_bench.py
+	$(BIN)/python benchmarks/reasoner_bench.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

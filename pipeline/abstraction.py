@@ -1,25 +1,32 @@
 """One abstraction pass per component kind, sensors first, each condensing what it abstracted.
 
 Data path: tree → identification → attachment roots → pre-classification → group merging →
-verification → post-classification → sub-part typing → Components. After a pass, the links of
+verification → post-classification → sub-part typing → Components. End-effectors skip pre- and
+post-classification: after verification their extent and mount are settled from structure and their
+kind inferred by a reasoner from the ontology's definitions (stages.tools, structure, reasoning); the
+model is asked the kind only where the structure settles none. After a pass, the links of
 its components are removed from the tree (each device condensed onto its mount), so the next pass
 sees a smaller tree and never claims a link twice.
 """
 from __future__ import annotations
 
+import json
 from typing import Callable
 
-from .components import END_EFFECTOR, SENSOR, Component, SubComponent
+from . import reasoning
+from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
 from .evidence import LinkEvidence, describe
 from .ontology import Taxonomy
 from .oracle import Oracle
 from .prompts import NONE, facts_text, optical_frame_question
+from .stages import tools
 from .stages.asking import Progress, ask
 from .stages.attachment import SubChain, detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
 from .stages.identification import identify
-from .stages.verification import Log, group_root, indexed_units, join_by_mount, verify
+from .stages.verification import Log, group_root, indexed_units, verify
+from .structure import ToolStructure
 from .tree import KinematicTree
 
 # kind → (its class under Component, its branch under Subpart, how prompts name it)
@@ -29,6 +36,7 @@ PASSES = {
 }
 CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
 ARRAY = "SensorArray"
+TOOL_PART, FINGER, CONTACT, PALM = "EndEffectorSubpart", "Finger", "ContactSurface", "Palm"
 MAX_FACTS = 3  # evidence lines shown per subject
 _NO_FACTS = LinkEvidence()
 
@@ -56,22 +64,23 @@ class Abstractor:
         leaves = [leaf for leaf in tree.leaves() if leaf not in mounts]
         unasked = [leaf for leaf in leaves if leaf not in self.claims]
         self.claims.update(identify(self.oracle, self.tax, tree, unasked, self.progress))
+        if kind == SENSOR:
+            self._veto_coupled(tree, leaves)
         selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
         if not selected:
             return []
         chains = detect_roots(self.oracle, tree, selected, label, self._blocked(tree, cls), self.progress,
                               rigid=kind == SENSOR)
+        if kind == END_EFFECTOR:
+            return self._tools(tree, chains, mounts)
         pre = descend(self.oracle, self.tax, cls, [self._chain_subject(tree, c, cls) for c in chains],
                       "pre-classification", self.progress)
         pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
         categories = {leaf: self._category(t.cls, cls) for leaf, t in pre_by_leaf.items()}
         groups = merge(self.oracle, tree, chains, kind, categories, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        if kind == END_EFFECTOR:  # repairs may have moved tools onto one mount: one tool per mount
-            groups = join_by_mount(tree, groups)
         post = self._post_classify(tree, groups, pre_by_leaf, cls)
-        if kind == SENSOR:
-            groups, post = self._split_units(tree, groups, post, pre_by_leaf)
+        groups, post = self._split_units(tree, groups, post, pre_by_leaf)
         return self._components(tree, kind, subpart_cls, label, groups, post)
 
     def _chain_subject(self, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
@@ -98,6 +107,45 @@ class Abstractor:
             self.declared += 1
             self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
         return ruled_out
+
+    def _tools(self, tree: KinematicTree, chains: list[SubChain], mounts: set[str]) -> list[Component]:
+        """The end-effector pass after attachment: group, verify, settle extent and mount by structure,
+        classify by the ontology's definitions (reasoner), and ask the model only what they leave open."""
+        cls, subpart_cls, label = PASSES[END_EFFECTOR]
+        groups = merge(self.oracle, tree, chains, END_EFFECTOR, {}, self.progress)
+        groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
+        settled = tools.settle(tree, groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
+        groups = [g for g, _ in settled]
+        structures = [s for _, s in settled]
+        inferred, seconds = reasoning.classify(structures)
+        self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
+            {"leaves": g.leaves, "facts": s.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
+            for g, s, i in zip(groups, structures, inferred)]})
+        open_groups = [(g, s) for (g, s), i in zip(settled, inferred) if not i.settled]
+        asked = descend(self.oracle, self.tax, cls, [
+            Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
+                    f"Links: {', '.join(g.leaves)}\nStructure: {s.describe()}")
+            for g, s in open_groups
+        ], "end-effector classification", self.progress)
+        by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
+        post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(groups, inferred)]
+        fingers = [tuple(FingerFact(f.name, f.drive, reasoning.CHAIN_CLASSES[f.motion], f.name in i.thumbs,
+                                    f.opposes, f.moves_with, f.mimics) for f in s.fingers)
+                   for s, i in zip(structures, inferred)]
+        return self._components(tree, END_EFFECTOR, subpart_cls, label, groups, post, structures, fingers)
+
+    def _veto_coupled(self, tree: KinematicTree, leaves: list[str]) -> None:
+        """A leaf that itself moves on a <mimic> joint is a finger segment or a linkage, never a sensor
+        frame (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools
+        keep every finger chain."""
+        for leaf in leaves:
+            if self.claims[leaf] == PASSES[SENSOR][0] and tree.parent_edge(leaf).mimic is not None:
+                self.claims[leaf] = NONE
+                self.log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
+
+    def _trace(self, record: dict) -> None:
+        if self.oracle.trace is not None:
+            self.oracle.trace.write(json.dumps(record) + "\n")
 
     def _category(self, cls: str, top: str) -> str:
         """The class directly under `top` that `cls` falls in (itself if it is `top`)."""
@@ -163,7 +211,8 @@ class Abstractor:
         return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
     def _components(self, tree: KinematicTree, kind: str, subpart_cls: str, label: str, groups: list[Group],
-                    post: list[Typed]) -> list[Component]:
+                    post: list[Typed], structures: list[ToolStructure] | None = None,
+                    fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
         """Type every member link in the Subpart branch, then assemble the components.
 
         A camera must have optical frames (ontologies/shapes.ttl), and a small model tells which
@@ -174,10 +223,12 @@ class Abstractor:
         optical = self._optical_frames(groups, post)
         optical_branch = frozenset((OPTICAL_FRAME, *self.tax.subclasses_below(OPTICAL_FRAME)))
         framing = "What role does the link below play in its %s device? Choose the {concept}." % label
+        structural = self._structural_parts(tree, groups, structures)
         rest = [
             (link, Subject(f"part:{link}", framing,
                            f"Link: {link}\nDevice: {self.tax.label(t.cls)}" + facts_text(describe(tree.evidence, [link], sensors=False)),
-                           self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())))
+                           self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())
+                           | structural.get(link, frozenset())))
             for g, t in zip(groups, post) for link in g.members if link not in optical
         ]
         frames = [
@@ -200,9 +251,31 @@ class Abstractor:
                 root=group_root(tree, g),
                 subcomponents=tuple(SubComponent(link, typed[link].cls, round(typed[link].confidence, 4))
                                     for link in g.members),
+                fingers=fingers[i] if fingers else (),
             )
             for i, (g, t) in enumerate(zip(groups, post))
         ]
+
+    def _structural_parts(self, tree: KinematicTree, groups: list[Group], structures: list[ToolStructure] | None
+                          ) -> dict[str, frozenset[str]]:
+        """Sub-part classes a tool's structure rules out for its links: a link of a finger chain is a
+        finger or its contact surface; any other link is no finger, nor a palm if the tool has fingers
+        and none hangs from it. (Nothing for sensors.)"""
+        if structures is None:
+            return {}
+        on_finger = frozenset(set(self.tax.subclasses_below(TOOL_PART)) - {FINGER, CONTACT})
+        excluded = {}
+        for group, structure in zip(groups, structures):
+            fingers = {link for f in structure.fingers for link in f.links}
+            carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
+            for link in group.members:
+                if link in fingers:
+                    excluded[link] = on_finger
+                elif fingers and link not in carriers:
+                    excluded[link] = frozenset({FINGER, PALM})
+                else:
+                    excluded[link] = frozenset({FINGER})
+        return excluded
 
     def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, tuple[str, float]]:
         """For each camera sub-chain, the link the model selects as its optical frame → (camera class, share)."""

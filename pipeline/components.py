@@ -22,6 +22,20 @@ class SubComponent:
 
 
 @dataclass(frozen=True)
+class FingerFact:
+    """One finger chain of an end-effector, as its structure shows it (pipeline.structure, pipeline.reasoning);
+    chains are named by their first link."""
+
+    name: str
+    drive: str                # the joint that hangs the chain on the tool and moves it
+    chain_class: str          # PrismaticFingerChain, PivotingFingerChain or FrozenFingerChain
+    thumb: bool               # the reasoner inferred ThumbChain
+    opposes: tuple[str, ...]
+    moves_with: tuple[str, ...]
+    mimics: str | None
+
+
+@dataclass(frozen=True)
 class Component:
     """A physical device: its post-classification class, attachment root and sub-components."""
 
@@ -31,6 +45,7 @@ class Component:
     confidence: float
     root: str
     subcomponents: tuple[SubComponent, ...]
+    fingers: tuple[FingerFact, ...] = ()
 
     @property
     def links(self) -> tuple[str, ...]:
@@ -50,7 +65,12 @@ class Abstraction:
     @classmethod
     def from_dict(cls, data: dict) -> "Abstraction":
         comps = tuple(
-            Component(**{**c, "subcomponents": tuple(SubComponent(**s) for s in c["subcomponents"])})
+            Component(**{**c, "subcomponents": tuple(SubComponent(**s) for s in c["subcomponents"]),
+                         "fingers": tuple(_finger(f) for f in c.get("fingers", ()))})
             for c in data["components"]
         )
         return cls(comps, dict(data.get("provenance", {})))
+
+
+def _finger(data: dict) -> FingerFact:
+    return FingerFact(**{**data, "opposes": tuple(data["opposes"]), "moves_with": tuple(data["moves_with"])})

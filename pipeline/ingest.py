@@ -281,14 +281,40 @@ def _parse_with_yourdfpy(robot: ET.Element) -> yourdfpy.URDF:
 
 
 def _tree_from(model: yourdfpy.URDF, robot: ET.Element) -> KinematicTree:
-    """Names, types and links from yourdfpy; origins and per-link evidence from the validated document."""
-    origins = {joint.get("name"): _origin(joint.find("origin")) for joint in robot.findall("joint")}
+    """Names, types and links from yourdfpy; origins, motion facts and per-link evidence from the validated document."""
+    written = {joint.get("name"): joint for joint in robot.findall("joint")}
     links = tuple(link.name for link in model.robot.links)
     validated_links = tuple(link.get("name") for link in robot.findall("link"))
-    if links != validated_links or [j.name for j in model.robot.joints] != list(origins):
+    if links != validated_links or [j.name for j in model.robot.joints] != list(written):
         raise URDFError("yourdfpy read other links or joints than were validated", "robot")
-    edges = tuple(Edge(j.name, j.type, j.parent, j.child, origins[j.name]) for j in model.robot.joints)
+    actuated = _transmitted_joints(robot)
+    edges = tuple(_edge(j, written[j.name], j.name in actuated) for j in model.robot.joints)
     return KinematicTree(model.robot.name, links, edges, evidence.extract(robot, links))
+
+
+def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:
+    axis, limit, mimic = (element.find(tag) for tag in ("axis", "limit", "mimic"))
+    lower_upper = None
+    if limit is not None and limit.get("lower") is not None and limit.get("upper") is not None:
+        lower_upper = (float(limit.get("lower")), float(limit.get("upper")))
+    return Edge(
+        joint.name, joint.type, joint.parent, joint.child, _origin(element.find("origin")),
+        axis=_vector(axis.get("xyz")) if axis is not None and axis.get("xyz") is not None else (1.0, 0.0, 0.0),
+        limits=lower_upper,
+        mimic=mimic.get("joint") if mimic is not None else None,
+        mimic_multiplier=float(mimic.get("multiplier", "1")) if mimic is not None else 1.0,
+        actuated=actuated,
+    )
+
+
+def _transmitted_joints(robot: ET.Element) -> set[str]:
+    """Joints a <transmission> drives: its <joint name=...> (ROS) or <gap_joint name=...> (PR2-era gripper)."""
+    return {
+        element.get("name")
+        for transmission in robot.iter("transmission")
+        for element in transmission.iter()
+        if element.tag in ("joint", "gap_joint") and element.get("name")
+    }
 
 
 def _origin(element: ET.Element | None) -> Origin:

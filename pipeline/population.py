@@ -70,9 +70,9 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
     with onto:
         robot = _new(world, onto, "Robot", "robot", robot_name)
         _set(world, "urdfName", robot, tree.robot_name)
-        links = _add_structure(world, onto, robot, tree)
+        links, joints = _add_structure(world, onto, robot, tree)
         for comp in components:
-            _add_component(world, onto, robot, comp, links)
+            _add_fingers(world, onto, _add_component(world, onto, robot, comp, links), comp, joints)
         _annotate(world, robot, notes)
     return onto
 
@@ -99,6 +99,19 @@ def _check_components(tree, components: tuple[Component, ...]) -> None:
             if sub.link in sub_links:
                 raise OntologyError(f"{where} lists sub-link {sub.link!r} twice")
             sub_links.add(sub.link)
+        _check_fingers(tree, comp, where)
+
+
+def _check_fingers(tree, comp: Component, where: str) -> None:
+    names = {f.name for f in comp.fingers}
+    joints = {e.joint for e in tree.edges}
+    for finger in comp.fingers:
+        _check_class(finger.chain_class, "FingerChain", f"{where}, finger chain {finger.name!r}")
+        if finger.drive not in joints:
+            raise OntologyError(f"{where}, finger chain {finger.name!r} names joint {finger.drive!r}, which is not in the URDF")
+        unknown = [n for n in (*finger.opposes, *finger.moves_with, finger.mimics) if n is not None and n not in names]
+        if unknown:
+            raise OntologyError(f"{where}, finger chain {finger.name!r} refers to unknown chain {unknown[0]!r}")
 
 
 def _check_class(cls: str, root: str, where: str) -> None:
@@ -134,22 +147,27 @@ def _set(world, prop: str, subject, value) -> None:
     world[CORE_IRI + prop][subject].append(value)
 
 
-def _add_structure(world, onto, robot, tree) -> dict:
+def _add_structure(world, onto, robot, tree) -> tuple[dict, dict]:
     links = {}
     for name in tree.links:
         link = links[name] = _new(world, onto, "Link", "link_" + escape(name), name)
         _set(world, "urdfName", link, name)
         _set(world, "hasLink", robot, link)
+    joints = {}
     for edge in tree.edges:
-        joint = _new(world, onto, _JOINT_CLASSES[edge.joint_type], "joint_" + escape(edge.joint), edge.joint)
+        joint = joints[edge.joint] = _new(world, onto, _JOINT_CLASSES[edge.joint_type], "joint_" + escape(edge.joint),
+                                          edge.joint)
         _set(world, "urdfName", joint, edge.joint)
         _set(world, "hasParentLink", joint, links[edge.parent])
         _set(world, "hasChildLink", joint, links[edge.child])
         _set(world, "hasJoint", robot, joint)
-    return links
+    for edge in tree.edges:
+        if edge.mimic is not None and edge.mimic in joints:
+            _set(world, "isMimicOf", joints[edge.joint], joints[edge.mimic])
+    return links, joints
 
 
-def _add_component(world, onto, robot, comp: Component, links: dict) -> None:
+def _add_component(world, onto, robot, comp: Component, links: dict):
     local = escape(comp.name)
     ind = _new(world, onto, comp.cls, "comp_" + local, comp.name)
     _set(world, "confidence", ind, _decimal(comp.confidence))
@@ -160,6 +178,24 @@ def _add_component(world, onto, robot, comp: Component, links: dict) -> None:
         _set(world, "hasLink", part, links[sub.link])
         _set(world, "confidence", part, _decimal(sub.confidence))
         _set(world, "hasComponent", ind, part)
+    return ind
+
+
+def _add_fingers(world, onto, owner, comp: Component, joints: dict) -> None:
+    """The component's finger chains as structural facts: `finger_<c>.<chain>` individuals."""
+    chains = {}
+    for finger in comp.fingers:
+        chain = chains[finger.name] = _new(world, onto, finger.chain_class,
+                                           f"finger_{escape(comp.name)}.{escape(finger.name)}", finger.name)
+        if finger.thumb:
+            chain.is_a.append(world[CORE_IRI + "ThumbChain"])
+        _set(world, "hasDriveJoint", chain, joints[finger.drive])
+        _set(world, "hasFingerChain", owner, chain)
+    for finger in comp.fingers:
+        for prop, others in (("opposes", finger.opposes), ("movesWith", finger.moves_with),
+                             ("isMimicOf", (finger.mimics,) if finger.mimics else ())):
+            for other in others:
+                _set(world, prop, chains[finger.name], chains[other])
 
 
 def _decimal(value: float) -> float:

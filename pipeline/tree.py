@@ -22,13 +22,28 @@ class Origin:
 
 @dataclass(frozen=True)
 class Edge:
-    """One joint of the tree, from its parent link to its child link."""
+    """One joint of the tree, from its parent link to its child link, with what the URDF says of its motion.
+
+    `axis` is in the joint (child) frame, (1, 0, 0) where the URDF gives none; `limits` is (lower, upper)
+    where a <limit> gives them; `mimic` names the joint this one follows (position = multiplier x that
+    joint's + offset); `actuated` says a <transmission> names the joint.
+    """
 
     joint: str
     joint_type: str
     parent: str
     child: str
     origin: Origin
+    axis: Vector = (1.0, 0.0, 0.0)
+    limits: tuple[float, float] | None = None
+    mimic: str | None = None
+    mimic_multiplier: float = 1.0
+    actuated: bool = False
+
+    @property
+    def movable(self) -> bool:
+        """Moves (any type but fixed), or is declared actuated although written fixed."""
+        return self.joint_type != "fixed" or self.actuated
 
 
 class TreeError(ValueError):
@@ -41,11 +56,11 @@ class TreeError(ValueError):
 
 def _to_parent(origin: Origin, point: Vector) -> Vector:
     """Express a point given in a joint's child frame in its parent frame."""
-    x, y, z = _rotate(origin.rpy, point)
+    x, y, z = rotate_rpy(origin.rpy, point)
     return (x + origin.xyz[0], y + origin.xyz[1], z + origin.xyz[2])
 
 
-def _rotate(rpy: Vector, v: Vector) -> Vector:
+def rotate_rpy(rpy: Vector, v: Vector) -> Vector:
     """Apply R = Rz(yaw) Ry(pitch) Rx(roll) to v."""
     roll, pitch, yaw = rpy
     x, y, z = v
@@ -222,21 +237,27 @@ class KinematicTree:
             stack.extend(reversed(self._children[current]))
         return tuple(found)
 
-    def position_in(self, link: str, ancestor: str) -> Vector:
-        """Translation of `link`'s frame in `ancestor`'s frame (joints at zero).
+    def position_in(self, link: str, ancestor: str, point: Vector = (0.0, 0.0, 0.0)) -> Vector:
+        """A point given in `link`'s frame (default its origin), expressed in `ancestor`'s frame (joints at zero).
 
         Raises ValueError if `ancestor` is not on `link`'s chain to the root.
         """
+        return self._express(link, ancestor, point, _to_parent)
+
+    def direction_in(self, link: str, ancestor: str, vector: Vector) -> Vector:
+        """A direction given in `link`'s frame (a joint axis), expressed in `ancestor`'s frame (joints at zero)."""
+        return self._express(link, ancestor, vector, lambda origin, v: rotate_rpy(origin.rpy, v))
+
+    def _express(self, link: str, ancestor: str, value: Vector, step) -> Vector:
         self._known(ancestor)
-        point: Vector = (0.0, 0.0, 0.0)
         current = self._known(link)
         while current != ancestor:
             edge = self._parent_edge.get(current)
             if edge is None:
                 raise ValueError(f"'{ancestor}' is not an ancestor of '{link}'")
-            point = _to_parent(edge.origin, point)
+            value = step(edge.origin, value)
             current = edge.parent
-        return point
+        return value
 
     def without(self, links: Iterable[str]) -> KinematicTree:
         """This tree minus `links` and the joints leading to them.

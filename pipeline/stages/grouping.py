@@ -8,7 +8,8 @@ category (the taxonomy level under Sensor: RGB and depth frames are both vision;
 accelerometer on one palm are not) form one device.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
 at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
-the tool's mount is the deepest mount the model named for any of its chains that carries them all.
+the tool's provisional mount is the deepest mount the model named for any of its chains that carries
+them all (stages.tools then settles extent and mount from structure).
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations

@@ -87,19 +87,6 @@ def verify(tree: KinematicTree, groups: list[Group], unclaimed: Callable[[str], 
     return sorted(done, key=lambda g: tree.links.index(g.chains[0].leaf))
 
 
-def join_by_mount(tree: KinematicTree, groups: list[Group]) -> list[Group]:
-    """Join closed groups that ended on one mount (two closed groups on one mount stay closed)."""
-    by_root: dict[str | None, Group] = {}
-    for group in groups:
-        root = group_root(tree, group)
-        if root in by_root:
-            by_root[root].chains.extend(group.chains)
-            by_root[root].absorbed.extend(group.absorbed)
-        else:
-            by_root[root] = group
-    return list(by_root.values())
-
-
 _INDEX = re.compile(r"\d+")
 
 

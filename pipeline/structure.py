@@ -1,0 +1,243 @@
+"""Structural facts about a candidate tool, read from the kinematic tree alone (never from names).
+
+- The *fork* of a tool is the lowest common ancestor of its leaves: where its fingers part.
+- A *finger chain* is a subtree hung on the fork's rigid body (the fork and its fixed descendants)
+  by a driven joint, its *drive*: any type but fixed, or a fixed joint a <transmission> drives,
+  moving prismatic (sliding), pivoting (revolute, continuous) or frozen (written fixed, yet driven),
+  whose tip (its deepest link) closes against another chain's tip.
+- Two chains *oppose* when their tips move towards (or away from) each other along the line joining
+  them as the tool closes, or, where the tips coincide, in opposite directions. Motions are taken
+  with every joint halfway through its range (a hand written closed shows no opposition), the drive
+  moving positively and each joint of the chain coupled to it by <mimic> moving with it. A driven
+  subtree that opposes no other, whose tip sits on its drive's axis, or that hangs on a planar or
+  floating joint, is a *mechanism* (a motor, a lead screw), not a finger.
+- Two chains *move together* when their tips' directions of motion are within 60 degrees
+  (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
+- A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
+- The *mount* is the link the tool is bolted to: the fork's parent when the fork is rigidly fixed
+  to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
+  link), or the parent of a lone leaf.
+
+What these facts mean (parallel gripper, thumb, hand...) is not decided here: the ontology's class
+definitions do that, applied by a reasoner (pipeline.reasoning).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .tree import Edge, KinematicTree, Vector, rotate_rpy
+
+OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
+ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together
+APPROACH = 0.4   # separate tips: share of each tip's motion along the line joining them, with opposite signs
+_TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
+_STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
+Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
+MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
+
+
+@dataclass(frozen=True)
+class FingerChain:
+    """One finger of a tool: its links (top first), its drive joint and how that joint moves."""
+
+    name: str                 # its first link below the fork
+    links: tuple[str, ...]
+    drive: str                # joint name
+    motion: str               # prismatic | pivoting | frozen
+    joint_types: tuple[str, ...]  # types of the chain's movable joints, top down
+    mimics: str | None        # the finger chain whose joint this one's drive follows
+    opposes: tuple[str, ...]  # the finger chains it closes against
+    moves_with: tuple[str, ...] = ()  # the finger chains whose tips move alongside its own
+
+
+@dataclass(frozen=True)
+class ToolStructure:
+    """The structural facts of one candidate tool."""
+
+    fork: str
+    mount: str
+    fingers: tuple[FingerChain, ...]
+    mechanisms: tuple[str, ...]  # first links of movable subtrees that are not fingers
+
+    def describe(self) -> str:
+        """The facts in a short phrase for the model's questions."""
+        if not self.fingers:
+            return "no moving fingers"
+        motions = sorted({f.motion for f in self.fingers})
+        words = [f"{len(self.fingers)} moving finger{'s' * (len(self.fingers) > 1)} ({', '.join(motions)})"]
+        pairs = sum(len(f.opposes) for f in self.fingers) // 2
+        if pairs:
+            words.append(f"{pairs} opposing pair{'s' * (pairs > 1)}")
+        if any(f.mimics for f in self.fingers):
+            words.append("coupled by mimic joints")
+        return ", ".join(words)
+
+
+def fork_of(tree: KinematicTree, leaves: list[str]) -> str:
+    """The lowest common ancestor of `leaves` (a lone leaf is its own fork)."""
+    common = list(tree.chain_to_root(leaves[0]))
+    for leaf in leaves[1:]:
+        above = set(tree.chain_to_root(leaf))
+        common = [link for link in common if link in above]
+    return common[0]
+
+
+def mount_of(tree: KinematicTree, fork: str) -> str:
+    """The link a tool forking at `fork` is bolted to (module docstring); the tree's root carries itself."""
+    edge = tree.parent_edge(fork)
+    if edge is None:
+        return fork
+    if tree.is_leaf(fork) or not edge.movable:
+        return edge.parent
+    return fork
+
+
+def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
+    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms."""
+    fork = fork_of(tree, leaves)
+    moving: dict[str, tuple[tuple[str, ...], Edge, Motion | None]] = {}
+    pose = _configuration(tree)
+    for child in _moving_children(tree, fork):
+        links = (child, *tree.descendants(child))
+        tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), _norm(tree.position_in(link, fork))))
+        drive = tree.parent_edge(child)
+        motion = _tip_motion(tree, fork, drive, tip, pose) if drive.joint_type in MOTIONS else None
+        moving[child] = (links, drive, motion)
+    opposes = {
+        a: tuple(b for b in moving if b != a and _opposed(moving[a][2], moving[b][2]))
+        for a in moving
+    }
+    finger_names = [a for a in moving if opposes[a]]
+    alongside = {a: tuple(b for b in finger_names if b != a and _alongside(moving[a][2], moving[b][2]))
+                 for a in finger_names}
+    joint_owner = {tree.parent_edge(link).joint: a for a in finger_names for link in moving[a][0]}
+    fingers = tuple(
+        FingerChain(
+            name=a,
+            links=links,
+            drive=drive.joint,
+            motion=MOTIONS[drive.joint_type],
+            joint_types=tuple(e.joint_type for link in links if (e := tree.parent_edge(link)).movable),
+            mimics=joint_owner.get(drive.mimic) if joint_owner.get(drive.mimic) != a else None,
+            opposes=opposes[a],
+            moves_with=alongside[a],
+        )
+        for a in finger_names
+        for links, drive, _ in [moving[a]]
+    )
+    return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in moving if a not in finger_names))
+
+
+def _moving_children(tree: KinematicTree, fork: str) -> list[str]:
+    """Links hung by a movable joint on the rigid body the fork belongs to below it (its fixed descendants)."""
+    found, stack = [], list(reversed(tree.children(fork)))
+    while stack:
+        link = stack.pop()
+        if tree.parent_edge(link).movable:
+            found.append(link)
+        else:
+            stack.extend(reversed(tree.children(link)))
+    return found
+
+
+def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float]) -> Motion | None:
+    """Where the tip is and the direction it moves in as the drive moves positively, with every joint
+    of the chain coupled to it by <mimic>, all joints at `pose` (None: it does not move)."""
+    point = _in_frame(tree, tip, fork, (0.0, 0.0, 0.0), pose)
+    path = tree.chain_to_root(tip)
+    velocity = (0.0, 0.0, 0.0)
+    for link in path[:path.index(drive.child) + 1]:
+        edge = tree.parent_edge(link)
+        if (rate := _coupling(drive, edge)) and (axis := _unit(_in_frame(tree, link, fork, edge.axis, pose, True))):
+            if edge.joint_type == "prismatic":
+                part = axis
+            else:  # pivoting, or a driven joint written fixed: a rotation about its declared axis
+                joint = _in_frame(tree, link, fork, (0.0, 0.0, 0.0), pose)
+                part = _cross(axis, (point[0] - joint[0], point[1] - joint[1], point[2] - joint[2]))
+            velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
+    direction = _unit(velocity) if _dot(velocity, velocity) >= _STILL else None
+    return None if direction is None else (point, direction)
+
+
+def _configuration(tree: KinematicTree) -> dict[str, float]:
+    """Every joint halfway through its range (0 without limits), mimic joints following their joint."""
+    middle = {e.joint: (sum(e.limits) / 2 if e.limits else 0.0) for e in tree.edges if e.movable}
+    return {
+        e.joint: e.mimic_multiplier * middle.get(e.mimic, 0.0) if e.mimic is not None else middle.get(e.joint, 0.0)
+        for e in tree.edges if e.movable
+    }
+
+
+def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose: dict[str, float],
+              direction: bool = False) -> Vector:
+    """A point (or direction) of `link`'s frame in `ancestor`'s frame, with the joints at `pose`."""
+    while link != ancestor:
+        edge = tree.parent_edge(link)
+        q = pose.get(edge.joint, 0.0)
+        if edge.joint_type in ("revolute", "continuous") and q:
+            value = _turn(value, _unit(edge.axis) or (1.0, 0.0, 0.0), q)
+        elif edge.joint_type == "prismatic" and q and not direction:
+            axis = _unit(edge.axis) or (1.0, 0.0, 0.0)
+            value = (value[0] + q * axis[0], value[1] + q * axis[1], value[2] + q * axis[2])
+        value = rotate_rpy(edge.origin.rpy, value)
+        if not direction:
+            value = (value[0] + edge.origin.xyz[0], value[1] + edge.origin.xyz[1], value[2] + edge.origin.xyz[2])
+        link = edge.parent
+    return value
+
+
+def _turn(v: Vector, axis: Vector, angle: float) -> Vector:
+    """Rodrigues' rotation of v about a unit axis."""
+    c, s = math.cos(angle), math.sin(angle)
+    k = _cross(axis, v)
+    d = _dot(axis, v) * (1 - c)
+    return (v[0] * c + k[0] * s + axis[0] * d, v[1] * c + k[1] * s + axis[1] * d, v[2] * c + k[2] * s + axis[2] * d)
+
+
+def _coupling(drive: Edge, edge: Edge) -> float:
+    """How fast `edge` moves when the drive moves at unit rate (0: independent of it)."""
+    if edge is drive:
+        return 1.0
+    if not edge.movable or edge.mimic is None:
+        return 0.0
+    if edge.mimic == drive.joint:
+        return edge.mimic_multiplier
+    if edge.mimic == drive.mimic and drive.mimic_multiplier:
+        return edge.mimic_multiplier / drive.mimic_multiplier
+    return 0.0
+
+
+def _opposed(a: Motion | None, b: Motion | None) -> bool:
+    """Tips that move towards (or away from) each other along the line joining them; tips that
+    coincide, in opposite directions."""
+    if a is None or b is None:
+        return False
+    (pa, va), (pb, vb) = a, b
+    line = _unit((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]))
+    if line is None or _norm((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2])) < _TOUCHING:
+        return _dot(va, vb) < OPPOSED
+    along_a, along_b = _dot(va, line), _dot(vb, line)
+    return along_a * along_b < 0 and min(abs(along_a), abs(along_b)) >= APPROACH
+
+
+def _alongside(a: Motion | None, b: Motion | None) -> bool:
+    """Tips that move in nearly the same direction (fingers side by side)."""
+    return a is not None and b is not None and _dot(a[1], b[1]) > ALONGSIDE
+
+
+def _dot(a: Vector, b: Vector) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _norm(v: Vector) -> float:
+    return math.sqrt(sum(x * x for x in v))
+
+
+def _unit(v: Vector) -> Vector | None:
+    n = _norm(v)
+    return None if n == 0 else (v[0] / n, v[1] / n, v[2] / n)
+
+
+def _cross(a: Vector, b: tuple[float, ...]) -> Vector:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])

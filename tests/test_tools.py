@@ -1,0 +1,154 @@
+"""End-effectors from structure: finger chains, the ontology's gripper kinds (HermiT), extent and mount.
+
+tests/data/tool_rack.urdf is an invented robot with three tools: a vise (two sliding jaws, one
+mimicking the other) with a cuff camera beside it on the flange, a three-prong gripper driven by one
+motor joint, and a hand of four digits and an opposing digit hung straight on its wrist link.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import owlready2
+import pytest
+import rdflib
+
+from pipeline.abstraction import Abstractor
+from pipeline.components import Abstraction
+from pipeline.export import robot_graph
+from pipeline.ingest import load_urdf
+from pipeline.llm.base import Question
+from pipeline.llm.scripted import ScriptedBackend
+from pipeline.ontology import CORE_IRI, taxonomy
+from pipeline.oracle import Oracle
+from pipeline.population import build_robot
+from pipeline.prompts import NONE
+from pipeline.reasoning import classify
+from pipeline.shacl import validate
+from pipeline.stages.grouping import Group
+from pipeline.stages.attachment import sub_chain
+from pipeline.stages.tools import settle
+from pipeline.structure import mount_of, tool_structure
+
+RACK = Path(__file__).parent / "data" / "tool_rack.urdf"
+TAX = taxonomy()
+VISE = ["vise_jaw_port", "vise_jaw_starboard", "vise_grip_point"]
+TRIDENT = ["trident_motor", "trident_prong0_tip", "trident_prong1_tip", "trident_prong2_tip"]
+MITT = ["mitt_drive", *(f"mitt_digit{k}_end" for k in range(4)), "mitt_opposer_end"]
+
+
+@pytest.fixture(scope="module")
+def rack():
+    return load_urdf(RACK)
+
+
+def test_ingestion_reads_axis_limits_mimic_and_transmissions(rack):
+    port, starboard = rack.parent_edge("vise_jaw_port"), rack.parent_edge("vise_jaw_starboard")
+    assert starboard.mimic == "vise_port_slide" and starboard.mimic_multiplier == 1.0 and port.mimic is None
+    assert port.axis == (0.0, -1.0, 0.0) and port.limits == (0.0, 0.03)
+    assert rack.parent_edge("trident_motor").actuated and not port.actuated
+    assert rack.parent_edge("vise_grip_point").axis == (1.0, 0.0, 0.0) and rack.parent_edge("vise_grip_point").limits is None
+
+
+def test_vise_has_two_opposing_sliding_jaws_and_is_bolted_to_the_flange(rack):
+    vise = tool_structure(rack, VISE)
+    assert (vise.fork, vise.mount) == ("vise_body", "left_flange")
+    port, starboard = vise.fingers
+    assert {port.motion, starboard.motion} == {"prismatic"}
+    assert port.opposes == ("vise_jaw_starboard",) and starboard.mimics == "vise_jaw_port"
+
+
+def test_prongs_all_oppose_and_the_motor_is_a_mechanism(rack):
+    trident = tool_structure(rack, TRIDENT)
+    assert trident.mechanisms == ("trident_motor",)  # its leaf sits on its own axis: nothing closes
+    assert [len(f.opposes) for f in trident.fingers] == [2, 2, 2]
+    assert all(f.moves_with == () for f in trident.fingers)
+
+
+def test_hand_on_the_wrist_is_mounted_on_the_wrist_and_its_digits_move_together(rack):
+    mitt = tool_structure(rack, MITT)
+    assert mitt.fork == mitt.mount == "mid_wrist"  # fingers hung straight on the arm's last moving link
+    opposer = next(f for f in mitt.fingers if f.name == "mitt_opposer_base")
+    assert len(opposer.opposes) == 4
+    assert all(len(f.moves_with) == 3 for f in mitt.fingers if f is not opposer)
+    assert mount_of(rack, "vise_grip_point") == "vise_body"  # a lone leaf hangs on its parent
+
+
+def test_the_reasoner_classifies_every_tool_in_one_run(rack):
+    tools = [tool_structure(rack, leaves) for leaves in (VISE, TRIDENT, MITT, ["vise_grip_point"])]
+    inferred, seconds = classify(tools)
+    assert [i.cls for i in inferred] == ["ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand", "EndEffector"]
+    assert inferred[2].thumbs == ("mitt_opposer_base",) and inferred[1].thumbs == ()  # prongs oppose, none a thumb
+    assert not inferred[3].settled and seconds > 0
+
+
+def test_settle_remounts_splits_arms_and_keeps_every_finger(rack):
+    notes = []
+    too_high = Group([sub_chain(rack, leaf, "left_seg1") for leaf in VISE])  # the model mounted it on the shoulder
+    thumbless = Group([sub_chain(rack, leaf, "mid_seg3") for leaf in MITT[:3]])  # thumb and two digits left out
+    both_arms = Group([sub_chain(rack, leaf, "torso") for leaf in TRIDENT[:2] + ["mitt_drive"]])
+    settled = settle(rack, [too_high, thumbless, both_arms], lambda leaf: False, notes.append)
+    by_mount = {group_root_of(g): set(g.leaves) for g, _ in settled}
+    assert by_mount == {"left_flange": set(VISE), "right_flange": set(TRIDENT), "mid_wrist": set(MITT)}
+    assert any(n.startswith("split") for n in notes)
+
+
+def group_root_of(group):
+    (root,) = {c.root for c in group.chains}
+    return root
+
+
+KIND = {leaf: "end effector" for leaf in VISE + TRIDENT + MITT} | {"cuff_cam_optical": "sensor"}
+
+
+OFFERED: dict[str, tuple[str, ...]] = {}
+
+
+def perfect(q: Question) -> str | dict:
+    OFFERED[q.key] = q.options
+    stage, _, subject = q.key.partition(":")
+    subject = subject.partition("@")[0]
+    if stage == "identify":
+        return KIND.get(subject, NONE)
+    if stage == "root":
+        return q.options[-1]  # as high as offered: structure must bring it down to the flange
+    if stage in ("device", "optical"):
+        return q.options[-1]
+    if stage == "post" and subject in KIND and KIND[subject] == "end effector":
+        raise AssertionError(f"the model was asked the kind of a tool whose structure settles it: {q.key}")
+    return q.options[0]
+
+
+def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack):
+    comps = Abstractor(Oracle(ScriptedBackend(perfect)), TAX).run(rack)
+    tools = {c.cls: c for c in comps if c.kind == "end_effector"}
+    assert set(tools) == {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand"}
+    assert tools["ParallelGripper"].root == "left_flange" and tools["AnthropomorphicHand"].root == "mid_wrist"
+    assert "cuff_cam_optical" not in {link for c in tools.values() for link in c.links}
+    hand = {s.link: s.cls for s in tools["AnthropomorphicHand"].subcomponents}
+    assert hand["mitt_opposer_end"] in ("Finger", "ContactSurface")  # a finger chain's link: nothing else offered
+    assert hand["mitt_drive"] != "Finger"  # the motor joint's link is no finger
+    assert "palm" in OFFERED["part:vise_body@EndEffectorSubpart"]  # the jaws hang from it
+    assert not {"palm", "finger"} & set(OFFERED["part:vise_grip_point@EndEffectorSubpart"])
+
+    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps))
+    graph = robot_graph(onto)
+    assert validate(graph)[0]
+    core = rdflib.Namespace(CORE_IRI)
+    thumbs = list(graph.subjects(rdflib.RDF.type, core.ThumbChain))
+    assert len(thumbs) == 1
+    opposed = set(graph.objects(thumbs[0], core.opposes)) | set(graph.subjects(core.opposes, thumbs[0]))
+    assert len(opposed) == 4  # opposes is symmetric: each pair is written once
+    assert (None, core.isMimicOf, None) in graph  # the starboard slide follows the port slide
+
+
+def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
+    def jaw_as_sensor(q: Question) -> str:
+        if q.key == "identify:vise_jaw_starboard":
+            return "sensor"  # the model's mistake: the jaw that follows the other is taken for a sensor
+        return perfect(q)
+    notes = []
+    comps = Abstractor(Oracle(ScriptedBackend(jaw_as_sensor)), TAX, log=notes.append).run(rack)
+    vise = next(c for c in comps if c.kind == "end_effector" and c.root == "left_flange")
+    assert vise.cls == "ParallelGripper" and "vise_jaw_starboard" in vise.links
+    assert not any(c.kind == "sensor" and "vise_jaw_starboard" in c.links for c in comps)
+    assert any(n.startswith("not a sensor: vise_jaw_starboard") for n in notes)
