@@ -146,11 +146,9 @@ def test_http_hang_times_out(serve):
         time.sleep(2)
         return completion(["sensor"])
 
-    url, _ = serve(hang)
-    started = time.monotonic()
+    url, _ = serve(hang)  # without the timeout the reply would come, and no error would be raised
     with pytest.raises(BackendError, match="timed out after 0.5s"):
         OpenAIBackend(url, "m", timeout=0.5).sample(q(), 1, 0.7)
-    assert time.monotonic() - started < 1.8
 
 
 def test_http_connection_refused():

@@ -1,6 +1,5 @@
 """load_urdf: hostile, oversize and structurally invalid input is refused with a URDFError."""
 import socket
-import time
 import urllib.request
 from pathlib import Path
 
@@ -160,10 +159,8 @@ def test_too_many_joints_are_refused():
 
 
 def test_billion_laughs_is_refused_without_expansion():
-    start = time.perf_counter()
-    error = refused(BILLION_LAUGHS, "entity declaration 'lol' refused.*billion laughs")
+    error = refused(BILLION_LAUGHS, "entity declaration 'lol' refused.*billion laughs")  # at the declaration
     assert error.element == "DOCTYPE"
-    assert time.perf_counter() - start < 1.0
 
 
 def test_external_file_entity_is_refused(no_network):
