@@ -165,7 +165,7 @@ def _apply_one(tree: KinematicTree, comps: list[Component], corr: Correction) ->
         if corr.cls not in allowed_classes(comp):
             raise CorrectionError(f"{corr.cls} is not a class the ontology allows for {comp.name} "
                                   f"(allowed: {', '.join(allowed_classes(comp))})")
-        new = replace(comp, cls=corr.cls, confidence=1.0)
+        new = replace(comp, cls=corr.cls, confidence=1.0, fingers=())  # the chains argued for the old class
     else:
         if corr.mount not in mount_options(tree, comp.links):
             raise CorrectionError(f"{corr.mount} is not above every link of {comp.name}")
@@ -188,7 +188,7 @@ def _add(tree: KinematicTree, comps: list[Component], corr: Correction) -> tuple
     for c in comps:  # the reviewer's component takes its links from whatever the model put them in
         subs = tuple(s for s in c.subcomponents if s.link not in taken)
         if subs:
-            kept.append(replace(c, subcomponents=subs))
+            kept.append(replace(c, subcomponents=subs, fingers=() if len(subs) < len(c.subcomponents) else c.fingers))
     names = {c.name for c in kept}
     name = f"reviewed_{corr.links[0]}"
     while name in names:

@@ -124,6 +124,7 @@ class Index:
         self._ctx = mp.get_context("spawn")
         self._guard = threading.Lock()  # master, worker list, broadcasts
         self._workers: list[_Worker] = []
+        self._size = workers  # the list may be short while a worker is replaced: never evaluate in-process then
         self._idle: queue.Queue[_Worker] = queue.Queue()
         for _ in range(workers):
             self._spawn()
@@ -143,7 +144,7 @@ class Index:
     def _call(self, op: str, args: tuple, timeout: float, hold: bool = False):
         """Run `op` on a free worker within `timeout` (waiting for one included); the worker goes back
         to the pool unless `hold` (then (value, worker) is returned), and is replaced if it overran or died."""
-        if not self._workers:
+        if not self._size:
             value = (run_query if op == "query" else run_update)(self.master, *args)
             return (value, None) if hold else value
         deadline = time.monotonic() + timeout

@@ -97,7 +97,10 @@ class Store:
         self._open()
         with self.lock:
             graphs = {CORE_GRAPH: self._graph_data(CORE_GRAPH)}
-            graphs.update({e.ontology_iri: self._graph_data(e.ontology_iri) for e in self.robots()})
+            for e in self.robots():
+                graphs[e.ontology_iri] = self._graph_data(e.ontology_iri)
+                if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
+                    graphs[review.corrections_iri(e.name)] = corrections
             graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
         self.index = Index(graphs, workers)
 
@@ -234,7 +237,7 @@ class Store:
         graph with it, in one transaction. Writes the robot's graph and its corrections graph."""
         with self._writing() as touched:
             touched.add(review.corrections_iri(name))
-            source = self.source(name)
+            source = self.source(name) if self.robot(name) is not None else None
             if source is None:
                 raise LookupError(f"no robot {name!r}" if self.robot(name) is None else
                                   f"robot {name!r} was stored before corrections existed: populate it again first")
@@ -295,18 +298,20 @@ class Store:
         """Apply a SPARQL update atomically: Oxigraph evaluates it on one replica, the graphs it changed
         are written to the quadstore in one transaction, and the index then takes them from there.
 
-        The core is read-only: an update that would change it raises ReadOnlyGraph, except
-        CLEAR/DROP ALL and NAMED, which mean "every writable graph" and leave the core as it is.
+        The core and the corrections graphs are read-only: an update that would change one raises
+        ReadOnlyGraph, except CLEAR/DROP ALL and NAMED, which mean "every writable graph" and leave them.
         A robot graph an update empties is no longer a robot (it leaves /robots)."""
         with self._writing() as touched:
             changes, replica = self.index.update(text, timeout)
             try:
                 accepted = set(changes)
-                if CORE_GRAPH in changes:
+                protected = {CORE_GRAPH, *(review.corrections_iri(e.name) for e in self.robots())} & accepted
+                if protected:
                     found = scan(text, update=True).keywords
                     if not (found & {"CLEAR", "DROP"} and found & {"ALL", "NAMED"}):
-                        raise ReadOnlyGraph(f"the core ontology graph <{CORE_GRAPH}> is read-only to SPARQL Update")
-                    accepted.discard(CORE_GRAPH)
+                        raise ReadOnlyGraph(f"graph <{sorted(protected)[0]}> is read-only to SPARQL Update "
+                                            "(the core ontology; reviewers' corrections go through /robots/<name>/corrections)")
+                    accepted -= protected
                 for graph in accepted:
                     self._persist(graph, changes[graph][1])
                 touched.update(accepted)

@@ -13,7 +13,7 @@ from flask import Blueprint, Response, jsonify, render_template, request
 
 from kb_server import corrections as review
 from kb_server import queries, tree_svg
-from kb_server.jobs import JobManager
+from kb_server.jobs import JobManager, QueueFull
 from kb_server.store import Store
 from pipeline.ontology import taxonomy
 from pipeline.population import escape
@@ -81,7 +81,12 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> 
         if source is None:
             return _error(404, f"no stored URDF for robot {name!r}")
         tree, model = source
-        job = jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only"))
+        try:
+            job = jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only"))
+        except QueueFull as e:
+            resp = _error(429, str(e))
+            resp.headers["Retry-After"] = str(e.retry_after)
+            return resp
         resp = jsonify(job.to_dict())
         resp.status_code = 202
         resp.headers["Location"] = f"/jobs/{job.id}"

@@ -12,6 +12,7 @@ whether a rigid tool holds by suction, a magnet, or fingers written as fixed lin
 """
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 
@@ -20,6 +21,7 @@ import owlready2
 from .ontology import CORE_IRI, load_core, taxonomy
 from .structure import ToolStructure
 
+log = logging.getLogger(__name__)
 END_EFFECTOR = "EndEffector"
 CHAIN_CLASSES = {"prismatic": "PrismaticFingerChain", "pivoting": "PivotingFingerChain", "frozen": "FrozenFingerChain"}
 THUMB = "ThumbChain"
@@ -68,7 +70,11 @@ def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
             if len(chains_all) > 1:
                 owlready2.AllDifferent(chains_all)
         started = time.monotonic()
-        owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
+        try:
+            owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
+        except (owlready2.OwlReadyJavaError, OSError) as e:  # no Java, or HermiT failed: the model is asked
+            log.warning("reasoner unavailable (%s): end-effector kinds are left to the model", e)
+            return [Inference(END_EFFECTOR, ()) for _ in tools], time.monotonic() - started
         seconds = time.monotonic() - started
         return [_inference(individual, chains) for individual, chains in individuals], seconds
     finally:

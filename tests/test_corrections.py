@@ -169,3 +169,28 @@ def test_robots_stored_before_corrections_still_get_a_page(store):
         assert resp.status_code == 409 and "populate it again" in resp.get_json()["error"]
     finally:
         jobs.shutdown()
+
+
+def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_tree):
+    path = tmp_path / "kb.sqlite3"
+    store = Store(path)
+    store.replace_robot("pr2", pr2_tree, PR2)
+    correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])
+    ask = f"ASK {{ GRAPH <{corrections_iri('pr2')}> {{ ?s ?p ?o }} }}"
+    assert json.loads(store.query(ask).body)["boolean"]
+    store.close()
+    store = Store(path)
+    try:
+        assert json.loads(store.query(ask).body)["boolean"]
+    finally:
+        store.close()
+
+
+def test_sparql_update_cannot_rewrite_a_corrections_graph(store):
+    from kb_server.store import ReadOnlyGraph
+    correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])
+    with pytest.raises(ReadOnlyGraph, match="corrections"):
+        store.update(f"INSERT DATA {{ GRAPH <{corrections_iri('pr2')}> {{ <urn:a> <urn:b> <urn:c> }} }}")
+    store.update("DROP ALL")  # every writable graph: the robot goes, its corrections stay read-only here
+    with pytest.raises(LookupError, match="no robot"):  # ...and no correction brings the dropped robot back
+        correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])

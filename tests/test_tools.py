@@ -152,3 +152,12 @@ def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
     assert vise.cls == "ParallelGripper" and "vise_jaw_starboard" in vise.links
     assert not any(c.kind == "sensor" and "vise_jaw_starboard" in c.links for c in comps)
     assert any(n.startswith("not a sensor: vise_jaw_starboard") for n in notes)
+
+
+
+def test_without_a_reasoner_the_model_is_asked_the_kinds(rack, monkeypatch):
+    def no_java(*args, **kwargs):
+        raise owlready2.OwlReadyJavaError("java not found")
+    monkeypatch.setattr(owlready2, "sync_reasoner_hermit", no_java)
+    inferred, _ = classify([tool_structure(rack, VISE), tool_structure(rack, MITT)])
+    assert [i.settled for i in inferred] == [False, False]
