@@ -40,7 +40,7 @@ def populate(urdf: Path, root: Path, label: str) -> dict:
     cmd = [str(URDFKB), "populate", str(urdf), "--no-cache", "--quiet", "--format", "turtle",
            "-o", str(out), "--trace", str(trace)]
     start, cpu = time.perf_counter(), _child_cpu()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "URDFKB_CACHE": str(root)})
+    proc = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "URDFKB_CACHE": str(root), "URDFKB_PREFIX_CACHE": "on"})
     seconds, cpu = time.perf_counter() - start, _child_cpu() - cpu
     if proc.returncode != 0:
         sys.exit(f"{label}: urdfkb failed ({proc.returncode}):\n{proc.stderr[-2000:]}")

@@ -108,3 +108,5 @@ def test_default_dir_and_switch(monkeypatch, tmp_path):
         assert not prefix_store.enabled_by_env()
     monkeypatch.setenv(prefix_store.ENV_SWITCH, "on")
     assert prefix_store.enabled_by_env()
+    monkeypatch.delenv(prefix_store.ENV_SWITCH)
+    assert not prefix_store.enabled_by_env()  # opt-in

@@ -99,7 +99,7 @@ class LlamaBackend(Backend):
 
     def _prefix_store(self, model: Path, where: bool | str | Path, max_bytes: int, threads: int) -> PrefixStore | None:
         """The on-disk store of prefix KV states: `where` is a directory, True for the default one
-        (unless $URDFKB_PREFIX_CACHE is off), False for none. Its identity is everything that changes
+        when $URDFKB_PREFIX_CACHE is on (it is opt-in), False for none. Its identity is everything that changes
         the stored bytes: the model file, the llama.cpp build and the context parameters."""
         if where is False or (where is True and not enabled_by_env()):
             return None

@@ -29,7 +29,10 @@ _HEADER = struct.Struct("<I Q 32s 32s")  # format, payload length, sha256(payloa
 SUFFIX = ".kv"
 SUBDIR = "prefixes"
 DEFAULT_MAX_BYTES = 256 << 20
-ENV_SWITCH = "URDFKB_PREFIX_CACHE"  # "off" / "0" / "false" / "no" disables the store
+# "on" / "1" / "true" / "yes" enables the store. Off by default: states restored into other KV cells
+# than they were evaluated in move scores (PR2 after TIAGo: 11 of 192 answers changed), so results
+# would depend on which robots ran before.
+ENV_SWITCH = "URDFKB_PREFIX_CACHE"
 
 
 def default_dir() -> Path:
@@ -38,7 +41,7 @@ def default_dir() -> Path:
 
 
 def enabled_by_env() -> bool:
-    return os.environ.get(ENV_SWITCH, "on").strip().lower() not in ("0", "off", "false", "no")
+    return os.environ.get(ENV_SWITCH, "off").strip().lower() in ("1", "on", "true", "yes")
 
 
 class PrefixStore:
