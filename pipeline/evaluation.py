@@ -10,8 +10,11 @@ Conventions beyond the spec (each also stated where it applies):
   leaves equal a truth component of the other kind is a false positive in its own kind and a
   miss in the truth's kind (over both kinds it matches, and its class earns no typed credit
   because it is not under the truth's branch).
-* Root and subpart accuracy are 0.0 when their denominator is empty; the denominators are
-  reported (``n_matched``, ``n_subparts``) so such a 0.0 can be told apart.
+* As the spec says: a kind with no truth component scores precision, recall and F1 of 1 when
+  nothing of that kind is predicted (precision and F1 0 when something is); its root accuracy is
+  undefined (None), as is the subpart accuracy of a scope whose truth lists no subparts. Means
+  over robots skip undefined values. Root accuracy is 0 when truth components exist but none
+  matched; subpart accuracy 0 when subparts are listed but none was matched.
 * Hedging does not pay: an individual with several incomparable most specific classes has no
   class (``None``, no credit), one with several ``isMountedOn`` links has no root.
 """
@@ -198,6 +201,8 @@ def read_prediction(graph: rdflib.Graph, urdf_leaves: set[str]) -> list[Predicte
 # ---- scoring --------------------------------------------------------------------------------
 
 def _prf(hits: float, n_pred: int, n_truth: int) -> tuple[float, float, float]:
+    if not n_truth:  # nothing to find: recall holds vacuously, and any prediction is wrong
+        return (0.0, 1.0, 0.0) if n_pred else (1.0, 1.0, 1.0)
     p = hits / n_pred if n_pred else 0.0
     r = hits / n_truth if n_truth else 0.0
     return p, r, (2 * p * r / (p + r) if p + r else 0.0)
@@ -241,10 +246,11 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
                    _prf(len(pairs), len(preds), len(truths))))
     typed = sum(tax.credit(p.cls, t.classes, _KIND_ROOTS.values()) for p, t in pairs)
     out.update(zip(("typed_precision", "typed_recall", "typed_f1"), _prf(typed, len(preds), len(truths))))
-    out["root_accuracy"] = fmean(p.root in t.roots for p, t in pairs) if pairs else 0.0
+    out["root_accuracy"] = (fmean(p.root in t.roots for p, t in pairs) if pairs else 0.0) if truths else None
     sub = [tax.credit(p.subparts.get(leaf), accepted, _SUBPART_ROOTS)
            for p, t in pairs for leaf, accepted in t.subparts.items()]
-    out["subpart_accuracy"] = fmean(sub) if sub else 0.0
+    listed = any(t.subparts for t in truths)
+    out["subpart_accuracy"] = (fmean(sub) if sub else 0.0) if listed else None
     out.update(n_predicted=len(preds), n_truth=len(truths), n_matched=len(pairs), n_subparts=len(sub))
     return out
 
@@ -280,9 +286,13 @@ def failed_scores() -> dict:
 
 
 def mean_scores(per_robot: Mapping[str, dict]) -> dict:
-    """Mean of each metric over robots (failed ones included as 0); counts are summed."""
+    """Mean of each metric over robots (failed ones included as 0, undefined values skipped); counts are summed."""
     runs = list(per_robot.values())
-    out = {s: {**{m: fmean(r[s][m] for r in runs) if runs else 0.0 for m in METRICS},
+
+    def mean(values: list) -> float | None:
+        defined = [v for v in values if v is not None]
+        return fmean(defined) if defined else None
+    out = {s: {**{m: mean([r[s][m] for r in runs]) for m in METRICS},
                **{c: sum(r[s][c] for r in runs) for c in COUNTS}} for s in SCOPES}
     out["failed"] = sum(bool(r.get("failed")) for r in runs)
     return out
@@ -294,6 +304,10 @@ _HEADERS = {
     "typed_precision": "typedP", "typed_recall": "typedR", "typed_f1": "TYPED_F1",
     "root_accuracy": "root", "subpart_accuracy": "subpart",
 }
+
+
+def _cell(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f}"
 
 
 def _table(rows: list[list[str]]) -> list[str]:
@@ -315,8 +329,8 @@ def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapp
     blocks = []
     for scope in SCOPES:
         rows = [[scope, *(_HEADERS[m] for m in METRICS)]]
-        rows += [[label[n], *(f"{per_robot[n][scope][m]:.3f}" for m in METRICS)] for n in names]
-        rows.append([label["mean"], *(f"{mean[scope][m]:.3f}" for m in METRICS)])
+        rows += [[label[n], *(_cell(per_robot[n][scope][m]) for m in METRICS)] for n in names]
+        rows.append([label["mean"], *(_cell(mean[scope][m]) for m in METRICS)])
         blocks.append("\n".join(_table(rows)))
     if extra_columns:
         cols = list(extra_columns)

@@ -238,3 +238,18 @@ def test_real_truth_files_name_urdf_leaves(shared, robot):
     for alt in truth.alternatives:
         replaced = set().union(*(c.leaves for c in truth.components if c.id in alt.replace))
         assert set().union(*(c.leaves for c in alt.with_)) == replaced, alt.replace
+
+
+def test_a_kind_the_robot_lacks_scores_one_unless_predicted(tmp_path):
+    path = tmp_path / "rover.yaml"  # a robot with sensors only, no subparts listed
+    path.write_text("robot: rover\nurdf: urdf/rover.urdf\nignore: []\ncomponents:\n"
+                    "  - {id: mics, kind: sensor, classes: [MicrophoneArray], roots: [base], leaves: [mic_fl, mic_fr, mic_bl, mic_br]}\n")
+    rover = load_truth(path)
+    quiet = score(rover, graph([ARRAY]), URDF_LEAVES)
+    assert quiet["end_effector"]["typed_f1"] == quiet["end_effector"]["component_f1"] == 1.0
+    assert quiet["end_effector"]["root_accuracy"] is None and quiet["all"]["subpart_accuracy"] is None
+    noisy = score(rover, graph([ARRAY, GRIPPER]), URDF_LEAVES)
+    assert noisy["end_effector"]["typed_precision"] == noisy["end_effector"]["typed_f1"] == 0.0
+    mean = mean_scores({"quiet": quiet, "noisy": noisy})
+    assert mean["end_effector"]["root_accuracy"] is None and mean["end_effector"]["typed_f1"] == 0.5
+    assert "-" in format_table({"quiet": quiet})
