@@ -22,8 +22,7 @@ MAX_CHAIN = 4  # ancestors shown as context for a link
 _PREAMBLE = (
     "You read the URDF of a robot: a tree of links (rigid bodies or coordinate frames) joined by joints. "
     "Link names are informal and abbreviated; the chain of parent links shows where a link sits. "
-    "Facts from the file may follow: a link's mesh file (often a product or part name), its shape, and a"
-    " sensor the file declares for simulation on it.\n"
+    "Facts from the file may follow: a link's mesh file (often a product or part name) and its shape.\n"
 )
 
 
@@ -60,29 +59,18 @@ def facts_text(lines: Sequence[str]) -> str:
     return "".join(f"\nFacts: {line}" for line in lines)
 
 
-# Identification answers that all mean NONE: naming what a non-component leaf is draws the model
-# away from "sensor" far better than one catch-all "none" (their shares are summed as NONE).
-NONE_ANSWERS = {
-    "light or display": "emitters: lights and LEDs, screens, loudspeakers, projectors.",
-    "motor or fastener": "actuators and hardware: motors, gears, screws, springs, transmissions.",
-    "cover or cable": "covers, shells, plates, brackets, cables and other cosmetic parts.",
-    NONE: "anything else, such as a purely virtual reference frame or a fiducial marker.",
-}
-
-
-def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str,
-                facts: Sequence[str] = ()) -> Choice:
-    """Which kind of component (or none) a leaf link is part of; see NONE_ANSWERS."""
+def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Choice:
+    """Which kind of component (or none) a leaf link is part of."""
     system = (
         _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(tax, kinds)
-        + "".join(f"\n- {answer}: part of no component: {text}" for answer, text in NONE_ANSWERS.items())
-        + "\nSensors and their frames are fixed to their parent; a leaf that moves on a revolute, continuous or"
-        " prismatic joint is a finger, a wheel or another moving part, not a sensor. A simulated contact sensor on"
-        " a finger or a body part only reports its collisions: the link is still that finger or part."
+        + f"\n- {NONE}: part of none of these: actuators and emitters (motors, lights, loudspeakers, displays,"
+        " projectors), fasteners, covers, cables, and purely virtual reference frames."
+        "\nSensors and their frames are fixed to their parent; a leaf that moves on a revolute, continuous or"
+        " prismatic joint is a finger, a wheel or another moving part, not a sensor."
         "\nReply with the kind only."
     )
-    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}" + facts_text(facts)
-    return _class_choice(system, user, tax, kinds, f"identify:{link}", dict.fromkeys(NONE_ANSWERS, NONE))
+    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}"
+    return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 
 _MOUNTS = {

@@ -14,7 +14,7 @@ from pipeline.llm.base import Question
 from pipeline.llm.scripted import ScriptedBackend
 from pipeline.ontology import taxonomy
 from pipeline.oracle import Oracle
-from pipeline.prompts import NONE, NONE_ANSWERS
+from pipeline.prompts import NONE
 from pipeline.stages.attachment import SubChain, mount_candidates
 from pipeline.stages.classification import Subject, descend
 from pipeline.stages.grouping import Group, merge, name_prefixes
@@ -146,16 +146,7 @@ def test_identification_offers_the_component_kinds_and_none(toy):
         seen[q.key] = q.options
         return perfect(q)
     Abstractor(Oracle(ScriptedBackend(spy)), TAX).run(toy)
-    assert seen["identify:front_scanner"] == ("sensor", "end effector", "body part", *NONE_ANSWERS)
-
-
-def test_answers_meaning_none_are_summed_before_the_kind_is_chosen(toy):
-    def split(q):  # "sensor" is the single likeliest answer, but the none answers together outweigh it
-        if q.key == "identify:claw_status_light":
-            return {"sensor": 0.4, "light or display": 0.3, "motor or fastener": 0.2, NONE: 0.1}
-        return perfect(q)
-    found = Abstractor(Oracle(ScriptedBackend(split)), TAX).run(toy)
-    assert not any(sc.link == "claw_status_light" for c in found if c.kind == "sensor" for sc in c.subcomponents)
+    assert seen["identify:front_scanner"] == ("sensor", "end effector", "body part", NONE)
 
 
 def test_mount_candidates_stop_at_the_first_link_carrying_another_kind(toy):
