@@ -11,6 +11,7 @@ from typing import Mapping, TextIO
 from . import cache
 from .abstraction import Abstractor
 from .components import Abstraction
+from .errors import URDFError
 from .llm.base import Backend
 from .ontology import core_version, taxonomy
 from .oracle import Oracle
@@ -104,6 +105,9 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only"})
+    if len(tree.links) == 1:
+        raise URDFError(f"robot {tree.robot_name!r} has a single link, {tree.root!r}: no device to abstract "
+                        "(--structure-only writes its structure)", f"link '{tree.root}'")
     settings_key = {k: v for k, v in dataclasses.asdict(settings).items() if k != "use_cache"}
     digest = cache.key(tree_digest(tree), _backend_id(settings, backend), core_version(), settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:

@@ -86,3 +86,11 @@ def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):
     again = ScriptedBackend(perfect)
     run(tree, Settings(), backend=again)
     assert again.stats.calls > 0
+
+
+def test_a_single_link_robot_is_a_clear_error_not_a_crash():
+    from pipeline.errors import URDFError
+    tree = load_urdf(b'<robot name="lonely"><link name="only"/></robot>')
+    with pytest.raises(URDFError, match="single link, 'only'"):
+        run(tree, Settings(use_cache=False), backend=ScriptedBackend(lambda q: q.options[0]))
+    assert run(tree, Settings(structure_only=True)).components == ()
