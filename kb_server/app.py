@@ -77,7 +77,14 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except WorkerCrashed as e:
             return error(500, str(e), True)
 
-    app.register_blueprint(ui.blueprint(store, jobs, lambda: not token or authorized()))
+    app.register_blueprint(ui.blueprint(store, jobs, lambda: not token or authorized(), error))
+
+    @app.errorhandler(QueueFull)
+    def queue_full(e: QueueFull):
+        """Any route that submits a job: 429 with Retry-After while the queue is full."""
+        resp = error(429, str(e))
+        resp.headers["Retry-After"] = str(e.retry_after)
+        return resp
 
     @app.errorhandler(HTTPException)
     def http_error(e: HTTPException):
@@ -184,16 +191,7 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             name = check_robot_name(name or tree.robot_name)
         except RobotNameError as e:
             return error(400, f"{e}: pass ?name=...")
-        try:
-            job = jobs.submit(tree, name, settings)
-        except QueueFull as e:
-            resp = error(429, str(e))
-            resp.headers["Retry-After"] = str(e.retry_after)
-            return resp
-        resp = jsonify(job.to_dict())
-        resp.status_code = 202
-        resp.headers["Location"] = f"/jobs/{job.id}"
-        return resp
+        return ui.accepted(jobs.submit(tree, name, settings))
 
     @app.get("/jobs/<job_id>")
     def job_status(job_id: str):

@@ -13,7 +13,7 @@ from flask import Blueprint, Response, jsonify, render_template, request
 
 from kb_server import corrections as review
 from kb_server import queries, tree_svg
-from kb_server.jobs import JobManager, QueueFull
+from kb_server.jobs import JobManager
 from kb_server.store import Store
 from pipeline.ontology import taxonomy
 from pipeline.population import escape
@@ -29,9 +29,10 @@ def wants_html() -> bool:
     return "text/html" in accept.values() and accept.best_match((*JSON_TYPES, "text/html")) == "text/html"
 
 
-def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> Blueprint:
+def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool],
+              error: Callable[[int, str], Response]) -> Blueprint:
     """The index page, the corrections routes and re-populating a stored robot; `may_write()` says
-    whether this request may correct or populate."""
+    whether this request may correct or populate, `error(status, message)` builds the app's refusals."""
     bp = Blueprint("ui", __name__)
 
     @bp.get("/")
@@ -49,7 +50,7 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> 
     def list_corrections(name: str):
         source = store.source(name)
         if source is None:
-            return _error(404, f"no robot {name!r}" if store.robot(name) is None else
+            return error(404, f"no robot {name!r}" if store.robot(name) is None else
                           f"robot {name!r} was stored before corrections existed: populate it again")
         _, report = review.apply(*source, store.corrections(name))
         return jsonify(report.to_dict())
@@ -57,17 +58,17 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> 
     @bp.post("/robots/<name>/corrections")
     def add_correction(name: str):
         if not may_write():
-            return _error(403, "corrections need the server's token (Authorization: Bearer ...)")
+            return error(403, "corrections need the server's token (Authorization: Bearer ...)")
         data = request.get_json(silent=True)
         if not isinstance(data, dict):
-            return _error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?}")
+            return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?}")
         try:
             correction = review.Correction.new(data, data.get("reviewer"))
             entry = store.add_correction(name, correction)
         except review.CorrectionError as e:
-            return _error(400, str(e))
+            return error(400, str(e))
         except LookupError as e:
-            return _error(404 if store.robot(name) is None else 409, e.args[0])
+            return error(404 if store.robot(name) is None else 409, e.args[0])
         resp = jsonify({"correction": correction.to_dict(), "corrections": entry.corrections})
         resp.status_code = 201
         return resp
@@ -76,28 +77,21 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool]) -> 
     def repopulate(name: str):
         """Populate a stored robot again from its stored URDF tree (same mode as last time)."""
         if not may_write():
-            return _error(403, "populating needs the server's token (Authorization: Bearer ...)")
+            return error(403, "populating needs the server's token (Authorization: Bearer ...)")
         source = store.source(name)
         if source is None:
-            return _error(404, f"no stored URDF for robot {name!r}")
+            return error(404, f"no stored URDF for robot {name!r}")
         tree, model = source
-        try:
-            job = jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only"))
-        except QueueFull as e:
-            resp = _error(429, str(e))
-            resp.headers["Retry-After"] = str(e.retry_after)
-            return resp
-        resp = jsonify(job.to_dict())
-        resp.status_code = 202
-        resp.headers["Location"] = f"/jobs/{job.id}"
-        return resp
+        return accepted(jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only")))
 
     return bp
 
 
-def _error(status: int, message: str) -> Response:
-    resp = jsonify(error=message)
-    resp.status_code = status
+def accepted(job) -> Response:
+    """202 for a queued populate job, pointing at its status (a full queue raises QueueFull: 429 in the app)."""
+    resp = jsonify(job.to_dict())
+    resp.status_code = 202
+    resp.headers["Location"] = f"/jobs/{job.id}"
     return resp
 
 
