@@ -22,7 +22,8 @@ from datetime import datetime, timezone
 import rdflib
 from rdflib.namespace import RDF, RDFS, XSD
 
-from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
+from pipeline.abstraction import PASSES
+from pipeline.components import Abstraction, Component, SubComponent
 from pipeline.errors import UrdfkbError
 from pipeline.ontology import CORE_IRI, taxonomy
 from pipeline.population import ROBOT_BASE, escape
@@ -32,7 +33,7 @@ PROV = rdflib.Namespace("http://www.w3.org/ns/prov#")
 REVIEW = rdflib.Namespace("https://w3id.org/urdfkb/review#")
 CORE = rdflib.Namespace(CORE_IRI)
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
-KIND_ROOTS = {SENSOR: "Sensor", END_EFFECTOR: "EndEffector"}
+KIND_ROOTS = {kind: cls for kind, (cls, _branch, _label) in PASSES.items()}  # kind → its class under Component
 MAX_REVIEWER = 100
 
 

@@ -219,9 +219,7 @@ class Store:
         onto = self.world.ontologies.get(review.corrections_iri(name))
         if onto is None:
             return []
-        buf = io.BytesIO()
-        onto.save(buf, format="ntriples")
-        return review.from_graph(rdflib.Graph().parse(data=buf.getvalue(), format="nt"))
+        return review.from_graph(rdflib.Graph().parse(data=_ntriples(onto), format="nt"))
 
     def _write_corrections(self, name: str, items: list[review.Correction]) -> None:
         iri = review.corrections_iri(name)

@@ -93,7 +93,7 @@ class Abstractor:
         key = f"pre:{chain.leaf}"
         ruled_out = self._ruled_out(tree, chain.links, cls, key)
         between = f"\nBetween it and its mount: {', '.join(chain.links[:-1])}" if len(chain.links) > 1 else ""
-        facts = describe(tree.evidence, reversed(chain.links), sensors=False)[:MAX_FACTS]
+        facts = describe(tree.evidence, reversed(chain.links))[:MAX_FACTS]
         return Subject(key, "The link below belongs to a {concept}.", f"Link: {chain.leaf}{between}" + facts_text(facts),
                        ruled_out)
 
@@ -226,14 +226,14 @@ class Abstractor:
         structural = self._structural_parts(tree, groups, structures)
         rest = [
             (link, Subject(f"part:{link}", framing,
-                           f"Link: {link}\nDevice: {self.tax.label(t.cls)}" + facts_text(describe(tree.evidence, [link], sensors=False)),
+                           f"Link: {link}\nDevice: {self.tax.label(t.cls)}" + facts_text(describe(tree.evidence, [link])),
                            self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())
                            | structural.get(link, frozenset())))
             for g, t in zip(groups, post) for link in g.members if link not in optical
         ]
         frames = [
             (link, Subject(f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
-                           f"Link: {link}\nCamera: {self.tax.label(camera)}" + facts_text(describe(tree.evidence, [link], sensors=False)),
+                           f"Link: {link}\nCamera: {self.tax.label(camera)}" + facts_text(describe(tree.evidence, [link])),
                            self.tax.excluded_parts(camera)))
             for link, (camera, _share) in optical.items()
         ]

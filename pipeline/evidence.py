@@ -27,11 +27,6 @@ class SimSensor:
     plugins: tuple[str, ...] = ()
     detail: str = ""
 
-    def text(self) -> str:
-        extra = [self.detail] if self.detail else []
-        extra += [f"plugin {p}" for p in self.plugins]
-        return f"simulated {self.type} sensor" + (f" ({', '.join(extra)})" if extra else "")
-
 
 @dataclass(frozen=True)
 class LinkEvidence:
@@ -53,15 +48,14 @@ class LinkEvidence:
         """No geometry at all: a coordinate frame rather than a body."""
         return not self.meshes and not self.shape
 
-    def text(self, sensors: bool = True) -> str:
-        """The facts in a few words, or '' when the link has none worth saying; `sensors=False` leaves
-        out the declared simulator sensors."""
+    def text(self) -> str:
+        """The link's geometry in a few words, or '' when it has none worth saying. Declared simulator
+        sensors are not rendered: they narrow the classes offered (abstraction._ruled_out) instead."""
         parts = [f"mesh {', '.join(self.meshes)}"] if self.meshes else []
         if self.shape:
             parts.append(self.shape)
         if self.is_pure_frame:
             parts.append("no geometry" + (", massless" if not self.mass else ""))
-        parts += [s.text() for s in self.sensors] if sensors else []
         return "; ".join(parts)
 
 
@@ -78,11 +72,11 @@ def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
     return found
 
 
-def describe(evidence: Mapping[str, LinkEvidence], links: Iterable[str], sensors: bool = True) -> list[str]:
+def describe(evidence: Mapping[str, LinkEvidence], links: Iterable[str]) -> list[str]:
     """'link: facts' lines for those of `links` that have facts, in the given order."""
     lines = []
     for link in links:
-        text = evidence[link].text(sensors) if link in evidence else ""
+        text = evidence[link].text() if link in evidence else ""
         if text:
             lines.append(f"{link}: {text}")
     return lines

@@ -244,10 +244,6 @@ class KinematicTree:
         """
         return self._express(link, ancestor, point, _to_parent)
 
-    def direction_in(self, link: str, ancestor: str, vector: Vector) -> Vector:
-        """A direction given in `link`'s frame (a joint axis), expressed in `ancestor`'s frame (joints at zero)."""
-        return self._express(link, ancestor, vector, lambda origin, v: rotate_rpy(origin.rpy, v))
-
     def _express(self, link: str, ancestor: str, value: Vector, step) -> Vector:
         self._known(ancestor)
         current = self._known(link)
