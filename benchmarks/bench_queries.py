@@ -28,10 +28,10 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
 from kb_fixtures import PR2, free_port  # noqa: E402
-from kb_server.queries import load_queries  # noqa: E402
-from kb_server.store import Store  # noqa: E402
-from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent  # noqa: E402
-from pipeline.ingest import load_urdf  # noqa: E402
+from urdfkb.kb_server.queries import load_queries  # noqa: E402
+from urdfkb.kb_server.store import Store  # noqa: E402
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent  # noqa: E402
+from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "urdf"
 QUERIES = {"cameras": {}, "sensors": {}, "mounted_below": {"link": "base_link"}, "end_effectors": {},

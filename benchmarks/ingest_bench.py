@@ -8,7 +8,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from pipeline.ingest import load_urdf  # noqa: E402
+from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
 
 
 def median_ms(path: Path, runs: int) -> float:

@@ -26,8 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from pipeline.cache import cache_root
-from pipeline.llm.prefix_store import SUBDIR, SUFFIX
+from urdfkb.pipeline.cache import cache_root
+from urdfkb.pipeline.llm.prefix_store import SUBDIR, SUFFIX
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("URDFKB_SHARED", REPO.parent / "shared"))

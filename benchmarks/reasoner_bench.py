@@ -15,10 +15,10 @@ import owlready2
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from pipeline.ingest import load_urdf  # noqa: E402
-from pipeline.ontology import load_core  # noqa: E402
-from pipeline.reasoning import classify  # noqa: E402
-from pipeline.structure import tool_structure  # noqa: E402
+from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
+from urdfkb.pipeline.ontology import load_core  # noqa: E402
+from urdfkb.pipeline.reasoning import classify  # noqa: E402
+from urdfkb.pipeline.structure import tool_structure  # noqa: E402
 
 RACK = REPO / "tests" / "data" / "tool_rack.urdf"
 TOOLS = (["vise_jaw_port", "vise_jaw_starboard", "vise_grip_point"],

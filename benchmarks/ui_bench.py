@@ -19,9 +19,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(REPO), str(REPO / "tests")]
 
 from kb_fixtures import PR2, make_app  # noqa: E402
-from kb_server.corrections import Correction  # noqa: E402
-from kb_server.store import Store  # noqa: E402
-from pipeline.ingest import load_urdf  # noqa: E402
+from urdfkb.kb_server.corrections import Correction  # noqa: E402
+from urdfkb.kb_server.store import Store  # noqa: E402
+from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "urdf"
 HTML = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}

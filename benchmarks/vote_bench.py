@@ -10,8 +10,8 @@ import argparse
 import os
 from pathlib import Path
 
-from pipeline.runner import Settings
-from pipeline.truth_run import run_truth_robot
+from urdfkb.pipeline.runner import Settings
+from urdfkb.pipeline.truth_run import run_truth_robot
 
 SHARED = Path(os.environ.get("URDFKB_SHARED", Path(__file__).resolve().parents[2] / "shared"))
 

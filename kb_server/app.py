@@ -16,16 +16,16 @@ from flask import Flask, Response, jsonify, request
 from rdflib.namespace import RDF
 from werkzeug.exceptions import HTTPException
 
-from kb_server import queries, ui
-from kb_server.index import WorkerCrashed
-from kb_server.jobs import JobManager, QueueFull
-from kb_server.security import Policy, Refused
-from kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
-from kb_server.store import EXPORT_FORMATS, ReadOnlyGraph, RobotNameError, Store, check_robot_name
-from pipeline.errors import URDFError
-from pipeline.ingest import DEFAULT_MAX_LINKS
-from pipeline.runner import Settings
-from pipeline.xacro_input import XacroError, load_description, parse_args
+from urdfkb.kb_server import queries, ui
+from urdfkb.kb_server.index import WorkerCrashed
+from urdfkb.kb_server.jobs import JobManager, QueueFull
+from urdfkb.kb_server.security import Policy, Refused
+from urdfkb.kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
+from urdfkb.kb_server.store import EXPORT_FORMATS, ReadOnlyGraph, RobotNameError, Store, check_robot_name
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
+from urdfkb.pipeline.runner import Settings
+from urdfkb.pipeline.xacro_input import XacroError, load_description, parse_args
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")

@@ -9,7 +9,8 @@ import sys
 import time
 from pathlib import Path
 
-from pipeline.errors import UrdfkbError
+from urdfkb import __version__
+from urdfkb.pipeline.errors import UrdfkbError
 
 DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
 
@@ -53,7 +54,7 @@ def _add_xacro_options(p: argparse.ArgumentParser) -> None:
 
 
 def _settings(args: argparse.Namespace, structure_only: bool = False):
-    from pipeline.runner import Settings
+    from urdfkb.pipeline.runner import Settings
     settings = Settings(structure_only=structure_only, model=args.model, llm_url=args.llm_url,
                         llm_model=args.llm_model, vote=args.vote, votes=args.votes, use_cache=not args.no_cache)
     try:
@@ -71,8 +72,8 @@ def _limits(args: argparse.Namespace) -> dict:
 def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, limits: dict,
               xacro_args: list[str] = (), package_paths: list[str] = ()):
     """Ingest (expanding xacro) and abstract one robot; returns (tree, robot name, abstraction, seconds)."""
-    from pipeline.runner import run
-    from pipeline.xacro_input import load_description, parse_args, parse_package_paths
+    from urdfkb.pipeline.runner import run
+    from urdfkb.pipeline.xacro_input import load_description, parse_args, parse_package_paths
     tree = load_description(urdf, args=parse_args(xacro_args), packages=parse_package_paths(package_paths), **limits)
     bars = StageBars(quiet)
     started = time.monotonic()
@@ -86,13 +87,13 @@ def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: st
 
 def _robot_ontology(tree, name: str, abstraction):
     import owlready2
-    from pipeline.population import build_robot
+    from urdfkb.pipeline.population import build_robot
     return build_robot(owlready2.World(), tree, name, abstraction)
 
 
 def cmd_populate(args: argparse.Namespace) -> int:
-    from pipeline.export import export_robot, robot_graph
-    from pipeline.shacl import validate
+    from urdfkb.pipeline.export import export_robot, robot_graph
+    from urdfkb.pipeline.shacl import validate
     settings = _settings(args, args.structure_only)
     tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, _limits(args),
                                                  args.xacro_arg, args.package_path)
@@ -111,7 +112,7 @@ def cmd_populate(args: argparse.Namespace) -> int:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     import rdflib
-    from pipeline.shacl import validate
+    from urdfkb.pipeline.shacl import validate
     try:
         graph = rdflib.Graph().parse(args.file)
     except Exception as exc:  # rdflib raises many parser-specific types
@@ -122,8 +123,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from pipeline import evaluation
-    from pipeline.truth_run import run_truth_robot
+    from urdfkb.pipeline import evaluation
+    from urdfkb.pipeline.truth_run import run_truth_robot
     truth_dir = Path(args.truth_dir)
     files = sorted(truth_dir.glob("*.yaml"))
     if not files:
@@ -161,13 +162,13 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_model(args: argparse.Namespace) -> int:
-    from pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
+    from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
     print(ensure_model(TEST_MODEL if args.test else DEFAULT_MODEL, progress=not args.quiet))
     return 0
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from kb_server.serve import serve
+    from urdfkb.kb_server.serve import serve
     serve(store_path=args.store, host=args.host, port=args.port, token=args.token or os.environ.get("URDFKB_TOKEN"),
           remote_store=args.remote_store, populate=args.populate, allowed_hosts=args.allowed_host,
           model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
@@ -176,7 +177,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def cmd_query(args: argparse.Namespace) -> int:
-    from kb_server.queries import run_named_query
+    from urdfkb.kb_server.queries import run_named_query
     params = dict(p.split("=", 1) for p in args.param)
     print(run_named_query(args.name, robot=args.robot, params=params, store_path=args.store, fmt=args.format))
     return 0
@@ -184,6 +185,7 @@ def cmd_query(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="urdfkb", description="Turn a robot's URDF into a populated, queryable OWL ontology of its sensors and end-effectors.")
+    parser.add_argument("--version", action="version", version=f"urdfkb {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("populate", help="abstract a URDF and write the populated ontology to a file",

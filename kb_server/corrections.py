@@ -22,12 +22,12 @@ from datetime import datetime, timezone
 import rdflib
 from rdflib.namespace import RDF, RDFS, XSD
 
-from pipeline.abstraction import PASSES
-from pipeline.components import Abstraction, Component, SubComponent
-from pipeline.errors import UrdfkbError
-from pipeline.ontology import CORE_IRI, taxonomy
-from pipeline.population import ROBOT_BASE, escape
-from pipeline.tree import KinematicTree
+from urdfkb.pipeline.abstraction import PASSES
+from urdfkb.pipeline.components import Abstraction, Component, SubComponent
+from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.ontology import CORE_IRI, taxonomy
+from urdfkb.pipeline.population import ROBOT_BASE, escape
+from urdfkb.pipeline.tree import KinematicTree
 
 PROV = rdflib.Namespace("http://www.w3.org/ns/prov#")
 REVIEW = rdflib.Namespace("https://w3id.org/urdfkb/review#")

@@ -25,9 +25,9 @@ from multiprocessing.connection import wait
 
 import pyoxigraph as ox
 
-from kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
+from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
                               run_update)
-from pipeline.errors import UrdfkbError
+from urdfkb.pipeline.errors import UrdfkbError
 
 Changes = dict[str, tuple[bytes | None, bytes | None]]
 

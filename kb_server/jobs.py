@@ -18,12 +18,12 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable
 
-from kb_server.remote import RemoteError, RemoteStore
-from kb_server.store import Store
-from pipeline.components import Abstraction
-from pipeline.errors import UrdfkbError
-from pipeline.runner import Progress, Settings, run
-from pipeline.tree import KinematicTree
+from urdfkb.kb_server.remote import RemoteError, RemoteStore
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.runner import Progress, Settings, run
+from urdfkb.pipeline.tree import KinematicTree
 
 log = logging.getLogger(__name__)
 

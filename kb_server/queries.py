@@ -22,9 +22,9 @@ from functools import cache
 from rdflib import Literal, URIRef
 from rdflib.namespace import XSD
 
-from kb_server.sparql import Result
-from kb_server.store import Store
-from pipeline.errors import UrdfkbError
+from urdfkb.kb_server.sparql import Result
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.errors import UrdfkbError
 
 _PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(.*))?$")
 _VAR = re.compile(r"\$(\w+)")
@@ -111,7 +111,7 @@ def _parse(name: str, text: str) -> NamedQuery:
 @cache
 def load_queries() -> dict[str, NamedQuery]:
     """All packaged queries by name (file stem)."""
-    root = importlib.resources.files("queries")
+    root = importlib.resources.files("urdfkb.queries")
     return {f.name[:-3]: _parse(f.name[:-3], f.read_text(encoding="utf-8"))
             for f in sorted(root.iterdir(), key=lambda f: f.name) if f.name.endswith(".rq")}
 

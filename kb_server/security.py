@@ -22,8 +22,8 @@ from pathlib import Path
 
 from flask import Flask, Response, request
 
-from pipeline.errors import UrdfkbError
-from pipeline.runner import Settings
+from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.runner import Settings
 
 log = logging.getLogger(__name__)
 

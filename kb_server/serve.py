@@ -8,14 +8,14 @@ from pathlib import Path
 from waitress import create_server
 from waitress.server import BaseWSGIServer
 
-from kb_server.app import create_app
-from kb_server.jobs import JobManager, Runner, pipeline_runner
-from kb_server.remote import RemoteStore
-from kb_server.security import Policy, check_bind
-from kb_server.store import Store, check_robot_name
-from pipeline.ingest import DEFAULT_MAX_LINKS
-from pipeline.runner import Settings
-from pipeline.xacro_input import load_description, parse_package_paths
+from urdfkb.kb_server.app import create_app
+from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
+from urdfkb.kb_server.remote import RemoteStore
+from urdfkb.kb_server.security import Policy, check_bind
+from urdfkb.kb_server.store import Store, check_robot_name
+from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
+from urdfkb.pipeline.runner import Settings
+from urdfkb.pipeline.xacro_input import load_description, parse_package_paths
 
 log = logging.getLogger(__name__)
 

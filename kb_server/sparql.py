@@ -18,7 +18,7 @@ from urllib.parse import urljoin
 
 import pyoxigraph as ox
 
-from pipeline.errors import UrdfkbError
+from urdfkb.pipeline.errors import UrdfkbError
 
 CORE_GRAPH = "https://w3id.org/urdfkb/core#"
 MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack

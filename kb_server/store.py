@@ -26,15 +26,15 @@ import owlready2
 import rdflib
 from platformdirs import user_data_dir
 
-from kb_server import corrections as review
-from kb_server.index import Index
-from kb_server.sparql import CORE_GRAPH, Result, scan
-from pipeline.components import Abstraction
-from pipeline.errors import UrdfkbError
-from pipeline.export import export_robot, robot_graph
-from pipeline.ontology import CORE_IRI, load_core
-from pipeline.population import build_robot
-from pipeline.tree import KinematicTree
+from urdfkb.kb_server import corrections as review
+from urdfkb.kb_server.index import Index
+from urdfkb.kb_server.sparql import CORE_GRAPH, Result, scan
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.export import export_robot, robot_graph
+from urdfkb.pipeline.ontology import CORE_IRI, load_core
+from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.tree import KinematicTree
 
 EXPORT_FORMATS = {"owl": ("rdfxml", "application/rdf+xml"), "ttl": ("turtle", "text/turtle"),
                   "nt": ("ntriples", "application/n-triples")}

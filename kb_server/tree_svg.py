@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from html import escape
 
-from pipeline.tree import KinematicTree
+from urdfkb.pipeline.tree import KinematicTree
 
 ROW = 22           # px between leaf rows
 CHAR = 6.6         # px per character of a 11px monospace label

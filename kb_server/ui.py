@@ -11,14 +11,14 @@ from typing import Callable
 
 from flask import Blueprint, Response, jsonify, render_template, request
 
-from kb_server import corrections as review
-from kb_server import queries, tree_svg
-from kb_server.jobs import JobManager
-from kb_server.store import Store
-from pipeline.ontology import taxonomy
-from pipeline.population import escape
-from pipeline.runner import Settings
-from pipeline.tree import KinematicTree
+from urdfkb.kb_server import corrections as review
+from urdfkb.kb_server import queries, tree_svg
+from urdfkb.kb_server.jobs import JobManager
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.population import escape
+from urdfkb.pipeline.runner import Settings
+from urdfkb.pipeline.tree import KinematicTree
 
 JSON_TYPES = ("application/json", "application/sparql-results+json")
 
@@ -139,7 +139,7 @@ def robot_page(store: Store, name: str) -> Response | str:
 
 def _tree_from_store(store: Store, name: str) -> KinematicTree:
     """The tree of a robot stored before its source was kept, read back from its graph."""
-    from pipeline.tree import Edge, Origin
+    from urdfkb.pipeline.tree import Edge, Origin
     entry = store.robot(name)
     iri = f"<{entry.robot_iri}>"
     links = store.query(f"PREFIX core: <https://w3id.org/urdfkb/core#> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "

@@ -29,7 +29,7 @@ import rdflib
 import yaml
 from rdflib import RDF, RDFS, URIRef
 
-from pipeline.components import END_EFFECTOR, KINDS, SENSOR
+from urdfkb.pipeline.components import END_EFFECTOR, KINDS, SENSOR
 
 CORE = rdflib.Namespace("https://w3id.org/urdfkb/core#")
 ALL = "all"

@@ -11,8 +11,8 @@ import owlready2
 import rdflib
 from rdflib.namespace import OWL
 
-from pipeline.errors import OntologyError
-from pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, core_path
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, core_path
 
 FORMATS = ("rdfxml", "turtle", "ntriples")
 _RDFLIB_FORMATS = {"rdfxml": "xml", "turtle": "turtle", "ntriples": "nt"}

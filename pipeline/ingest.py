@@ -19,9 +19,9 @@ import defusedxml.ElementTree as DET
 import yourdfpy
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
-from pipeline import evidence
-from pipeline.errors import URDFError
-from pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
+from urdfkb.pipeline import evidence
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
 
 DEFAULT_MAX_BYTES = 10_000_000
 DEFAULT_MAX_LINKS = 5_000  # the largest real robots have a few hundred links

@@ -16,7 +16,7 @@ import owlready2
 import rdflib
 from rdflib.namespace import OWL, RDF, RDFS, SKOS
 
-from pipeline.errors import OntologyError
+from urdfkb.pipeline.errors import OntologyError
 
 CORE_IRI = "https://w3id.org/urdfkb/core#"
 CORE_ONTOLOGY_IRI = CORE_IRI[:-1]
@@ -26,7 +26,7 @@ _SIM_TYPE = rdflib.URIRef(CORE_IRI + "simulatorSensorType")
 
 def core_path() -> pathlib.Path:
     """Path of the packaged core ontology (RDF/XML)."""
-    return pathlib.Path(str(importlib.resources.files("ontologies").joinpath("urdfkb.owl")))
+    return pathlib.Path(str(importlib.resources.files("urdfkb.ontologies").joinpath("urdfkb.owl")))
 
 
 @functools.cache

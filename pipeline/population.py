@@ -11,9 +11,9 @@ import string
 
 import owlready2
 
-from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component
-from pipeline.errors import OntologyError
-from pipeline.ontology import CORE_IRI, core_version, load_core, taxonomy
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.ontology import CORE_IRI, core_version, load_core, taxonomy
 
 ROBOT_BASE = "https://w3id.org/urdfkb/robot/"
 _SAFE = frozenset((string.ascii_letters + string.digits + "-_~").encode())

@@ -11,12 +11,12 @@ import importlib.resources
 import pyshacl
 import rdflib
 
-from pipeline.ontology import core_path
+from urdfkb.pipeline.ontology import core_path
 
 
 @functools.cache
 def _shapes() -> rdflib.Graph:
-    return rdflib.Graph().parse(str(importlib.resources.files("ontologies").joinpath("shapes.ttl")), format="turtle")
+    return rdflib.Graph().parse(str(importlib.resources.files("urdfkb.ontologies").joinpath("shapes.ttl")), format="turtle")
 
 
 @functools.cache

@@ -16,9 +16,9 @@ import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from pipeline.errors import URDFError
-from pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
-from pipeline.tree import KinematicTree
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
+from urdfkb.pipeline.tree import KinematicTree
 
 WORKER = Path(__file__).with_name("xacro_worker.py")
 TIMEOUT = 20.0          # seconds of wall time for one expansion

@@ -7,7 +7,7 @@ from contextlib import contextmanager
 
 from waitress import create_server
 
-from pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
 
 
 def _comp(name, kind, cls, conf, root, *subs):
@@ -88,8 +88,8 @@ def fake_runner(abstractions: dict | None = None, delay: float = 0.0, fail: Exce
 
 def make_app(store, runner=None, token=None, remote=None, **kw):
     """The server app over `store` with a fake runner (PR2 gets its hand-written abstraction)."""
-    from kb_server.app import create_app
-    from kb_server.jobs import JobManager
+    from urdfkb.kb_server.app import create_app
+    from urdfkb.kb_server.jobs import JobManager
 
     jobs = JobManager(store, runner or fake_runner({"pr2": PR2}), remote)
     return create_app(store, jobs, token=token, **kw), jobs

@@ -3,8 +3,8 @@ import math
 
 import pytest
 
-from pipeline.llm.base import Question
-from pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
 
 OPTS = ("sensor", "gripper", "wheel")
 
@@ -39,9 +39,9 @@ import threading  # noqa: E402
 import time  # noqa: E402
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer  # noqa: E402
 
-from pipeline.errors import BackendError  # noqa: E402
-from pipeline.llm.http import OpenAIBackend  # noqa: E402
-from pipeline.oracle import Oracle  # noqa: E402
+from urdfkb.pipeline.errors import BackendError  # noqa: E402
+from urdfkb.pipeline.llm.http import OpenAIBackend  # noqa: E402
+from urdfkb.pipeline.oracle import Oracle  # noqa: E402
 
 
 def fake_server(behaviour):

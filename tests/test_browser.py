@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.llm.scripted import ScriptedBackend
-from pipeline.runner import run
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.runner import run
 
 CHROMIUM = next((p for p in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if p), None)
 DRIVER = shutil.which("chromedriver")
@@ -35,7 +35,7 @@ def scripted_runner(tree, settings, progress):
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    from kb_server.serve import make_server
+    from urdfkb.kb_server.serve import make_server
     server, store, jobs = make_server(tmp_path_factory.mktemp("kb") / "kb.sqlite3", port=0, runner=scripted_runner)
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()

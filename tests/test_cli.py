@@ -1,17 +1,20 @@
 """The urdfkb command end to end (model-free paths; the model path is in test_llama_integration)."""
 from __future__ import annotations
 
+import importlib.metadata
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import owlready2
 import pytest
 import rdflib
 
-from kb_server.cli import main
+from urdfkb.kb_server.cli import main
 
-TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
+REPO = Path(__file__).resolve().parents[1]
+TOY = REPO / "tests" / "data" / "toy_robot.urdf"
 CORE = "https://w3id.org/urdfkb/core#"
 
 
@@ -84,10 +87,10 @@ def test_validate_refuses_a_non_rdf_file(tmp_path, capsys):
 
 
 def test_console_script_help_lists_every_command():
-    out = subprocess.run([sys.executable, "-m", "kb_server.cli", "--help"], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run([sys.executable, "-m", "urdfkb", "--help"], capture_output=True, text=True, check=True).stdout
     for command in ("populate", "validate", "eval", "model", "serve", "query"):
         assert command in out
-    sub = subprocess.run([sys.executable, "-m", "kb_server.cli", "populate", "--help"], capture_output=True, text=True, check=True).stdout
+    sub = subprocess.run([sys.executable, "-m", "urdfkb", "populate", "--help"], capture_output=True, text=True, check=True).stdout
     for option in ("--structure-only", "--format", "--trace", "--vote", "--votes", "--model", "--llm-url", "--quiet"):
         assert option in sub
 
@@ -105,3 +108,24 @@ def test_a_failing_model_backend_is_a_clear_error_and_writes_nothing(tmp_path, c
     err = capsys.readouterr().err
     assert err.startswith("urdfkb: error:") and f"127.0.0.1:{port}" in err
     assert out.read_text() == "earlier result"
+
+
+def test_version_is_the_package_version():
+    import urdfkb
+    out = subprocess.run([sys.executable, "-m", "urdfkb", "--version"], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == f"urdfkb {urdfkb.__version__}"
+    assert importlib.metadata.version("urdfkb") == urdfkb.__version__
+
+
+def test_the_wheel_installs_one_top_level_package(tmp_path):
+    """`pip install .` must put only `urdfkb` into site-packages, with the data files it reads."""
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],
+                   check=True, capture_output=True)
+    (wheel,) = tmp_path.glob("urdfkb-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    top = {name.split("/")[0] for name in names if not name.split("/")[0].endswith(".dist-info")}
+    assert top == {"urdfkb"}
+    for needed in ("urdfkb/ontologies/urdfkb.owl", "urdfkb/ontologies/shapes.ttl", "urdfkb/queries/cameras.rq",
+                   "urdfkb/kb_server/samples/turtlebot3_waffle_pi.urdf", "urdfkb/kb_server/templates/robot.html",
+                   "urdfkb/pipeline/stages/identification.py", "urdfkb/__main__.py"):
+        assert needed in names

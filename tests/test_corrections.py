@@ -9,11 +9,11 @@ import pytest
 import rdflib
 
 from kb_fixtures import PR2, http, live, make_app
-from kb_server import queries
-from kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
-from kb_server.store import Store
-from pipeline.components import Abstraction
-from pipeline.ingest import load_urdf
+from urdfkb.kb_server import queries
+from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.ingest import load_urdf
 
 TOKEN = "s3cret"
 
@@ -187,7 +187,7 @@ def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_tree)
 
 
 def test_sparql_update_cannot_rewrite_a_corrections_graph(store):
-    from kb_server.store import ReadOnlyGraph
+    from urdfkb.kb_server.store import ReadOnlyGraph
     correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])
     with pytest.raises(ReadOnlyGraph, match="corrections"):
         store.update(f"INSERT DATA {{ GRAPH <{corrections_iri('pr2')}> {{ <urn:a> <urn:b> <urn:c> }} }}")

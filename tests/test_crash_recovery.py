@@ -23,9 +23,9 @@ REPO = Path(__file__).resolve().parents[1]
 SERVER = """
 import os, sys, time
 sys.path[:0] = [{repo!r}, {tests!r}]
-import kb_server.store as store_mod
+import urdfkb.kb_server.store as store_mod
 from kb_fixtures import PR2, fake_runner
-from kb_server.serve import make_server
+from urdfkb.kb_server.serve import make_server
 
 real_build, hang_on, marker = store_mod.build_robot, os.environ.get("URDFKB_TEST_HANG_ON") or None, os.environ["URDFKB_TEST_MARKER"]
 

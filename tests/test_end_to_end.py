@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from kb_server.cli import main
-from pipeline.llm.fetch import TEST_MODEL, ensure_model
-from pipeline.ontology import taxonomy
+from urdfkb.kb_server.cli import main
+from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
+from urdfkb.pipeline.ontology import taxonomy
 
 pytestmark = pytest.mark.integration
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"

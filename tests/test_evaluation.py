@@ -5,7 +5,7 @@ import pytest
 import rdflib
 from rdflib import RDF, RDFS
 
-from pipeline.evaluation import (
+from urdfkb.pipeline.evaluation import (
     CORE, METRICS, SCOPES, failed_scores, format_table, load_truth, mean_scores, read_prediction, score,
 )
 

@@ -5,15 +5,15 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.abstraction import Abstractor
-from pipeline.evidence import SimSensor, mesh_stem
-from pipeline.ingest import load_urdf
-from pipeline.llm.base import Question
-from pipeline.llm.scripted import ScriptedBackend
-from pipeline.ontology import taxonomy
-from pipeline.oracle import Oracle
-from pipeline.prompts import NONE
-from pipeline.runner import Settings, run, tree_digest
+from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.evidence import SimSensor, mesh_stem
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.runner import Settings, run, tree_digest
 
 BOT = Path(__file__).parent / "data" / "sensor_bot.urdf"
 TAX = taxonomy()

@@ -10,11 +10,11 @@ import rdflib
 from rdflib.compare import isomorphic
 from rdflib.namespace import OWL, RDF, RDFS
 
-from pipeline.errors import OntologyError
-from pipeline.export import FORMATS, export_robot, robot_graph
-from pipeline.ontology import CORE_IRI
-from pipeline.population import build_robot
-from pipeline.tree import Edge, KinematicTree
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.export import FORMATS, export_robot, robot_graph
+from urdfkb.pipeline.ontology import CORE_IRI
+from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.tree import Edge, KinematicTree
 from test_population import HOSTILE, ZERO, sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)

@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.errors import BackendError
-from pipeline.llm import fetch
-from pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ModelSpec, Part, cache_dir, ensure_model
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.llm import fetch
+from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ModelSpec, Part, cache_dir, ensure_model
 
 CHUNKS = [b"GGUF" + bytes(range(256)) * 40, b"middle" * 1000, b"tail"]
 BLOB = b"".join(CHUNKS)

@@ -6,9 +6,9 @@ import pytest
 import rdflib
 
 from kb_fixtures import PR2, http, live, make_app
-from kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
-from kb_server.store import Store
-from pipeline.ingest import load_urdf
+from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.ingest import load_urdf
 
 R = "https://w3id.org/urdfkb/robot/pr2#"
 C = "https://w3id.org/urdfkb/core#"

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 import yourdfpy
 
-from pipeline.errors import URDFError
-from pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
 
 GOOD = b"""<?xml version="1.0"?>
 <!-- xacro leftovers: <xacro:property name="x" value="1"/> ${x} -->

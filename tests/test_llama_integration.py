@@ -4,9 +4,9 @@ import logging
 import numpy as np
 import pytest
 
-from pipeline.llm.base import Question
-from pipeline.llm.fetch import TEST_MODEL, ensure_model
-from pipeline.oracle import Oracle, softmax
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
+from urdfkb.pipeline.oracle import Oracle, softmax
 
 pytestmark = pytest.mark.integration
 
@@ -33,7 +33,7 @@ def model_path():
 
 @pytest.fixture(scope="module")
 def backend(model_path):
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     b = LlamaBackend(model_path, n_ctx=2048, seed=0, prefix_cache=False)
     yield b
@@ -141,7 +141,7 @@ def test_oracle_on_llama(backend):
 
 def test_alternating_system_texts_stay_cached(backend, model_path):
     """Several system prefixes stay resident: returning to one evaluates only the question again."""
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     other = "Classify robot parts. Answer sensor, gripper, wheel or structure."
     third = SYSTEM + " Be careful."  # shares most of SYSTEM's tokens
@@ -162,7 +162,7 @@ def test_alternating_system_texts_stay_cached(backend, model_path):
 
 
 def test_long_prefix_evicts_other_slots(model_path):
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     small = LlamaBackend(model_path, n_ctx=1024, prefix_slots=3, prefix_cache=False)
     try:
@@ -176,7 +176,7 @@ def test_long_prefix_evicts_other_slots(model_path):
 
 def _fresh_scores(model_path, store, questions, **kwargs):
     """Scores from a new backend (empty KV cache) with the given prefix store, and its counters."""
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=store, **kwargs)
     try:
@@ -199,7 +199,7 @@ def test_prefix_state_from_disk_gives_identical_logits(model_path, tmp_path):
 
 
 def test_restored_prefix_serves_sampling(model_path, tmp_path):
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     q = question("head_camera_link")
     _fresh_scores(model_path, tmp_path, [q])
@@ -220,7 +220,7 @@ def test_state_from_other_context_parameters_is_not_used(model_path, tmp_path):
 @pytest.mark.parametrize("damage", ["checksum", "rejected by llama.cpp"])
 def test_bad_state_file_is_logged_and_reevaluated(model_path, tmp_path, caplog, damage):
     """A corrupt file, or one whose bytes llama.cpp refuses, is logged, replaced and never served."""
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     questions = [question(link) for link in LINKS[:2]]
     plain, plain_stats, _ = _fresh_scores(model_path, False, questions)
@@ -246,7 +246,7 @@ def test_bad_state_file_is_logged_and_reevaluated(model_path, tmp_path, caplog, 
 
 
 def test_env_switch_disables_the_default_store(model_path, tmp_path, monkeypatch):
-    from pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.llama import LlamaBackend
 
     monkeypatch.setenv("URDFKB_CACHE", str(tmp_path))
     monkeypatch.setenv("URDFKB_PREFIX_CACHE", "off")
@@ -266,7 +266,7 @@ def test_rerun_from_the_store_is_bit_identical(model_path, tmp_path):
     questions = [[question(link, system=s) for link in LINKS[:2]] for s in systems]
 
     def run(store):
-        from pipeline.llm.llama import LlamaBackend
+        from urdfkb.pipeline.llm.llama import LlamaBackend
 
         b = LlamaBackend(model_path, n_ctx=2048, prefix_slots=2, prefix_cache=store)
         try:

@@ -6,9 +6,9 @@ import pytest
 import rdflib
 from rdflib.namespace import OWL, RDF, RDFS
 
-from pipeline.errors import OntologyError
-from pipeline import ontology
-from pipeline.ontology import CORE_IRI, Taxonomy, core_path, core_version, load_core, taxonomy
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline import ontology
+from urdfkb.pipeline.ontology import CORE_IRI, Taxonomy, core_path, core_version, load_core, taxonomy
 
 CORE = rdflib.Namespace(CORE_IRI)
 SOSA = rdflib.Namespace("http://www.w3.org/ns/sosa/")

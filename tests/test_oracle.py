@@ -5,10 +5,10 @@ import math
 
 import pytest
 
-from pipeline.errors import BackendError
-from pipeline.llm.base import Question
-from pipeline.llm.scripted import ScriptedBackend
-from pipeline.oracle import Oracle, Verdict, normalise
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.oracle import Oracle, Verdict, normalise
 
 OPTS = ("sensor", "gripper", "wheel")
 

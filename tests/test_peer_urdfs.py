@@ -12,8 +12,8 @@ import csv
 import pytest
 from conftest import SHARED
 
-from pipeline.errors import URDFError
-from pipeline.ingest import load_urdf
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.ingest import load_urdf
 
 INGEST, REFUSE = "parse", "fail"  # spelled as EXPECTED.tsv's urdfdom_expects
 

@@ -7,18 +7,18 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.abstraction import Abstractor
-from pipeline.errors import BackendError
-from pipeline.ingest import load_urdf
-from pipeline.llm.base import Question
-from pipeline.llm.scripted import ScriptedBackend
-from pipeline.ontology import taxonomy
-from pipeline.oracle import Oracle
-from pipeline.prompts import NONE
-from pipeline.stages.attachment import SubChain, mount_candidates
-from pipeline.stages.classification import Subject, descend
-from pipeline.stages.grouping import Group, merge, name_prefixes
-from pipeline.stages.verification import verify
+from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.stages.attachment import SubChain, mount_candidates
+from urdfkb.pipeline.stages.classification import Subject, descend
+from urdfkb.pipeline.stages.grouping import Group, merge, name_prefixes
+from urdfkb.pipeline.stages.verification import verify
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 TAX = taxonomy()

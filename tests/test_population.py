@@ -6,12 +6,12 @@ import owlready2
 import pytest
 import rdflib
 
-from pipeline.components import Abstraction, Component, SubComponent
-from pipeline.errors import OntologyError
-from pipeline.ingest import load_urdf
-from pipeline.ontology import CORE_IRI, core_version
-from pipeline.population import build_robot, escape, robot_iri
-from pipeline.tree import Edge, KinematicTree, Origin
+from urdfkb.pipeline.components import Abstraction, Component, SubComponent
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.ontology import CORE_IRI, core_version
+from urdfkb.pipeline.population import build_robot, escape, robot_iri
+from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
 
 CORE = rdflib.Namespace(CORE_IRI)
 ZERO = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))

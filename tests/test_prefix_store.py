@@ -4,8 +4,8 @@ import os
 
 import pytest
 
-from pipeline.llm import prefix_store
-from pipeline.llm.prefix_store import PrefixStore
+from urdfkb.pipeline.llm import prefix_store
+from urdfkb.pipeline.llm.prefix_store import PrefixStore
 
 IDENTITY = {"model": ["/models/m.gguf", 1000, 1], "context": {"n_ctx": 4096}}
 TOKENS = [1, 2, 3, 4, 5]

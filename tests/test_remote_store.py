@@ -10,10 +10,10 @@ import pytest
 import rdflib
 
 from kb_fixtures import PR2, free_port, http, live, make_app
-from kb_server.remote import RemoteError, RemoteStore
-from kb_server.serve import make_server
-from kb_server.store import Store
-from pipeline.ingest import load_urdf
+from urdfkb.kb_server.remote import RemoteError, RemoteStore
+from urdfkb.kb_server.serve import make_server
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.ingest import load_urdf
 
 OXIGRAPH = Path(sys.executable).with_name("oxigraph")
 PR2_GRAPH = "https://w3id.org/urdfkb/robot/pr2#"

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from pipeline import cache
-from pipeline.errors import BackendError
-from pipeline.ingest import load_urdf
-from pipeline.llm.scripted import ScriptedBackend
-from pipeline.runner import Settings, run, tree_digest
+from urdfkb.pipeline import cache
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.runner import Settings, run, tree_digest
 from test_pipeline import perfect
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
@@ -89,7 +89,7 @@ def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):
 
 
 def test_a_single_link_robot_is_a_clear_error_not_a_crash():
-    from pipeline.errors import URDFError
+    from urdfkb.pipeline.errors import URDFError
     tree = load_urdf(b'<robot name="lonely"><link name="only"/></robot>')
     with pytest.raises(URDFError, match="single link, 'only'"):
         run(tree, Settings(use_cache=False), backend=ScriptedBackend(lambda q: q.options[0]))

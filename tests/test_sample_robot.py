@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.ingest import load_urdf
-from pipeline.llm.fetch import DEFAULT_MODEL, cache_dir, ensure_model
-from pipeline.runner import Settings, run
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, cache_dir, ensure_model
+from urdfkb.pipeline.runner import Settings, run
 
 pytestmark = [pytest.mark.integration, pytest.mark.default_model]
 SENSOR_LEAVES = {"base_scan", "imu_link", "camera_rgb_optical_frame"}

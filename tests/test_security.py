@@ -14,12 +14,12 @@ from pathlib import Path
 import pytest
 
 from kb_fixtures import PR2, fake_runner, http, live, multipart
-from kb_server.app import create_app
-from kb_server.jobs import JobManager, pipeline_runner
-from kb_server.security import Policy, check_bind
-from kb_server.serve import make_server
-from kb_server.store import Store
-from pipeline.errors import UrdfkbError
+from urdfkb.kb_server.app import create_app
+from urdfkb.kb_server.jobs import JobManager, pipeline_runner
+from urdfkb.kb_server.security import Policy, check_bind
+from urdfkb.kb_server.serve import make_server
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.errors import UrdfkbError
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
@@ -407,7 +407,7 @@ def test_non_loopback_bind_needs_a_token(tmp_path, caplog):
             check_bind(host, None)
     check_bind("0.0.0.0", None, insecure_no_token=True)
     assert "WITH NO TOKEN" in caplog.text
-    proc = subprocess.run([sys.executable, "-m", "kb_server.cli", "serve", "--host", "0.0.0.0", "--port", "0",
+    proc = subprocess.run([sys.executable, "-m", "urdfkb", "serve", "--host", "0.0.0.0", "--port", "0",
                            "--store", str(tmp_path / "kb.sqlite3")], cwd=REPO, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and "refusing to serve on 0.0.0.0 without a token" in proc.stderr
 

@@ -11,12 +11,12 @@ import pytest
 import rdflib
 
 from kb_fixtures import PR2, free_port, http, live, make_app, multipart
-from kb_server.jobs import pipeline_runner
-from kb_server.serve import make_server
-from kb_server.store import Store
-from pipeline.components import Abstraction
-from pipeline.errors import PipelineError
-from pipeline.ingest import load_urdf
+from urdfkb.kb_server.jobs import pipeline_runner
+from urdfkb.kb_server.serve import make_server
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.errors import PipelineError
+from urdfkb.pipeline.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -179,7 +179,7 @@ def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
     for run in range(2):
         port, log = free_port(), tmp_path / f"serve{run}.log"
         with log.open("wb") as err:
-            proc = subprocess.Popen([sys.executable, "-m", "kb_server.cli", "serve", "--store", str(path),
+            proc = subprocess.Popen([sys.executable, "-m", "urdfkb", "serve", "--store", str(path),
                                      "--port", str(port)], cwd=REPO, stderr=err)
         try:
             for _ in range(150):

@@ -4,12 +4,12 @@ import pytest
 import rdflib
 from rdflib.namespace import RDF
 
-from pipeline.components import Abstraction, Component
-from pipeline.export import robot_graph
-from pipeline.ingest import load_urdf
-from pipeline.ontology import CORE_IRI
-from pipeline.population import build_robot
-from pipeline.shacl import validate
+from urdfkb.pipeline.components import Abstraction, Component
+from urdfkb.pipeline.export import robot_graph
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.ontology import CORE_IRI
+from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.shacl import validate
 from test_population import sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)

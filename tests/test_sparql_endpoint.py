@@ -11,8 +11,8 @@ from rdflib.plugins.stores.sparqlstore import SPARQLStore
 from SPARQLWrapper import JSON, POST, POSTDIRECTLY, TURTLE, XML, SPARQLWrapper
 
 from kb_fixtures import PR2, http, live, make_app
-from kb_server.store import Store
-from pipeline.ingest import load_urdf
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.ingest import load_urdf
 
 P = "PREFIX core: <https://w3id.org/urdfkb/core#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
 KINECT = "https://w3id.org/urdfkb/robot/pr2#comp_kinect"

@@ -7,8 +7,8 @@ import urllib.parse
 import pytest
 
 from kb_fixtures import PR2, http, live, make_app
-from kb_server.store import Store
-from pipeline.ingest import load_urdf
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.ingest import load_urdf
 
 TOKEN = "t0k"
 CORE = "https://w3id.org/urdfkb/core#"

@@ -6,14 +6,14 @@ import owlready2
 import pytest
 import rdflib
 
-import kb_server.store as store_mod
+import urdfkb.kb_server.store as store_mod
 from kb_fixtures import PR2
-from kb_server.sparql import QueryTimeout
-from kb_server.store import Store
-from pipeline.components import Abstraction
-from pipeline.errors import OntologyError
-from pipeline.ingest import load_urdf
-from pipeline.ontology import load_core
+from urdfkb.kb_server.sparql import QueryTimeout
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.ontology import load_core
 
 COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 SELECT (COUNT(?c) AS ?n) WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c }"""

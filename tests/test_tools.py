@@ -12,22 +12,22 @@ import owlready2
 import pytest
 import rdflib
 
-from pipeline.abstraction import Abstractor
-from pipeline.components import Abstraction
-from pipeline.export import robot_graph
-from pipeline.ingest import load_urdf
-from pipeline.llm.base import Question
-from pipeline.llm.scripted import ScriptedBackend
-from pipeline.ontology import CORE_IRI, taxonomy
-from pipeline.oracle import Oracle
-from pipeline.population import build_robot
-from pipeline.prompts import NONE
-from pipeline.reasoning import classify
-from pipeline.shacl import validate
-from pipeline.stages.grouping import Group
-from pipeline.stages.attachment import sub_chain
-from pipeline.stages.tools import settle
-from pipeline.structure import mount_of, tool_structure
+from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.export import robot_graph
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.ontology import CORE_IRI, taxonomy
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.reasoning import classify
+from urdfkb.pipeline.shacl import validate
+from urdfkb.pipeline.stages.grouping import Group
+from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.tools import settle
+from urdfkb.pipeline.structure import mount_of, tool_structure
 
 RACK = Path(__file__).parent / "data" / "tool_rack.urdf"
 TAX = taxonomy()

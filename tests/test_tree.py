@@ -9,8 +9,8 @@ import trimesh.transformations as tra
 import yourdfpy
 from conftest import SHARED
 
-from pipeline.ingest import load_urdf
-from pipeline.tree import Edge, KinematicTree, Origin, TreeError
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.tree import Edge, KinematicTree, Origin, TreeError
 
 ZERO = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 REAL_FILES = sorted(p.name for p in (SHARED / "urdf").glob("*.urdf")) or ["<shared/urdf missing>"]

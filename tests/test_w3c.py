@@ -6,7 +6,7 @@ import pytest
 
 import w3c_harness
 from kb_fixtures import fake_runner
-from kb_server.serve import make_server
+from urdfkb.kb_server.serve import make_server
 
 TOKEN = "w3c"
 # Tests that fail here, each with its reason. Every one of them fails the same way when this harness

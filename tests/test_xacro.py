@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 
 from kb_fixtures import http, live, make_app, multipart
-from kb_server.cli import main
-from kb_server.store import Store
-from pipeline.errors import URDFError
-from pipeline.xacro_input import XacroError, expand, load_description, parse_args, parse_package_paths
+from urdfkb.kb_server.cli import main
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.xacro_input import XacroError, expand, load_description, parse_args, parse_package_paths
 
 DATA = Path(__file__).parent / "data" / "xacro"
 ROVER = DATA / "main" / "rover.urdf.xacro"

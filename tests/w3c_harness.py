@@ -133,7 +133,7 @@ def run(case: Case, endpoint: Endpoint) -> str | None:
 
 
 def _from_clauses(query: str) -> list[str]:
-    from kb_server.sparql import scan
+    from urdfkb.kb_server.sparql import scan
     found = scan(query)
     return found.from_graphs + found.from_named
 

@@ -1,0 +1,5 @@
+"""`python -m urdfkb` runs the command-line interface."""
+
+from urdfkb.kb_server.cli import main
+
+raise SystemExit(main())
