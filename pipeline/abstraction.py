@@ -18,9 +18,9 @@ from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponen
 from .evidence import LinkEvidence, describe
 from .ontology import Taxonomy
 from .oracle import Oracle
-from .prompts import NONE, facts_text, optical_frame_question
+from .prompts import NONE, facts_text
 from .stages import tools
-from .stages.asking import Progress, ask
+from .stages.asking import Progress
 from .stages.attachment import SubChain, detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
@@ -215,10 +215,9 @@ class Abstractor:
                     fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
         """Type every member link in the Subpart branch, then assemble the components.
 
-        A camera must have optical frames (ontologies/shapes.ttl), and a small model tells which
-        of a chain's links is the optical frame far better than it classifies links one by one:
-        so each camera sub-chain first selects its optical frame, which is then typed below
-        OpticalFrame, and the camera's other links are typed with optical frames ruled out.
+        A camera must have optical frames (ontologies/shapes.ttl): each camera sub-chain's leaf is
+        one, typed below OpticalFrame, and the camera's other links are typed with optical frames
+        ruled out.
         """
         optical = self._optical_frames(groups, post)
         optical_branch = frozenset((OPTICAL_FRAME, *self.tax.subclasses_below(OPTICAL_FRAME)))
@@ -235,13 +234,12 @@ class Abstractor:
             (link, Subject(f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
                            f"Link: {link}\nCamera: {self.tax.label(camera)}" + facts_text(describe(tree.evidence, [link])),
                            self.tax.excluded_parts(camera)))
-            for link, (camera, _share) in optical.items()
+            for link, camera in optical.items()
         ]
         typed = dict(zip([link for link, _ in rest], descend(
             self.oracle, self.tax, subpart_cls, [s for _, s in rest], "sub-part classification", self.progress)))
-        for (link, _), t in zip(frames, descend(
-                self.oracle, self.tax, OPTICAL_FRAME, [s for _, s in frames], "optical frames", self.progress)):
-            typed[link] = Typed(t.cls, t.confidence * optical[link][1])
+        typed.update(zip([link for link, _ in frames], descend(
+            self.oracle, self.tax, OPTICAL_FRAME, [s for _, s in frames], "optical frames", self.progress)))
         return [
             Component(
                 name=f"{kind}_{i}_{g.leaves[0]}",
@@ -277,17 +275,7 @@ class Abstractor:
                     excluded[link] = frozenset({FINGER})
         return excluded
 
-    def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, tuple[str, float]]:
-        """For each camera sub-chain, the link the model selects as its optical frame → (camera class, share)."""
-        asked, found = [], {}
-        for g, t in zip(groups, post):
-            if not self.tax.is_a(t.cls, CAMERA):
-                continue
-            for chain in g.chains:
-                if len(chain.links) == 1:
-                    found[chain.leaf] = (t.cls, 1.0)
-                else:
-                    asked.append((t.cls, optical_frame_question(chain.links)))
-        for (camera, q), v in zip(asked, ask(self.oracle, [q for _, q in asked], "optical frames", self.progress)):
-            found.setdefault(v.answer or q.options[-1], (camera, v.confidence))
-        return found
+    def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, str]:
+        """Each camera sub-chain's leaf → its camera's class: a camera chain runs from the mount to the
+        frame its images are expressed in, and nothing hangs below an image frame."""
+        return {chain.leaf: t.cls for g, t in zip(groups, post) if self.tax.is_a(t.cls, CAMERA) for chain in g.chains}

@@ -124,14 +124,3 @@ def device_name_question(frame: str, prefixes: Sequence[str]) -> Question:
         " claw_finger_1_tip_link -> claw.\nReply with the device name only."
     )
     return Question(system, f"Frame: {frame}", tuple(prefixes), key=f"device:{frame}")
-
-
-def optical_frame_question(links: Sequence[str]) -> Question:
-    """Which of a camera's links is the frame its images are expressed in."""
-    system = (
-        _PREAMBLE + "A camera's optical frame is the link its images are expressed in (z axis forward),"
-        " usually named with optical, image or the camera's name."
-        "\nGiven the links of one camera, name its optical frame.\nReply with the link name only."
-    )
-    return Question(system, f"Camera links: {', '.join(links)}", tuple(links), key=f"optical:{links[-1]}")
-

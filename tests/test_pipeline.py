@@ -17,7 +17,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import SubChain, mount_candidates
 from urdfkb.pipeline.stages.classification import Subject, descend
-from urdfkb.pipeline.stages.grouping import Group, merge, name_prefixes
+from urdfkb.pipeline.stages.grouping import Group, device_names, merge, name_prefixes
 from urdfkb.pipeline.stages.verification import verify
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
@@ -100,18 +100,20 @@ def test_sampled_voting_reaches_the_same_devices(toy):
     assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
 
 
-def test_camera_chains_select_their_optical_frame_and_the_rest_is_housing(toy):
+def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy):
     asked = []
 
     def spy(q):
         asked.append(q.key)
         return perfect(q)
     camera = next(c for c in abstract(toy, spy) if c.cls == "RGBDCamera")
-    assert "optical:mast_rgbd_color_optical" in asked and "optical:mast_rgbd_depth_optical" in asked
+    parts = {s.link: s.cls for s in camera.subcomponents}
+    assert parts["mast_rgbd_color_optical"] == "RgbFrame" and parts["mast_rgbd_depth_optical"] == "DepthFrame"
+    assert "part:mast_rgbd_color_optical@OpticalFrame" in asked  # the leaf is typed below OpticalFrame
     # the body is not an optical frame and a camera has no sensing element: housing is the only
     # class left, so it is typed without a question
     assert not any(k.startswith("part:mast_rgbd_body") for k in asked)
-    assert {s.link: s.cls for s in camera.subcomponents}["mast_rgbd_body"] == "SensorHousing"
+    assert parts["mast_rgbd_body"] == "SensorHousing"
 
 
 def test_end_effector_chains_meeting_inside_a_mount_are_one_tool(toy):
@@ -179,6 +181,13 @@ def test_name_prefixes_break_at_underscores_and_case_changes():
         "Surrounding", "SurroundingFront", "SurroundingFrontLaser", "SurroundingFrontLaser_device",
         "SurroundingFrontLaser_device_frame")
     assert name_prefixes("imu") == ("imu",)
+
+
+def test_device_names_leave_out_the_body_part_the_device_is_mounted_on():
+    chain = SubChain("Mast_scanner_optical_frame", "Mast_link", ("Mast_scanner_optical_frame",))
+    assert device_names(chain) == ("Mast_scanner", "Mast_scanner_optical", "Mast_scanner_optical_frame")
+    flat = SubChain("Crown", "Crown", ("Crown",))  # never left without an answer
+    assert device_names(flat) == ("Crown",)
 
 
 def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_category(toy):

@@ -2,7 +2,9 @@
 
 Sensors: the model names each sub-chain's device, picking among the beginnings of the leaf's own
 name (a URDF identifier, so the answer set is finite and checkable) the part that names the whole
-device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). Sub-chains near each other in the
+device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). A beginning that is also a beginning of
+the mount's name ("chest" under "chest_link") names the body part the device sits on, not the device,
+and is not offered. Sub-chains near each other in the
 tree (same mount, or sharing links), with the same device name and pre-classes in the same sensor
 category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and an
 accelerometer on one palm are not) form one device.
@@ -52,6 +54,13 @@ def name_prefixes(name: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys([name[:c] for c in cuts] + [name]))
 
 
+def device_names(chain: SubChain) -> tuple[str, ...]:
+    """The device names offered for a sensor sub-chain: beginnings of its leaf's name that do not
+    also begin its mount's name (the leaf's full name is always offered)."""
+    place = set(name_prefixes(chain.root))
+    return tuple(p for p in name_prefixes(chain.leaf) if p not in place or p == chain.leaf)
+
+
 def _near(a: SubChain, b: SubChain) -> bool:
     return a.root == b.root or bool(set(a.links) & set(b.links)) or a.root in b.links or b.root in a.links
 
@@ -68,7 +77,7 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        verdicts = ask(oracle, [device_name_question(c.leaf, name_prefixes(c.leaf)) for c in chains], "group merging", progress)
+        verdicts = ask(oracle, [device_name_question(c.leaf, device_names(c)) for c in chains], "group merging", progress)
         device = [v.answer or c.leaf for c, v in zip(chains, verdicts)]
         same = [[device[i] == device[j] and categories[a.leaf] == categories[b.leaf] and _near(a, b)
                  for j, b in enumerate(chains)] for i, a in enumerate(chains)]
