@@ -1,6 +1,6 @@
 """End-effectors from structure: finger chains, the ontology's gripper kinds (HermiT), extent and mount.
 
-tests/data/tool_rack.urdf is an invented robot with three tools: a vise (two sliding jaws, one
+tests/data/tool_rack.urdf is an invented robot with three tools (and a clamp half-way up one arm): a vise (two sliding jaws, one
 mimicking the other) with a cuff camera beside it on the flange, a three-prong gripper driven by one
 motor joint, and a hand of four digits and an opposing digit hung straight on its wrist link.
 """
@@ -11,6 +11,7 @@ from pathlib import Path
 import owlready2
 import pytest
 import rdflib
+from conftest import SHARED
 
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction
@@ -90,6 +91,23 @@ def test_settle_remounts_splits_arms_and_keeps_every_finger(rack):
     by_mount = {group_root_of(g): set(g.leaves) for g, _ in settled}
     assert by_mount == {"left_flange": set(VISE), "right_flange": set(TRIDENT), "mid_wrist": set(MITT)}
     assert any(n.startswith("split") for n in notes)
+
+
+def test_a_group_not_at_the_end_of_an_arm_is_no_tool(rack):
+    notes = []
+    clamp = Group([sub_chain(rack, "left_shoulder_clamp", "left_seg1")])  # one joint from the torso
+    vise = Group([sub_chain(rack, leaf, "left_flange") for leaf in VISE])
+    settled = settle(rack, [clamp, vise], lambda leaf: False, notes.append)
+    assert [set(g.leaves) for g, _ in settled] == [set(VISE)]
+    assert any(n.startswith("no tool: ['left_shoulder_clamp']") for n in notes)
+
+
+def test_a_group_on_a_link_that_carries_the_rest_of_the_arm_is_no_tool():
+    """Sawyer's extra collision volume on its second arm link: five more arm joints hang beside it."""
+    sawyer = load_urdf(SHARED / "urdf" / "sawyer.urdf")
+    notes = []
+    assert settle(sawyer, [Group([sub_chain(sawyer, "right_l2_2", "right_l2")])], lambda leaf: False, notes.append) == []
+    assert notes == ["no tool: ['right_l2_2'] mounted on right_l2, which is not the end of an arm"]
 
 
 def group_root_of(group):

@@ -1,6 +1,9 @@
 """End-effector extent and mount by structure, after verification (pipeline.structure defines the facts).
 
 The model's mount choices only group a tool's leaves; the tool itself is then settled from the tree:
+- a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent
+  moving joints (a caster on a base), or whose mount carries an arm beside the tool (a cover half-way
+  up an arm), is no tool;
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
   ARM_JOINTS independent moving joints: an arm, not a finger) is split at that fork;
 - the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
@@ -44,6 +47,10 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
     settled = []
     for leaves, structure, links in done:
         mount = structure.mount
+        if _joints_above(tree, mount) < 2 or any(_serial_joints(tree, child) >= ARM_JOINTS
+                                                 for child in tree.children(mount) if child not in links):
+            log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
+            continue
         tool_leaves = [link for link in tree.links if link in links and tree.is_leaf(link)]
         group = Group([sub_chain(tree, leaf, mount) for leaf in tool_leaves])
         group.absorbed = [link for link in tree.links if link in links and link not in set(group.members)]
@@ -67,6 +74,12 @@ def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
         parts.setdefault(path[path.index(fork) - 1] if leaf != fork else leaf, []).append(leaf)
     log(f"split {group.leaves} at {fork}: an arm hangs below it")
     return [p for leaves in parts.values() for p in _split_arms(tree, Group([sub_chain(tree, x, fork) for x in leaves]), log)]
+
+
+def _joints_above(tree: KinematicTree, link: str) -> int:
+    """Independent moving joints (no <mimic>) between the tree's root and `link`, its own included."""
+    edges = (tree.parent_edge(x) for x in tree.chain_to_root(link)[:-1])
+    return sum(e.movable and e.mimic is None for e in edges)
 
 
 def _serial_joints(tree: KinematicTree, top: str) -> int:
