@@ -22,10 +22,9 @@ from datetime import datetime, timezone
 import rdflib
 from rdflib.namespace import RDF, RDFS, XSD
 
-from urdfkb.pipeline.abstraction import PASSES
 from urdfkb.pipeline.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.ontology import CORE_IRI, taxonomy
+from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
 from urdfkb.pipeline.population import ROBOT_BASE, escape
 from urdfkb.pipeline.tree import KinematicTree
 
@@ -33,7 +32,6 @@ PROV = rdflib.Namespace("http://www.w3.org/ns/prov#")
 REVIEW = rdflib.Namespace("https://w3id.org/urdfkb/review#")
 CORE = rdflib.Namespace(CORE_IRI)
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
-KIND_ROOTS = {kind: cls for kind, (cls, _branch, _label) in PASSES.items()}  # kind → its class under Component
 MAX_REVIEWER = 100
 
 
@@ -120,15 +118,15 @@ def check(tree: KinematicTree, current: Abstraction, corr: Correction) -> None:
 
 
 def kind_of(cls: str) -> str | None:
-    tax = taxonomy()
-    return next((k for k, root in KIND_ROOTS.items() if cls in tax and tax.is_a(cls, root)), None)
+    return vocabulary().kind_of(cls)
 
 
 def allowed_classes(comp: Component) -> tuple[str, ...]:
     """Classes a reviewer may give `comp`: its kind's classes that allow all its parts' classes."""
-    tax = taxonomy()
+    tax = vocabulary()
     parts = {s.cls for s in comp.subcomponents}
-    return tuple(c for c in (KIND_ROOTS[comp.kind], *tax.subclasses_below(KIND_ROOTS[comp.kind]))
+    root = tax.kinds[comp.kind].cls
+    return tuple(c for c in (root, *tax.subclasses_below(root))
                  if not parts & tax.excluded_parts(c))
 
 
@@ -194,7 +192,7 @@ def _add(tree: KinematicTree, comps: list[Component], corr: Correction) -> tuple
     name = f"reviewed_{corr.links[0]}"
     while name in names:
         name += "_"
-    subs = tuple(SubComponent(link, "Subpart", 1.0) for link in corr.links)
+    subs = tuple(SubComponent(link, vocabulary().subpart, 1.0) for link in corr.links)
     return kept + [Component(name, kind, corr.cls, 1.0, mount, subs)], name
 
 

@@ -15,7 +15,7 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import queries, tree_svg
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.population import escape
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
@@ -129,8 +129,8 @@ def robot_page(store: Store, name: str) -> Response | str:
     outlines = [tree_svg.Outline(r["key"], f"{r['class']} ({r['confidence']:.2f})" if r["confidence"] is not None
                                  else r["class"], r["kind"], r["links"], r["mount"],
                                  (r["confidence"] or 0) < 0.5 and not r["confirmed"]) for r in rows]
-    tax = taxonomy()
-    addable = [c for root in review.KIND_ROOTS.values() for c in (root, *tax.subclasses_below(root))]
+    tax = vocabulary()
+    addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
     return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines),
                            reviewable=source is not None, stale=stale, links=tree.links, claimed=claimed,

@@ -6,7 +6,9 @@ post-classification: after verification their extent and mount are settled from 
 kind inferred by a reasoner from the ontology's definitions (stages.tools, structure, reasoning); the
 model is asked the kind only where the structure settles none. After a pass, the links of
 its components are removed from the tree (each device condensed onto its mount), so the next pass
-sees a smaller tree and never claims a link twice.
+sees a smaller tree and never claims a link twice. Every schema fact comes from the Vocabulary
+(pipeline.ontology): the kinds and their sub-part branches, the part a shape requires (a camera's
+optical frame), array classes, and the sub-part classes a tool's finger chains bound.
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from typing import Callable
 from . import reasoning
 from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
 from .evidence import LinkEvidence, describe
-from .ontology import Taxonomy
+from .ontology import Kind, Vocabulary
 from .oracle import Oracle
 from .prompts import NONE, facts_text
 from .stages import tools
@@ -29,14 +31,6 @@ from .stages.verification import Log, group_root, indexed_units, verify
 from .structure import ToolStructure
 from .tree import KinematicTree
 
-# kind → (its class under Component, its branch under Subpart, how prompts name it)
-PASSES = {
-    SENSOR: ("Sensor", "SensorSubpart", "sensor"),
-    END_EFFECTOR: ("EndEffector", "EndEffectorSubpart", "end-effector"),
-}
-CAMERA, OPTICAL_FRAME = "Camera", "OpticalFrame"  # the camera shape of ontologies/shapes.ttl
-ARRAY = "SensorArray"
-TOOL_PART, FINGER, CONTACT, PALM = "EndEffectorSubpart", "Finger", "ContactSurface", "Palm"
 MAX_FACTS = 3  # evidence lines shown per subject
 _NO_FACTS = LinkEvidence()
 
@@ -44,7 +38,7 @@ _NO_FACTS = LinkEvidence()
 class Abstractor:
     """Runs the passes over one robot, keeping what identification learnt between them."""
 
-    def __init__(self, oracle: Oracle, tax: Taxonomy, progress: Progress | None = None, log: Log | None = None):
+    def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None):
         self.oracle, self.tax = oracle, tax
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
@@ -52,7 +46,7 @@ class Abstractor:
 
     def run(self, tree: KinematicTree) -> tuple[Component, ...]:
         components: list[Component] = []
-        for kind in PASSES:
+        for kind in self.tax.kinds:
             found = self.run_pass(kind, tree, {c.root for c in components})
             components.extend(found)
             tree = tree.without({link for c in found for link in c.links})
@@ -60,7 +54,7 @@ class Abstractor:
 
     def run_pass(self, kind: str, tree: KinematicTree, mounts: set[str]) -> list[Component]:
         """All components of one kind in the current tree; `mounts` carry condensed devices."""
-        cls, subpart_cls, label = PASSES[kind]
+        cls = self.tax.kinds[kind].cls
         leaves = [leaf for leaf in tree.leaves() if leaf not in mounts]
         unasked = [leaf for leaf in leaves if leaf not in self.claims]
         self.claims.update(identify(self.oracle, self.tax, tree, unasked, self.progress))
@@ -69,7 +63,7 @@ class Abstractor:
         selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
         if not selected:
             return []
-        chains = detect_roots(self.oracle, tree, selected, label, self._blocked(tree, cls), self.progress,
+        chains = detect_roots(self.oracle, tree, selected, self.tax.kinds[kind], self._blocked(tree, cls), self.progress,
                               rigid=kind == SENSOR)
         if kind == END_EFFECTOR:
             return self._tools(tree, chains, mounts)
@@ -81,7 +75,7 @@ class Abstractor:
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
         post = self._post_classify(tree, groups, pre_by_leaf, cls)
         groups, post = self._split_units(tree, groups, post, pre_by_leaf)
-        return self._components(tree, kind, subpart_cls, label, groups, post)
+        return self._components(tree, self.tax.kinds[kind], groups, post)
 
     def _chain_subject(self, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
         """A sub-chain to pre-classify below `cls`: its links, their facts, what a declaration rules out.
@@ -111,7 +105,8 @@ class Abstractor:
     def _tools(self, tree: KinematicTree, chains: list[SubChain], mounts: set[str]) -> list[Component]:
         """The end-effector pass after attachment: group, verify, settle extent and mount by structure,
         classify by the ontology's definitions (reasoner), and ask the model only what they leave open."""
-        cls, subpart_cls, label = PASSES[END_EFFECTOR]
+        kind = self.tax.kinds[END_EFFECTOR]
+        cls = kind.cls
         groups = merge(self.oracle, tree, chains, END_EFFECTOR, {}, self.progress)
         groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
         settled = tools.settle(tree, groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
@@ -129,17 +124,17 @@ class Abstractor:
         ], "end-effector classification", self.progress)
         by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
         post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(groups, inferred)]
-        fingers = [tuple(FingerFact(f.name, f.drive, reasoning.CHAIN_CLASSES[f.motion], f.name in i.thumbs,
+        fingers = [tuple(FingerFact(f.name, f.drive, self.tax.finger_chain_class(f.motion), f.name in i.thumbs,
                                     f.opposes, f.moves_with, f.mimics) for f in s.fingers)
                    for s, i in zip(structures, inferred)]
-        return self._components(tree, END_EFFECTOR, subpart_cls, label, groups, post, structures, fingers)
+        return self._components(tree, kind, groups, post, structures, fingers)
 
     def _veto_coupled(self, tree: KinematicTree, leaves: list[str]) -> None:
         """A leaf that itself moves on a <mimic> joint is a finger segment or a linkage, never a sensor
         frame (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools
         keep every finger chain."""
         for leaf in leaves:
-            if self.claims[leaf] == PASSES[SENSOR][0] and tree.parent_edge(leaf).mimic is not None:
+            if self.claims[leaf] == self.tax.kinds[SENSOR].cls and tree.parent_edge(leaf).mimic is not None:
                 self.claims[leaf] = NONE
                 self.log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
 
@@ -192,10 +187,10 @@ class Abstractor:
     def _split_units(self, tree: KinematicTree, groups: list[Group], post: list[Typed],
                      pre: dict[str, Typed]) -> tuple[list[Group], list[Typed]]:
         """Numbered units of one type given one device name are separate devices unless the
-        device was classified as an array (SensorArray): each keeps its own pre-class."""
+        device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
         out_groups, out_post = [], []
         for g, t in zip(groups, post):
-            if len(g.chains) > 1 and not self.tax.is_a(t.cls, ARRAY) and indexed_units(tree, g):
+            if len(g.chains) > 1 and not self.tax.has_numbered_units(t.cls) and indexed_units(tree, g):
                 self.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
                 out_groups += [Group([c]) for c in g.chains]
                 out_post += [pre[c.leaf] for c in g.chains]
@@ -210,40 +205,40 @@ class Abstractor:
         deepest = max(common, key=lambda c: len(self.tax.ancestors(c)))
         return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
-    def _components(self, tree: KinematicTree, kind: str, subpart_cls: str, label: str, groups: list[Group],
+    def _components(self, tree: KinematicTree, kind: Kind, groups: list[Group],
                     post: list[Typed], structures: list[ToolStructure] | None = None,
                     fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
-        """Type every member link in the Subpart branch, then assemble the components.
+        """Type every member link in the kind's Subpart branch, then assemble the components.
 
-        A camera must have optical frames (ontologies/shapes.ttl): each camera sub-chain's leaf is
-        one, typed below OpticalFrame, and the camera's other links are typed with optical frames
-        ruled out.
+        A camera must have optical frames (the part ontologies/shapes.ttl requires of it): each of its
+        sub-chains' leaves is one (a camera chain runs from its mount to the frame its images are
+        expressed in, and nothing hangs below an image frame), typed below the required part; the
+        camera's other links are typed with that part's branch ruled out.
         """
-        optical = self._optical_frames(groups, post)
-        optical_branch = frozenset((OPTICAL_FRAME, *self.tax.subclasses_below(OPTICAL_FRAME)))
-        framing = "What role does the link below play in its %s device? Choose the {concept}." % label
-        structural = self._structural_parts(tree, groups, structures)
+        required = self._required_links(groups, post)
+        framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
+        structural = self._structural_parts(tree, kind, groups, structures)
         rest = [
             (link, Subject(f"part:{link}", framing,
                            f"Link: {link}\nDevice: {self.tax.label(t.cls)}" + facts_text(describe(tree.evidence, [link])),
-                           self.tax.excluded_parts(t.cls) | (optical_branch if self.tax.is_a(t.cls, CAMERA) else frozenset())
-                           | structural.get(link, frozenset())))
-            for g, t in zip(groups, post) for link in g.members if link not in optical
+                           self.tax.excluded_parts(t.cls) | self._required_branch(t.cls) | structural.get(link, frozenset())))
+            for g, t in zip(groups, post) for link in g.members if link not in required
         ]
-        frames = [
-            (link, Subject(f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
-                           f"Link: {link}\nCamera: {self.tax.label(camera)}" + facts_text(describe(tree.evidence, [link])),
-                           self.tax.excluded_parts(camera)))
-            for link, camera in optical.items()
-        ]
+        frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
+        for link, device in required.items():
+            frames.setdefault(self.tax.required_part(device), []).append((link, Subject(
+                f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
+                f"Link: {link}\nCamera: {self.tax.label(device)}" + facts_text(describe(tree.evidence, [link])),
+                self.tax.excluded_parts(device))))
         typed = dict(zip([link for link, _ in rest], descend(
-            self.oracle, self.tax, subpart_cls, [s for _, s in rest], "sub-part classification", self.progress)))
-        typed.update(zip([link for link, _ in frames], descend(
-            self.oracle, self.tax, OPTICAL_FRAME, [s for _, s in frames], "optical frames", self.progress)))
+            self.oracle, self.tax, kind.subparts, [s for _, s in rest], "sub-part classification", self.progress)))
+        for part, subjects in frames.items():
+            typed.update(zip([link for link, _ in subjects], descend(
+                self.oracle, self.tax, part, [s for _, s in subjects], "optical frames", self.progress)))
         return [
             Component(
-                name=f"{kind}_{i}_{g.leaves[0]}",
-                kind=kind,
+                name=f"{kind.name}_{i}_{g.leaves[0]}",
+                kind=kind.name,
                 cls=t.cls,
                 confidence=round(t.confidence, 4),
                 root=group_root(tree, g),
@@ -254,14 +249,20 @@ class Abstractor:
             for i, (g, t) in enumerate(zip(groups, post))
         ]
 
-    def _structural_parts(self, tree: KinematicTree, groups: list[Group], structures: list[ToolStructure] | None
-                          ) -> dict[str, frozenset[str]]:
-        """Sub-part classes a tool's structure rules out for its links: a link of a finger chain is a
-        finger or its contact surface; any other link is no finger, nor a palm if the tool has fingers
-        and none hangs from it. (Nothing for sensors.)"""
+    def _required_branch(self, cls: str) -> frozenset[str]:
+        """The branch of the part a `cls` device requires (selected separately), or nothing."""
+        part = self.tax.required_part(cls)
+        return self.tax.branch(part) if part else frozenset()
+
+    def _structural_parts(self, tree: KinematicTree, kind: Kind, groups: list[Group],
+                          structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
+        """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
+        a finger chain is a finger or its contact surface; any other link is no finger, nor a palm if
+        the tool has fingers and none hangs from it. (Nothing for sensors.)"""
         if structures is None:
             return {}
-        on_finger = frozenset(set(self.tax.subclasses_below(TOOL_PART)) - {FINGER, CONTACT})
+        finger, carrier = self.tax.finger_chain_role("link"), self.tax.finger_chain_role("carrier")
+        on_finger = frozenset(set(self.tax.subclasses_below(kind.subparts)) - finger - self.tax.finger_chain_role("tip"))
         excluded = {}
         for group, structure in zip(groups, structures):
             fingers = {link for f in structure.fingers for link in f.links}
@@ -270,12 +271,13 @@ class Abstractor:
                 if link in fingers:
                     excluded[link] = on_finger
                 elif fingers and link not in carriers:
-                    excluded[link] = frozenset({FINGER, PALM})
+                    excluded[link] = finger | carrier
                 else:
-                    excluded[link] = frozenset({FINGER})
+                    excluded[link] = finger
         return excluded
 
-    def _optical_frames(self, groups: list[Group], post: list[Typed]) -> dict[str, str]:
-        """Each camera sub-chain's leaf → its camera's class: a camera chain runs from the mount to the
-        frame its images are expressed in, and nothing hangs below an image frame."""
-        return {chain.leaf: t.cls for g, t in zip(groups, post) if self.tax.is_a(t.cls, CAMERA) for chain in g.chains}
+    def _required_links(self, groups: list[Group], post: list[Typed]) -> dict[str, str]:
+        """The leaf of each sub-chain of a device whose class requires a part (a camera: its optical
+        frame) → the device's class."""
+        return {chain.leaf: t.cls for g, t in zip(groups, post) if self.tax.required_part(t.cls) is not None
+                for chain in g.chains}

@@ -1,7 +1,8 @@
 """Abstraction accuracy against the ground truth, as defined in spec/evaluation.md.
 
 A populated graph is read by the core namespace and the local names of spec/ontology.md only;
-class ancestry comes from the graph's own ``rdfs:subClassOf`` triples.
+class ancestry comes from the graph's own ``rdfs:subClassOf`` triples, and which class roots each
+kind and its sub-parts from the Vocabulary (``core:componentKind`` and its ``hasComponent`` branch).
 
 Conventions beyond the spec (each also stated where it applies):
 
@@ -29,7 +30,8 @@ import rdflib
 import yaml
 from rdflib import RDF, RDFS, URIRef
 
-from urdfkb.pipeline.components import END_EFFECTOR, KINDS, SENSOR
+from urdfkb.pipeline.components import KINDS
+from urdfkb.pipeline.ontology import vocabulary
 
 CORE = rdflib.Namespace("https://w3id.org/urdfkb/core#")
 ALL = "all"
@@ -41,8 +43,6 @@ METRICS = (
     "root_accuracy", "subpart_accuracy",
 )
 COUNTS = ("n_predicted", "n_truth", "n_matched", "n_subparts")
-_KIND_ROOTS = {SENSOR: "Sensor", END_EFFECTOR: "EndEffector"}
-_SUBPART_ROOTS = ("SensorSubpart", "EndEffectorSubpart")
 
 
 @dataclass(frozen=True)
@@ -155,7 +155,14 @@ def _reach(graph: rdflib.Graph, node, prop: URIRef) -> set:
     return set(graph.transitive_objects(node, prop)) - {node}
 
 
+def _kind_roots() -> dict[str, str]:
+    """Kind → its class under Component."""
+    return {k: kind.cls for k, kind in vocabulary().kinds.items()}
+
+
 def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[PredictedComponent]:
+    roots = _kind_roots()
+
     def names(node) -> set[str]:
         return {str(n) for link in graph.objects(node, CORE.hasLink) for n in graph.objects(link, CORE.urdfName)}
 
@@ -164,7 +171,7 @@ def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[Pr
     tops = {c for r in robots for c in graph.objects(r, CORE.hasComponent)}
     for comp in sorted(tops):
         types = set(graph.objects(comp, RDF.type))
-        kinds = {k for k, root in _KIND_ROOTS.items() if any(tax.is_under(t, CORE[root]) for t in types)}
+        kinds = {k for k, root in roots.items() if any(tax.is_under(t, CORE[root]) for t in types)}
         if not kinds:
             continue
         subs = _reach(graph, comp, CORE.hasComponent)
@@ -175,12 +182,12 @@ def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[Pr
                 leaves.add(leaf)
                 sub_types.setdefault(leaf, set()).update(graph.objects(sub, RDF.type))
         leaves &= urdf_leaves
-        roots = {str(n) for link in graph.objects(comp, CORE.isMountedOn) for n in graph.objects(link, CORE.urdfName)}
+        mounts = {str(n) for link in graph.objects(comp, CORE.isMountedOn) for n in graph.objects(link, CORE.urdfName)}
         out.append(PredictedComponent(
             node=str(comp),
             kind=kinds.pop() if len(kinds) == 1 else None,
-            cls=tax.most_specific(t for t in types if any(tax.is_under(t, CORE[r]) for r in _KIND_ROOTS.values())),
-            root=roots.pop() if len(roots) == 1 else None,
+            cls=tax.most_specific(t for t in types if any(tax.is_under(t, CORE[r]) for r in roots.values())),
+            root=mounts.pop() if len(mounts) == 1 else None,
             leaves=frozenset(leaves),
             subparts={leaf: tax.most_specific(ts) for leaf, ts in sub_types.items() if leaf in leaves},
         ))
@@ -215,7 +222,7 @@ def _match(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
     for t in truths:
         cands = [p for p in free if p.leaves == t.leaves]
         if cands:
-            best = max(cands, key=lambda p: tax.credit(p.cls, t.classes, _KIND_ROOTS.values()))
+            best = max(cands, key=lambda p: tax.credit(p.cls, t.classes, _kind_roots().values()))
             free.remove(best)
             pairs.append((best, t))
     return pairs
@@ -244,10 +251,11 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
                    _prf(len(pred_leaves & truth_leaves), len(pred_leaves), len(truth_leaves))))
     out.update(zip(("component_precision", "component_recall", "component_f1"),
                    _prf(len(pairs), len(preds), len(truths))))
-    typed = sum(tax.credit(p.cls, t.classes, _KIND_ROOTS.values()) for p, t in pairs)
+    typed = sum(tax.credit(p.cls, t.classes, _kind_roots().values()) for p, t in pairs)
     out.update(zip(("typed_precision", "typed_recall", "typed_f1"), _prf(typed, len(preds), len(truths))))
     out["root_accuracy"] = (fmean(p.root in t.roots for p, t in pairs) if pairs else 0.0) if truths else None
-    sub = [tax.credit(p.subparts.get(leaf), accepted, _SUBPART_ROOTS)
+    subpart_roots = [kind.subparts for kind in vocabulary().kinds.values()]
+    sub = [tax.credit(p.subparts.get(leaf), accepted, subpart_roots)
            for p, t in pairs for leaf, accepted in t.subparts.items()]
     listed = any(t.subparts for t in truths)
     out["subpart_accuracy"] = (fmean(sub) if sub else 0.0) if listed else None

@@ -12,28 +12,28 @@ import rdflib
 from rdflib.namespace import OWL
 
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, core_path
+from urdfkb.pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, Vocabulary, vocabulary
 
 FORMATS = ("rdfxml", "turtle", "ntriples")
 _RDFLIB_FORMATS = {"rdfxml": "xml", "turtle": "turtle", "ntriples": "nt"}
 
 
 @functools.cache
-def _core_triples() -> tuple:
+def _core_triples(vocab: Vocabulary) -> tuple:
     """The core's triples without its ontology header (the export has one header: the robot's)."""
-    graph = rdflib.Graph().parse(core_path(), format="xml")
     header = rdflib.URIRef(CORE_ONTOLOGY_IRI)
-    return tuple(t for t in graph if t[0] != header)
+    return tuple(t for t in vocab.graph if t[0] != header)
 
 
-def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None) -> rdflib.Graph:
-    """The robot ontology's own triples plus the core's axioms (and `extra`, e.g. reviewers'
-    corrections), as one rdflib graph."""
+def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
+                vocab: Vocabulary | None = None) -> rdflib.Graph:
+    """The robot ontology's own triples plus the core's axioms (of `vocab`, the packaged vocabulary by
+    default) and `extra` (e.g. reviewers' corrections), as one rdflib graph."""
     buf = io.BytesIO()
     onto.save(buf, format="ntriples")
     graph = rdflib.Graph()
     graph.parse(data=buf.getvalue(), format="nt")
-    for triple in _core_triples():
+    for triple in _core_triples(vocab or vocabulary()):
         graph.add(triple)
     if extra is not None:
         graph += extra

@@ -1,7 +1,9 @@
-"""The core ontology: where it lives, how to load it into a World, and its class taxonomy.
+"""The vocabulary: the core ontology and its shapes, parsed once, as everything the code knows of the schema.
 
-The OWL file `ontologies/urdfkb.owl` is the single source of truth; `Taxonomy` is a read-only
-view of its named classes used by the stages (labels, definitions, sibling order).
+`ontologies/urdfkb.owl` and `ontologies/shapes.ttl` are the single source of truth; `Vocabulary` is a
+read-only view of them (classes, labels, definitions, examples, answer phrases, the component kinds
+and their sub-part branches, sub-parts excluded or required, joint-type and simulator alignments),
+and holds the two parsed graphs that export and SHACL validation reuse.
 """
 from __future__ import annotations
 
@@ -9,46 +11,57 @@ import functools
 import hashlib
 import importlib.resources
 import pathlib
-import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from typing import Iterable
 
 import owlready2
 import rdflib
-from rdflib.namespace import OWL, RDF, RDFS, SKOS
+from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS
 
 from urdfkb.pipeline.errors import OntologyError
 
 CORE_IRI = "https://w3id.org/urdfkb/core#"
 CORE_ONTOLOGY_IRI = CORE_IRI[:-1]
+CORE = rdflib.Namespace(CORE_IRI)
 _LOADED_MARK = CORE_IRI + "ontologyVersion"
-_SIM_TYPE = rdflib.URIRef(CORE_IRI + "simulatorSensorType")
+FINGER_CHAIN_ROLES = ("link", "tip", "carrier")  # the values core:fingerChainRole may take
 
 
 def core_path() -> pathlib.Path:
     """Path of the packaged core ontology (RDF/XML)."""
-    return pathlib.Path(str(importlib.resources.files("urdfkb.ontologies").joinpath("urdfkb.owl")))
+    return _packaged("urdfkb.owl")
 
 
-@functools.cache
+def shapes_path() -> pathlib.Path:
+    """Path of the packaged SHACL shapes (Turtle)."""
+    return _packaged("shapes.ttl")
+
+
+def _packaged(name: str) -> pathlib.Path:
+    return pathlib.Path(str(importlib.resources.files("urdfkb.ontologies").joinpath(name)))
+
+
 def core_version() -> str:
     """Short SHA-256 of the core file: changes whenever the vocabulary does (cache keys)."""
-    return hashlib.sha256(core_path().read_bytes()).hexdigest()[:16]
+    return vocabulary().version
 
 
-def load_core(world: owlready2.World) -> owlready2.Ontology:
-    """Load the core into `world` from the packaged file, offline; no-op if this version is there.
+def load_core(world: owlready2.World, vocab: "Vocabulary | None" = None) -> owlready2.Ontology:
+    """Load the core (of `vocab`, the packaged one by default) into `world`, offline; no-op if this
+    version is there.
 
     The loaded version is recorded on the core ontology in the world, so a persistent
     (SQLite) world holding an older core is reloaded in place.
     """
+    vocab = vocab or vocabulary()
     onto = world.get_ontology(CORE_ONTOLOGY_IRI)
-    if _stored_version(world, onto) == core_version():
+    if _stored_version(world, onto) == vocab.version:
         return onto
-    with core_path().open("rb") as f:
+    with vocab.path.open("rb") as f:
         onto.load(fileobj=f, reload=onto.loaded)
     mark = world._abbreviate(_LOADED_MARK)
     onto._del_data_triple_spod(onto.storid, mark, None, None)
-    onto._add_data_triple_spod(onto.storid, mark, *owlready2.to_literal(core_version()))
+    onto._add_data_triple_spod(onto.storid, mark, *owlready2.to_literal(vocab.version))
     return onto
 
 
@@ -60,12 +73,46 @@ def _stored_version(world: owlready2.World, onto: owlready2.Ontology) -> str | N
     return value[0] if value else None
 
 
-class Taxonomy:
-    """Named classes of the core and their subclass links, in the file's (spec's) order."""
+@dataclass(frozen=True)
+class Kind:
+    """A kind of component the pipeline abstracts: a subclass of Component carrying core:componentKind."""
 
-    def __init__(self, path: pathlib.Path):
-        graph = rdflib.Graph().parse(path, format="xml")
-        self._order = {n: i for i, n in enumerate(_declared_classes(path))}
+    name: str        # core:componentKind: how abstractions and truth files name the kind
+    cls: str         # the class itself, under Component
+    subparts: str    # its sub-components' branch under Subpart (`cls ⊑ ∀hasComponent.subparts`)
+    noun: str        # core:promptNoun: how questions name such a device in running text
+    mount_rule: str  # core:mountRule: how the attachment question says which ancestor is its mount
+
+
+class _OrderedGraph(rdflib.Graph):
+    """An rdflib graph that remembers the order in which its typed nodes were first declared (the
+    RDF/XML parser adds each node's rdf:type triple as it meets the node)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.declared: dict[rdflib.term.Node, None] = {}
+
+    def add(self, triple):
+        if triple[1] == RDF.type and triple[2] == OWL.Class:
+            self.declared.setdefault(triple[0])
+        return super().add(triple)
+
+
+class Vocabulary:
+    """The core's named classes in the file's (spec's) order, what the core and its shapes say about
+    them, and the two parsed graphs (`graph`, `shapes`)."""
+
+    def __init__(self, path: pathlib.Path, shapes: pathlib.Path):
+        self.path, self.shapes_path = pathlib.Path(path), pathlib.Path(shapes)
+        core_bytes, shapes_bytes = self.path.read_bytes(), self.shapes_path.read_bytes()
+        self.version = hashlib.sha256(core_bytes).hexdigest()[:16]
+        # what an abstraction depends on: both files
+        self.fingerprint = hashlib.sha256(core_bytes + b"\0" + shapes_bytes).hexdigest()[:16]
+        graph = _OrderedGraph()
+        graph.parse(data=core_bytes, format="xml", publicID=self.path.as_uri())
+        self.graph: rdflib.Graph = graph
+        self.shapes = rdflib.Graph().parse(data=shapes_bytes, format="turtle")
+        self._order = {n: i for i, n in enumerate(filter(None, map(_local, graph.declared)))}
         self._parents: dict[str, tuple[str, ...]] = {}
         self._children: dict[str, list[str]] = {n: [] for n in self._order}
         self._label: dict[str, str] = {}
@@ -74,8 +121,12 @@ class Taxonomy:
         self._example: dict[str, str] = {}
         self._excluded: dict[str, set[str]] = {}
         self._declared_by: dict[str, set[str]] = {}  # SDF sensor type → classes aligned to it
+        self._joint_class: dict[str, str] = {}  # URDF joint type → its class
+        self._chain_class: dict[str, str] = {}  # a finger chain's drive motion → its class
+        self._roles: dict[str, str] = {}  # class → its core:fingerChainRole
+        self._units: set[str] = set()  # classes marked core:numberedUnits
         for name in self._order:
-            node = rdflib.URIRef(CORE_IRI + name)
+            node = CORE[name]
             parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
                              key=self._order.__getitem__)
             self._parents[name] = tuple(parents)
@@ -85,11 +136,62 @@ class Taxonomy:
             self._answer[name] = str(graph.value(node, SKOS.altLabel) or self._label[name])
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
-            self._excluded[name] = _excluded_parts(graph, node)
-            for sim_type in graph.objects(node, _SIM_TYPE):
+            self._excluded[name] = _restricted_parts(graph, node, complement=True)
+            for sim_type in graph.objects(node, CORE.simulatorSensorType):
                 self._declared_by.setdefault(str(sim_type).strip().lower(), set()).add(name)
+            for joint_type in graph.objects(node, CORE.urdfJointType):
+                self._joint_class[str(joint_type)] = name
+            for motion in graph.objects(node, CORE.fingerDrive):
+                self._chain_class[str(motion)] = name
+            if (role := graph.value(node, CORE.fingerChainRole)) is not None:
+                if str(role) not in FINGER_CHAIN_ROLES:
+                    raise OntologyError(f"{name}: core:fingerChainRole {str(role)!r} is none of {FINGER_CHAIN_ROLES}")
+                self._roles[name] = str(role)
+            if str(graph.value(node, CORE.numberedUnits)).strip().lower() in ("true", "1"):
+                self._units.add(name)
         for kids in self._children.values():
             kids.sort(key=self._order.__getitem__)
+        self.kinds = self._read_kinds()
+        self._required = self._read_required_parts()
+
+    def _read_kinds(self) -> dict[str, Kind]:
+        kinds = {}
+        for name in self._order:
+            node = CORE[name]
+            kind = self.graph.value(node, CORE.componentKind)
+            if kind is None:
+                continue
+            branches = _restricted_parts(self.graph, node, complement=False)
+            noun, rule = self.graph.value(node, CORE.promptNoun), self.graph.value(node, CORE.mountRule)
+            if len(branches) != 1 or noun is None or rule is None:
+                raise OntologyError(f"{name} carries core:componentKind but not one ∀hasComponent branch, "
+                                    "a core:promptNoun and a core:mountRule")
+            kinds[str(kind)] = Kind(str(kind), name, branches.pop(), str(noun), str(rule))
+        self.component = self._shared_parent([k.cls for k in kinds.values()], "the component kinds")
+        self.subpart = self._shared_parent([k.subparts for k in kinds.values()], "the kinds' sub-part branches")
+        return kinds
+
+    def _shared_parent(self, classes: list[str], what: str) -> str:
+        parents = {p for c in classes for p in self.parents(c)}
+        if len(parents) != 1:
+            raise OntologyError(f"{what} ({', '.join(classes)}) do not share one superclass")
+        return parents.pop()
+
+    def _read_required_parts(self) -> dict[str, str]:
+        """Class → the sub-part class a shape requires at least one of (sh:qualifiedValueShape on hasComponent)."""
+        required = {}
+        for shape in self.shapes.subjects(RDF.type, SH.NodeShape):
+            targets = [t for t in map(_local, self.shapes.objects(shape, SH.targetClass)) if t]
+            for prop in self.shapes.objects(shape, SH.property):
+                part = self.shapes.value(self.shapes.value(prop, SH.qualifiedValueShape), SH["class"])
+                least = self.shapes.value(prop, SH.qualifiedMinCount)
+                if self.shapes.value(prop, SH.path) != CORE.hasComponent or _local(part) is None or not least:
+                    continue
+                for target in targets:
+                    if target in required:
+                        raise OntologyError(f"the shapes require two kinds of part of a {target}")
+                    required[target] = _local(part)
+        return required
 
     def _check(self, name: str) -> str:
         if name not in self._order:
@@ -106,6 +208,10 @@ class Taxonomy:
     def subclasses_below(self, name: str) -> tuple[str, ...]:
         """Every named class under `name`, in the file's order."""
         return tuple(c for c in self._order if c != name and name in self.ancestors(c))
+
+    def branch(self, name: str) -> frozenset[str]:
+        """`name` and every class under it."""
+        return frozenset((name, *self.subclasses_below(name)))
 
     def parents(self, name: str) -> tuple[str, ...]:
         """Direct named core superclasses (alignment classes such as sosa:Sensor excluded)."""
@@ -140,11 +246,47 @@ class Taxonomy:
         """The class definition shown to the model when it chooses among siblings."""
         return self._comment[self._check(name)]
 
+    def example(self, name: str) -> str:
+        """An invented link name typical of the class (skos:example), or ''."""
+        return self._example[self._check(name)]
+
+    def kind_of(self, name: str) -> str | None:
+        """The kind (core:componentKind) whose class `name` falls under, or None."""
+        return next((k for k, kind in self.kinds.items() if name in self and self.is_a(name, kind.cls)), None)
+
     def excluded_parts(self, name: str) -> frozenset[str]:
         """Classes a `name` device may not have as sub-components (∀hasComponent.¬X on it or an
         ancestor), with their subclasses."""
         direct = set().union(*(self._excluded[c] for c in (self._check(name), *self.ancestors(name))))
         return frozenset(c for c in self._order if any(self.is_a(c, x) for x in direct))
+
+    def required_part(self, name: str) -> str | None:
+        """The sub-part class a `name` device must have one of (a qualified shape on it or an
+        ancestor, ontologies/shapes.ttl), or None."""
+        return next((self._required[c] for c in (self._check(name), *self.ancestors(name)) if c in self._required),
+                    None)
+
+    def has_numbered_units(self, name: str) -> bool:
+        """A `name` device is made of numbered units read as one (core:numberedUnits on it or an ancestor)."""
+        return any(c in self._units for c in (self._check(name), *self.ancestors(name)))
+
+    def finger_chain_role(self, role: str) -> frozenset[str]:
+        """Classes carrying core:fingerChainRole `role`, with their subclasses."""
+        return frozenset(c for c in self._order if any(self.is_a(c, r) for r, v in self._roles.items() if v == role))
+
+    def joint_class(self, urdf_type: str) -> str:
+        """The class of joints of this URDF type (core:urdfJointType)."""
+        try:
+            return self._joint_class[urdf_type]
+        except KeyError:
+            raise OntologyError(f"no class of the core ontology is aligned to URDF joint type {urdf_type!r}") from None
+
+    def finger_chain_class(self, motion: str) -> str:
+        """The class of finger chains whose drive moves them so (core:fingerDrive)."""
+        try:
+            return self._chain_class[motion]
+        except KeyError:
+            raise OntologyError(f"no class of the core ontology is aligned to finger drive {motion!r}") from None
 
     def declared_classes(self, sim_types: Iterable[str]) -> frozenset[str]:
         """Classes the ontology aligns to any of these simulator (SDF) sensor types (core:simulatorSensorType)."""
@@ -159,32 +301,21 @@ class Taxonomy:
         return frozenset(c for c in self.subclasses_below(below)
                          if not any(self.is_a(c, d) or self.is_a(d, c) for d in declared))
 
-    def example(self, name: str) -> str:
-        """An invented link name typical of the class (skos:example), or ''."""
-        return self._example[self._check(name)]
 
-
-def _excluded_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> set[str]:
-    """X for each `node ⊑ ∀hasComponent.¬X` axiom."""
+def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool) -> set[str]:
+    """X for each `node ⊑ ∀hasComponent.¬X` axiom (complement), or for each `node ⊑ ∀hasComponent.X`."""
     out = set()
     for restriction in graph.objects(node, RDFS.subClassOf):
-        if graph.value(restriction, OWL.onProperty) != rdflib.URIRef(CORE_IRI + "hasComponent"):
+        if graph.value(restriction, OWL.onProperty) != CORE.hasComponent:
             continue
-        excluded = graph.value(graph.value(restriction, OWL.allValuesFrom), OWL.complementOf)
-        if excluded is not None and _local(excluded):
-            out.add(_local(excluded))
+        filler = graph.value(restriction, OWL.allValuesFrom)
+        part = graph.value(filler, OWL.complementOf) if complement else filler
+        if part is not None and _local(part):
+            out.add(_local(part))
     return out
 
 
-def _declared_classes(path: pathlib.Path) -> list[str]:
-    """Local names of the core's owl:Class declarations, in document order."""
-    tag = "{%s}Class" % OWL
-    about = "{%s}about" % RDF
-    names = [_local(rdflib.URIRef(el.get(about, ""))) for el in ET.parse(path).getroot().iter(tag)]
-    return [n for n in names if n]
-
-
-def _local(node: rdflib.term.Node) -> str | None:
+def _local(node: rdflib.term.Node | None) -> str | None:
     """Local name of a core IRI, None for anything else (blank nodes, other namespaces)."""
     text = str(node)
     if isinstance(node, rdflib.URIRef) and text.startswith(CORE_IRI):
@@ -193,6 +324,6 @@ def _local(node: rdflib.term.Node) -> str | None:
 
 
 @functools.cache
-def taxonomy() -> Taxonomy:
-    """The core's taxonomy, built once per process."""
-    return Taxonomy(core_path())
+def vocabulary(path: pathlib.Path | None = None, shapes: pathlib.Path | None = None) -> Vocabulary:
+    """The vocabulary of a core and its shapes (the packaged ones by default), built once per process."""
+    return Vocabulary(path or core_path(), shapes or shapes_path())

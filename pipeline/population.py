@@ -11,21 +11,12 @@ import string
 
 import owlready2
 
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component
+from urdfkb.pipeline.components import Abstraction, Component
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.ontology import CORE_IRI, core_version, load_core, taxonomy
+from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, load_core, vocabulary
 
 ROBOT_BASE = "https://w3id.org/urdfkb/robot/"
 _SAFE = frozenset((string.ascii_letters + string.digits + "-_~").encode())
-_JOINT_CLASSES = {
-    "fixed": "FixedJoint",
-    "revolute": "RevoluteJoint",
-    "continuous": "ContinuousJoint",
-    "prismatic": "PrismaticJoint",
-    "floating": "FloatingJoint",
-    "planar": "PlanarJoint",
-}
-_KIND_ROOTS = {SENSOR: "Sensor", END_EFFECTOR: "EndEffector"}
 # Provenance keys the pipeline writes (oracle, runner) -> core annotation properties.
 PROVENANCE_ALIASES = {
     "model": "abstractionModel",
@@ -53,31 +44,33 @@ def robot_iri(robot_name: str) -> str:
 
 
 def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abstraction | None = None,
-                provenance: dict[str, str] | None = None) -> owlready2.Ontology:
+                provenance: dict[str, str] | None = None, vocab: Vocabulary | None = None) -> owlready2.Ontology:
     """Write the robot as ontology `robot_iri(robot_name)` in `world`, replacing any earlier version.
 
     The abstraction is checked first (classes, links, confidences, names), so a bad one raises
     OntologyError with nothing written. Provenance (abstraction.provenance, then `provenance`)
     is annotated on the Robot: keys naming a core annotation property (or in PROVENANCE_ALIASES)
-    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to core_version().
+    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to the core's version.
+    Classes come from `vocab` (the packaged vocabulary by default), which is loaded into `world`.
     """
+    vocab = vocab or vocabulary()
     components = abstraction.components if abstraction else ()
-    _check_components(tree, components)
-    notes = {"ontologyVersion": core_version(), **(abstraction.provenance if abstraction else {}),
+    _check_components(vocab, tree, components)
+    notes = {"ontologyVersion": vocab.version, **(abstraction.provenance if abstraction else {}),
              **(provenance or {})}
-    load_core(world)
+    load_core(world, vocab)
     onto = _fresh_ontology(world, robot_iri(robot_name))
     with onto:
         robot = _new(world, onto, "Robot", "robot", robot_name)
         _set(world, "urdfName", robot, tree.robot_name)
-        links, joints = _add_structure(world, onto, robot, tree)
+        links, joints = _add_structure(world, onto, robot, tree, vocab)
         for comp in components:
             _add_fingers(world, onto, _add_component(world, onto, robot, comp, links), comp, joints)
         _annotate(world, robot, notes)
     return onto
 
 
-def _check_components(tree, components: tuple[Component, ...]) -> None:
+def _check_components(vocab: Vocabulary, tree, components: tuple[Component, ...]) -> None:
     known = set(tree.links)
     names: set[str] = set()
     for comp in components:
@@ -85,28 +78,28 @@ def _check_components(tree, components: tuple[Component, ...]) -> None:
         if comp.name in names:
             raise OntologyError(f"{where} appears twice")
         names.add(comp.name)
-        root_cls = _KIND_ROOTS.get(comp.kind)
-        if root_cls is None:
+        kind = vocab.kinds.get(comp.kind)
+        if kind is None:
             raise OntologyError(f"{where} has unknown kind {comp.kind!r}")
-        _check_class(comp.cls, root_cls, where)
+        _check_class(vocab, comp.cls, kind.cls, where)
         _check_confidence(comp.confidence, where)
         _check_link(comp.root, known, where)
         sub_links: set[str] = set()
         for sub in comp.subcomponents:
-            _check_class(sub.cls, "Subpart", f"{where}, sub-link {sub.link!r}")
+            _check_class(vocab, sub.cls, vocab.subpart, f"{where}, sub-link {sub.link!r}")
             _check_confidence(sub.confidence, f"{where}, sub-link {sub.link!r}")
             _check_link(sub.link, known, where)
             if sub.link in sub_links:
                 raise OntologyError(f"{where} lists sub-link {sub.link!r} twice")
             sub_links.add(sub.link)
-        _check_fingers(tree, comp, where)
+        _check_fingers(vocab, tree, comp, where)
 
 
-def _check_fingers(tree, comp: Component, where: str) -> None:
+def _check_fingers(vocab: Vocabulary, tree, comp: Component, where: str) -> None:
     names = {f.name for f in comp.fingers}
     joints = {e.joint for e in tree.edges}
     for finger in comp.fingers:
-        _check_class(finger.chain_class, "FingerChain", f"{where}, finger chain {finger.name!r}")
+        _check_class(vocab, finger.chain_class, "FingerChain", f"{where}, finger chain {finger.name!r}")
         if finger.drive not in joints:
             raise OntologyError(f"{where}, finger chain {finger.name!r} names joint {finger.drive!r}, which is not in the URDF")
         unknown = [n for n in (*finger.opposes, *finger.moves_with, finger.mimics) if n is not None and n not in names]
@@ -114,9 +107,8 @@ def _check_fingers(tree, comp: Component, where: str) -> None:
             raise OntologyError(f"{where}, finger chain {finger.name!r} refers to unknown chain {unknown[0]!r}")
 
 
-def _check_class(cls: str, root: str, where: str) -> None:
-    tax = taxonomy()
-    if cls not in tax or not tax.is_a(cls, root):
+def _check_class(vocab: Vocabulary, cls: str, root: str, where: str) -> None:
+    if cls not in vocab or not vocab.is_a(cls, root):
         raise OntologyError(f"{where}: class {cls!r} is not a {root} class of the core ontology")
 
 
@@ -147,7 +139,7 @@ def _set(world, prop: str, subject, value) -> None:
     world[CORE_IRI + prop][subject].append(value)
 
 
-def _add_structure(world, onto, robot, tree) -> tuple[dict, dict]:
+def _add_structure(world, onto, robot, tree, vocab: Vocabulary) -> tuple[dict, dict]:
     links = {}
     for name in tree.links:
         link = links[name] = _new(world, onto, "Link", "link_" + escape(name), name)
@@ -155,7 +147,7 @@ def _add_structure(world, onto, robot, tree) -> tuple[dict, dict]:
         _set(world, "hasLink", robot, link)
     joints = {}
     for edge in tree.edges:
-        joint = joints[edge.joint] = _new(world, onto, _JOINT_CLASSES[edge.joint_type], "joint_" + escape(edge.joint),
+        joint = joints[edge.joint] = _new(world, onto, vocab.joint_class(edge.joint_type), "joint_" + escape(edge.joint),
                                           edge.joint)
         _set(world, "urdfName", joint, edge.joint)
         _set(world, "hasParentLink", joint, links[edge.parent])

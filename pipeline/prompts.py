@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from .llm.base import Question
-from .ontology import Taxonomy
+from .ontology import Kind, Vocabulary
 
 NONE = "none"  # identification: the leaf is part of no component
 MAX_CHAIN = 4  # ancestors shown as context for a link
@@ -34,7 +34,7 @@ class Choice:
     meaning: dict[str, str]
 
 
-def _definitions(tax: Taxonomy, classes: Sequence[str]) -> str:
+def _definitions(tax: Vocabulary, classes: Sequence[str]) -> str:
     lines = []
     for c in classes:
         example = tax.example(c)
@@ -42,7 +42,7 @@ def _definitions(tax: Taxonomy, classes: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
-def _class_choice(system: str, user: str, tax: Taxonomy, classes: Sequence[str], key: str,
+def _class_choice(system: str, user: str, tax: Vocabulary, classes: Sequence[str], key: str,
                   extra: dict[str, str] | None = None) -> Choice:
     meaning = {tax.answer(c): c for c in classes} | (extra or {})
     return Choice(Question(system, user, tuple(meaning), key=key), meaning)
@@ -59,7 +59,7 @@ def facts_text(lines: Sequence[str]) -> str:
     return "".join(f"\nFacts: {line}" for line in lines)
 
 
-def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Choice:
+def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Choice:
     """Which kind of component (or none) a leaf link is part of."""
     system = (
         _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(tax, kinds)
@@ -73,20 +73,14 @@ def kind_choice(tax: Taxonomy, kinds: Sequence[str], link: str, ancestors: Seque
     return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 
-_MOUNTS = {
-    "sensor": "the mount is a body part or bracket (base, torso, head, arm, wrist or mount link) that is not"
-    " named after the sensor.",
-    "end-effector": "the mount is the last link of the arm that carries it: its wrist or flange link, not the"
-    " forearm, elbow or shoulder.",
-}
-
-
-def root_question(kind_label: str, link: str, candidates: Sequence[str]) -> Question:
-    """Which of the offered ancestors is the mount of the device that `link` belongs to."""
+def root_question(kind: Kind, link: str, candidates: Sequence[str]) -> Question:
+    """Which of the offered ancestors is the mount of the device that `link` belongs to (the kind's
+    core:promptNoun names the device, its core:mountRule says what its mount is)."""
+    kind_label = kind.noun
     system = (
         _PREAMBLE + f"A {kind_label} is fixed to the robot body at one link, its mount. The links between the"
         f" mount and the {kind_label}'s own frames belong to the {kind_label} (its housing, palm, fingers,"
-        f" adapters and frames); {_MOUNTS[kind_label]}"
+        f" adapters and frames); {kind.mount_rule}"
         f"\nGiven one link of a {kind_label} and its ancestors, name the mount."
         "\nReply with the link name only."
     )
@@ -94,12 +88,12 @@ def root_question(kind_label: str, link: str, candidates: Sequence[str]) -> Ques
     return Question(system, user, tuple(candidates), key=f"root:{link}")
 
 
-def level_options(tax: Taxonomy, concept: str, exclude: frozenset[str] = frozenset()) -> tuple[str, ...]:
+def level_options(tax: Vocabulary, concept: str, exclude: frozenset[str] = frozenset()) -> tuple[str, ...]:
     """The direct subclasses of `concept` the schema allows here."""
     return tuple(c for c in tax.subclasses(concept) if c not in exclude)
 
 
-def level_choice(tax: Taxonomy, concept: str, framing: str, evidence: str, key: str,
+def level_choice(tax: Vocabulary, concept: str, framing: str, evidence: str, key: str,
                  exclude: frozenset[str] = frozenset()) -> Choice:
     """Pick among the allowed direct subclasses of `concept` for one subject (a sub-chain, a link, a group)."""
     options = level_options(tax, concept, exclude)

@@ -1,8 +1,8 @@
 """Classify candidate tools from their structural facts with the ontology's class definitions (HermiT).
 
 Each tool becomes an EndEffector individual in a temporary world holding the core ontology, with
-one individual per finger chain typed by its drive's motion (ontology: `PrismaticFingerChain`,
-`PivotingFingerChain`, `FrozenFingerChain`), `opposes`, `movesWith` and `isMimicOf` between chains.
+one individual per finger chain typed by its drive's motion (the class the ontology aligns to it by
+`core:fingerDrive`), `opposes`, `movesWith` and `isMimicOf` between chains.
 The code closes what it knows (the tool has no chain but these, each opposes and moves with no chain
 but those: an at-most cardinality equal to the count of asserted, all-different chains; measured
 several times faster in HermiT than the same closure with nominals), so the qualified cardinalities in the definitions of `ParallelGripper`,
@@ -18,13 +18,17 @@ from dataclasses import dataclass
 
 import owlready2
 
-from .ontology import CORE_IRI, load_core, taxonomy
+from . import components
+from .ontology import CORE_IRI, load_core, vocabulary
 from .structure import ToolStructure
 
 log = logging.getLogger(__name__)
-END_EFFECTOR = "EndEffector"
-CHAIN_CLASSES = {"prismatic": "PrismaticFingerChain", "pivoting": "PivotingFingerChain", "frozen": "FrozenFingerChain"}
 THUMB = "ThumbChain"
+
+
+def _tool_class() -> str:
+    """The end-effector kind's class: what a tool is when its facts settle nothing finer."""
+    return vocabulary().kinds[components.END_EFFECTOR].cls
 
 
 @dataclass(frozen=True)
@@ -37,13 +41,13 @@ class Inference:
 
     @property
     def settled(self) -> bool:
-        return self.cls != END_EFFECTOR
+        return self.cls != _tool_class()
 
 
 def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
     """One Inference per tool, and the reasoner's wall time in seconds (0 when nothing needed it)."""
     if not any(t.fingers for t in tools):
-        return [Inference(END_EFFECTOR, ()) for _ in tools], 0.0
+        return [Inference(_tool_class(), ()) for _ in tools], 0.0
     world = owlready2.World()
     try:
         core = load_core(world)
@@ -53,7 +57,8 @@ def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
             chains_all = []
             for i, tool in enumerate(tools):
                 individual = core.EndEffector(f"tool{i}")
-                chains = {f.name: core[CHAIN_CLASSES[f.motion]](f"tool{i}_{j}") for j, f in enumerate(tool.fingers)}
+                chains = {f.name: core[vocabulary().finger_chain_class(f.motion)](f"tool{i}_{j}")
+                          for j, f in enumerate(tool.fingers)}
                 for finger in tool.fingers:
                     chain = chains[finger.name]
                     chain.opposes = [chains[o] for o in finger.opposes]
@@ -74,7 +79,7 @@ def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
             owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
         except (owlready2.OwlReadyJavaError, OSError) as e:  # no Java, or HermiT failed: the model is asked
             log.warning("reasoner unavailable (%s): end-effector kinds are left to the model", e)
-            return [Inference(END_EFFECTOR, ()) for _ in tools], time.monotonic() - started
+            return [Inference(_tool_class(), ()) for _ in tools], time.monotonic() - started
         seconds = time.monotonic() - started
         return [_inference(individual, chains) for individual, chains in individuals], seconds
     finally:
@@ -82,11 +87,11 @@ def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
 
 
 def _inference(individual, chains: dict) -> Inference:
-    tax = taxonomy()
+    tax, tool = vocabulary(), _tool_class()
     names = [c.iri[len(CORE_IRI):] for c in individual.is_a
              if isinstance(c, owlready2.ThingClass) and c.iri.startswith(CORE_IRI)]
-    under = [n for n in names if n in tax and tax.is_a(n, END_EFFECTOR)]
-    cls = max(under, key=lambda n: len(tax.ancestors(n)), default=END_EFFECTOR)
+    under = [n for n in names if n in tax and tax.is_a(n, tool)]
+    cls = max(under, key=lambda n: len(tax.ancestors(n)), default=tool)
     thumbs = tuple(name for name, chain in chains.items()
                    if any(getattr(c, "iri", "") == CORE_IRI + THUMB for c in chain.is_a))
     return Inference(cls, thumbs)

@@ -13,7 +13,7 @@ from .abstraction import Abstractor
 from .components import Abstraction
 from .errors import URDFError
 from .llm.base import Backend
-from .ontology import core_version, taxonomy
+from .ontology import vocabulary
 from .oracle import Oracle
 from .stages.asking import Progress
 from .tree import KinematicTree
@@ -101,7 +101,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     """Abstract a robot's sensors and end-effectors (nothing when structure_only).
 
     `backend` overrides the one the settings name (tests inject a scripted one). Results are
-    cached by URDF digest, model, ontology version and settings; the backend is closed after use.
+    cached by URDF digest, model, vocabulary (ontology and shapes) and settings; the backend is closed after use.
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only"})
@@ -109,7 +109,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         raise URDFError(f"robot {tree.robot_name!r} has a single link, {tree.root!r}: no device to abstract "
                         "(--structure-only writes its structure)", f"link '{tree.root}'")
     settings_key = {k: v for k, v in dataclasses.asdict(settings).items() if k != "use_cache"}
-    digest = cache.key(tree_digest(tree), _backend_id(settings, backend), core_version(), settings_key)
+    digest = cache.key(tree_digest(tree), _backend_id(settings, backend), vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
         return hit
     owned = backend is None
@@ -118,7 +118,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
         started = time.monotonic()
         log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
-        abstractor = Abstractor(oracle, taxonomy(), progress, log)
+        abstractor = Abstractor(oracle, vocabulary(), progress, log)
         components = abstractor.run(tree)
         stats = oracle.stats
         provenance = {

@@ -11,7 +11,7 @@ import rdflib
 
 from urdfkb.kb_server.cli import main
 from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
-from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.ontology import vocabulary
 
 pytestmark = pytest.mark.integration
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
@@ -32,7 +32,7 @@ def test_populate_with_the_embedded_model(tmp_path, monkeypatch):
     assert all(abs(sum(r["distribution"].values()) - 1) < 1e-6 for r in questions)
 
     graph = rdflib.Graph().parse(out, format="turtle")
-    tax = taxonomy()
+    tax = vocabulary()
     for comp in graph.objects(None, rdflib.URIRef(CORE + "hasComponent")):
         classes = {str(c).removeprefix(CORE) for c in graph.objects(comp, rdflib.RDF.type)} & set(tax._order)
         assert classes, f"{comp} has no urdfkb class"

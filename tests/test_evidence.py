@@ -10,13 +10,13 @@ from urdfkb.pipeline.evidence import SimSensor, mesh_stem
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.runner import Settings, run, tree_digest
 
 BOT = Path(__file__).parent / "data" / "sensor_bot.urdf"
-TAX = taxonomy()
+TAX = vocabulary()
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import taxonomy
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import SubChain, mount_candidates
@@ -21,7 +21,7 @@ from urdfkb.pipeline.stages.grouping import Group, device_names, merge, name_pre
 from urdfkb.pipeline.stages.verification import verify
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
-TAX = taxonomy()
+TAX = vocabulary()
 LABELS = {TAX.answer(c): c for c in TAX._order}  # answer phrase → class, for the scripted model
 
 # What a perfect model would answer about the toy robot.

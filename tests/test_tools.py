@@ -19,7 +19,7 @@ from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import CORE_IRI, taxonomy
+from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.prompts import NONE
@@ -31,7 +31,7 @@ from urdfkb.pipeline.stages.tools import settle
 from urdfkb.pipeline.structure import mount_of, tool_structure
 
 RACK = Path(__file__).parent / "data" / "tool_rack.urdf"
-TAX = taxonomy()
+TAX = vocabulary()
 VISE = ["vise_jaw_port", "vise_jaw_starboard", "vise_grip_point"]
 TRIDENT = ["trident_motor", "trident_prong0_tip", "trident_prong1_tip", "trident_prong2_tip"]
 MITT = ["mitt_drive", *(f"mitt_digit{k}_end" for k in range(4)), "mitt_opposer_end"]

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from ..ontology import Kind
 from ..oracle import Oracle
 from ..prompts import root_question
 from ..tree import KinematicTree
@@ -48,7 +49,7 @@ def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bo
     return candidates
 
 
-def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind_label: str,
+def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: Kind,
                  blocked: Callable[[str], bool], progress: Progress | None = None, rigid: bool = False) -> list[SubChain]:
     """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device;
     `rigid`: devices of this kind are fixed to their mount (sensors)."""
@@ -58,7 +59,7 @@ def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind_la
         if len(candidates) == 1:
             chains[leaf] = sub_chain(tree, leaf, candidates[0])
         else:
-            asked.append((leaf, root_question(kind_label, leaf, candidates)))
+            asked.append((leaf, root_question(kind, leaf, candidates)))
     verdicts = ask(oracle, [q for _, q in asked], "attachment root detection", progress)
     for (leaf, q), v in zip(asked, verdicts):
         root = v.answer or q.options[0]  # an abstention mounts the device on its parent

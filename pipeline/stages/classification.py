@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..ontology import Taxonomy
+from ..ontology import Vocabulary
 from ..oracle import Oracle
 from ..prompts import level_choice, level_options
 from .asking import Progress, ask
@@ -34,7 +34,7 @@ class Typed:
     confidence: float
 
 
-def descend(oracle: Oracle, tax: Taxonomy, start: str, subjects: list[Subject], stage: str,
+def descend(oracle: Oracle, tax: Vocabulary, start: str, subjects: list[Subject], stage: str,
             progress: Progress | None = None) -> list[Typed]:
     """Classify every subject below `start`, breadth-first."""
     typed = [_through_lone(tax, Typed(start, 1.0), s.exclude) for s in subjects]
@@ -57,7 +57,7 @@ def descend(oracle: Oracle, tax: Taxonomy, start: str, subjects: list[Subject], 
     return typed
 
 
-def _through_lone(tax: Taxonomy, typed: Typed, exclude: frozenset[str]) -> Typed:
+def _through_lone(tax: Vocabulary, typed: Typed, exclude: frozenset[str]) -> Typed:
     """Follow lone allowed subclasses down (VisionSensor → Camera): there is nothing to ask."""
     while len(subs := level_options(tax, typed.cls, exclude)) == 1:
         typed = Typed(subs[0], typed.confidence)

@@ -2,18 +2,15 @@
 from __future__ import annotations
 
 from ..oracle import Oracle
-from ..ontology import Taxonomy
+from ..ontology import Vocabulary
 from ..prompts import NONE, kind_choice
 from ..tree import KinematicTree
 from .asking import Progress, ask
 
-COMPONENT = "Component"
-
-
-def identify(oracle: Oracle, tax: Taxonomy, tree: KinematicTree, leaves: list[str],
+def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str],
              progress: Progress | None = None) -> dict[str, str]:
     """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention)."""
-    kinds = tax.subclasses(COMPONENT)
+    kinds = tax.subclasses(tax.component)
     choices = [
         kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type)
         for leaf in leaves
