@@ -37,11 +37,12 @@ class StageBars:
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
+    from urdfkb.pipeline.oracle import MODES
     g = p.add_argument_group("model")
     g.add_argument("--model", metavar="GGUF", help="a GGUF model file (default: Qwen2.5-Coder-1.5B-Instruct, fetched once)")
     g.add_argument("--llm-url", metavar="URL", help="an OpenAI-compatible server (llama.cpp server, vLLM, Ollama /v1) instead of the embedded model")
     g.add_argument("--llm-model", metavar="NAME", help="the model name to request from --llm-url")
-    g.add_argument("--vote", choices=("exact", "sample"), help="exact: whole-answer probabilities in one pass (default with an embedded model); sample: K samples at temperature 0.7")
+    g.add_argument("--vote", choices=MODES, help="exact: whole-answer probabilities in one pass (default with an embedded model); sample: K samples at temperature 0.7")
     g.add_argument("--votes", type=int, default=5, metavar="K", help="samples per question with --vote sample (default 5)")
     g.add_argument("--no-cache", action="store_true", help="ignore and do not write the result cache")
 

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import math
 import string
+from datetime import datetime, timezone
 
 import owlready2
 
+from urdfkb import __version__
 from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ontology import CORE_IRI, core_version, load_core, taxonomy
@@ -40,6 +42,15 @@ PROVENANCE_ALIASES = {
 }
 
 
+def stamp(tree) -> dict[str, str]:
+    """What every populated robot says of the populate that wrote it: when (UTC), with which urdfkb,
+    from which URDF document (its SHA-256, where the tree was read from one)."""
+    facts = {"generatedAt": datetime.now(timezone.utc).isoformat(timespec="seconds"), "softwareVersion": __version__}
+    if tree.source_sha256:
+        facts["urdfSha256"] = tree.source_sha256
+    return facts
+
+
 def escape(name: str) -> str:
     """Percent-encode the UTF-8 bytes of `name` outside [A-Za-z0-9_~-]; injective."""
     return "".join(chr(b) if b in _SAFE else f"%{b:02X}" for b in name.encode("utf-8", "surrogatepass"))
@@ -59,11 +70,13 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
     The abstraction is checked first (classes, links, confidences, names), so a bad one raises
     OntologyError with nothing written. Provenance (abstraction.provenance, then `provenance`)
     is annotated on the Robot: keys naming a core annotation property (or in PROVENANCE_ALIASES)
-    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to core_version().
+    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to
+    core_version() and generatedAt, softwareVersion and urdfSha256 to `stamp(tree)` (the runner
+    stamps its abstractions, so a rebuild for a correction keeps the time of the populate).
     """
     components = abstraction.components if abstraction else ()
     _check_components(tree, components)
-    notes = {"ontologyVersion": core_version(), **(abstraction.provenance if abstraction else {}),
+    notes = {"ontologyVersion": core_version(), **stamp(tree), **(abstraction.provenance if abstraction else {}),
              **(provenance or {})}
     load_core(world)
     onto = _fresh_ontology(world, robot_iri(robot_name))
@@ -207,6 +220,6 @@ def _annotate(world, robot, notes: dict[str, str]) -> None:
     for key, value in notes.items():
         prop = world[CORE_IRI + PROVENANCE_ALIASES.get(key, key)]
         if isinstance(prop, owlready2.AnnotationPropertyClass):
-            prop[robot].append(str(value))
+            prop[robot].append(datetime.fromisoformat(value) if key == "generatedAt" else str(value))  # xsd:dateTime
         else:
             _set(world, "provenanceNote", robot, f"{key}={value}")

@@ -31,6 +31,13 @@ def test_rover_expands_with_includes_and_arguments():
     assert set(no_cam.links) == {"qk_footprint", "qk_body"}
 
 
+def test_the_tree_records_the_digest_of_the_expanded_urdf_not_of_the_xacro_source():
+    import hashlib
+    tree = load_description(ROVER, packages=PACKAGES, args={"prefix": "zz"})
+    urdf = expand(ROVER.read_bytes(), ROVER.name, main_dir=ROVER.parent, args={"prefix": "zz"}, packages=PACKAGES)
+    assert tree.source_sha256 == hashlib.sha256(urdf).hexdigest() != hashlib.sha256(ROVER.read_bytes()).hexdigest()
+
+
 def test_argument_and_package_path_syntax():
     assert parse_args(["a:=1", "b_c:=x y"]) == {"a": "1", "b_c": "x y"}
     with pytest.raises(XacroError, match="NAME:=VALUE"):
