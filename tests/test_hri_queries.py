@@ -115,6 +115,25 @@ def test_parameters_are_typed_and_checked(store):
     assert '"x\\" } UNION' in text
 
 
+def test_a_hostile_parameter_value_is_one_literal_that_round_trips(tmp_path):
+    """A link name full of SPARQL syntax is matched exactly, as a value: it neither breaks nor widens the query."""
+    from urdfkb.pipeline.components import Abstraction, Component, SubComponent
+    from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+    odd = 'deck" } UNION { ?component ?p ?o } # \\ \'\'\' """ \n $robot'
+    zero = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    tree = KinematicTree("odd", ("base", odd, "lidar"), (Edge("j1", "fixed", "base", odd, zero),
+                                                         Edge("j2", "fixed", odd, "lidar", zero)))
+    lidar = Component("lidar", "sensor", "Lidar", 0.9, odd, (SubComponent("lidar", "SensingElement", 0.9),))
+    kb = Store(tmp_path / "kb.sqlite3", workers=0)
+    try:
+        kb.replace_robot("odd", tree, Abstraction((lidar,)))
+        found = rows(kb, "mounted_below", "odd", link=odd)
+        assert [(r["mount"], r["class"].removeprefix(C)) for r in found] == [(odd, "Lidar")]
+        assert rows(kb, "mounted_below", "odd", link=odd[:4]) == []  # no partial match, no injected UNION
+    finally:
+        kb.close()
+
+
 def test_http_route_and_cli(store):
     app, jobs = make_app(store)
     with live(app) as base:

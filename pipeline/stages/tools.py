@@ -1,4 +1,4 @@
-"""End-effector extent and mount by structure, after verification (pipeline.structure defines the facts).
+"""Stage 6 for end-effectors: extent and mount by structure, after verification (pipeline.structure defines the facts).
 
 The model's mount choices only group a tool's leaves; the tool itself is then settled from the tree:
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
