@@ -5,7 +5,7 @@ import urllib.parse
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, http, live, make_app
+from kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
@@ -136,16 +136,16 @@ def test_a_hostile_parameter_value_is_one_literal_that_round_trips(tmp_path):
 
 def test_http_route_and_cli(store):
     app, jobs = make_app(store)
-    with live(app) as base:
-        q = urllib.parse.urlencode({"robot": "pr2", "link": "head_mount_link"})
-        status, ctype, out = http("GET", f"{base}/queries/mounted_below?{q}")
-        assert status == 200 and ctype.startswith("application/sparql-results+json")
-        assert len(json.loads(out)["results"]["bindings"]) == 2
-        status, ctype, _ = http("GET", f"{base}/queries/sensors?robot=pr2", headers={"Accept": "text/csv"})
-        assert status == 200 and ctype.startswith("text/csv")
-        status, ctype, out = http("GET", f"{base}/queries/low_confidence?robot=pr2&threshold=abc")
-        assert status == 400 and "decimal" in json.loads(out)["error"]
-        assert http("GET", f"{base}/queries/cameras")[0] == 400
+    api = client(app)
+    q = urllib.parse.urlencode({"robot": "pr2", "link": "head_mount_link"})
+    status, ctype, out = api("GET", f"/queries/mounted_below?{q}")
+    assert status == 200 and ctype.startswith("application/sparql-results+json")
+    assert len(json.loads(out)["results"]["bindings"]) == 2
+    status, ctype, _ = api("GET", "/queries/sensors?robot=pr2", headers={"Accept": "text/csv"})
+    assert status == 200 and ctype.startswith("text/csv")
+    status, ctype, out = api("GET", "/queries/low_confidence?robot=pr2&threshold=abc")
+    assert status == 400 and "decimal" in json.loads(out)["error"]
+    assert api("GET", "/queries/cameras")[0] == 400
     jobs.shutdown()
 
 
