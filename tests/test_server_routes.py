@@ -121,6 +121,25 @@ def test_bad_input(server, shared):
         assert status == 404 and ctype.startswith("application/json"), path
 
 
+def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(tmp_path):
+    store = Store(tmp_path / "kb.sqlite3")
+    app, jobs = make_app(store, runner=pipeline_runner)  # the real runner: it refuses before any model loads
+    api = client(app)
+    try:
+        lonely = b'<robot name="lonely"><link name="only"/></robot>'
+        status, _, out = api("POST", "/populate", lonely, {"Content-Type": "application/xml"})
+        assert status == 202
+        job = wait(api, json.loads(out)["id"])
+        assert job["state"] == "failed" and store.robots() == []
+        assert job["errors"] == ["robot 'lonely' has a single link, 'only': no device to abstract "
+                                 "(--structure-only writes its structure) (at link 'only')"]
+        status, _, out = api("POST", "/populate?structure_only=true", lonely, {"Content-Type": "application/xml"})
+        assert wait(api, json.loads(out)["id"])["state"] == "succeeded"
+    finally:
+        jobs.shutdown()
+        store.close()
+
+
 def test_failed_job_leaves_the_store_as_it_was(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
     before = server("GET", "/robots/pr2")[2]
