@@ -101,12 +101,15 @@ def test_a_single_link_robot_is_a_clear_error_not_a_crash():
 
 
 def _robot_provenance(tree, abstraction) -> dict:
-    """The Robot individual's provenance annotations, by local name, as rdflib terms."""
+    """The Robot individual's provenance annotations, by local name, as rdflib terms (the robot conforms)."""
     import owlready2
     import rdflib
     from urdfkb.pipeline.export import robot_graph
     from urdfkb.pipeline.population import build_robot
+    from urdfkb.pipeline.shacl import validate
     g = robot_graph(build_robot(owlready2.World(), tree, "toy", abstraction))
+    conforms, report = validate(g)
+    assert conforms, report
     core = "https://w3id.org/urdfkb/core#"
     (robot,) = g.subjects(rdflib.RDF.type, rdflib.URIRef(core + "Robot"))
     return {str(p).removeprefix(core): o for p, o in g.predicate_objects(robot) if str(p).startswith(core)}
