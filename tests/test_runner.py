@@ -143,6 +143,12 @@ def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp
     sampled = _robot_provenance(tree, run(tree, Settings(model=str(gguf), vote="sample", votes=3)))
     assert (sampled["votingMode"].toPython(), sampled["votesPerQuestion"].toPython()) == ("sample", "3")
 
+    gguf.write_bytes(b"GGUF another model at the same path")  # a replaced file misses the result cache
+    again = run(tree, Settings(model=str(gguf)))
+    assert "result_cache" not in again.provenance
+    assert again.provenance["modelSha256"] == hashlib.sha256(gguf.read_bytes()).hexdigest()
+    assert run(tree, Settings(model=str(gguf))).provenance["result_cache"] == "hit"
+
 
 def test_the_default_model_is_named_by_its_verified_digest_without_hashing(monkeypatch):
     from urdfkb.pipeline import runner
