@@ -26,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from urdfkb.pipeline.cache import cache_root
+from urdfkb.pipeline.llm.fetch import models_dir
 from urdfkb.pipeline.llm.prefix_store import SUBDIR, SUFFIX
 
 REPO = Path(__file__).resolve().parents[1]
@@ -40,7 +40,8 @@ def populate(urdf: Path, root: Path, label: str) -> dict:
     cmd = [str(URDFKB), "populate", str(urdf), "--no-cache", "--quiet", "--format", "turtle",
            "-o", str(out), "--trace", str(trace)]
     start, cpu = time.perf_counter(), _child_cpu()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "URDFKB_CACHE": str(root), "URDFKB_PREFIX_CACHE": "on"})
+    env = {**os.environ, "URDFKB_CACHE": str(root), "URDFKB_MODEL_CACHE": str(models_dir()), "URDFKB_PREFIX_CACHE": "on"}
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
     seconds, cpu = time.perf_counter() - start, _child_cpu() - cpu
     if proc.returncode != 0:
         sys.exit(f"{label}: urdfkb failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
@@ -73,13 +74,12 @@ def main() -> None:
     parser.add_argument("--first", type=Path, default=SHARED / "urdf" / "tiago.urdf")
     parser.add_argument("--reps", type=int, default=1)
     args = parser.parse_args()
-    models = cache_root() / "models"
+    models = models_dir()
     if not any(models.glob("*.gguf")):
         sys.exit(f"no model in {models}: run `urdfkb model` first")
     runs: dict[str, list[dict]] = {"cold": [], "first robot": [], "second robot": []}
     with tempfile.TemporaryDirectory(prefix="urdfkb-bench-") as tmp:
-        root = Path(tmp)
-        (root / "models").symlink_to(models.resolve())
+        root = Path(tmp)  # the prompt-state and result caches; the models stay where they are
         for rep in range(args.reps):
             shutil.rmtree(root / SUBDIR, ignore_errors=True)
             print(f"round {rep + 1}: load average {os.getloadavg()[0]:.1f}", file=sys.stderr, flush=True)

@@ -21,8 +21,9 @@ from urdfkb.kb_server.index import WorkerCrashed
 from urdfkb.kb_server.jobs import JobManager, QueueFull
 from urdfkb.kb_server.security import Policy, Refused
 from urdfkb.kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
-from urdfkb.kb_server.store import EXPORT_FORMATS, ReadOnlyGraph, RobotNameError, Store, check_robot_name
+from urdfkb.kb_server.store import ReadOnlyGraph, RobotNameError, Store, check_robot_name
 from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.xacro_input import XacroError, load_description, parse_args
@@ -226,12 +227,12 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     def robot(spec: str):
         name, _, ext = spec.partition(".")
         if ext:
-            if ext not in EXPORT_FORMATS:
-                return error(404, f"no export format .{ext} (use {', '.join('.' + x for x in EXPORT_FORMATS)})")
+            if ext not in BY_EXTENSION:
+                return error(404, f"no export format .{ext} (use {', '.join('.' + x for x in BY_EXTENSION)})")
             data = store.export(name, ext)
             if data is None:
                 return error(404, f"no robot {name!r}")
-            resp = Response(data, 200, content_type=EXPORT_FORMATS[ext][1])
+            resp = Response(data, 200, content_type=BY_EXTENSION[ext].media_type)
             resp.headers["Content-Disposition"] = f'attachment; filename="{name}.{ext}"'
             return resp
         if ui.wants_html():

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from urdfkb import __version__
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.formats import BY_NAME
 
 DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
 
@@ -37,11 +38,12 @@ class StageBars:
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
+    from urdfkb.pipeline.oracle import MODES
     g = p.add_argument_group("model")
     g.add_argument("--model", metavar="GGUF", help="a GGUF model file (default: Qwen2.5-Coder-1.5B-Instruct, fetched once)")
     g.add_argument("--llm-url", metavar="URL", help="an OpenAI-compatible server (llama.cpp server, vLLM, Ollama /v1) instead of the embedded model")
     g.add_argument("--llm-model", metavar="NAME", help="the model name to request from --llm-url")
-    g.add_argument("--vote", choices=("exact", "sample"), help="exact: whole-answer probabilities in one pass (default with an embedded model); sample: K samples at temperature 0.7")
+    g.add_argument("--vote", choices=MODES, help="exact: whole-answer probabilities in one pass (default with an embedded model); sample: K samples at temperature 0.7")
     g.add_argument("--votes", type=int, default=5, metavar="K", help="samples per question with --vote sample (default 5)")
     g.add_argument("--no-cache", action="store_true", help="ignore and do not write the result cache")
 
@@ -49,8 +51,12 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
 def _add_xacro_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("xacro")
     g.add_argument("--xacro-arg", metavar="NAME:=VALUE", action="append", default=[], help="a xacro:arg value (repeatable)")
-    g.add_argument("--package-path", metavar="NAME=DIR", action="append", default=[],
-                   help="where $(find NAME) and package://NAME/ point (repeatable); includes may read only these folders and the file's own")
+    _add_package_path(g, "where $(find NAME) and package://NAME/ point (repeatable); includes may read only these folders and the file's own")
+
+
+def _add_package_path(group, help: str) -> None:
+    """--package-path NAME=DIR (repeatable): the ROS package folders xacro includes may read, as `help` says for the command."""
+    group.add_argument("--package-path", metavar="NAME=DIR", action="append", default=[], help=help)
 
 
 def _settings(args: argparse.Namespace, structure_only: bool = False):
@@ -101,7 +107,7 @@ def cmd_populate(args: argparse.Namespace) -> int:
     conforms, report = validate(robot_graph(onto))
     if not conforms:
         raise UrdfkbError(f"the populated robot breaks the SHACL shapes; nothing written:\n{report}")
-    out = args.output or f"{Path(Path(args.urdf).name.removesuffix('.xacro')).stem}.{ {'rdfxml': 'owl', 'turtle': 'ttl', 'ntriples': 'nt'}[args.format] }"
+    out = args.output or f"{Path(Path(args.urdf).name.removesuffix('.xacro')).stem}.{BY_NAME[args.format].extension}"
     export_robot(onto, out, args.format)
     what = "structure only" if settings.structure_only else f"{len(abstraction.components)} components"
     print(f"{name}: {len(tree.links)} links, {len(tree.edges)} joints, {what} in {seconds:.1f} s -> {Path(out).resolve()}")
@@ -192,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Ingest a URDF, run the LLM-guided abstraction (sensors, then end-effectors), check the result against the SHACL shapes and write a self-contained ontology file that opens in Protégé offline.")
     p.add_argument("urdf", help="the robot's URDF or xacro file (.xacro, or a document declaring the xacro namespace)")
     p.add_argument("-o", "--output", help="output file (default: <urdf stem>.owl/.ttl/.nt in the current directory)")
-    p.add_argument("--format", choices=("rdfxml", "turtle", "ntriples"), default="rdfxml", help="output syntax (default rdfxml)")
+    p.add_argument("--format", choices=tuple(BY_NAME), default="rdfxml", help="output syntax (default rdfxml)")
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
     p.add_argument("--structure-only", action="store_true", help="skip the model: links and joints only")
     p.add_argument("--trace", metavar="FILE", help="write a JSON-lines audit of every question: candidates, distribution, answer")
@@ -234,9 +240,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--allow-llm-url", metavar="URL", action="append", default=[], help="let POST /populate use this OpenAI-compatible http(s) server as llm_url (repeatable; default: llm_url= refused)")
     g.add_argument("--insecure-no-token", action="store_true", help="serve on a non-loopback --host without --token: anyone who can reach the port can populate robots")
     g.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
-    g.add_argument("--package-path", metavar="NAME=DIR", action="append", default=[],
-                   help="let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
-                        "(repeatable; without it, uploads read no server file)")
+    _add_package_path(g, "let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
+                         "(repeatable; without it, uploads read no server file)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

@@ -7,8 +7,11 @@ A query file is SPARQL whose header comments give a title and its parameters:
     # param threshold: decimal = 0.5 - what it means
 
 `$robot` is always bound to the robot's individual IRI; other `$name` variables to the request's
-values, validated for their type and written as RDF terms (`Literal(...).n3()`, escaped), never
-pasted as raw text.
+values, validated for their type and written into the text as escaped RDF terms (`Literal(...).n3()`)
+in one pass over the file's text, so a value is one term, never query syntax. Oxigraph does not bind
+them itself: pyoxigraph 0.5's `Store.query(substitutions=...)` refuses a variable the SELECT does
+not project ("does not contains variable ?threshold in its SELECT projection"), and projecting
+`?robot` and `?threshold` would add columns to every answer.
 """
 from __future__ import annotations
 

@@ -32,12 +32,10 @@ from urdfkb.kb_server.sparql import CORE_GRAPH, Result, scan
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph
+from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.ontology import CORE_IRI, load_core
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import KinematicTree
-
-EXPORT_FORMATS = {"owl": ("rdfxml", "application/rdf+xml"), "ttl": ("turtle", "text/turtle"),
-                  "nt": ("ntriples", "application/n-triples")}
 
 # kb_sources: the model's own answer per robot (tree and abstraction as JSON), so reviewers'
 # corrections can be laid over it again whenever they change; the robot graph is model + corrections.
@@ -275,8 +273,8 @@ class Store:
             return robot_graph(self._ontology(entry), self._corrections_graph(name)) if entry else None
 
     def export(self, name: str, ext: str) -> bytes | None:
-        """The robot as a file (`ext` a key of EXPORT_FORMATS) that opens in Protégé offline."""
-        fmt = EXPORT_FORMATS[ext][0]
+        """The robot as a file (`ext` a key of formats.BY_EXTENSION) that opens in Protégé offline."""
+        fmt = BY_EXTENSION[ext].name
         buf = io.BytesIO()
         with self.lock:
             entry = self.robot(name)

@@ -13,7 +13,6 @@ import platformdirs
 from .components import Abstraction
 
 
-
 @functools.cache
 def code_version() -> str:
     """A digest of the pipeline's own source: any change to prompts or stages misses old entries."""
@@ -29,13 +28,14 @@ def cache_root() -> Path:
     return Path(os.environ.get("URDFKB_CACHE") or platformdirs.user_cache_dir("urdfkb"))
 
 
-def cache_dir() -> Path:
-    """Where results are kept: cache_root()/results."""
-    return cache_root() / "results"
+def results_dir() -> Path:
+    """Where results are kept: $URDFKB_RESULT_CACHE, else cache_root()/results (so the result cache
+    can be moved or emptied without touching the models)."""
+    return Path(os.environ.get("URDFKB_RESULT_CACHE") or cache_root() / "results")
 
 
-def key(tree_digest: str, model: str, ontology: str, settings: dict) -> str:
-    """A digest of everything that determines the result: the robot, the model, the ontology,
+def key(tree_digest: str, model: object, ontology: str, settings: dict) -> str:
+    """A digest of everything that determines the result: the robot, the model (any JSON value), the ontology,
     the settings and the pipeline code."""
     blob = json.dumps([code_version(), tree_digest, model, ontology, settings], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
@@ -43,7 +43,7 @@ def key(tree_digest: str, model: str, ontology: str, settings: dict) -> str:
 
 def load(digest: str) -> Abstraction | None:
     """The cached result, or None when absent or unreadable."""
-    path = cache_dir() / f"{digest}.json"
+    path = results_dir() / f"{digest}.json"
     try:
         return Abstraction.from_dict(json.loads(path.read_text()))
     except (OSError, ValueError, KeyError, TypeError):
@@ -52,7 +52,7 @@ def load(digest: str) -> Abstraction | None:
 
 def store(digest: str, abstraction: Abstraction) -> None:
     """Write atomically, so a crash never leaves a half-written entry."""
-    folder = cache_dir()
+    folder = results_dir()
     folder.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
     with os.fdopen(fd, "w") as out:

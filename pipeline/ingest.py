@@ -6,6 +6,7 @@ and meshes are never loaded.
 """
 from __future__ import annotations
 
+import hashlib
 import io
 import math
 import os
@@ -64,13 +65,15 @@ def load_urdf(source: str | os.PathLike | bytes, *, max_bytes: int = DEFAULT_MAX
     """Read a URDF (bytes = the document, str/PathLike = a file path) into its kinematic tree.
 
     Raises URDFError for oversize, hostile, malformed or structurally invalid input, and for
-    more than `max_links` links or joints (checked before any per-element work).
+    more than `max_links` links or joints (checked before any per-element work). The tree's
+    `source_sha256` is the SHA-256 of the document's bytes as read.
     """
-    robot = _parse_hardened(_read(source, max_bytes))
+    data = _read(source, max_bytes)
+    robot = _parse_hardened(data)
     _check_counts(robot, max_links)
     _validate(robot)
     _drop_invalid_geometry(robot)
-    return _tree_from(_parse_with_yourdfpy(robot), robot)
+    return _tree_from(_parse_with_yourdfpy(robot), robot, hashlib.sha256(data).hexdigest())
 
 
 # -- 1. size and counts ----------------------------------------------------------------
@@ -280,7 +283,7 @@ def _parse_with_yourdfpy(robot: ET.Element) -> yourdfpy.URDF:
         raise URDFError(f"yourdfpy could not read the document: {type(err).__name__}: {err}", "robot") from err
 
 
-def _tree_from(model: yourdfpy.URDF, robot: ET.Element) -> KinematicTree:
+def _tree_from(model: yourdfpy.URDF, robot: ET.Element, sha256: str) -> KinematicTree:
     """Names, types and links from yourdfpy; origins, motion facts and per-link evidence from the validated document."""
     written = {joint.get("name"): joint for joint in robot.findall("joint")}
     links = tuple(link.name for link in model.robot.links)
@@ -289,7 +292,7 @@ def _tree_from(model: yourdfpy.URDF, robot: ET.Element) -> KinematicTree:
         raise URDFError("yourdfpy read other links or joints than were validated", "robot")
     actuated = _transmitted_joints(robot)
     edges = tuple(_edge(j, written[j.name], j.name in actuated) for j in model.robot.joints)
-    return KinematicTree(model.robot.name, links, edges, evidence.extract(robot, links))
+    return KinematicTree(model.robot.name, links, edges, evidence.extract(robot, links), sha256)
 
 
 def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:

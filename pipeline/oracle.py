@@ -9,7 +9,17 @@ from typing import Sequence, TextIO
 from .errors import BackendError
 from .llm.base import Backend, Question, Stats
 
-MODES = ("exact", "sample")
+MODES = ("exact", "sample")  # the values of core:votingMode
+MAX_VOTES = 100
+
+
+def check_voting(vote: str | None, votes: int) -> None:
+    """ValueError unless `vote` is None (chosen by the backend) or one of MODES and 1 <= votes <= MAX_VOTES:
+    the one check of voting settings (command line, POST /populate, Oracle)."""
+    if vote not in (None, *MODES):
+        raise ValueError(f"vote must be 'exact' or 'sample', not {vote!r}")
+    if not 1 <= votes <= MAX_VOTES:
+        raise ValueError(f"votes must be between 1 and {MAX_VOTES}, not {votes}")
 
 
 @dataclass(frozen=True)
@@ -66,13 +76,12 @@ class Oracle:
         retries: int = 2,
         trace: TextIO | None = None,
     ):
+        check_voting(vote, votes)
         vote = vote or ("exact" if backend.exposes_logits else "sample")
-        if vote not in MODES:
-            raise ValueError(f"vote must be one of {MODES}, not {vote!r}")
         if vote == "exact" and not backend.exposes_logits:
             raise BackendError(f"backend {backend.name} exposes no log-probabilities: use vote='sample'")
-        if votes < 1 or retries < 0 or temperature < 0:
-            raise ValueError(f"need votes >= 1, retries >= 0, temperature >= 0 (got {votes}, {retries}, {temperature})")
+        if retries < 0 or temperature < 0:
+            raise ValueError(f"need retries >= 0, temperature >= 0 (got {retries}, {temperature})")
         self.backend, self.vote, self.votes = backend, vote, votes
         self.temperature, self.retries, self.trace = temperature, retries, trace
 
@@ -82,13 +91,11 @@ class Oracle:
         return self.backend.stats
 
     def provenance(self) -> dict[str, str]:
-        """Which model answered and how votes were taken."""
-        return {
-            "model": self.backend.name,
-            "vote": self.vote,
-            "votes": str(self.votes),
-            "temperature": str(self.temperature),
-        }
+        """Which model answered and how votes were taken (votes and temperature only when sampled)."""
+        if self.vote == "exact":
+            return {"model": self.backend.name, "vote": self.vote}
+        return {"model": self.backend.name, "vote": self.vote, "votes": str(self.votes),
+                "temperature": str(self.temperature)}
 
     def ask(self, questions: Sequence[Question]) -> list[Verdict]:
         """One verdict per question; any backend failure raises BackendError."""

@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import math
 import string
+from datetime import datetime, timezone
 
 import owlready2
 
+from urdfkb import __version__
 from urdfkb.pipeline.components import Abstraction, Component
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, load_core, vocabulary
@@ -29,6 +31,15 @@ PROVENANCE_ALIASES = {
     "declared_constraints": "declaredSensorConstraints",
     "seconds": "wallTimeSeconds",
 }
+
+
+def stamp(tree) -> dict[str, str]:
+    """What every populated robot says of the populate that wrote it: when (UTC), with which urdfkb,
+    from which URDF document (its SHA-256, where the tree was read from one)."""
+    facts = {"generatedAt": datetime.now(timezone.utc).isoformat(timespec="seconds"), "softwareVersion": __version__}
+    if tree.source_sha256:
+        facts["urdfSha256"] = tree.source_sha256
+    return facts
 
 
 def escape(name: str) -> str:
@@ -50,13 +61,15 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
     The abstraction is checked first (classes, links, confidences, names), so a bad one raises
     OntologyError with nothing written. Provenance (abstraction.provenance, then `provenance`)
     is annotated on the Robot: keys naming a core annotation property (or in PROVENANCE_ALIASES)
-    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to the core's version.
+    as that property, others as provenanceNote "key=value"; ontologyVersion defaults to the core's
+    version and generatedAt, softwareVersion and urdfSha256 to `stamp(tree)` (the runner stamps its
+    abstractions, so a rebuild for a correction keeps the time of the populate).
     Classes come from `vocab` (the packaged vocabulary by default), which is loaded into `world`.
     """
     vocab = vocab or vocabulary()
     components = abstraction.components if abstraction else ()
     _check_components(vocab, tree, components)
-    notes = {"ontologyVersion": vocab.version, **(abstraction.provenance if abstraction else {}),
+    notes = {"ontologyVersion": vocab.version, **stamp(tree), **(abstraction.provenance if abstraction else {}),
              **(provenance or {})}
     load_core(world, vocab)
     onto = _fresh_ontology(world, robot_iri(robot_name))
@@ -199,6 +212,6 @@ def _annotate(world, robot, notes: dict[str, str]) -> None:
     for key, value in notes.items():
         prop = world[CORE_IRI + PROVENANCE_ALIASES.get(key, key)]
         if isinstance(prop, owlready2.AnnotationPropertyClass):
-            prop[robot].append(str(value))
+            prop[robot].append(datetime.fromisoformat(value) if key == "generatedAt" else str(value))  # xsd:dateTime
         else:
             _set(world, "provenanceNote", robot, f"{key}={value}")

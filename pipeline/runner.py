@@ -6,15 +6,17 @@ import hashlib
 import json
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping, TextIO
 
 from . import cache
 from .abstraction import Abstractor
 from .components import Abstraction
-from .errors import URDFError
+from .errors import BackendError, URDFError
 from .llm.base import Backend
 from .ontology import vocabulary
-from .oracle import Oracle
+from .oracle import Oracle, check_voting
+from .population import stamp
 from .stages.asking import Progress
 from .tree import KinematicTree
 
@@ -46,10 +48,8 @@ class Settings:
         return settings
 
     def check(self) -> None:
-        if self.vote not in (None, "exact", "sample"):
-            raise ValueError(f"vote must be 'exact' or 'sample', not {self.vote!r}")
-        if not 1 <= self.votes <= 100:
-            raise ValueError(f"votes must be between 1 and 100, not {self.votes}")
+        """ValueError naming the first invalid setting."""
+        check_voting(self.vote, self.votes)
         if self.model and self.llm_url:
             raise ValueError("give either a model file or an LLM server URL, not both")
 
@@ -89,6 +89,21 @@ def _backend_id(settings: Settings, backend: Backend | None) -> str:
     return f"gguf:{settings.model or 'default'}"
 
 
+def _model_file(settings: Settings) -> dict[str, str]:
+    """The GGUF file the embedded backend runs, by name and SHA-256 (nothing for an HTTP server, which
+    does not say what file it serves). The default model's digest is the one verified when fetched;
+    another file is hashed once per path, size and mtime (llm.fetch.model_sha256)."""
+    if settings.llm_url:
+        return {}
+    from .llm.fetch import DEFAULT_MODEL, model_sha256
+    if settings.model is None:
+        return {"modelFile": DEFAULT_MODEL.filename, "modelSha256": DEFAULT_MODEL.sha256}
+    try:
+        return {"modelFile": Path(settings.model).name, "modelSha256": model_sha256(settings.model)}
+    except OSError as e:
+        raise BackendError(f"cannot read model file {settings.model}: {e.strerror}") from None
+
+
 def tree_digest(tree: KinematicTree) -> str:
     """A digest of everything in the tree the pipeline reads (names, edges, joint types, origins, evidence)."""
     evidence = {link: dataclasses.asdict(facts) for link, facts in sorted(tree.evidence.items())}
@@ -101,17 +116,21 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     """Abstract a robot's sensors and end-effectors (nothing when structure_only).
 
     `backend` overrides the one the settings name (tests inject a scripted one). Results are
-    cached by URDF digest, model, vocabulary (ontology and shapes) and settings; the backend is closed after use.
+    cached by URDF digest, model (its file's digest too), vocabulary (ontology and shapes) and settings;
+    the backend is closed after use. The provenance always carries population.stamp(tree) for this
+    run; when the result cache answers, the counts and seconds are those of the run that computed it,
+    and result_cache=hit.
     """
     if settings.structure_only:
-        return Abstraction((), {"mode": "structure-only"})
+        return Abstraction((), {"mode": "structure-only", **stamp(tree)})
     if len(tree.links) == 1:
         raise URDFError(f"robot {tree.robot_name!r} has a single link, {tree.root!r}: no device to abstract "
                         "(--structure-only writes its structure)", f"link '{tree.root}'")
     settings_key = {k: v for k, v in dataclasses.asdict(settings).items() if k != "use_cache"}
-    digest = cache.key(tree_digest(tree), _backend_id(settings, backend), vocabulary().fingerprint, settings_key)
+    model_file = _model_file(settings) if backend is None else {}  # its digest keys the cache: a replaced file misses
+    digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
-        return hit
+        return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)})
     owned = backend is None
     backend = backend or make_backend(settings)
     try:
@@ -123,6 +142,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),
+            **model_file,
             "declared_constraints": str(abstractor.declared),
             "llm_calls": str(stats.calls),
             "prompt_tokens": str(stats.prompt_tokens),
@@ -134,4 +154,4 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     result = Abstraction(components, provenance)
     if settings.use_cache:
         cache.store(digest, result)
-    return result
+    return Abstraction(components, {**provenance, **stamp(tree)})

@@ -155,6 +155,7 @@ class KinematicTree:
     links: tuple[str, ...]
     edges: tuple[Edge, ...]
     evidence: Mapping[str, LinkEvidence] = field(default_factory=dict, hash=False)  # link → what the URDF says of it
+    source_sha256: str = field(default="", compare=False)  # of the URDF document ingested (after xacro expansion)
     root: str = field(init=False)
     _parent_edge: dict[str, Edge] = field(init=False, repr=False, compare=False)
     _children: dict[str, tuple[str, ...]] = field(init=False, repr=False, compare=False)
@@ -177,14 +178,15 @@ class KinematicTree:
     def to_dict(self) -> dict:
         """A JSON-ready form of the tree (from_dict rebuilds it): what a store keeps of a robot."""
         return {"robot_name": self.robot_name, "links": list(self.links), "edges": [asdict(e) for e in self.edges],
-                "evidence": {link: asdict(facts) for link, facts in self.evidence.items()}}
+                "evidence": {link: asdict(facts) for link, facts in self.evidence.items()},
+                "source_sha256": self.source_sha256}
 
     @classmethod
     def from_dict(cls, data: dict) -> KinematicTree:
         edges = tuple(Edge(**{k: _tupled(v) for k, v in e.items()} | {"origin": Origin(*map(tuple, e["origin"].values()))})
                       for e in data["edges"])
         evidence = {link: LinkEvidence.from_dict(facts) for link, facts in data.get("evidence", {}).items()}
-        return cls(data["robot_name"], tuple(data["links"]), edges, evidence)
+        return cls(data["robot_name"], tuple(data["links"]), edges, evidence, data.get("source_sha256", ""))
 
     def _known(self, link: str) -> str:
         if link not in self._children:
@@ -272,4 +274,5 @@ class KinematicTree:
             tuple(link for link in self.links if link not in removed),
             tuple(edge for edge in self.edges if edge.child not in removed),
             {link: facts for link, facts in self.evidence.items() if link not in removed},
+            self.source_sha256,
         )

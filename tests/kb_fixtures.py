@@ -1,4 +1,5 @@
-"""Fixtures shared by the server tests and the benchmark: a hand-written PR2 abstraction, a live server."""
+"""Fixtures shared by the server tests and the benchmark: a hand-written PR2 abstraction, the app
+through Flask's test client, and a live server for the tests where a real socket is the point."""
 from __future__ import annotations
 
 import socket
@@ -93,6 +94,19 @@ def make_app(store, runner=None, token=None, remote=None, **kw):
 
     jobs = JobManager(store, runner or fake_runner({"pr2": PR2}), remote)
     return create_app(store, jobs, token=token, **kw), jobs
+
+
+def client(app):
+    """`http`'s contract without a socket: call(method, path, data, headers) -> (status, content type,
+    body) through Flask's test client (one per request, so threads may call it at once). Like
+    urllib, a body without a Content-Type is sent as application/x-www-form-urlencoded."""
+    def call(method: str, path: str, data: bytes | None = None, headers: dict | None = None):
+        headers = dict(headers or {})
+        if data is not None and not any(k.lower() == "content-type" for k in headers):
+            headers["Content-Type"] = "application/x-www-form-urlencoded"
+        r = app.test_client().open(path, method=method, data=data, headers=headers)
+        return r.status_code, r.headers.get("Content-Type", ""), r.get_data()
+    return call
 
 
 def http(method: str, url: str, data: bytes | None = None, headers: dict | None = None, timeout: float = 30):

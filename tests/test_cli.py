@@ -129,3 +129,14 @@ def test_the_wheel_installs_one_top_level_package(tmp_path):
                    "urdfkb/kb_server/samples/turtlebot3_waffle_pi.urdf", "urdfkb/kb_server/templates/robot.html",
                    "urdfkb/pipeline/stages/identification.py", "urdfkb/__main__.py"):
         assert needed in names
+
+
+def test_a_robot_whose_root_is_its_only_leaf_is_a_clear_error(tmp_path, capsys):
+    lonely = tmp_path / "lonely.urdf"
+    lonely.write_text('<robot name="lonely"><link name="only"/></robot>')
+    out = tmp_path / "lonely.owl"
+    assert main(["populate", str(lonely), "-o", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("urdfkb: error: robot 'lonely' has a single link, 'only': no device to abstract")
+    assert "--structure-only" in err and "Traceback" not in err and not out.exists()
+    assert main(["populate", str(lonely), "-o", str(out), "--structure-only", "--quiet"]) == 0 and out.exists()

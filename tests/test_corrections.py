@@ -8,7 +8,7 @@ from dataclasses import replace
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, http, live, make_app
+from kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import Store
@@ -123,33 +123,33 @@ def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shar
     app, jobs = make_app(store, token=TOKEN)
     auth = {"Authorization": f"Bearer {TOKEN}"}
     try:
-        with live(app) as base:
-            status, _, out = http("POST", f"{base}/populate", (shared / "urdf" / "pr2.urdf").read_bytes(), auth)
-            http("GET", f"{base}/jobs/{json.loads(out)['id']}?wait=1")
-            body = json.dumps({"action": "confirm", "links": ["base_laser_link"], "reviewer": "Ann"}).encode()
-            json_type = {"Content-Type": "application/json"}
-            assert http("POST", f"{base}/robots/pr2/corrections", body, json_type)[0] == 403
-            status, _, out = http("POST", f"{base}/robots/pr2/corrections", body, {**json_type, **auth})
-            assert status == 201 and json.loads(out)["correction"]["reviewer"] == "Ann"
-            status, _, out = http("POST", f"{base}/robots/pr2/corrections", b"[1]", {**json_type, **auth})
-            assert status == 400
-            status, _, out = http("POST", f"{base}/robots/ghost/corrections", body, {**json_type, **auth})
-            assert status == 404
-            status, _, out = http("GET", f"{base}/robots/pr2/corrections")
-            assert status == 200 and json.loads(out)["applied"][0]["summary"] == "base_laser_link: confirmed"
+        api = client(app)
+        status, _, out = api("POST", "/populate", (shared / "urdf" / "pr2.urdf").read_bytes(), auth)
+        api("GET", f"/jobs/{json.loads(out)['id']}?wait=1")
+        body = json.dumps({"action": "confirm", "links": ["base_laser_link"], "reviewer": "Ann"}).encode()
+        json_type = {"Content-Type": "application/json"}
+        assert api("POST", "/robots/pr2/corrections", body, json_type)[0] == 403
+        status, _, out = api("POST", "/robots/pr2/corrections", body, {**json_type, **auth})
+        assert status == 201 and json.loads(out)["correction"]["reviewer"] == "Ann"
+        status, _, out = api("POST", "/robots/pr2/corrections", b"[1]", {**json_type, **auth})
+        assert status == 400
+        status, _, out = api("POST", "/robots/ghost/corrections", body, {**json_type, **auth})
+        assert status == 404
+        status, _, out = api("GET", "/robots/pr2/corrections")
+        assert status == 200 and json.loads(out)["applied"][0]["summary"] == "base_laser_link: confirmed"
 
-            browser = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
-            status, ctype, page = http("GET", f"{base}/robots/pr2", headers=browser)
-            assert status == 200 and ctype.startswith("text/html")
-            assert b"<svg" in page and b"confirmed by Ann" in page and b'data-links="base_laser_link"' in page
-            assert http("GET", f"{base}/robots/pr2")[1].startswith("application/json")
-            assert http("GET", f"{base}/robots/pr2", headers={"Accept": "application/json"})[1].startswith("application/json")
-            assert http("GET", f"{base}/robots/ghost", headers=browser)[0] == 404
-            status, ctype, page = http("GET", f"{base}/sparql", headers=browser)
-            assert status == 200 and ctype.startswith("text/html") and b"low_confidence" in page
-            assert http("GET", f"{base}/sparql")[1].startswith("text/turtle")  # the service description
-            status, ctype, page = http("GET", f"{base}/", headers=browser)
-            assert status == 200 and b'data-robot="pr2"' in page
+        browser = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
+        status, ctype, page = api("GET", "/robots/pr2", headers=browser)
+        assert status == 200 and ctype.startswith("text/html")
+        assert b"<svg" in page and b"confirmed by Ann" in page and b'data-links="base_laser_link"' in page
+        assert api("GET", "/robots/pr2")[1].startswith("application/json")
+        assert api("GET", "/robots/pr2", headers={"Accept": "application/json"})[1].startswith("application/json")
+        assert api("GET", "/robots/ghost", headers=browser)[0] == 404
+        status, ctype, page = api("GET", "/sparql", headers=browser)
+        assert status == 200 and ctype.startswith("text/html") and b"low_confidence" in page
+        assert api("GET", "/sparql")[1].startswith("text/turtle")  # the service description
+        status, ctype, page = api("GET", "/", headers=browser)
+        assert status == 200 and b'data-robot="pr2"' in page
     finally:
         jobs.shutdown()
         store.close()

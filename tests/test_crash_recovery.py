@@ -167,7 +167,10 @@ def test_kill_9_inside_an_update_and_during_a_burst_of_readers(shared, tmp_path)
         readers = [threading.Thread(target=reader) for _ in range(8)]
         for t in readers:
             t.start()
-        time.sleep(1.0)
+        for _ in range(600):  # until the burst is under way (however loaded the machine), then kill
+            if len(statuses) >= 8:
+                break
+            time.sleep(0.05)
         s.kill()
         stop.set()
         for t in readers:

@@ -19,7 +19,7 @@ CORE = "https://w3id.org/urdfkb/core#"
 
 
 def test_populate_with_the_embedded_model(tmp_path, monkeypatch):
-    monkeypatch.setenv("URDFKB_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("URDFKB_RESULT_CACHE", str(tmp_path / "results"))  # the fetched model stays shared
     model = ensure_model(TEST_MODEL, progress=False)
     out, trace = tmp_path / "toy.ttl", tmp_path / "trace.jsonl"
     argv = ["populate", str(TOY), "--model", str(model), "--format", "turtle", "-o", str(out), "--trace", str(trace), "--quiet"]

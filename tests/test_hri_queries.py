@@ -5,7 +5,7 @@ import urllib.parse
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, http, live, make_app
+from kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
@@ -115,18 +115,37 @@ def test_parameters_are_typed_and_checked(store):
     assert '"x\\" } UNION' in text
 
 
+def test_a_hostile_parameter_value_is_one_literal_that_round_trips(tmp_path):
+    """A link name full of SPARQL syntax is matched exactly, as a value: it neither breaks nor widens the query."""
+    from urdfkb.pipeline.components import Abstraction, Component, SubComponent
+    from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+    odd = 'deck" } UNION { ?component ?p ?o } # \\ \'\'\' """ \n $robot'
+    zero = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    tree = KinematicTree("odd", ("base", odd, "lidar"), (Edge("j1", "fixed", "base", odd, zero),
+                                                         Edge("j2", "fixed", odd, "lidar", zero)))
+    lidar = Component("lidar", "sensor", "Lidar", 0.9, odd, (SubComponent("lidar", "SensingElement", 0.9),))
+    kb = Store(tmp_path / "kb.sqlite3", workers=0)
+    try:
+        kb.replace_robot("odd", tree, Abstraction((lidar,)))
+        found = rows(kb, "mounted_below", "odd", link=odd)
+        assert [(r["mount"], r["class"].removeprefix(C)) for r in found] == [(odd, "Lidar")]
+        assert rows(kb, "mounted_below", "odd", link=odd[:4]) == []  # no partial match, no injected UNION
+    finally:
+        kb.close()
+
+
 def test_http_route_and_cli(store):
     app, jobs = make_app(store)
-    with live(app) as base:
-        q = urllib.parse.urlencode({"robot": "pr2", "link": "head_mount_link"})
-        status, ctype, out = http("GET", f"{base}/queries/mounted_below?{q}")
-        assert status == 200 and ctype.startswith("application/sparql-results+json")
-        assert len(json.loads(out)["results"]["bindings"]) == 2
-        status, ctype, _ = http("GET", f"{base}/queries/sensors?robot=pr2", headers={"Accept": "text/csv"})
-        assert status == 200 and ctype.startswith("text/csv")
-        status, ctype, out = http("GET", f"{base}/queries/low_confidence?robot=pr2&threshold=abc")
-        assert status == 400 and "decimal" in json.loads(out)["error"]
-        assert http("GET", f"{base}/queries/cameras")[0] == 400
+    api = client(app)
+    q = urllib.parse.urlencode({"robot": "pr2", "link": "head_mount_link"})
+    status, ctype, out = api("GET", f"/queries/mounted_below?{q}")
+    assert status == 200 and ctype.startswith("application/sparql-results+json")
+    assert len(json.loads(out)["results"]["bindings"]) == 2
+    status, ctype, _ = api("GET", "/queries/sensors?robot=pr2", headers={"Accept": "text/csv"})
+    assert status == 200 and ctype.startswith("text/csv")
+    status, ctype, out = api("GET", "/queries/low_confidence?robot=pr2&threshold=abc")
+    assert status == 400 and "decimal" in json.loads(out)["error"]
+    assert api("GET", "/queries/cameras")[0] == 400
     jobs.shutdown()
 
 

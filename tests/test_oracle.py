@@ -137,6 +137,8 @@ def test_trace_lines_and_provenance():
     assert set(lines[0]) == {"key", "options", "distribution", "answer", "confidence", "mode"}
     assert lines[1]["answer"] == "wheel" and lines[1]["mode"] == "exact"
     assert lines[1]["options"] == list(OPTS)
-    assert oracle.provenance() == {"model": "scripted", "vote": "exact", "votes": "5", "temperature": "0.7"}
+    assert oracle.provenance() == {"model": "scripted", "vote": "exact"}  # votes and temperature play no part
+    sampled = Oracle(ScriptedBackend(lambda qq: "sensor"), vote="sample", votes=3).provenance()
+    assert sampled == {"model": "scripted", "vote": "sample", "votes": "3", "temperature": "0.7"}
     assert oracle.stats.calls == 2
     assert oracle.ask([]) == []

@@ -1,6 +1,7 @@
 """Populating robots: structure, components, safe IRIs, isolation between robots, refusal of bad input."""
 import io
 import re
+from datetime import datetime, timezone
 
 import owlready2
 import pytest
@@ -75,7 +76,7 @@ def test_structure():
 
 def test_components_and_provenance():
     world = owlready2.World()
-    onto = build_robot(world, sample_tree(), "bot", sample_abstraction(), {"generatedAt": "2026-11-21T09:00:00Z"})
+    onto = build_robot(world, sample_tree(), "bot", sample_abstraction(), {"generatedAt": "2026-11-21T09:00:00+00:00"})
     g = triples(onto)
     [robot] = g.subjects(rdflib.RDF.type, CORE.Robot)
     comps = {str(g.value(c, rdflib.RDFS.label)): c for c in g.objects(robot, CORE.hasComponent)}
@@ -92,7 +93,8 @@ def test_components_and_provenance():
     assert len(subs) == 2 and len(list(g.objects(comps["gripper"], CORE.hasComponent))) == 2
     assert str(g.value(robot, CORE.abstractionModel)) == "tiny-q4"
     assert str(g.value(robot, CORE.votesPerQuestion)) == "3"
-    assert str(g.value(robot, CORE.generatedAt)) == "2026-11-21T09:00:00Z"
+    at = g.value(robot, CORE.generatedAt)
+    assert at.datatype == rdflib.XSD.dateTime and at.toPython() == datetime(2026, 11, 21, 9, tzinfo=timezone.utc)
     assert str(g.value(robot, CORE.provenanceNote)) == "favourite colour=blue"
 
 

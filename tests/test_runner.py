@@ -1,7 +1,6 @@
 """Settings, the result cache, and the runner's contract with its callers."""
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
@@ -10,7 +9,7 @@ from urdfkb.pipeline import cache
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.runner import Settings, run, tree_digest
+from urdfkb.pipeline.runner import Settings, run
 from test_pipeline import perfect
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
@@ -46,9 +45,12 @@ def test_an_identical_second_run_comes_from_the_cache():
 
     def must_not_be_called(q):
         raise AssertionError("the cache should have answered")
-    started = time.monotonic()
     second = run(load_urdf(TOY), Settings(), backend=ScriptedBackend(must_not_be_called))
-    assert second == first and time.monotonic() - started < 2
+    assert second.components == first.components
+    # the counts are the computing run's; the stamp is this run's, and the hit is said
+    assert second.provenance["llm_calls"] == first.provenance["llm_calls"] == str(first_backend.stats.calls)
+    assert second.provenance["result_cache"] == "hit" and "result_cache" not in first.provenance
+    assert second.provenance["generatedAt"] >= first.provenance["generatedAt"]
 
 
 def test_other_settings_or_robots_miss_the_cache():
@@ -58,7 +60,9 @@ def test_other_settings_or_robots_miss_the_cache():
     run(tree, Settings(vote="sample"), backend=calls)
     assert calls.stats.calls > 0
     other = load_urdf(TOY.read_bytes().replace(b"claw_tcp", b"claw_tool_point"))
-    assert tree_digest(other) != tree_digest(tree)
+    asked = ScriptedBackend(lambda q: q.options[0])  # `perfect` knows only the toy's own link names
+    run(other, Settings(), backend=asked)
+    assert asked.stats.calls > 0
 
 
 def test_a_failing_backend_raises_and_caches_nothing(tmp_path):
@@ -76,7 +80,7 @@ def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     entry.write_text("{not json")
     again = run(tree, Settings(), backend=ScriptedBackend(perfect))
     assert again.components == first.components  # recomputed (its wall time may differ)
-    assert cache.load(entry.stem) == again  # rewritten whole
+    assert cache.load(entry.stem).components == again.components  # rewritten whole
 
 
 def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):
@@ -94,3 +98,76 @@ def test_a_single_link_robot_is_a_clear_error_not_a_crash():
     with pytest.raises(URDFError, match="single link, 'only'"):
         run(tree, Settings(use_cache=False), backend=ScriptedBackend(lambda q: q.options[0]))
     assert run(tree, Settings(structure_only=True)).components == ()
+
+
+def _robot_provenance(tree, abstraction) -> dict:
+    """The Robot individual's provenance annotations, by local name, as rdflib terms (the robot conforms)."""
+    import owlready2
+    import rdflib
+    from urdfkb.pipeline.export import robot_graph
+    from urdfkb.pipeline.population import build_robot
+    from urdfkb.pipeline.shacl import validate
+    g = robot_graph(build_robot(owlready2.World(), tree, "toy", abstraction))
+    conforms, report = validate(g)
+    assert conforms, report
+    core = "https://w3id.org/urdfkb/core#"
+    (robot,) = g.subjects(rdflib.RDF.type, rdflib.URIRef(core + "Robot"))
+    return {str(p).removeprefix(core): o for p, o in g.predicate_objects(robot) if str(p).startswith(core)}
+
+
+def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp_path, monkeypatch):
+    import hashlib
+    from datetime import datetime, timedelta, timezone
+
+    import rdflib
+
+    import urdfkb
+    from urdfkb.pipeline import runner
+    gguf = tmp_path / "my-model.Q4.gguf"
+    gguf.write_bytes(b"GGUF not really a model")
+    monkeypatch.setattr(runner, "make_backend", lambda settings: ScriptedBackend(perfect, name="llama.cpp:my-model.Q4.gguf"))
+    tree = load_urdf(TOY)
+    before = datetime.now(timezone.utc).replace(microsecond=0)
+    prov = _robot_provenance(tree, run(tree, Settings(model=str(gguf))))
+
+    assert prov["urdfSha256"].toPython() == hashlib.sha256(TOY.read_bytes()).hexdigest()
+    assert prov["softwareVersion"].toPython() == urdfkb.__version__
+    assert prov["generatedAt"].datatype == rdflib.XSD.dateTime
+    assert before <= prov["generatedAt"].toPython() <= datetime.now(timezone.utc) + timedelta(seconds=1)
+    assert prov["modelFile"].toPython() == "my-model.Q4.gguf"
+    assert prov["modelSha256"].toPython() == hashlib.sha256(gguf.read_bytes()).hexdigest()
+    assert prov["abstractionModel"].toPython() == "llama.cpp:my-model.Q4.gguf"
+    assert prov["votingMode"].toPython() == "exact"
+    assert "votesPerQuestion" not in prov and "samplingTemperature" not in prov  # unused by exact voting
+
+    sampled = _robot_provenance(tree, run(tree, Settings(model=str(gguf), vote="sample", votes=3)))
+    assert (sampled["votingMode"].toPython(), sampled["votesPerQuestion"].toPython()) == ("sample", "3")
+
+    gguf.write_bytes(b"GGUF another model at the same path")  # a replaced file misses the result cache
+    again = run(tree, Settings(model=str(gguf)))
+    assert "result_cache" not in again.provenance
+    assert again.provenance["modelSha256"] == hashlib.sha256(gguf.read_bytes()).hexdigest()
+    assert run(tree, Settings(model=str(gguf))).provenance["result_cache"] == "hit"
+
+
+def test_the_default_model_is_named_by_its_verified_digest_without_hashing(monkeypatch):
+    from urdfkb.pipeline import runner
+    from urdfkb.pipeline.llm import fetch
+    monkeypatch.setattr(runner, "make_backend", lambda settings: ScriptedBackend(perfect))
+    monkeypatch.setattr(fetch, "_sha256", lambda path: pytest.fail("the fetched model is not hashed again"))
+    prov = run(load_urdf(TOY), Settings()).provenance
+    assert (prov["modelFile"], prov["modelSha256"]) == (fetch.DEFAULT_MODEL.filename, fetch.DEFAULT_MODEL.sha256)
+
+
+def test_structure_only_and_http_runs_write_what_is_known(monkeypatch):
+    from urdfkb.pipeline import runner
+    tree = load_urdf(TOY)
+    prov = _robot_provenance(tree, run(tree, Settings(structure_only=True)))
+    assert prov["abstractionMode"].toPython() == "structure-only"
+    assert {"generatedAt", "softwareVersion", "urdfSha256", "ontologyVersion"} <= prov.keys()
+    assert not {"votingMode", "modelFile", "modelSha256", "abstractionModel"} & prov.keys()
+
+    monkeypatch.setattr(runner, "make_backend", lambda settings: ScriptedBackend(perfect, name="openai:http://h/v1:m"))
+    prov = _robot_provenance(tree, run(tree, Settings(llm_url="http://h/v1", llm_model="m", vote="sample")))
+    assert prov["votingMode"].toPython() == "sample" and prov["abstractionModel"].toPython() == "openai:http://h/v1:m"
+    assert not {"modelFile", "modelSha256"} & prov.keys()  # a server does not say which file it serves

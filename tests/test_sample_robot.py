@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, cache_dir, ensure_model
+from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, models_dir, ensure_model
 from urdfkb.pipeline.runner import Settings, run
 
 pytestmark = [pytest.mark.integration, pytest.mark.default_model]
@@ -18,8 +18,8 @@ SAMPLE = Path(__file__).resolve().parents[1] / "kb_server" / "samples" / "turtle
 
 @pytest.fixture(scope="module")
 def abstraction():
-    if not (cache_dir() / DEFAULT_MODEL.filename).is_file():
-        pytest.skip(f"default model not fetched ({cache_dir() / DEFAULT_MODEL.filename}); run `urdfkb model`")
+    if not (models_dir() / DEFAULT_MODEL.filename).is_file():
+        pytest.skip(f"default model not fetched ({models_dir() / DEFAULT_MODEL.filename}); run `urdfkb model`")
     model = ensure_model(DEFAULT_MODEL, progress=False)
     return run(load_urdf(SAMPLE), Settings(model=str(model), use_cache=False))
 

@@ -1,4 +1,5 @@
-"""Every route of the live server: status codes, content types, jobs, atomic re-populate, limits."""
+"""Every route of the server through Flask's test client (status codes, content types, jobs, atomic
+re-populate, limits), and the real `urdfkb serve` under waitress restarted over one store."""
 import json
 import subprocess
 import sys
@@ -10,7 +11,7 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, free_port, http, live, make_app, multipart
+from kb_fixtures import PR2, client, free_port, make_app, multipart
 from urdfkb.kb_server.jobs import pipeline_runner
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
@@ -24,12 +25,20 @@ TOKEN = "t0ken"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
+EVENTS: list[tuple[str, bool]] = []  # (robot, structure_only) per runner entry and exit, in order
+GATE = threading.Event()  # what a 'gated*' robot's runner waits for
+
+
 def runner(tree, settings, progress):
-    """By URDF robot name: 'slow*' takes 0.6 s, 'broken*' fails, '*pr2' gets the PR2 abstraction."""
-    slow = tree.robot_name.startswith("slow")
+    """By URDF robot name: 'slow*' takes 0.6 s, 'gated*' waits for GATE, 'broken*' fails, '*pr2' gets
+    the PR2 abstraction. Entries and exits go to EVENTS."""
+    EVENTS.append(("enter", settings.structure_only))
     for i in range(3):
         progress("classify", i, 3)
-        time.sleep(0.2 if slow else 0)
+        time.sleep(0.2 if tree.robot_name.startswith("slow") else 0)
+    if tree.robot_name.startswith("gated"):
+        assert GATE.wait(60), "the test never opened the gate"
+    EVENTS.append(("exit", settings.structure_only))
     if tree.robot_name.startswith("broken"):
         raise PipelineError("classification failed: model said 'banana'")
     if settings.structure_only:
@@ -40,9 +49,10 @@ def runner(tree, settings, progress):
 @pytest.fixture
 def server(tmp_path):
     store = Store(tmp_path / "kb.sqlite3")
+    EVENTS.clear()
+    GATE.clear()
     app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
-    with live(app) as base:
-        yield base
+    yield client(app)
     jobs.shutdown()
     store.close()
 
@@ -54,13 +64,13 @@ def urdf(shared, name="pr2", rename=None) -> bytes:
     return data
 
 
-def populate(base, body, query="", headers=None):
-    status, ctype, out = http("POST", f"{base}/populate{query}", body, {**AUTH, **(headers or {})})
+def populate(api, body, query="", headers=None):
+    status, ctype, out = api("POST", f"/populate{query}", body, {**AUTH, **(headers or {})})
     return status, ctype, json.loads(out)
 
 
-def wait(base, job_id):
-    status, ctype, out = http("GET", f"{base}/jobs/{job_id}?wait=1&timeout=30")
+def wait(api, job_id):
+    status, ctype, out = api("GET", f"/jobs/{job_id}?wait=1&timeout=30")
     assert status == 200 and ctype.startswith("application/json")
     return json.loads(out)
 
@@ -74,10 +84,10 @@ def test_populate_raw_and_multipart_then_robot_routes(server, shared):
     status, _, job = populate(server, body, headers={"Content-Type": ctype})
     assert status == 202 and wait(server, job["id"])["state"] == "succeeded"
 
-    status, ctype, out = http("GET", f"{server}/robots")
+    status, ctype, out = server("GET", "/robots")
     assert status == 200 and ctype.startswith("application/json")
     assert [r["name"] for r in json.loads(out)] == ["panda_a", "pr2"]
-    status, ctype, out = http("GET", f"{server}/robots/pr2")
+    status, ctype, out = server("GET", "/robots/pr2")
     assert status == 200 and ctype.startswith("application/json")
     comps = {c["iri"].split("#comp_")[1]: c for c in json.loads(out)["components"]}
     kinect = comps["kinect"]
@@ -85,13 +95,13 @@ def test_populate_raw_and_multipart_then_robot_routes(server, shared):
     assert {(s["class"], s["link"]) for s in kinect["subcomponents"]} == {
         ("RgbFrame", "head_mount_kinect_rgb_optical_frame"), ("DepthFrame", "head_mount_kinect_ir_optical_frame"),
         ("SensorHousing", "head_mount_kinect_ir_link")}
-    assert json.loads(http("GET", f"{server}/robots/panda_a")[2])["components"] == []
+    assert json.loads(server("GET", "/robots/panda_a")[2])["components"] == []
 
     for ext, ctype_want, fmt in (("owl", "application/rdf+xml", "xml"), ("ttl", "text/turtle", "turtle")):
-        status, ctype, out = http("GET", f"{server}/robots/pr2.{ext}")
+        status, ctype, out = server("GET", f"/robots/pr2.{ext}")
         assert status == 200 and ctype.startswith(ctype_want)
         assert len(rdflib.Graph().parse(data=out, format=fmt)) > 1000
-    assert http("GET", f"{server}/robots/pr2.pdf")[0] == 404
+    assert server("GET", "/robots/pr2.pdf")[0] == 404
 
 
 def test_bad_input(server, shared):
@@ -105,30 +115,52 @@ def test_bad_input(server, shared):
     assert status == 400 and "colour" in out["error"]
     status, _, out = populate(server, urdf(shared), "?name=bad%20name")
     assert status == 400 and "name" in out["error"]
-    assert http("POST", f"{server}/populate", urdf(shared))[0] == 403  # token configured, none sent
+    assert server("POST", "/populate", urdf(shared))[0] == 403  # token configured, none sent
     for path in ("/robots/nope", "/robots/nope.ttl", "/jobs/nope", "/queries/cameras?robot=nope", "/queries/nope?robot=x", "/nowhere"):
-        status, ctype, _ = http("GET", server + path)
+        status, ctype, _ = server("GET", path)
         assert status == 404 and ctype.startswith("application/json"), path
+
+
+def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(tmp_path):
+    store = Store(tmp_path / "kb.sqlite3")
+    app, jobs = make_app(store, runner=pipeline_runner)  # the real runner: it refuses before any model loads
+    api = client(app)
+    try:
+        lonely = b'<robot name="lonely"><link name="only"/></robot>'
+        status, _, out = api("POST", "/populate", lonely, {"Content-Type": "application/xml"})
+        assert status == 202
+        job = wait(api, json.loads(out)["id"])
+        assert job["state"] == "failed" and store.robots() == []
+        assert job["errors"] == ["robot 'lonely' has a single link, 'only': no device to abstract "
+                                 "(--structure-only writes its structure) (at link 'only')"]
+        status, _, out = api("POST", "/populate?structure_only=true", lonely, {"Content-Type": "application/xml"})
+        assert wait(api, json.loads(out)["id"])["state"] == "succeeded"
+    finally:
+        jobs.shutdown()
+        store.close()
 
 
 def test_failed_job_leaves_the_store_as_it_was(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
-    before = http("GET", f"{server}/robots/pr2")[2]
+    before = server("GET", "/robots/pr2")[2]
     job = wait(server, populate(server, urdf(shared, rename="broken"), "?name=pr2")[2]["id"])
     assert job["state"] == "failed" and "banana" in job["errors"][0]
-    assert http("GET", f"{server}/robots/pr2")[2] == before
+    assert server("GET", "/robots/pr2")[2] == before
 
 
 def test_queries_answered_while_a_model_runs_and_jobs_report_progress(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
-    job = populate(server, urdf(shared, rename="slow_pr2"))[2]
-    answered = 0  # queries answered while the job was still queued or running (no timing: CI machines are noisy)
-    while (state := json.loads(http("GET", f"{server}/jobs/{job['id']}")[2]))["state"] in ("queued", "running"):
-        assert http("GET", f"{server}/queries/cameras?robot=pr2")[0] == 200
-        answered += 1
-        if state["stage"] == "classify":
-            assert state["progress"]["total"] == 3
-    assert state["state"] == "succeeded" and answered >= 3
+    job = populate(server, urdf(shared, rename="gated_pr2"), "?name=pr2")[2]
+    while (state := json.loads(server("GET", f"/jobs/{job['id']}")[2]))["stage"] != "classify":
+        assert state["state"] in ("queued", "running")
+        time.sleep(0.01)
+    assert state["state"] == "running" and state["progress"]["total"] == 3
+    for _ in range(3):  # the job cannot end before the gate opens: these are answered while it runs
+        status, _, out = server("GET", "/queries/cameras?robot=pr2")
+        assert status == 200 and len(json.loads(out)["results"]["bindings"]) == 7
+    assert json.loads(server("GET", f"/jobs/{job['id']}")[2])["state"] == "running"
+    GATE.set()
+    assert wait(server, job["id"])["state"] == "succeeded"
 
 
 def test_repopulate_is_atomic_and_same_robot_jobs_are_serialised(server, shared):
@@ -138,28 +170,29 @@ def test_repopulate_is_atomic_and_same_robot_jobs_are_serialised(server, shared)
 
     def read():
         while not stop.is_set():
-            seen.add(len(json.loads(http("GET", f"{server}/robots/pr2")[2])["components"]))
+            seen.add(len(json.loads(server("GET", "/robots/pr2")[2])["components"]))
 
     reader = threading.Thread(target=read)
     reader.start()
-    # Two slow jobs for the same robot at once: structure-only (0 components) and full; serialised.
+    # Two slow jobs for the same robot at once (two workers): structure-only (0 components) and full.
+    EVENTS.clear()
     ids = [populate(server, urdf(shared, rename="slow_pr2"), "?name=pr2&structure_only=" + s)[2]["id"] for s in ("true", "false")]
     jobs = [wait(server, i) for i in ids]
     stop.set()
     reader.join()
     assert [j["state"] for j in jobs] == ["succeeded", "succeeded"]
-    assert seen <= {0, n_full} and n_full in seen
-    first, second = sorted(jobs, key=lambda j: j["started"])
-    assert first["finished"] <= second["started"]  # one after the other, never interleaved
+    assert seen <= {0, n_full}  # a reader sees the old robot or the new one, never a mix
+    # serialised: each job's runner exits before the other's enters
+    assert [e for e, _ in EVENTS] == ["enter", "exit", "enter", "exit"] and EVENTS[0][1] == EVENTS[1][1]
 
 
 def test_delete_needs_the_token(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
-    assert http("DELETE", f"{server}/robots/pr2")[0] == 403
-    status, ctype, out = http("DELETE", f"{server}/robots/pr2", headers=AUTH)
+    assert server("DELETE", "/robots/pr2")[0] == 403
+    status, ctype, out = server("DELETE", "/robots/pr2", headers=AUTH)
     assert status == 200 and json.loads(out)["deleted"] == "pr2"
-    assert http("DELETE", f"{server}/robots/pr2", headers=AUTH)[0] == 404
-    assert http("GET", f"{server}/robots/pr2")[0] == 404
+    assert server("DELETE", "/robots/pr2", headers=AUTH)[0] == 404
+    assert server("GET", "/robots/pr2")[0] == 404
 
 
 def test_binds_loopback_by_default(tmp_path):
@@ -200,6 +233,6 @@ def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
 
 
 def test_queries_listing(server):
-    status, ctype, out = http("GET", f"{server}/queries")
+    status, ctype, out = server("GET", "/queries")
     assert status == 200 and ctype.startswith("application/json")
     assert {"cameras", "sensors", "mounted_below", "end_effectors", "low_confidence"} <= {q["name"] for q in json.loads(out)}

@@ -54,7 +54,7 @@ def breaks(edit):
 
 
 def test_camera_without_optical_frame():
-    """Targets reach subclasses: the RGBDCamera is a Camera through RDFS inference."""
+    """Targets reach subclasses: the RGBDCamera is a Camera through the core's subClassOf triples (no inference)."""
     def edit(g):
         for s in set(g.subjects(RDF.type, CORE.DepthFrame)) | set(g.subjects(RDF.type, CORE.RgbFrame)):
             g.remove((s, RDF.type, None))
@@ -115,7 +115,7 @@ def test_joint_needs_one_parent_and_one_child():
 
 
 def test_mount_on_something_without_urdf_name():
-    """Range inference makes any mount a Link; the Link shape then catches one that is not in the URDF."""
+    """A mount must be a Link of the robot (sh:class): an IRI typed nothing is reported."""
     dangling = rdflib.URIRef("https://example.org/nowhere")
 
     def edit(g):
@@ -123,6 +123,19 @@ def test_mount_on_something_without_urdf_name():
         g.remove((gripper, CORE.isMountedOn, None))
         g.add((gripper, CORE.isMountedOn, dangling))
     assert "nowhere" in breaks(edit)
+
+
+@pytest.mark.parametrize("prop, value", [
+    ("generatedAt", None), ("generatedAt", rdflib.Literal("yesterday")), ("softwareVersion", None),
+    ("urdfSha256", rdflib.Literal("not a digest")), ("votingMode", rdflib.Literal("majority")),
+])
+def test_robot_provenance_is_required_and_well_formed(prop, value):
+    def edit(g):
+        robot = node(g, "Robot")
+        g.remove((robot, CORE[prop], None))
+        if value is not None:
+            g.add((robot, CORE[prop], value))
+    assert prop in breaks(edit)
 
 
 def test_shared_urdfs_conform_structure_only(shared):

@@ -6,7 +6,7 @@ import urllib.parse
 
 import pytest
 
-from kb_fixtures import PR2, http, live, make_app
+from kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
@@ -21,53 +21,52 @@ def kb(shared, tmp_path):
     store = Store(tmp_path / "kb.sqlite3")
     store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     app, jobs = make_app(store, token=TOKEN, query_timeout=2.0)
-    with live(app) as base:
-        yield base + "/sparql", store
+    yield client(app), store
     jobs.shutdown()
     store.close()
 
 
-def ask(url, q):
-    status, _, body = http("GET", url + "?" + urllib.parse.urlencode({"query": q}))
+def ask(api, q):
+    status, _, body = api("GET", "/sparql?" + urllib.parse.urlencode({"query": q}))
     assert status == 200, body
     doc = json.loads(body)
     return doc["boolean"] if "boolean" in doc else [{k: v["value"] for k, v in b.items()} for b in doc["results"]["bindings"]]
 
 
-def update(url, text, token=TOKEN):
-    return http("POST", url, text.encode(), {"Content-Type": "application/sparql-update", "Authorization": f"Bearer {token}"})
+def update(api, text, token=TOKEN):
+    return api("POST", "/sparql", text.encode(), {"Content-Type": "application/sparql-update", "Authorization": f"Bearer {token}"})
 
 
 def test_graphs_listed_are_the_core_and_the_robots(kb):
-    url, _ = kb
-    assert sorted(r["g"] for r in ask(url, "SELECT DISTINCT ?g WHERE { GRAPH ?g { ?s ?p ?o } }")) == [CORE, PR2_GRAPH]
+    api, _ = kb
+    assert sorted(r["g"] for r in ask(api, "SELECT DISTINCT ?g WHERE { GRAPH ?g { ?s ?p ?o } }")) == [CORE, PR2_GRAPH]
 
 
 def test_the_core_is_read_only(kb):
-    url, _ = kb
-    core_size = ask(url, COUNT_CORE)[0]["n"]
+    api, _ = kb
+    core_size = ask(api, COUNT_CORE)[0]["n"]
     for text in (f"INSERT DATA {{ GRAPH <{CORE}> {{ <urn:a> <urn:b> <urn:c> }} }}", f"CLEAR GRAPH <{CORE}>",
                  f"DELETE WHERE {{ GRAPH <{CORE}> {{ ?s ?p ?o }} }}"):
-        status, _, body = update(url, text)
+        status, _, body = update(api, text)
         assert status == 403 and b"read-only" in body
-    assert ask(url, COUNT_CORE)[0]["n"] == core_size
+    assert ask(api, COUNT_CORE)[0]["n"] == core_size
 
 
 def test_clear_default_drop_all_and_clear_robot_keep_the_core(kb):
-    url, store = kb
-    core_size = ask(url, COUNT_CORE)[0]["n"]
-    assert update(url, "INSERT DATA { <urn:note> <urn:says> 'hello' }")[0] == 204
-    assert ask(url, "ASK { <urn:note> ?p ?o }") is True
-    assert update(url, "CLEAR DEFAULT")[0] == 204
-    assert ask(url, "ASK { <urn:note> ?p ?o }") is False
-    assert ask(url, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") is True  # robots are named graphs: untouched
-    assert update(url, f"CLEAR GRAPH <{PR2_GRAPH}>")[0] == 204
-    assert ask(url, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") is False and store.robot("pr2") is None
-    assert update(url, "INSERT DATA { GRAPH <urn:mine> { <urn:a> <urn:b> <urn:c> } }")[0] == 204
-    assert update(url, "DROP ALL")[0] == 204
-    assert ask(url, "ASK { GRAPH <urn:mine> { ?s ?p ?o } }") is False
-    assert ask(url, COUNT_CORE)[0]["n"] == core_size  # DROP ALL drops every writable graph, never the core
-    assert ask(url, "PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
+    api, store = kb
+    core_size = ask(api, COUNT_CORE)[0]["n"]
+    assert update(api, "INSERT DATA { <urn:note> <urn:says> 'hello' }")[0] == 204
+    assert ask(api, "ASK { <urn:note> ?p ?o }") is True
+    assert update(api, "CLEAR DEFAULT")[0] == 204
+    assert ask(api, "ASK { <urn:note> ?p ?o }") is False
+    assert ask(api, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") is True  # robots are named graphs: untouched
+    assert update(api, f"CLEAR GRAPH <{PR2_GRAPH}>")[0] == 204
+    assert ask(api, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") is False and store.robot("pr2") is None
+    assert update(api, "INSERT DATA { GRAPH <urn:mine> { <urn:a> <urn:b> <urn:c> } }")[0] == 204
+    assert update(api, "DROP ALL")[0] == 204
+    assert ask(api, "ASK { GRAPH <urn:mine> { ?s ?p ?o } }") is False
+    assert ask(api, COUNT_CORE)[0]["n"] == core_size  # DROP ALL drops every writable graph, never the core
+    assert ask(api, "PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
                     f"ASK {{ <{CORE}RGBDCamera> rdfs:subClassOf* <{CORE}Camera> }}") is True
 
 
@@ -90,45 +89,45 @@ def test_updates_persist_exactly_across_restart(shared, tmp_path):
 
 
 def test_using_and_from_never_fetch(kb):
-    url, _ = kb
+    api, _ = kb
     with socket.socket() as listener:  # a "remote" server that would see any fetch
         listener.bind(("127.0.0.1", 0))
         listener.listen(1)
         listener.settimeout(0.5)
         remote = f"http://127.0.0.1:{listener.getsockname()[1]}/data.ttl"
-        assert update(url, f"INSERT {{ <urn:a> <urn:b> ?o }} USING <{remote}> WHERE {{ ?s ?p ?o }}")[0] == 204
-        status, _, _ = http("GET", url + "?" + urllib.parse.urlencode({"query": f"SELECT * FROM <{remote}> {{ ?s ?p ?o }}"}))
+        assert update(api, f"INSERT {{ <urn:a> <urn:b> ?o }} USING <{remote}> WHERE {{ ?s ?p ?o }}")[0] == 204
+        status, _, _ = api("GET", "/sparql?" + urllib.parse.urlencode({"query": f"SELECT * FROM <{remote}> {{ ?s ?p ?o }}"}))
         assert status == 400
         for text in (f"LOAD <{remote}>", f"INSERT {{ ?s ?p ?o }} WHERE {{ SERVICE <{remote}> {{ ?s ?p ?o }} }}"):
-            assert update(url, text)[0] == 400
+            assert update(api, text)[0] == 400
         with pytest.raises(socket.timeout):
             listener.accept()
 
 
 def test_hostile_queries_are_answered_or_refused_cleanly(kb):
-    url, _ = kb
+    api, _ = kb
     long_a = "a" * 5000
     regex = f'SELECT * WHERE {{ BIND("{long_a}" AS ?x) FILTER(REGEX(?x, "^(a+)+$")) }}'  # linear-time regex engine
-    assert len(ask(url, regex)) == 1
-    assert ask(url, 'SELECT * WHERE { BIND("a.b" AS ?x) FILTER(REGEX(?x, ".", "q")) }') == [{"x": "a.b"}]
-    assert ask(url, "SELECT (COALESCE() AS ?x) WHERE {}") == [{}]
+    assert len(ask(api, regex)) == 1
+    assert ask(api, 'SELECT * WHERE { BIND("a.b" AS ?x) FILTER(REGEX(?x, ".", "q")) }') == [{"x": "a.b"}]
+    assert ask(api, "SELECT (COALESCE() AS ?x) WHERE {}") == [{}]
     for q in ('SELECT * WHERE { BIND("\\uD800" AS ?x) }', "SELECT * WHERE " + "{" * 50_000 + "}" * 50_000):
-        status, ctype, body = http("POST", url, q.encode(), {"Content-Type": "application/sparql-query"})
+        status, ctype, body = api("POST", "/sparql", q.encode(), {"Content-Type": "application/sparql-query"})
         assert status == 400 and ctype.startswith("text/plain"), body[:200]
 
 
 def test_a_query_past_its_deadline_never_stalls_others(kb):
-    url, _ = kb
+    api, _ = kb
     items = ",".join(f'"item{i}"' for i in range(100_000))  # ~1 MB, a 100k-item IN over every triple
     slow = f"SELECT * WHERE {{ ?s ?p ?o FILTER(?o IN ({items})) }}"
     result = {}
 
     def run_slow():
-        result["slow"] = http("POST", url, slow.encode(), {"Content-Type": "application/sparql-query"})[0]
+        result["slow"] = api("POST", "/sparql", slow.encode(), {"Content-Type": "application/sparql-query"})[0]
 
     t = threading.Thread(target=run_slow)
     t.start()
-    answers = [ask(url, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") for _ in range(20)]  # answered meanwhile
+    answers = [ask(api, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") for _ in range(20)]  # answered meanwhile
     t.join()
     assert answers == [True] * 20 and result["slow"] == 503
-    assert ask(url, "ASK { ?s ?p ?o }") is True  # the killed worker was replaced
+    assert ask(api, "ASK { ?s ?p ?o }") is True  # the killed worker was replaced

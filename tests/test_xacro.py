@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import http, live, make_app, multipart
+from kb_fixtures import client, make_app, multipart
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import URDFError
@@ -29,6 +29,13 @@ def test_rover_expands_with_includes_and_arguments():
     assert set(tree.links) == {"zz_footprint", "zz_body", "zz_snoutcam_link", "zz_snoutcam_color_optical_frame"}
     no_cam = load_description(ROVER, packages=PACKAGES, args={"with_camera": "false"})
     assert set(no_cam.links) == {"qk_footprint", "qk_body"}
+
+
+def test_the_tree_records_the_digest_of_the_expanded_urdf_not_of_the_xacro_source():
+    import hashlib
+    tree = load_description(ROVER, packages=PACKAGES, args={"prefix": "zz"})
+    urdf = expand(ROVER.read_bytes(), ROVER.name, main_dir=ROVER.parent, args={"prefix": "zz"}, packages=PACKAGES)
+    assert tree.source_sha256 == hashlib.sha256(urdf).hexdigest() != hashlib.sha256(ROVER.read_bytes()).hexdigest()
 
 
 def test_argument_and_package_path_syntax():
@@ -90,32 +97,32 @@ def test_http_populate_of_xacro_reads_only_configured_packages(tmp_path):
     rover = ROVER.read_bytes()
     try:
         app, jobs = make_app(store)  # no package paths: the upload can include nothing
-        with live(app) as base:
-            body, ctype = multipart({"structure_only": "true"}, {"urdf": ("rover.urdf.xacro", rover)})
-            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
-            assert status == 400 and "rover.urdf.xacro:7" in json.loads(out)["error"]
-            assert store.robots() == []
+        api = client(app)
+        body, ctype = multipart({"structure_only": "true"}, {"urdf": ("rover.urdf.xacro", rover)})
+        status, _, out = api("POST", "/populate", body, {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
+        assert status == 400 and "rover.urdf.xacro:7" in json.loads(out)["error"]
+        assert store.robots() == []
         jobs.shutdown()
         app, jobs = make_app(store, package_paths=PACKAGES)
-        with live(app) as base:
-            # the upload's own folder is not readable: chassis.xacro must come from a package too
-            status, _, out = http("POST", f"{base}/populate", body, {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
-            assert status == 400 and "chassis.xacro" in json.loads(out)["error"]
-            flat = rover.replace(b'<xacro:include filename="chassis.xacro"/>',
-                                 b'<xacro:include filename="package://quokka_parts/../main/chassis.xacro"/>')
-            status, _, out = http("POST", f"{base}/populate", multipart({}, {"urdf": ("r.urdf.xacro", flat)})[0],
-                                  {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
-            assert status == 400 and "outside the allowed directories" in json.loads(out)["error"]
-            chassis = (DATA / "main" / "chassis.xacro").read_bytes()
-            inline = rover.replace(b'<xacro:include filename="chassis.xacro"/>', chassis.split(b"?>", 1)[1]
-                                   .replace(b"<robot", b"<xacro:if value=\"true\"").replace(b"</robot>", b"</xacro:if>"))
-            status, _, out = http("POST", f"{base}/populate?xacro_arg=prefix:=web&structure_only=true", inline,
-                                  {"Content-Type": "application/xml"})
-            assert status == 202, out
-            job = json.loads(http("GET", f"{base}/jobs/{json.loads(out)['id']}?wait=1")[2])
-            assert job["state"] == "succeeded"
-            robot = json.loads(http("GET", f"{base}/robots/quokka_rover")[2])
-            assert robot["name"] == "quokka_rover"
+        api = client(app)
+        # the upload's own folder is not readable: chassis.xacro must come from a package too
+        status, _, out = api("POST", "/populate", body, {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
+        assert status == 400 and "chassis.xacro" in json.loads(out)["error"]
+        flat = rover.replace(b'<xacro:include filename="chassis.xacro"/>',
+                             b'<xacro:include filename="package://quokka_parts/../main/chassis.xacro"/>')
+        status, _, out = api("POST", "/populate", multipart({}, {"urdf": ("r.urdf.xacro", flat)})[0],
+                              {"Content-Type": ctype, "X-Requested-With": "urdfkb-tests"})
+        assert status == 400 and "outside the allowed directories" in json.loads(out)["error"]
+        chassis = (DATA / "main" / "chassis.xacro").read_bytes()
+        inline = rover.replace(b'<xacro:include filename="chassis.xacro"/>', chassis.split(b"?>", 1)[1]
+                               .replace(b"<robot", b"<xacro:if value=\"true\"").replace(b"</robot>", b"</xacro:if>"))
+        status, _, out = api("POST", "/populate?xacro_arg=prefix:=web&structure_only=true", inline,
+                              {"Content-Type": "application/xml"})
+        assert status == 202, out
+        job = json.loads(api("GET", f"/jobs/{json.loads(out)['id']}?wait=1")[2])
+        assert job["state"] == "succeeded"
+        robot = json.loads(api("GET", "/robots/quokka_rover")[2])
+        assert robot["name"] == "quokka_rover"
         jobs.shutdown()
     finally:
         store.close()

@@ -55,14 +55,14 @@ TEST_MODEL = ModelSpec(
 )
 
 
-def cache_dir() -> Path:
-    """Where assembled models live: cache_root()/models ($URDFKB_CACHE or the user cache directory)."""
-    return cache_root() / "models"
+def models_dir() -> Path:
+    """Where assembled models live: $URDFKB_MODEL_CACHE, else cache_root()/models."""
+    return Path(os.environ.get("URDFKB_MODEL_CACHE") or cache_root() / "models")
 
 
 def ensure_model(spec: ModelSpec, progress: bool = True) -> Path:
     """The verified local path of `spec`, fetched and assembled on first use."""
-    target = cache_dir() / spec.filename
+    target = models_dir() / spec.filename
     if _cached(spec, target):
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -95,6 +95,34 @@ def _cached(spec: ModelSpec, target: Path) -> bool:
     target.unlink()
     sidecar.unlink(missing_ok=True)
     return False
+
+
+def model_sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a model file: for a model fetched into models_dir(), the verified digest its
+    sidecar records; for another file, hashed once per (path, size, mtime) and then read from
+    cache_root()/digests (a 1 GB GGUF takes seconds to hash). OSError if the file cannot be read."""
+    path = Path(path).resolve()
+    stat = path.stat()
+    for spec in (DEFAULT_MODEL, TEST_MODEL):
+        fetched = (models_dir() / spec.filename).resolve()
+        if path == fetched and stat.st_size == spec.size and _sidecar(fetched).is_file() \
+                and _sidecar(fetched).read_text().strip() == spec.sha256:
+            return spec.sha256
+    key = hashlib.sha256(f"{path}\0{stat.st_size}\0{stat.st_mtime_ns}".encode()).hexdigest()
+    record = cache_root() / "digests" / key
+    try:
+        digest = record.read_text().strip()
+        if len(digest) == 64:
+            return digest
+    except OSError:
+        pass
+    digest = _sha256(path)
+    record.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=record.parent, suffix=".tmp")
+    with os.fdopen(fd, "w") as out:
+        out.write(digest + "\n")
+    os.replace(tmp, record)
+    return digest
 
 
 def _sha256(path: Path) -> str:

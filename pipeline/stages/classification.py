@@ -1,4 +1,4 @@
-"""Stages 3 and 5, pre- and post-classification, and sub-part typing: descents of the taxonomy.
+"""Stages 3 and 6, pre- and post-classification, and stage 7's sub-part typing: descents of the taxonomy.
 
 Each subject starts at a concept and goes down one level per question, choosing among the direct
 subclasses the ontology offers (minus those the schema rules out for the subject), until it

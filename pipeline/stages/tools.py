@@ -1,4 +1,4 @@
-"""End-effector extent and mount by structure, after verification (pipeline.structure defines the facts).
+"""Stage 6 for end-effectors: extent and mount by structure, after verification (pipeline.structure defines the facts).
 
 The model's mount choices only group a tool's leaves; the tool itself is then settled from the tree:
 - a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent

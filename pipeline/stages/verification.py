@@ -1,4 +1,4 @@
-"""Stage 6, abstraction verification (deterministic): no member of a group has a child outside it.
+"""Stage 5, abstraction verification (deterministic): no member of a group has a child outside it.
 
 When a member has a child outside its group, one of two repairs applies, and the trace says which:
 - absorb: the outside subtree holds no link claimed by any component (every leaf in it was
