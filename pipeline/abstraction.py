@@ -20,9 +20,9 @@ from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponen
 from .evidence import LinkEvidence, describe
 from .ontology import Kind, Vocabulary
 from .oracle import Oracle
-from .prompts import NONE, facts_text
+from .prompts import DRIVE_PART, NONE, facts_text, sensor_check
 from .stages import tools
-from .stages.asking import Progress
+from .stages.asking import Progress, ask
 from .stages.attachment import SubChain, detect_roots
 from .stages.classification import Subject, Typed, descend
 from .stages.grouping import Group, merge
@@ -60,6 +60,7 @@ class Abstractor:
         self.claims.update(identify(self.oracle, self.tax, tree, unasked, self.progress))
         if kind == SENSOR:
             self._veto_coupled(tree, leaves)
+            self._check_sensors(tree, leaves)
         selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
         if not selected:
             return []
@@ -137,6 +138,21 @@ class Abstractor:
             if self.claims[leaf] == self.tax.kinds[SENSOR].cls and tree.parent_edge(leaf).mimic is not None:
                 self.claims[leaf] = NONE
                 self.log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
+
+    def _check_sensors(self, tree: KinematicTree, leaves: list[str]) -> None:
+        """Ask once more, framed differently (sensor, emitter, drive part or reference frame?), about
+        each leaf identified as a sensor; a leaf the check calls a part of a motor or drive is no sensor.
+
+        Only that answer overrules identification: over the ten truth robots it went to motor screws and
+        an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' also
+        took laser scanners and optical frames, so they are traced but change nothing."""
+        sensor = self.tax.kinds[SENSOR].cls
+        checked = [leaf for leaf in leaves if self.claims[leaf] == sensor]
+        questions = [sensor_check(leaf, tree.chain_to_root(leaf)[1:], describe(tree.evidence, [leaf])) for leaf in checked]
+        for leaf, verdict in zip(checked, ask(self.oracle, questions, "sensor check", self.progress)):
+            if verdict.answer == DRIVE_PART:
+                self.claims[leaf] = NONE
+                self.log(f"not a sensor: {leaf} is a part of a motor or drive ({verdict.confidence:.2f})")
 
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:

@@ -73,6 +73,26 @@ def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Seq
     return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 
+DRIVE_PART = "mechanism"  # the sensor check's one answer that takes a leaf off the sensors
+
+
+def sensor_check(link: str, ancestors: Sequence[str], facts: Sequence[str]) -> Question:
+    """A second, differently framed look at a leaf identified as a sensor: what is it?"""
+    system = (
+        _PREAMBLE + "A leaf link taken for a sensor may instead be something else. Say what the leaf link is:"
+        "\n- sensor: the frame of a device that measures: camera, laser scanner, sonar, IMU, touch pad, bumper,"
+        " button, microphone, force sensor."
+        "\n- emitter: a device that gives out light, sound or images: LED, lamp, loudspeaker, display or screen,"
+        " projector."
+        f"\n- {DRIVE_PART}: a part of a motor or drive: screw, gear, slider, spring, linkage, dummy or helper link"
+        " of an actuator."
+        "\n- reference frame: a virtual point used for looking, grasping or planning, with no device of its own."
+        f"\nReply with one of: sensor, emitter, {DRIVE_PART}, reference frame."
+    )
+    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}" + facts_text(facts)
+    return Question(system, user, ("sensor", "emitter", DRIVE_PART, "reference frame"), key=f"check:{link}")
+
+
 def root_question(kind: Kind, link: str, candidates: Sequence[str]) -> Question:
     """Which of the offered ancestors is the mount of the device that `link` belongs to (the kind's
     core:promptNoun names the device, its core:mountRule says what its mount is)."""

@@ -94,6 +94,8 @@ def _rover_model(seen: dict[str, Question]):
         seen[q.key] = q
         stage, _, subject = q.key.partition(":")
         subject = subject.partition("@")[0]
+        if stage == "check":
+            return "sensor"
         if stage == "identify":
             return KIND.get(subject, NONE)
         if stage == "device":

@@ -50,8 +50,8 @@ def perfect(q: Question) -> str:
         return ROOT[subject]
     if stage == "device":
         return DEVICE.get(subject, subject)
-    if stage == "optical":  # asked per camera sub-chain, keyed by its leaf: the leaf is the optical frame
-        return subject
+    if stage == "check":
+        return "sensor"
     target = CLASS[f"{stage}:{subject}"]
     return next(o for o in q.options if TAX.is_a(target, LABELS[o]))
 
@@ -94,6 +94,16 @@ def test_confidence_is_the_product_along_the_descent(toy):
         return perfect(q)
     lidar = next(c for c in abstract(toy, unsure) if c.root == "chassis")
     assert lidar.cls == "Lidar" and lidar.confidence == pytest.approx(0.48, abs=1e-3)
+
+
+def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
+    def screw_scanner(q):
+        return "mechanism" if q.key == "check:front_scanner" else perfect(q)
+    assert "Lidar" not in {c.cls for c in abstract(toy, screw_scanner)}
+    # the other answers of the check are traced but overrule nothing
+    for answer in ("emitter", "reference frame"):
+        kept = abstract(toy, lambda q: answer if q.key == "check:front_scanner" else perfect(q))
+        assert "Lidar" in {c.cls for c in kept}
 
 
 def test_sampled_voting_reaches_the_same_devices(toy):

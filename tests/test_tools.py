@@ -125,6 +125,8 @@ def perfect(q: Question) -> str | dict:
     OFFERED[q.key] = q.options
     stage, _, subject = q.key.partition(":")
     subject = subject.partition("@")[0]
+    if stage == "check":
+        return "sensor"
     if stage == "identify":
         return KIND.get(subject, NONE)
     if stage == "root":
