@@ -12,10 +12,8 @@ import rdflib
 from rdflib.namespace import OWL
 
 from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.formats import BY_NAME
 from urdfkb.pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, Vocabulary, vocabulary
-
-FORMATS = ("rdfxml", "turtle", "ntriples")
-_RDFLIB_FORMATS = {"rdfxml": "xml", "turtle": "turtle", "ntriples": "nt"}
 
 
 @functools.cache
@@ -50,9 +48,9 @@ def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
 def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml",
                  extra: rdflib.Graph | None = None) -> None:
     """Write `robot_graph(onto, extra)` to a path (atomically: temp file then rename) or a binary stream."""
-    if fmt not in FORMATS:
-        raise OntologyError(f"unknown export format {fmt!r}; choose one of {', '.join(FORMATS)}")
-    data = robot_graph(onto, extra).serialize(format=_RDFLIB_FORMATS[fmt], encoding="utf-8")
+    if fmt not in BY_NAME:
+        raise OntologyError(f"unknown export format {fmt!r}; choose one of {', '.join(BY_NAME)}")
+    data = robot_graph(onto, extra).serialize(format=BY_NAME[fmt].rdflib, encoding="utf-8")
     if hasattr(dest, "write"):
         dest.write(data)
         return

@@ -11,7 +11,8 @@ from rdflib.compare import isomorphic
 from rdflib.namespace import OWL, RDF, RDFS
 
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.export import FORMATS, export_robot, robot_graph
+from urdfkb.pipeline.export import export_robot, robot_graph
+from urdfkb.pipeline.formats import BY_NAME
 from urdfkb.pipeline.ontology import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import Edge, KinematicTree
@@ -42,7 +43,7 @@ def test_graph_is_self_contained(onto):
     assert len(list(g.subjects(RDF.type, CORE.Link))) == 10
 
 
-@pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.parametrize("fmt", BY_NAME)
 def test_round_trip_through_a_file(onto, hostile_onto, tmp_path, fmt):
     for robot in (onto, hostile_onto):
         path = tmp_path / f"robot.{fmt}"

@@ -131,7 +131,7 @@ def perfect(q: Question) -> str | dict:
         return KIND.get(subject, NONE)
     if stage == "root":
         return q.options[-1]  # as high as offered: structure must bring it down to the flange
-    if stage in ("device", "optical"):
+    if stage == "device":
         return q.options[-1]
     if stage == "post" and subject in KIND and KIND[subject] == "end effector":
         raise AssertionError(f"the model was asked the kind of a tool whose structure settles it: {q.key}")
