@@ -46,7 +46,7 @@ def _serve(inbox, requests, replies) -> None:
 
     def apply(block: bool) -> None:
         nonlocal applied
-        seq, graphs = inbox.get() if block else inbox.get_nowait()
+        seq, graphs = inbox.get(timeout=0.5) if block else inbox.get_nowait()
         for graph, data in graphs.items():
             put_graph(store, graph, data)
         applied = seq
@@ -63,7 +63,11 @@ def _serve(inbox, requests, replies) -> None:
             continue
         seq, op, args = requests.recv()
         while applied < seq:
-            apply(block=True)
+            try:
+                apply(block=True)
+            except queue.Empty:  # waiting for a replacement: never for a server that is gone
+                if os.getppid() != parent:
+                    return
         try:
             replies.send(("ok", (run_query if op == "query" else run_update)(store, *args)))
         except (QueryError, NotAcceptable) as e:

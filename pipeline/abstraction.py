@@ -142,12 +142,13 @@ class Abstractor:
     def _check_sensors(self, tree: KinematicTree, leaves: list[str]) -> None:
         """Ask once more, framed differently (sensor, emitter, drive part or reference frame?), about
         each leaf identified as a sensor; a leaf the check calls a part of a motor or drive is no sensor.
+        A leaf the file declares a simulator sensor on is not asked (on PR2 that halves the questions).
 
         Only that answer overrules identification: over the ten truth robots it went to motor screws and
         an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' also
         took laser scanners and optical frames, so they are traced but change nothing."""
         sensor = self.tax.kinds[SENSOR].cls
-        checked = [leaf for leaf in leaves if self.claims[leaf] == sensor]
+        checked = [leaf for leaf in leaves if self.claims[leaf] == sensor and not tree.evidence.get(leaf, _NO_FACTS).sensors]
         questions = [sensor_check(leaf, tree.chain_to_root(leaf)[1:], describe(tree.evidence, [leaf])) for leaf in checked]
         for leaf, verdict in zip(checked, ask(self.oracle, questions, "sensor check", self.progress)):
             if verdict.answer == DRIVE_PART:

@@ -111,6 +111,9 @@ def test_meshes_and_shapes_reach_classification_but_declarations_only_narrow(bot
     eye = next(q.user for k, q in seen.items() if k.startswith("pre:mast_eye_optical@"))
     assert "Facts: mast_eye_optical: no geometry, massless" in eye  # its chain below the mount the model chose
     assert "simulated" not in eye  # the camera declaration narrowed the options instead
+    # every sensor leaf of this rover carries a declaration (the eye through its plugin's frameName),
+    # so the sensor check asks about none of them
+    assert not any(k.startswith("check:") for k in seen)
 
 
 def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
