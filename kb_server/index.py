@@ -15,9 +15,11 @@ last write it must see, so a query sent after a write returned sees it.
 """
 from __future__ import annotations
 
+import ctypes
 import multiprocessing as mp
 import os
 import queue
+import signal
 import threading
 import time
 from collections.abc import Mapping
@@ -39,10 +41,22 @@ class WorkerCrashed(UrdfkbError, RuntimeError):
 _ERRORS = {"QueryError": QueryError, "NotAcceptable": NotAcceptable}
 
 
+def _die_with_parent() -> None:
+    """On Linux, have the kernel end this worker when the server process ends: a server killed while
+    its queue was writing a graph leaves a half message that no read would ever finish."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the parent check in the loop still applies
+        pass
+
+
 def _serve(inbox, requests, replies) -> None:
     """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
     (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`."""
     store, parent, applied = ox.Store(), os.getppid(), 0
+    _die_with_parent()
+    if os.getppid() != parent:  # the server went before the kernel was told
+        return
 
     def apply(block: bool) -> None:
         nonlocal applied
