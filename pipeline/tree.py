@@ -45,6 +45,11 @@ class Edge:
         """Moves (any type but fixed), or is declared actuated although written fixed."""
         return self.joint_type != "fixed" or self.actuated
 
+    @property
+    def independent(self) -> bool:
+        """Moves of its own: movable and following no other joint through <mimic>."""
+        return self.movable and self.mimic is None
+
 
 class TreeError(ValueError):
     """Links and joints that do not form one rooted tree; `element` names the culprit."""

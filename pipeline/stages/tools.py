@@ -79,14 +79,13 @@ def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
 def _joints_above(tree: KinematicTree, link: str) -> int:
     """Independent moving joints (no <mimic>) between the tree's root and `link`, its own included."""
     edges = (tree.parent_edge(x) for x in tree.chain_to_root(link)[:-1])
-    return sum(e.movable and e.mimic is None for e in edges)
+    return sum(e.independent for e in edges)
 
 
 def _serial_joints(tree: KinematicTree, top: str) -> int:
     """Most independent moving joints (no <mimic>) on one path from `top` (its own joint included) down."""
     def count(link: str) -> int:
-        edge = tree.parent_edge(link)
-        own = int(edge.movable and edge.mimic is None)
+        own = int(tree.parent_edge(link).independent)
         return own + max((count(c) for c in tree.children(link)), default=0)
     return count(top)
 
