@@ -50,10 +50,12 @@ def _die_with_parent() -> None:
         pass
 
 
-def _serve(inbox, requests, replies) -> None:
+def _serve(inbox, requests, replies, parent: int) -> None:
     """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
-    (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`."""
-    store, parent, applied = ox.Store(), os.getppid(), 0
+    (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`.
+    `parent` is the server's pid, passed in: a worker that starts after its server was killed sees
+    another parent from its first instruction on (and would wait forever on the half message)."""
+    store, applied = ox.Store(), 0
     _die_with_parent()
     if os.getppid() != parent:  # the server went before the kernel was told
         return
@@ -96,7 +98,8 @@ class _Worker:
         self.inbox, self.seq = ctx.Queue(), 0
         self.requests, requests = ctx.Pipe(duplex=False)[::-1]
         self.replies, replies = ctx.Pipe(duplex=False)
-        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies), daemon=True, name="urdfkb-sparql")
+        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies, os.getpid()), daemon=True,
+                                name="urdfkb-sparql")
         self.proc.start()
         requests.close()
         replies.close()

@@ -1,11 +1,14 @@
 """The persistent store: restart, atomic replace, failures leave it as it was, exports, timeouts."""
 import io
+import multiprocessing
 import threading
+import time
 
 import owlready2
 import pytest
 import rdflib
 
+import urdfkb.kb_server.index as index_mod
 import urdfkb.kb_server.store as store_mod
 from kb_fixtures import PR2
 from urdfkb.kb_server.sparql import QueryTimeout
@@ -108,6 +111,21 @@ def test_timeout_stops_the_query_and_the_store_keeps_serving(tmp_path, trees):
             s.query(q, timeout=0.5)
     assert components(s) == len(PR2.components)  # the worker past its deadline was replaced
     s.close()
+
+
+def test_a_query_worker_whose_server_died_before_it_started_ends():
+    """Killed while starting its workers, a server leaves children that start under another parent
+    (seen after the restart test): such a worker returns at once instead of waiting on its queue."""
+    ctx = multiprocessing.get_context("spawn")
+    requests, replies = ctx.Pipe(duplex=False)
+    gone = ctx.Process(target=time.sleep, args=(0,))  # a pid that is nobody's parent once it has ended
+    gone.start()
+    gone.join()
+    inbox = ctx.Queue()  # held here until the worker has read it
+    worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid), daemon=True)
+    worker.start()
+    worker.join(60)
+    assert worker.exitcode == 0
 
 
 def test_updates_from_before_kb_graphs_become_the_default_graph(tmp_path):
