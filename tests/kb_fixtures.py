@@ -49,27 +49,34 @@ def free_port() -> int:
 
 
 @contextmanager
-def live(app):
-    """Serve a WSGI app with waitress on 127.0.0.1 (free port) in a thread; yields the base URL."""
-    server = create_server(app, host="127.0.0.1", port=0, threads=6)
+def running(server):
+    """Run a waitress server's loop in a thread for the block; then stop it: its task threads first,
+    then its sockets (closed under the loop, which the loop's thread expects and ignores)."""
     stopping = threading.Event()
 
     def run():
         try:
             server.run()
-        except OSError:  # the loop's sockets were closed under it: expected when stopping
+        except (OSError, ValueError):  # select() on sockets closed under it: expected when stopping
             if not stopping.is_set():
                 raise
 
     thread = threading.Thread(target=run, daemon=True)
     thread.start()
     try:
-        yield f"http://127.0.0.1:{server.effective_port}"
+        yield server
     finally:
         stopping.set()
         server.task_dispatcher.shutdown()
         server.close()
         thread.join(5)
+
+
+@contextmanager
+def live(app):
+    """Serve a WSGI app with waitress on 127.0.0.1 (free port) in a thread; yields the base URL."""
+    with running(create_server(app, host="127.0.0.1", port=0, threads=6)) as server:
+        yield f"http://127.0.0.1:{server.effective_port}"
 
 
 def fake_runner(abstractions: dict | None = None, delay: float = 0.0, fail: Exception | None = None):

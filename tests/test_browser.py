@@ -9,13 +9,14 @@ import dataclasses
 import os
 import shutil
 import tempfile
-import threading
 from pathlib import Path
 
 import pytest
 
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import run
+
+from kb_fixtures import running
 
 CHROMIUM = next((p for p in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if p), None)
 DRIVER = shutil.which("chromedriver")
@@ -37,12 +38,8 @@ def scripted_runner(tree, settings, progress):
 def server(tmp_path_factory):
     from urdfkb.kb_server.serve import make_server
     server, store, jobs = make_server(tmp_path_factory.mktemp("kb") / "kb.sqlite3", port=0, runner=scripted_runner)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    yield f"http://127.0.0.1:{server.effective_port}"
-    server.task_dispatcher.shutdown()
-    server.close()
-    thread.join(5)
+    with running(server):
+        yield f"http://127.0.0.1:{server.effective_port}"
     jobs.shutdown()
     store.close()
 

@@ -2,7 +2,6 @@
 
 Most cases use Flask's test client (Host `localhost`); a live waitress server where the socket
 matters (header size, bound port, threads held by waiting clients)."""
-import io
 import json
 import subprocess
 import sys
@@ -13,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import PR2, fake_runner, http, live, multipart
+from kb_fixtures import PR2, fake_runner, http, live, multipart, running
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, pipeline_runner
 from urdfkb.kb_server.security import Policy, check_bind
@@ -379,18 +378,16 @@ def test_host_check(bind, port, allowed, host, ok):
 
 def test_live_server_checks_host_against_its_bound_port(tmp_path):
     server, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, runner=fake_runner())
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
     try:
-        port = server.effective_port
-        base = f"http://127.0.0.1:{port}"
-        assert http("GET", f"{base}/robots")[0] == 200
-        for host in (f"rebind.example:{port}", "localhost:1"):
-            assert http("GET", f"{base}/robots", headers={"Host": host})[0] == 400, host
-        status, _, out = http("GET", f"{base}/sparql?query=ASK%7B%7D", headers={"Accept": "x/" + "a" * 70_000})
-        assert status == 431 and b"aaaa" not in out  # header over the size limit, never echoed
+        with running(server):
+            port = server.effective_port
+            base = f"http://127.0.0.1:{port}"
+            assert http("GET", f"{base}/robots")[0] == 200
+            for host in (f"rebind.example:{port}", "localhost:1"):
+                assert http("GET", f"{base}/robots", headers={"Host": host})[0] == 400, host
+            status, _, out = http("GET", f"{base}/sparql?query=ASK%7B%7D", headers={"Accept": "x/" + "a" * 70_000})
+            assert status == 431 and b"aaaa" not in out  # header over the size limit, never echoed
     finally:
-        server.close()
         jobs.shutdown()
         store.close()
 

@@ -1,11 +1,10 @@
 """The W3C SPARQL 1.0 and 1.1 query-evaluation tests (tests/w3c, W3C licence in tests/w3c/LICENSE),
 run over HTTP against a live `urdfkb serve` (waitress on 127.0.0.1, see w3c_harness.py)."""
-import threading
 
 import pytest
 
 import w3c_harness
-from kb_fixtures import fake_runner
+from kb_fixtures import fake_runner, running
 from urdfkb.kb_server.serve import make_server
 
 TOKEN = "w3c"
@@ -75,10 +74,8 @@ EXCEPTIONS = {
 def endpoint(tmp_path_factory):
     server, store, jobs = make_server(tmp_path_factory.mktemp("w3c") / "kb.sqlite3", port=0, token=TOKEN,
                                       runner=fake_runner(), threads=4)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    yield w3c_harness.Endpoint(f"http://127.0.0.1:{server.effective_port}/sparql", token=TOKEN)
-    server.close()
+    with running(server):
+        yield w3c_harness.Endpoint(f"http://127.0.0.1:{server.effective_port}/sparql", token=TOKEN)
     jobs.shutdown()
     store.close()
 
