@@ -56,7 +56,7 @@ def test_select_json_and_xml_with_sparqlwrapper(url, method):
 def test_ask_construct_describe_minus(url):
     assert wrapper(url, P + f"ASK {{ <{KINECT}> a core:RGBDCamera }}", JSON).convert()["boolean"] is True
     assert wrapper(url, P + "ASK { ?x a core:Toaster }", XML).convert().getElementsByTagName("boolean")[0].firstChild.data == "false"
-    g = wrapper(url, P + f"CONSTRUCT {{ ?c core:isMountedOn ?m }} WHERE {{ ?c core:isMountedOn ?m }}", TURTLE).convert()
+    g = wrapper(url, P + "CONSTRUCT { ?c core:isMountedOn ?m } WHERE { ?c core:isMountedOn ?m }", TURTLE).convert()
     graph = rdflib.Graph().parse(data=g, format="turtle")
     assert len(graph) == len(PR2.components)
     status, ctype, body = http("GET", url + "?" + urllib.parse.urlencode({"query": f"DESCRIBE <{KINECT}>"}),
