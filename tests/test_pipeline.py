@@ -35,7 +35,7 @@ CLASS = {"pre:front_scanner": "Lidar", "pre:mast_rgbd_color_optical": "Monocular
          "pre:mast_rgbd_depth_optical": "DepthCamera", "post:mast_rgbd_color_optical": "RGBDCamera",
          "pre:claw_jaw_a": "ParallelGripper", "pre:claw_jaw_b": "ParallelGripper", "pre:claw_tcp": "ParallelGripper",
          "post:claw_jaw_a": "ParallelGripper",
-         "part:front_scanner": "SensingElement", "part:mast_rgbd_body": "SensorHousing",
+         "part:mast_rgbd_body": "SensorHousing",
          "part:mast_rgbd_color_optical": "RgbFrame", "part:mast_rgbd_depth_optical": "DepthFrame",
          "part:claw_base": "Palm", "part:arm_flange": "ToolHousing", "part:claw_jaw_a": "Finger", "part:claw_jaw_b": "Finger",
          "part:claw_tcp": "ToolCenterPoint", "part:claw_status_light": "StructuralSubpart"}
@@ -126,6 +126,18 @@ def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy)
     assert parts["mast_rgbd_body"] == "SensorHousing"
 
 
+def test_a_non_vision_sensor_measures_at_its_chain_leaf_with_no_question(toy):
+    asked = []
+
+    def spy(q):
+        asked.append(q.key)
+        return perfect(q)
+    lidar = next(c for c in abstract(toy, spy) if c.cls == "Lidar")
+    # the shapes require a sensing element of a ranging sensor: its chain's leaf, and SensingElement has no kinds
+    assert {s.link: s.cls for s in lidar.subcomponents} == {"front_scanner": "SensingElement"}
+    assert not any(k.startswith("part:front_scanner") for k in asked)
+
+
 def test_end_effector_chains_meeting_inside_a_mount_are_one_tool(toy):
     def tcp_high(q):
         if q.key == "root:claw_tcp":
@@ -146,7 +158,9 @@ def test_backend_failure_is_a_clear_error(toy, failure):
 
 def test_answers_outside_the_options_are_abstentions_not_classes(toy):
     def wild(q):
-        return "GalacticSensor" if q.key.startswith("pre:") else perfect(q)
+        if q.key.startswith("pre:"):
+            return "GalacticSensor"
+        return q.options[0] if q.key.startswith("part:front_scanner") else perfect(q)  # a bare Sensor's parts
     comps = abstract(toy, wild, vote="sample")
     assert all(c.cls in TAX for c in comps)
 
@@ -206,8 +220,12 @@ def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_categ
               SubChain("cam_a_led", "mount", ("cam_a_led",))]
     names = {"cam_a_rgb": "cam_a", "cam_a_depth": "cam_a", "cam_b_rgb": "cam_b", "cam_a_far": "cam_a", "cam_a_led": "cam_a"}
     categories = dict.fromkeys(names, "VisionSensor") | {"cam_a_led": "ContactSensor"}
-    groups = merge(Oracle(ScriptedBackend(lambda q: names[q.key.split(":")[1]])), toy, chains, "sensor", categories)
+    asked = []
+    backend = ScriptedBackend(lambda q: asked.append(q.key) or names[q.key.split(":")[1]])
+    groups = merge(Oracle(backend), toy, chains, "sensor", categories)
     assert sorted(sorted(g.leaves) for g in groups) == [["cam_a_depth", "cam_a_rgb"], ["cam_a_far"], ["cam_a_led"], ["cam_b_rgb"]]
+    # the far camera and the LED (alone in their category at their mount) are devices whatever their names
+    assert sorted(asked) == ["device:cam_a_depth", "device:cam_a_rgb", "device:cam_b_rgb"]
 
 
 def test_end_effector_chains_merge_where_their_leaves_meet_inside_a_mount(toy):

@@ -7,7 +7,8 @@ the mount's name ("chest" under "chest_link") names the body part the device sit
 and is not offered. Sub-chains near each other in the
 tree (same mount, or sharing links), with the same device name and pre-classes in the same sensor
 category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and an
-accelerometer on one palm are not) form one device.
+accelerometer on one palm are not) form one device. A sub-chain with no such neighbour is a device
+of its own whatever its name, so it is not asked.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
 at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
 the tool's provisional mount is the deepest mount the model named for any of its chains that carries
@@ -77,10 +78,10 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        verdicts = ask(oracle, [device_name_question(c.leaf, device_names(c)) for c in chains], "group merging", progress)
-        device = [v.answer or c.leaf for c, v in zip(chains, verdicts)]
-        same = [[device[i] == device[j] and categories[a.leaf] == categories[b.leaf] and _near(a, b)
-                 for j, b in enumerate(chains)] for i, a in enumerate(chains)]
+        could = [[i != j and categories[a.leaf] == categories[b.leaf] and _near(a, b) for j, b in enumerate(chains)]
+                 for i, a in enumerate(chains)]
+        device = _device_names(oracle, chains, [any(row) for row in could], progress)
+        same = [[could[i][j] and device[i] == device[j] for j in range(len(chains))] for i in range(len(chains))]
     parent = list(range(len(chains)))
 
     def find(i: int) -> int:
@@ -100,6 +101,16 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
         for group in groups.values():
             group.chains = _one_mount(tree, group.chains)
     return list(groups.values())
+
+
+def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool],
+                  progress: Progress | None) -> list[str]:
+    """Each sub-chain's device name as the model gives it. Only a chain that could join another (one
+    near it, of its category) is asked: for the others no answer changes the partition, so their own
+    leaf name stands (on PR2 that is half the questions of this stage)."""
+    asked = [c for c, j in zip(chains, joinable) if j]
+    verdicts = iter(ask(oracle, [device_name_question(c.leaf, device_names(c)) for c in asked], "group merging", progress))
+    return [(next(verdicts).answer or c.leaf) if j else c.leaf for c, j in zip(chains, joinable)]
 
 
 def _one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
