@@ -227,10 +227,11 @@ class Abstractor:
                     fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
         """Type every member link in the kind's Subpart branch, then assemble the components.
 
-        A camera must have optical frames (the part ontologies/shapes.ttl requires of it): each of its
-        sub-chains' leaves is one (a camera chain runs from its mount to the frame its images are
-        expressed in, and nothing hangs below an image frame), typed below the required part; the
-        camera's other links are typed with that part's branch ruled out.
+        A device whose class ontologies/shapes.ttl requires a part of (a camera: an optical frame; a
+        sensor forming no images: a sensing element) has one at each of its sub-chains' leaves: a sensor
+        chain runs from its mount to the frame its measurements are expressed in, and nothing hangs below
+        that frame. Those leaves are refined below the required part (core:partQuestion asks which
+        kind, where it has kinds); the device's other links are typed with that part's branch ruled out.
         """
         required = self._required_links(groups, post)
         framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
@@ -243,15 +244,17 @@ class Abstractor:
         ]
         frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
         for link, device in required.items():
-            frames.setdefault(self.tax.required_part(device), []).append((link, Subject(
-                f"part:{link}", "The link below is an {concept} of a camera: which kind of image is expressed in it?",
-                f"Link: {link}\nCamera: {self.tax.label(device)}" + facts_text(describe(tree.evidence, [link])),
+            part, holder = self.tax.required_part(device), self.tax.label(self.tax.requiring_class(device))
+            frames.setdefault(part, []).append((link, Subject(
+                f"part:{link}", self.tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
+                f"Link: {link}\n{holder[:1].upper() + holder[1:]}: {self.tax.label(device)}"
+                + facts_text(describe(tree.evidence, [link])),
                 self.tax.excluded_parts(device))))
         typed = dict(zip([link for link, _ in rest], descend(
             self.oracle, self.tax, kind.subparts, [s for _, s in rest], "sub-part classification", self.progress)))
         for part, subjects in frames.items():
             typed.update(zip([link for link, _ in subjects], descend(
-                self.oracle, self.tax, part, [s for _, s in subjects], "optical frames", self.progress)))
+                self.oracle, self.tax, part, [s for _, s in subjects], "required parts", self.progress)))
         return [
             Component(
                 name=f"{kind.name}_{i}_{g.leaves[0]}",
@@ -295,6 +298,6 @@ class Abstractor:
 
     def _required_links(self, groups: list[Group], post: list[Typed]) -> dict[str, str]:
         """The leaf of each sub-chain of a device whose class requires a part (a camera: its optical
-        frame) → the device's class."""
+        frame; a lidar: its sensing element) → the device's class."""
         return {chain.leaf: t.cls for g, t in zip(groups, post) if self.tax.required_part(t.cls) is not None
                 for chain in g.chains}

@@ -125,6 +125,7 @@ class Vocabulary:
         self._chain_class: dict[str, str] = {}  # a finger chain's drive motion → its class
         self._roles: dict[str, str] = {}  # class → its core:fingerChainRole
         self._units: set[str] = set()  # classes marked core:numberedUnits
+        self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         for name in self._order:
             node = CORE[name]
             parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
@@ -147,6 +148,8 @@ class Vocabulary:
                 if str(role) not in FINGER_CHAIN_ROLES:
                     raise OntologyError(f"{name}: core:fingerChainRole {str(role)!r} is none of {FINGER_CHAIN_ROLES}")
                 self._roles[name] = str(role)
+            if (question := graph.value(node, CORE.partQuestion)) is not None:
+                self._part_question[name] = str(question)
             if str(graph.value(node, CORE.numberedUnits)).strip().lower() in ("true", "1"):
                 self._units.add(name)
         for kids in self._children.values():
@@ -263,8 +266,16 @@ class Vocabulary:
     def required_part(self, name: str) -> str | None:
         """The sub-part class a `name` device must have one of (a qualified shape on it or an
         ancestor, ontologies/shapes.ttl), or None."""
-        return next((self._required[c] for c in (self._check(name), *self.ancestors(name)) if c in self._required),
-                    None)
+        holder = self.requiring_class(name)
+        return self._required[holder] if holder else None
+
+    def requiring_class(self, name: str) -> str | None:
+        """The class (`name` or its nearest ancestor) whose shape requires a part of a `name` device, or None."""
+        return next((c for c in (self._check(name), *self.ancestors(name)) if c in self._required), None)
+
+    def part_question(self, part: str) -> str | None:
+        """The question refining a link taken as a required `part` (core:partQuestion), or None."""
+        return self._part_question.get(self._check(part))
 
     def has_numbered_units(self, name: str) -> bool:
         """A `name` device is made of numbered units read as one (core:numberedUnits on it or an ancestor)."""

@@ -54,7 +54,9 @@ def test_the_vocabulary_reads_the_schema_from_the_ontology_and_shapes():
     assert (vocab.component, vocab.subpart) == ("Component", "Subpart")
     assert vocab.kind_of("StereoCamera") == SENSOR and vocab.kind_of("Hand") == END_EFFECTOR
     assert vocab.kind_of("Wheel") is None and vocab.kind_of("Nope") is None
-    assert vocab.required_part("StereoCamera") == "OpticalFrame" and vocab.required_part("Lidar") is None
+    assert vocab.required_part("StereoCamera") == "OpticalFrame" and vocab.required_part("Lidar") == "SensingElement"
+    assert vocab.requiring_class("Lidar") == "RangingSensor" and vocab.required_part("VisionSensor") is None
+    assert "image" in vocab.part_question("OpticalFrame") and vocab.part_question("SensingElement") is None
     assert vocab.has_numbered_units("TactileArray") and not vocab.has_numbered_units("Sonar")
     assert vocab.finger_chain_role("link") == {"Finger"} and vocab.finger_chain_role("tip") == {"ContactSurface"}
     assert vocab.finger_chain_role("carrier") == {"Palm"}
