@@ -51,14 +51,19 @@ class LlamaBackend(Backend):
     Prompts are rendered with the GGUF's own chat template. The system part (everything before the
     user text) stays in the KV cache, one sequence per slot for the `prefix_slots` most recently
     used system texts, and is reused by every question with the same system text; each option is
-    a sequence sharing that prefix and its question's suffix.
+    a sequence sharing that prefix and its question's suffix. Every resident prefix widens the span
+    of KV cells each batch token attends over (masked or not), and the pipeline seldom returns to an
+    earlier system text, so few slots are kept: on PR2 cold, 4, 2 and 1 slots took 127.8, 124.9 and
+    122.6 s (medians of two alternating runs, within 4 tokens of each other). Two is the default:
+    with one, the changed cell layout tipped TurtleBot3's near tie on base_scan (ranging 0.33 against
+    vision 0.30) the wrong way.
     Not thread-safe: use one backend per thread.
     """
 
     exposes_logits = True
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
-                 n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 4,
+                 n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 2,
                  prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES):
         import llama_cpp
         from llama_cpp import _internals
