@@ -139,25 +139,26 @@ def test_oracle_on_llama(backend):
     assert sampled[0].answer in OPTIONS
 
 
-def test_alternating_system_texts_stay_cached(backend, model_path):
-    """Several system prefixes stay resident: returning to one evaluates only the question again."""
+def test_alternating_system_texts_stay_cached(model_path):
+    """As many system prefixes as slots stay resident: returning to one evaluates only the question again."""
     from urdfkb.pipeline.llm.llama import LlamaBackend
 
     other = "Classify robot parts. Answer sensor, gripper, wheel or structure."
     third = SYSTEM + " Be careful."  # shares most of SYSTEM's tokens
     qa, qb, qc = question("base_laser"), question("base_laser", system=other), question("base_laser", system=third)
-    backend.reset()
-    first = [backend.score([q])[0] for q in (qa, qb, qc)]
-    before = backend.stats.prompt_tokens
-    again = [backend.score([q])[0] for q in (qa, qb, qc)]
-    suffixes = sum(len(backend.prompt_tokens(q)) - len(backend.prefix_tokens(q.system)) for q in (qa, qb, qc))
-    assert backend.stats.prompt_tokens - before <= suffixes + 3 * (len(OPTIONS) * 2 + 2)
-    assert np.allclose(first, again, atol=LOGPROB_TOL)  # other cache cells: layout noise only
+    backend = LlamaBackend(model_path, n_ctx=2048, prefix_slots=3, prefix_cache=False)
     single = LlamaBackend(model_path, n_ctx=2048, prefix_slots=1, prefix_cache=False)  # one slot: every switch re-evaluates
     try:
+        first = [backend.score([q])[0] for q in (qa, qb, qc)]
+        before = backend.stats.prompt_tokens
+        again = [backend.score([q])[0] for q in (qa, qb, qc)]
+        suffixes = sum(len(backend.prompt_tokens(q)) - len(backend.prefix_tokens(q.system)) for q in (qa, qb, qc))
+        assert backend.stats.prompt_tokens - before <= suffixes + 3 * (len(OPTIONS) * 2 + 2)
+        assert np.allclose(first, again, atol=LOGPROB_TOL)  # other cache cells: layout noise only
         fresh = [single.score([q])[0] for q in (qa, qb, qc, qa)]
         assert np.allclose(fresh[:3], first, atol=LOGPROB_TOL) and np.allclose(fresh[3], fresh[0], atol=LOGPROB_TOL)
     finally:
+        backend.close()
         single.close()
 
 
