@@ -17,10 +17,10 @@ from typing import Callable
 
 from . import reasoning
 from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
-from .evidence import LinkEvidence, describe
+from .evidence import LinkEvidence, named
 from .ontology import Kind, Vocabulary
 from .oracle import Oracle
-from .prompts import DRIVE_PART, NONE, facts_text, sensor_check
+from .prompts import DRIVE_PART, NONE, sensor_check
 from .stages import tools
 from .stages.asking import Progress, ask
 from .stages.attachment import SubChain, detect_roots
@@ -31,7 +31,7 @@ from .stages.verification import Log, group_root, indexed_units, verify
 from .structure import ToolStructure
 from .tree import KinematicTree
 
-MAX_FACTS = 3  # evidence lines shown per subject
+MAX_FACTS = 3  # links of a chain shown with their facts
 _NO_FACTS = LinkEvidence()
 
 
@@ -87,10 +87,10 @@ class Abstractor:
         towards lidar for sonars), while identification gains from them."""
         key = f"pre:{chain.leaf}"
         ruled_out = self._ruled_out(tree, chain.links, cls, key)
-        between = f"\nBetween it and its mount: {', '.join(chain.links[:-1])}" if len(chain.links) > 1 else ""
-        facts = describe(tree.evidence, reversed(chain.links))[:MAX_FACTS]
-        return Subject(key, "The link below belongs to a {concept}.", f"Link: {chain.leaf}{between}" + facts_text(facts),
-                       ruled_out)
+        with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
+        shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
+        between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
+        return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}", ruled_out)
 
     def _ruled_out(self, tree: KinematicTree, links, below: str, key: str) -> frozenset[str]:
         """Classes under `below` that the simulator sensors declared on `links` rule out (the
@@ -149,7 +149,7 @@ class Abstractor:
         took laser scanners and optical frames, so they are traced but change nothing."""
         sensor = self.tax.kinds[SENSOR].cls
         checked = [leaf for leaf in leaves if self.claims[leaf] == sensor and not tree.evidence.get(leaf, _NO_FACTS).sensors]
-        questions = [sensor_check(leaf, tree.chain_to_root(leaf)[1:], describe(tree.evidence, [leaf])) for leaf in checked]
+        questions = [sensor_check(leaf, named(tree.evidence, leaf), tree.chain_to_root(leaf)[1:]) for leaf in checked]
         for leaf, verdict in zip(checked, ask(self.oracle, questions, "sensor check", self.progress)):
             if verdict.answer == DRIVE_PART:
                 self.claims[leaf] = NONE
@@ -238,7 +238,7 @@ class Abstractor:
         structural = self._structural_parts(tree, kind, groups, structures)
         rest = [
             (link, Subject(f"part:{link}", framing,
-                           f"Link: {link}\nDevice: {self.tax.label(t.cls)}" + facts_text(describe(tree.evidence, [link])),
+                           f"Link: {named(tree.evidence, link)}\nDevice: {self.tax.label(t.cls)}",
                            self.tax.excluded_parts(t.cls) | self._required_branch(t.cls) | structural.get(link, frozenset())))
             for g, t in zip(groups, post) for link in g.members if link not in required
         ]
@@ -247,8 +247,7 @@ class Abstractor:
             part, holder = self.tax.required_part(device), self.tax.label(self.tax.requiring_class(device))
             frames.setdefault(part, []).append((link, Subject(
                 f"part:{link}", self.tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
-                f"Link: {link}\n{holder[:1].upper() + holder[1:]}: {self.tax.label(device)}"
-                + facts_text(describe(tree.evidence, [link])),
+                f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {self.tax.label(device)}",
                 self.tax.excluded_parts(device))))
         typed = dict(zip([link for link, _ in rest], descend(
             self.oracle, self.tax, kind.subparts, [s for _, s in rest], "sub-part classification", self.progress)))

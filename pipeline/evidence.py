@@ -72,14 +72,11 @@ def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
     return found
 
 
-def describe(evidence: Mapping[str, LinkEvidence], links: Iterable[str]) -> list[str]:
-    """'link: facts' lines for those of `links` that have facts, in the given order."""
-    lines = []
-    for link in links:
-        text = evidence[link].text() if link in evidence else ""
-        if text:
-            lines.append(f"{link}: {text}")
-    return lines
+def named(evidence: Mapping[str, LinkEvidence], link: str) -> str:
+    """The link's name followed by its facts in parentheses, or the bare name when it has none:
+    stated next to the name rather than on a line of their own, the facts cost no repeated name."""
+    text = evidence[link].text() if link in evidence else ""
+    return f"{link} ({text})" if text else link
 
 
 # -- geometry ---------------------------------------------------------------------------

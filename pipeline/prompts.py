@@ -54,11 +54,6 @@ def chain_text(chain: Sequence[str]) -> str:
     return " < ".join(shown) + (" < ..." if len(chain) > MAX_CHAIN else "")
 
 
-def facts_text(lines: Sequence[str]) -> str:
-    """Evidence lines ('link: facts') as a block appended to a question, or ''."""
-    return "".join(f"\nFacts: {line}" for line in lines)
-
-
 def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Choice:
     """Which kind of component (or none) a leaf link is part of."""
     system = (
@@ -76,8 +71,9 @@ def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Seq
 DRIVE_PART = "mechanism"  # the sensor check's one answer that takes a leaf off the sensors
 
 
-def sensor_check(link: str, ancestors: Sequence[str], facts: Sequence[str]) -> Question:
-    """A second, differently framed look at a leaf identified as a sensor: what is it?"""
+def sensor_check(link: str, shown: str, ancestors: Sequence[str]) -> Question:
+    """A second, differently framed look at a leaf identified as a sensor (`shown`: its name with its
+    facts): what is it?"""
     system = (
         _PREAMBLE + "A leaf link taken for a sensor may instead be something else. Say what the leaf link is:"
         "\n- sensor: the frame of a device that measures: camera, laser scanner, sonar, IMU, touch pad, bumper,"
@@ -89,7 +85,7 @@ def sensor_check(link: str, ancestors: Sequence[str], facts: Sequence[str]) -> Q
         "\n- reference frame: a virtual point used for looking, grasping or planning, with no device of its own."
         f"\nReply with one of: sensor, emitter, {DRIVE_PART}, reference frame."
     )
-    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}" + facts_text(facts)
+    user = f"Leaf link: {shown}\nParents: {chain_text(ancestors)}"
     return Question(system, user, ("sensor", "emitter", DRIVE_PART, "reference frame"), key=f"check:{link}")
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.evidence import SimSensor, mesh_stem
+from urdfkb.pipeline.evidence import SimSensor, mesh_stem, named
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -43,6 +43,12 @@ def test_meshes_shapes_and_mass_are_read_per_link(bot):
     assert eye.shape == "cylinder r=0.03 l=0.05 m"
     assert bot.evidence["mast_eye_optical"].is_pure_frame
     assert bot.evidence["mast_eye_optical"].text().startswith("no geometry, massless")
+
+
+def test_a_link_is_named_with_its_facts_in_parentheses_and_bare_without(bot):
+    assert named(bot.evidence, "hull") == "hull (mesh body/hull_v2; box 0.6x0.4x0.2 m)"
+    assert named(bot.evidence, "mast_eye_optical") == "mast_eye_optical (no geometry, massless)"
+    assert named({}, "hull") == "hull"
 
 
 def test_sdf_sensor_declarations_with_plugin_and_detail(bot):
@@ -107,9 +113,9 @@ def _rover_model(seen: dict[str, Question]):
 def test_meshes_and_shapes_reach_classification_but_declarations_only_narrow(bot):
     seen: dict[str, Question] = {}
     Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX).run(bot)
-    assert "Facts:" not in seen["identify:nose_scanner"].user  # identification reads names and structure
+    assert "(" not in seen["identify:nose_scanner"].user  # identification reads names and structure
     eye = next(q.user for k, q in seen.items() if k.startswith("pre:mast_eye_optical@"))
-    assert "Facts: mast_eye_optical: no geometry, massless" in eye  # its chain below the mount the model chose
+    assert "Link: mast_eye_optical (no geometry, massless)" in eye  # its chain below the mount the model chose
     assert "simulated" not in eye  # the camera declaration narrowed the options instead
     # every sensor leaf of this rover carries a declaration (the eye through its plugin's frameName),
     # so the sensor check asks about none of them
