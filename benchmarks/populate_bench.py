@@ -11,6 +11,7 @@ machine load. Prints each run's wall time, prompt tokens and decodes, then the m
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import re
 import statistics
@@ -30,9 +31,7 @@ def importable(rev: str, root: Path) -> Path:
     """A directory to put on PYTHONPATH that imports `urdfkb` from revision `rev` of this repository."""
     src, path = root / "src", root / "path"
     archive = subprocess.run(["git", "-C", str(REPO), "archive", rev], capture_output=True, check=True).stdout
-    src.mkdir()
-    (root / "src.tar").write_bytes(archive)
-    with tarfile.open(root / "src.tar") as tar:
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
         tar.extractall(src, filter="data")
     mapping = tomllib.loads((src / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
     for package, folder in sorted(mapping.items()):  # "urdfkb" first, then its sub-packages

@@ -110,13 +110,19 @@ def test_sampled_voting_reaches_the_same_devices(toy):
     assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
 
 
-def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy):
+def _asking(toy) -> tuple[list, list[str]]:
+    """The toy's components under the perfect model, and the keys of the questions asked."""
     asked = []
 
     def spy(q):
         asked.append(q.key)
         return perfect(q)
-    camera = next(c for c in abstract(toy, spy) if c.cls == "RGBDCamera")
+    return abstract(toy, spy), asked
+
+
+def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy):
+    components, asked = _asking(toy)
+    camera = next(c for c in components if c.cls == "RGBDCamera")
     parts = {s.link: s.cls for s in camera.subcomponents}
     assert parts["mast_rgbd_color_optical"] == "RgbFrame" and parts["mast_rgbd_depth_optical"] == "DepthFrame"
     assert "part:mast_rgbd_color_optical@OpticalFrame" in asked  # the leaf is typed below OpticalFrame
@@ -127,12 +133,8 @@ def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy)
 
 
 def test_a_non_vision_sensor_measures_at_its_chain_leaf_with_no_question(toy):
-    asked = []
-
-    def spy(q):
-        asked.append(q.key)
-        return perfect(q)
-    lidar = next(c for c in abstract(toy, spy) if c.cls == "Lidar")
+    components, asked = _asking(toy)
+    lidar = next(c for c in components if c.cls == "Lidar")
     # the shapes require a sensing element of a ranging sensor: its chain's leaf, and SensingElement has no kinds
     assert {s.link: s.cls for s in lidar.subcomponents} == {"front_scanner": "SensingElement"}
     assert not any(k.startswith("part:front_scanner") for k in asked)
