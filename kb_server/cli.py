@@ -178,7 +178,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     serve(store_path=args.store, host=args.host, port=args.port, token=args.token or os.environ.get("URDFKB_TOKEN"),
           remote_store=args.remote_store, populate=args.populate, allowed_hosts=args.allowed_host,
           model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
-          package_paths=args.package_path, **_limits(args))
+          package_paths=args.package_path, trust_xacro=args.trust_xacro, **_limits(args))
     return 0
 
 
@@ -242,6 +242,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
     _add_package_path(g, "let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
                          "(repeatable; without it, uploads read no server file)")
+    g.add_argument("--trust-xacro", action="store_true", help="expand uploaded xacro files without the operating-system "
+                   "sandbox (bubblewrap + seccomp): only where every client may run code as the server's user")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

@@ -13,6 +13,7 @@ from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
+from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.xacro_input import load_description, parse_package_paths
@@ -26,20 +27,23 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 allowed_hosts: Sequence[str] = (), model_dir: str | Path | None = None,
                 llm_urls: Sequence[str] = (), insecure_no_token: bool = False,
                 max_links: int = DEFAULT_MAX_LINKS, max_header: int = 32_768,
-                package_paths: dict[str, Path] | None = None) -> tuple[BaseWSGIServer, Store, JobManager]:
+                package_paths: dict[str, Path] | None = None,
+                trust_xacro: bool = False) -> tuple[BaseWSGIServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
     `model_dir` and `llm_urls` open what kb_server.security refuses by default. Request
     headers over `max_header` bytes are refused (431). With a remote store, every robot
-    already stored is mirrored to it in the background."""
+    already stored is mirrored to it in the background. Uploaded xacro files are expanded inside
+    pipeline.sandbox, or refused where it is unavailable, unless `trust_xacro`."""
     check_bind(host, token, insecure_no_token)
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
     store = Store(store_path)
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
-                     max_links=max_links, max_waiters=max(1, threads // 4), package_paths=package_paths)
+                     max_links=max_links, max_waiters=max(1, threads // 4), package_paths=package_paths,
+                     trust_xacro=trust_xacro)
     server = create_server(app, host=host, port=port, threads=threads, max_request_header_size=max_header)
     policy.port = int(server.effective_port)
     return server, store, jobs
@@ -66,6 +70,10 @@ def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: i
                                       package_paths=packages, **options)
     for tree in trees:
         jobs.submit(tree, tree.robot_name, Settings())
+    if options.get("trust_xacro"):
+        log.warning("--trust-xacro: uploaded xacro files run unconfined, as this server's user")
+    elif reason := sandbox.unavailable():
+        log.warning("xacro uploads will be refused: %s (see README, Security)", reason)
     log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, server.effective_port)
     try:
         server.run()
