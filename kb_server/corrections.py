@@ -109,7 +109,7 @@ def apply(tree: KinematicTree, model: Abstraction, corrections: list[Correction]
             report.stale.append((corr, str(e)))
         else:
             report.applied.append((corr, name))
-    return Abstraction(tuple(comps), dict(model.provenance)), report
+    return Abstraction(tuple(comps), dict(model.provenance), model.body), report
 
 
 def check(tree: KinematicTree, current: Abstraction, corr: Correction) -> None:
