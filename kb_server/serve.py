@@ -10,7 +10,9 @@ from waitress.server import BaseWSGIServer
 
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
+from urdfkb.kb_server.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.kb_server.remote import RemoteStore
+from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
 from urdfkb.pipeline import sandbox
@@ -27,18 +29,20 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 allowed_hosts: Sequence[str] = (), model_dir: str | Path | None = None,
                 llm_urls: Sequence[str] = (), insecure_no_token: bool = False,
                 max_links: int = DEFAULT_MAX_LINKS, max_header: int = 32_768,
-                package_paths: dict[str, Path] | None = None,
-                trust_xacro: bool = False) -> tuple[BaseWSGIServer, Store, JobManager]:
+                package_paths: dict[str, Path] | None = None, trust_xacro: bool = False,
+                max_result_rows: int = MAX_RESULT_ROWS,
+                max_result_bytes: int = MAX_RESULT_BYTES) -> tuple[BaseWSGIServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
     `model_dir` and `llm_urls` open what kb_server.security refuses by default. Request
-    headers over `max_header` bytes are refused (431). With a remote store, every robot
-    already stored is mirrored to it in the background. Uploaded xacro files are expanded inside
-    pipeline.sandbox, or refused where it is unavailable, unless `trust_xacro`."""
+    headers over `max_header` bytes are refused (431), query answers past `max_result_rows` or
+    `max_result_bytes` (413). With a remote store, every robot already stored is mirrored to it
+    in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or refused where
+    it is unavailable, unless `trust_xacro`."""
     check_bind(host, token, insecure_no_token)
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
-    store = Store(store_path)
+    store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes))
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,

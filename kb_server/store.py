@@ -28,6 +28,7 @@ from platformdirs import user_data_dir
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
+from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import CORE_GRAPH, Result, scan
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
@@ -86,9 +87,10 @@ class RobotEntry:
 class Store:
     """The quadstore file at `path` (created with the core if new), safe to share between threads.
 
-    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does)."""
+    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does),
+    each answer within `limits`."""
 
-    def __init__(self, path: str | Path | None = None, workers: int = 2):
+    def __init__(self, path: str | Path | None = None, workers: int = 2, limits: ResultLimits = ResultLimits()):
         self.path = Path(path) if path else default_store_path()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
@@ -100,7 +102,7 @@ class Store:
                 if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
                     graphs[review.corrections_iri(e.name)] = corrections
             graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
-        self.index = Index(graphs, workers)
+        self.index = Index(graphs, workers, limits)
 
     def _open(self) -> None:
         self.world = owlready2.World(filename=str(self.path), exclusive=False, journal_mode="WAL")
