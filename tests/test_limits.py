@@ -1,9 +1,14 @@
-"""Resource limits: bounded query answers.
+"""Resource limits: bounded query answers, slow clients.
 
-Each case answered badly before: a 536 MB answer built in full."""
+Each case answered badly before: a 536 MB answer built in full, 100 trickling connections starving
+every other client."""
 import functools
 import json
 import random
+import socket
+import subprocess
+import sys
+import threading
 import time
 import urllib.parse
 
@@ -20,6 +25,7 @@ from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.ingest import load_urdf
 
 CROSS = "SELECT * { ?a ?p ?b . ?c ?q ?d } LIMIT 1200000"  # 536 MB of JSON over PR2 before the limits
+XML = "application/xml"
 
 
 @pytest.fixture(scope="module")
@@ -109,7 +115,86 @@ def test_named_queries_and_the_cli_answer_within_the_same_limits(pr2_store, monk
     assert "urdfkb: error: the answer has more than 3 rows" in capsys.readouterr().err
 
 
-def test_limits_must_be_positive():
+def test_limits_must_be_positive(tmp_path):
     for bad in (dict(rows=0), dict(bytes=-1)):
         with pytest.raises(UrdfkbError, match="must be positive"):
             ResultLimits(**bad)
+    for bad in (dict(max_connections=0), dict(channel_timeout=0)):
+        with pytest.raises(UrdfkbError, match="at least 1"):
+            make_server(tmp_path / "kb.sqlite3", port=0, **bad)
+
+
+# --- slow clients ------------------------------------------------------------------------------
+
+
+def test_slow_clients_do_not_starve_the_others(server):
+    """110 connections trickling a request body (a byte every 0.2 s) while another client asks."""
+    host, port = urllib.parse.urlsplit(server).netloc.split(":")
+    head = (f"POST /populate HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: {XML}\r\n"
+            "Content-Length: 100000\r\n\r\n").encode()
+    slow, stop = [], threading.Event()
+
+    def trickle():
+        while not stop.wait(0.2):
+            for s in slow:
+                try:
+                    s.send(b"<")
+                except OSError:
+                    pass
+
+    trickler = threading.Thread(target=trickle, daemon=True)
+    try:
+        for _ in range(110):
+            s = socket.create_connection((host, int(port)), timeout=2)
+            s.sendall(head)
+            slow.append(s)
+        trickler.start()
+        time.sleep(0.5)  # every slow connection accepted and sending
+        started = time.monotonic()
+        status, _, body = http("GET", f"{server}/robots", timeout=1)
+        assert status == 200 and json.loads(body)[0]["name"] == "pr2"
+        assert time.monotonic() - started < 1
+    finally:
+        stop.set()
+        if trickler.is_alive():
+            trickler.join(2)
+        for s in slow:
+            s.close()
+
+
+def test_a_body_over_the_size_limit_is_refused_before_it_is_buffered(server):
+    """waitress buffered up to 1 GB of a request before the app could refuse it; now 10 MB at most."""
+    host, port = urllib.parse.urlsplit(server).netloc.split(":")
+    with socket.create_connection((host, int(port)), timeout=5) as s:
+        s.sendall(f"POST /populate HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: {XML}\r\n"
+                  "Content-Length: 10000001\r\n\r\n".encode())
+        assert s.recv(100).startswith(b"HTTP/1.1 413 ")  # at once, with no byte of the body sent
+
+
+def test_an_idle_connection_is_closed_after_the_channel_timeout(tmp_path):
+    srv, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, runner=fake_runner(), channel_timeout=1)
+    try:
+        with running(srv), socket.create_connection(("127.0.0.1", srv.effective_port), timeout=5) as idle:
+            started = time.monotonic()
+            assert idle.recv(1) == b""  # closed by the server, not by the 5 s timeout
+            assert 1 <= time.monotonic() - started < 4
+    finally:
+        jobs.shutdown()
+        store.close()
+
+
+def test_the_open_files_limit_is_raised_for_the_connections():
+    """In a child process: a soft limit of 512 is raised to fit 1,000 connections; a hard limit of
+    600 fits fewer, which the server then accepts instead (with a warning)."""
+    code = """if True:
+        import resource
+        from urdfkb.kb_server.serve import FD_RESERVE, open_files_for
+        hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+        resource.setrlimit(resource.RLIMIT_NOFILE, (512, hard))
+        print(open_files_for(1000), resource.getrlimit(resource.RLIMIT_NOFILE)[0] >= 2 * 1000 + FD_RESERVE)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (512, 600))
+        print(open_files_for(1000), resource.getrlimit(resource.RLIMIT_NOFILE)[0])
+    """
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1000", "True", str((600 - 256) // 2), "600"]
