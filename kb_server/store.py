@@ -51,7 +51,7 @@ class ReadOnlyGraph(UrdfkbError, PermissionError):
     """An update would change the core ontology, which is read-only to SPARQL Update."""
 
 
-ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+ROBOT_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")  # the whole name: `$` would also match before a final "\n"
 
 
 class RobotNameError(UrdfkbError, ValueError):
@@ -60,7 +60,7 @@ class RobotNameError(UrdfkbError, ValueError):
 
 def check_robot_name(name: str) -> str:
     """`name` if it is 1-64 of A-Z a-z 0-9 _ - ; RobotNameError otherwise."""
-    if not ROBOT_NAME.match(name or ""):
+    if not ROBOT_NAME.fullmatch(name or ""):
         raise RobotNameError(f"robot name {name!r} must be 1-64 of A-Z a-z 0-9 _ - (give another name)")
     return name
 

@@ -1,7 +1,7 @@
-"""Resource limits: bounded query answers, slow clients.
+"""Resource limits and names: bounded query answers, slow clients, robot names.
 
 Each case answered badly before: a 536 MB answer built in full, 100 trickling connections starving
-every other client."""
+every other client, a robot name ending in a newline stored."""
 import functools
 import json
 import random
@@ -20,7 +20,7 @@ from urdfkb.kb_server import queries
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.results import ResultLimits, ResultTooLarge, serialize
 from urdfkb.kb_server.serve import make_server
-from urdfkb.kb_server.store import Store
+from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.ingest import load_urdf
 
@@ -198,3 +198,28 @@ def test_the_open_files_limit_is_raised_for_the_connections():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["1000", "True", str((600 - 256) // 2), "600"]
+
+
+# --- robot names -------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def api(tmp_path, shared):
+    """The app (test client) with PR2 populated from its URDF, so it takes corrections."""
+    store = Store(tmp_path / "kb.sqlite3")
+    app, jobs = make_app(store)
+    c = app.test_client()
+    r = c.post("/populate", data=(shared / "urdf" / "pr2.urdf").read_bytes(), content_type=XML)
+    assert jobs.get(r.get_json()["id"]).wait(30)
+    yield c
+    jobs.shutdown()
+    store.close()
+
+
+def test_a_robot_name_ending_in_a_newline_is_refused(api, shared):
+    with pytest.raises(RobotNameError):
+        check_robot_name("pr2\n")
+    r = api.post("/populate?name=pr2%0A", data=(shared / "urdf" / "pr2.urdf").read_bytes(), content_type=XML)
+    assert r.status_code == 400 and "robot name" in r.get_json()["error"]
+    assert [e["name"] for e in api.get("/robots").get_json()] == ["pr2"]
+
