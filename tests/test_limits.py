@@ -1,7 +1,8 @@
-"""Resource limits and names: bounded query answers, slow clients, robot names.
+"""Resource limits and stored text: bounded query answers, slow clients, robot names, free text.
 
 Each case answered badly before: a 536 MB answer built in full, 100 trickling connections starving
-every other client, a robot name ending in a newline stored."""
+every other client, a robot name ending in a newline stored, control characters or a lone surrogate
+in a correction answering 500 or breaking the .owl export."""
 import functools
 import json
 import random
@@ -11,6 +12,7 @@ import sys
 import threading
 import time
 import urllib.parse
+import xml.dom.minidom
 
 import pyoxigraph as ox
 import pytest
@@ -200,7 +202,7 @@ def test_the_open_files_limit_is_raised_for_the_connections():
     assert out.stdout.split() == ["1000", "True", str((600 - 256) // 2), "600"]
 
 
-# --- robot names -------------------------------------------------------------------------------
+# --- robot names and stored text ---------------------------------------------------------------
 
 
 @pytest.fixture
@@ -222,4 +224,31 @@ def test_a_robot_name_ending_in_a_newline_is_refused(api, shared):
     r = api.post("/populate?name=pr2%0A", data=(shared / "urdf" / "pr2.urdf").read_bytes(), content_type=XML)
     assert r.status_code == 400 and "robot name" in r.get_json()["error"]
     assert [e["name"] for e in api.get("/robots").get_json()] == ["pr2"]
+
+
+def correct(api, **fields):
+    body = json.dumps({"action": "confirm", "links": ["base_laser_link"], **fields})
+    return api.post("/robots/pr2/corrections", data=body, content_type="application/json")
+
+
+def test_a_reviewer_name_with_control_characters_is_refused_and_the_export_stays_xml(api):
+    r = correct(api, reviewer="Ann\x01\x7f")
+    assert r.status_code == 400 and "reviewer" in r.get_json()["error"] and "U+0001" in r.get_json()["error"]
+    r = correct(api, reviewer="Ann\tReviewer\n")  # whitespace runs are one space, as before
+    assert r.status_code == 201 and r.get_json()["correction"]["reviewer"] == "Ann Reviewer"
+    xml.dom.minidom.parseString(api.get("/robots/pr2.owl").data)
+
+
+def test_a_reviewer_with_a_lone_surrogate_is_a_400_naming_the_field(api):
+    r = correct(api, reviewer="\ud800")  # json.dumps writes it as the escape "\ud800"
+    assert r.status_code == 400 and "reviewer" in r.get_json()["error"] and "U+D800" in r.get_json()["error"]
+    assert api.get("/robots/pr2/corrections").get_json()["applied"] == []
+
+
+@pytest.mark.parametrize("field, value", [("class", {"name": "Lidar"}), ("class", ["Lidar"]), ("mount", 7),
+                                          ("reviewer", 42), ("reviewer", ["Ann"])])
+def test_a_field_of_the_wrong_json_type_is_a_400_naming_it(api, field, value):
+    r = correct(api, action="add" if field == "class" else "remount" if field == "mount" else "confirm",
+                **{field: value})
+    assert r.status_code == 400 and r.get_json()["error"].startswith(f"{field} must be a string")
 
