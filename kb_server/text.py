@@ -1,4 +1,4 @@
-"""Free text a client has the server store (a reviewer's name): one line of printable text.
+"""Free text a client has the server store (a reviewer's name, a model name): one line of printable text.
 
 XML 1.0 cannot carry most control characters (not even escaped), U+FFFE or U+FFFF, nor UTF-8 a lone
 surrogate (which JSON's "\\ud800" makes): stored, one would make the robot's .owl export ill-formed or

@@ -21,10 +21,12 @@ from kb_fixtures import PR2, fake_runner, http, make_app, running
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.results import ResultLimits, ResultTooLarge, serialize
+from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.runner import Settings
 
 CROSS = "SELECT * { ?a ?p ?b . ?c ?q ?d } LIMIT 1200000"  # 536 MB of JSON over PR2 before the limits
 XML = "application/xml"
@@ -252,3 +254,18 @@ def test_a_field_of_the_wrong_json_type_is_a_400_naming_it(api, field, value):
                 **{field: value})
     assert r.status_code == 400 and r.get_json()["error"].startswith(f"{field} must be a string")
 
+
+def test_a_model_name_with_control_characters_is_refused(tmp_path, shared):
+    """llm_model is stored with the robot (its abstractionModel): refused before anything is queued."""
+    policy = Policy(llm_urls=["http://llm.lan/v1"])
+    assert policy.check_settings(Settings(llm_url="http://llm.lan/v1", llm_model="qwen2.5:1.5b")).llm_model
+    store = Store(tmp_path / "kb.sqlite3")
+    app, jobs = make_app(store, policy=policy)
+    try:
+        r = app.test_client().post("/populate?" + urllib.parse.urlencode(
+            {"llm_url": "http://llm.lan/v1", "llm_model": "qwen\x00<evil/>", "vote": "sample"}),
+            data=(shared / "urdf" / "pr2.urdf").read_bytes(), content_type=XML)
+        assert r.status_code == 400 and "llm_model must be text without control characters" in r.get_json()["error"]
+    finally:
+        jobs.shutdown()
+        store.close()
