@@ -19,6 +19,7 @@ from werkzeug.exceptions import HTTPException
 from urdfkb.kb_server import queries, ui
 from urdfkb.kb_server.index import WorkerCrashed
 from urdfkb.kb_server.jobs import JobManager, QueueFull
+from urdfkb.kb_server.results import ResultTooLarge
 from urdfkb.kb_server.security import Policy, Refused
 from urdfkb.kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
 from urdfkb.kb_server.store import ReadOnlyGraph, RobotNameError, Store, check_robot_name
@@ -77,6 +78,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             return error(403, str(e), True)
         except NotAcceptable as e:
             return error(406, str(e), True)
+        except ResultTooLarge as e:
+            return error(413, str(e), True)
         except QueryTimeout as e:
             return error(503, str(e), True)
         except WorkerCrashed as e:
