@@ -30,7 +30,7 @@ import rdflib
 import yaml
 from rdflib import RDF, RDFS, URIRef
 
-from urdfkb.pipeline.components import KINDS
+from urdfkb.pipeline.components import KINDS, SIDES
 from urdfkb.pipeline.ontology import vocabulary
 
 CORE = rdflib.Namespace("https://w3id.org/urdfkb/core#")
@@ -64,12 +64,32 @@ class Alternative:
 
 
 @dataclass(frozen=True)
+class TruthBodyPart:
+    """One part of the truth's ``body:`` section; ``links`` keeps file order (the first one
+    identifies a part without joints)."""
+
+    id: str
+    classes: frozenset[str]
+    roots: frozenset[str]
+    joints: frozenset[str]
+    links: tuple[str, ...] = ()
+    side: str | None = None
+
+
+@dataclass(frozen=True)
+class TruthBody:
+    ignore_joints: frozenset[str]
+    parts: tuple[TruthBodyPart, ...]
+
+
+@dataclass(frozen=True)
 class Truth:
     robot: str
     urdf: str
     ignore: frozenset[str]
     components: tuple[TruthComponent, ...]
     alternatives: tuple[Alternative, ...] = ()
+    body: TruthBody | None = None     # None: the file has no body section (body metrics undefined)
 
 
 @dataclass(frozen=True)
@@ -95,8 +115,34 @@ def _truth_component(d: dict) -> TruthComponent:
                           leaves, subparts)
 
 
+def _truth_body(data: dict, path) -> TruthBody:
+    ignore = frozenset(data.get("ignore_joints") or ())
+    parts, owner = [], {}
+    for d in data.get("parts") or []:
+        where = f"{path}: body part {d.get('id')!r}"
+        part = TruthBodyPart(str(d["id"]), frozenset(d["classes"]), frozenset(d.get("roots") or ()),
+                             frozenset(d.get("joints") or ()), tuple(d.get("links") or ()), d.get("side"))
+        if not part.classes:
+            raise ValueError(f"{where}: no accepted class")
+        if part.side not in (None, *SIDES):
+            raise ValueError(f"{where}: side {part.side!r} is not one of {', '.join(SIDES)}")
+        if not part.joints and not part.links:
+            raise ValueError(f"{where}: a part without joints needs links (its first one identifies it)")
+        if part.joints & ignore:
+            raise ValueError(f"{where}: lists ignored joints {sorted(part.joints & ignore)}")
+        for joint in part.joints:
+            if owner.setdefault(joint, part.id) != part.id:
+                raise ValueError(f"{where}: joint {joint} is also in part {owner[joint]!r}")
+        parts.append(part)
+    ids = [p.id for p in parts]
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"{path}: duplicate body part ids")
+    return TruthBody(ignore, tuple(parts))
+
+
 def load_truth(path: str | Path) -> Truth:
-    """Parse and sanity-check a truth YAML file (format: spec/evaluation.md)."""
+    """Parse and sanity-check a truth YAML file (format: spec/evaluation.md), its ``body:``
+    section included where present."""
     data = yaml.safe_load(Path(path).read_text())
     comps = tuple(_truth_component(c) for c in data["components"])
     ids = [c.id for c in comps]
@@ -109,7 +155,8 @@ def load_truth(path: str | Path) -> Truth:
             raise ValueError(f"{path}: alternative replaces unknown or already replaced ids {rep}")
         replaced |= set(rep)
         alts.append(Alternative(rep, tuple(_truth_component(c) for c in a["with"])))
-    return Truth(data["robot"], data["urdf"], frozenset(data.get("ignore") or ()), comps, tuple(alts))
+    body = _truth_body(data["body"] or {}, path) if "body" in data else None
+    return Truth(data["robot"], data["urdf"], frozenset(data.get("ignore") or ()), comps, tuple(alts), body)
 
 
 # ---- reading a prediction -------------------------------------------------------------------
