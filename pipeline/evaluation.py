@@ -501,9 +501,10 @@ def score_body(body: TruthBody, preds: list[PredictedBodyPart], scored: frozense
 
 
 def failed_scores() -> dict:
-    """Scores of a robot whose run failed: every metric and count 0."""
+    """Scores of a robot whose run failed: every metric and count 0, the body's too."""
     zero = {**dict.fromkeys(METRICS, 0.0), **dict.fromkeys(COUNTS, 0)}
-    return {**{s: dict(zero) for s in SCOPES}, "partitions": {}, "failed": True}
+    body = {**dict.fromkeys(BODY_METRICS, 0.0), **dict.fromkeys(BODY_COUNTS, 0)}
+    return {**{s: dict(zero) for s in SCOPES}, BODY: body, "partitions": {}, "failed": True}
 
 
 def mean_scores(per_robot: Mapping[str, dict]) -> dict:
@@ -515,6 +516,8 @@ def mean_scores(per_robot: Mapping[str, dict]) -> dict:
         return fmean(defined) if defined else None
     out = {s: {**{m: mean([r[s][m] for r in runs]) for m in METRICS},
                **{c: sum(r[s][c] for r in runs) for c in COUNTS}} for s in SCOPES}
+    out[BODY] = {**{m: mean([r[BODY][m] for r in runs]) for m in BODY_METRICS},
+                 **{c: sum(r[BODY][c] for r in runs) for c in BODY_COUNTS}}
     out["failed"] = sum(bool(r.get("failed")) for r in runs)
     return out
 
@@ -524,6 +527,11 @@ _HEADERS = {
     "component_precision": "compP", "component_recall": "compR", "component_f1": "compF1",
     "typed_precision": "typedP", "typed_recall": "typedR", "typed_f1": "TYPED_F1",
     "root_accuracy": "root", "subpart_accuracy": "subpart",
+}
+_BODY_HEADERS = {
+    "part_precision": "partP", "part_recall": "partR", "part_f1": "partF1",
+    "typed_precision": "typedP", "typed_recall": "typedR", "typed_f1": "BODY_F1",
+    "side_accuracy": "side", "root_accuracy": "root", "joint_accuracy": "joint",
 }
 
 
@@ -540,7 +548,8 @@ def _table(rows: list[list[str]]) -> list[str]:
 
 def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapping[str, object]] | None = None) -> str:
     """Plain-text report: one block per scope (all, sensor, end_effector), rows the robots and
-    their mean, columns the metrics (the headline is TYPED_F1). ``extra_columns`` maps a column
+    their mean, columns the metrics (the headline is TYPED_F1), then the "body" block (its
+    headline BODY_F1, the typed body-part F1). ``extra_columns`` maps a column
     title to ``{robot: value}`` (e.g. model, voting, LLM calls, tokens, wall time), shown in a
     final "run" block; a value under the key ``"mean"`` fills the mean row.
     """
@@ -548,10 +557,10 @@ def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapp
     mean = mean_scores(per_robot)
     label = {n: n + (" (failed)" if per_robot[n].get("failed") else "") for n in names} | {"mean": "mean"}
     blocks = []
-    for scope in SCOPES:
-        rows = [[scope, *(_HEADERS[m] for m in METRICS)]]
-        rows += [[label[n], *(_cell(per_robot[n][scope][m]) for m in METRICS)] for n in names]
-        rows.append([label["mean"], *(_cell(mean[scope][m]) for m in METRICS)])
+    for scope, metrics, headers in [*((s, METRICS, _HEADERS) for s in SCOPES), (BODY, BODY_METRICS, _BODY_HEADERS)]:
+        rows = [[scope, *(headers[m] for m in metrics)]]
+        rows += [[label[n], *(_cell(per_robot[n][scope][m]) for m in metrics)] for n in names]
+        rows.append([label["mean"], *(_cell(mean[scope][m]) for m in metrics)])
         blocks.append("\n".join(_table(rows)))
     if extra_columns:
         cols = list(extra_columns)
