@@ -124,15 +124,15 @@ def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
             individuals = [core.BodyPart(f"part{i}") for i in range(len(parts))]
             everything = list(individuals)
             for i, (facts, part) in enumerate(zip(parts, individuals)):
-                joints = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
                 devices = [core[cls](f"part{i}_device{j}") for j, cls in enumerate(facts.devices)]
-                part.hasJoint, part.carriesDevice = joints, devices
+                part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
+                part.jointCount = len(facts.joint_types)  # a count: no cardinality reasoning over joints
+                part.carriesDevice = devices
                 part.carriesPart = [individuals[k] for k in facts.carries]
                 part.reachesGround = facts.reaches_ground
-                part.is_a.append(core.hasJoint.max(len(joints), core.Joint))
                 part.is_a.append(core.carriesDevice.max(len(devices), core.Component))
                 part.is_a.append(core.carriesPart.max(len(facts.carries), core.BodyPart))
-                everything += joints + devices
+                everything += devices
             if len(everything) > 1:
                 owlready2.AllDifferent(everything)
         started = time.monotonic()

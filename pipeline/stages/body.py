@@ -1,8 +1,9 @@
 """The body pass: every movable joint not owned by a device, grouped into body parts and classified.
 
 Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
-joints between branch points (a link from which two or more chains go on), with a trailing rolling
-joint that carries nothing split off as a wheel candidate. The code asserts what structure says of
+joints between branch points (a link from which two or more chains go on), cut after a sliding
+joint that lifts turning ones, with a trailing rolling joint that carries nothing split off as a
+wheel candidate. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
 the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
 (a part carrying an end-effector off the ground is an arm, ...). The model classifies the
@@ -82,7 +83,7 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
         run = [start]
         while len(below.get(run[-1].joint, ())) == 1:
             run.append(below[run[-1].joint][0])
-        out += _split_wheel(tree, run, below, owned_links)
+        out += [piece for part in _split_lifts(run) for piece in _split_wheel(tree, part, below, owned_links)]
     for chain in out:
         chain.links = [link for e in chain.joints for link in _moved(tree, e.child, {b.joint for b in body}, owned_links)]
     return out
@@ -94,6 +95,17 @@ def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
         if above is not None and above.joint in body:
             return above.joint
     return None
+
+
+def _split_lifts(run: list[Edge]) -> list[list[Edge]]:
+    """A run is cut after each sliding joint followed by a turning one: a lift and what it lifts are two
+    candidates (they join again where the model gives them one class)."""
+    pieces = [[run[0]]]
+    for previous, edge in zip(run, run[1:]):
+        if previous.joint_type == "prismatic" and edge.joint_type in ("revolute", "continuous"):
+            pieces.append([])
+        pieces[-1].append(edge)
+    return pieces
 
 
 def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
@@ -192,8 +204,10 @@ def _classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[
 
 
 def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float) -> bool:
-    reach = [link for e in chain.joints for link in (e.child, *tree.descendants(e.child))]
-    return min(_height(tree, link) for link in reach) <= lowest + GROUND_EPS
+    """What the chain moves comes down to the robot's lowest frame, below where it hangs from (an arm on a
+    fixed base holds the lowest frames too, but above its mount)."""
+    reach = min(_height(tree, link) for e in chain.joints for link in (e.child, *tree.descendants(e.child)))
+    return reach <= lowest + GROUND_EPS and reach < _height(tree, chain.mount) - GROUND_EPS
 
 
 def _nearest(tree: KinematicTree, link: str, by_link: dict[str, Chain]) -> Chain | None:
