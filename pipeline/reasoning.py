@@ -114,7 +114,7 @@ def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
     they settle none, or settle two), and the reasoner's wall time (0 when nothing needed it)."""
     if not parts:
         return [], 0.0
-    tax = vocabulary()
+    tax, tool = vocabulary(), _tool_class()
     body = tax.subclasses("BodyPart")
     world = owlready2.World()
     try:
@@ -122,19 +122,15 @@ def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
         onto = world.get_ontology("urn:urdfkb:body#")
         with onto:
             individuals = [core.BodyPart(f"part{i}") for i in range(len(parts))]
-            everything = list(individuals)
             for i, (facts, part) in enumerate(zip(parts, individuals)):
-                devices = [core[cls](f"part{i}_device{j}") for j, cls in enumerate(facts.devices)]
                 part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
-                part.jointCount = len(facts.joint_types)  # a count: no cardinality reasoning over joints
-                part.carriesDevice = devices
+                part.carriesDevice = [core[cls](f"part{i}_device{j}") for j, cls in enumerate(facts.devices)]
                 part.carriesPart = [individuals[k] for k in facts.carries]
                 part.reachesGround = facts.reaches_ground
-                part.is_a.append(core.carriesDevice.max(len(devices), core.Component))
-                part.is_a.append(core.carriesPart.max(len(facts.carries), core.BodyPart))
-                everything += devices
-            if len(everything) > 1:
-                owlready2.AllDifferent(everything)
+                # what the conditions count is asserted as counts: no closure, no cardinality reasoning
+                part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
+                part.deviceCount = len(facts.devices)
+                part.endEffectorCount = sum(tax.is_a(cls, tool) for cls in facts.devices)
         started = time.monotonic()
         try:
             owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
