@@ -35,6 +35,7 @@ from .tree import Edge, KinematicTree, Vector, rotate_rpy
 OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
 ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together
 APPROACH = 0.4   # separate tips: share of each tip's motion along the line joining them, with opposite signs
+_PLANE = 0.5     # sine of the angle between two tips' motions above which they span a plane
 _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
@@ -221,9 +222,14 @@ def _opposed(a: Motion | None, b: Motion | None) -> bool:
         return False
     (pa, va), (pb, vb) = a, b
     gap = (pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2])
-    if (normal := _unit(_cross(va, vb))) is not None:  # an offset across both motions brings no tip nearer
+    # an offset across both motions brings no tip nearer: the gap in their plane, or along them
+    # where they are nearly collinear
+    if _norm(across_both := _cross(va, vb)) > _PLANE and (normal := _unit(across_both)):
         across = _dot(gap, normal)
         gap = (gap[0] - across * normal[0], gap[1] - across * normal[1], gap[2] - across * normal[2])
+    elif _norm(gap) >= _TOUCHING:
+        along = _dot(gap, va)
+        gap = (along * va[0], along * va[1], along * va[2])
     line = _unit(gap)
     if line is None or _norm(gap) < _TOUCHING:
         return _dot(va, vb) < OPPOSED

@@ -7,7 +7,7 @@ from structure alone. An arm of 4-7 revolute joints ends in one of:
 - a *radial hand* (no thumb): 3-5 fingers evenly spaced around the palm's axis, each closing
   towards the axis, straight at the middle of their ranges;
 - a *thumbed hand*: 2-4 fingers side by side in a row curling the same way, an abduction joint
-  first on some of them, and a thumb facing them, hung on the palm, on a base link fixed to it, or
+  first on some of them, and a thumb in front of the palm facing them, hung on the palm, on a base link fixed to it, or
   on a base link turning about the thumb's own length (an opposition joint).
 Fingers have 1-4 joints; joints of one finger are sometimes coupled to its first flexion joint by
 <mimic> (multipliers 0.8, 1, 1.2). Fingers hang on a palm (bolted to the flange, or to an adapter
@@ -216,12 +216,12 @@ def build(seed: int) -> Built:
             abduct = count >= 3 and rng.random() < 0.5
             links, drive = segments(
                 base, (x, 0.0, base_z), (-1.0, 0.0, 0.0), count, (0.025, 0.05),
-                lambda: (rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.6)), rng.random() < 0.5,
+                lambda: (rng.uniform(-0.2, 0.0), rng.uniform(0.6, 1.2)), rng.random() < 0.5,
                 (0.0, 1.0, 0.0) if abduct else None, (-0.3, 0.3))
             chains.append(Chain(links, drive, "pivoting", None, "finger"))
         thumb_mode = rng.choice(["palm", "fixed_base", "turning_base"])
         tx = rng.uniform(-0.5, 0.5) * spacing * k
-        ty, tz = rng.uniform(0.03, 0.05), rng.uniform(0.0, max(0.0, base_z - 0.02))
+        ty, tz = rng.uniform(0.06, 0.09), base_z + rng.uniform(0.0, 0.03)  # in front of the palm, facing the fingers
         count = rng.randint(1, 3)
         lim = lambda: (rng.uniform(-0.3, 0.0), rng.uniform(0.8, 1.4))  # noqa: E731
         if thumb_mode == "palm":
