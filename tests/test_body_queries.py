@@ -96,8 +96,9 @@ def test_a_part_is_chosen_by_class_and_side(store):
     assert len(joints(part="body part")) == 4 + 8 + 1 + 2 + 7 + 7  # every part
     assert joints(part="gripper") == joints(part="sensor") == joints(part="tentacle") == []  # not body part classes
     assert joints(part="arm", side="left") and rows(store, "body_part_joints", "pr2_no_body", part="arm") == []
-    with pytest.raises(ParamError, match="needs parameter 'part'"):
-        rows(store, "body_part_joints")
+    assert joints() == joints(part="BodyPart")  # the default: every part
+    with pytest.raises(ParamError, match="no parameter colour"):
+        rows(store, "body_part_joints", colour="red")
     hostile = 'arm")) } UNION { ?bodyPart ?p ?o } #'
     assert joints(part=hostile) == []  # one literal, not query text
 
@@ -167,13 +168,15 @@ def test_listed_and_served_over_http(store):
     api = client(app)
     status, _, out = api("GET", "/queries")
     listed = {q["name"]: q for q in json.loads(out)}
-    assert {p["name"]: p["default"] for p in listed["body_part_joints"]["params"]} == {"part": None, "side": "any"}
+    assert {p["name"]: p["default"] for p in listed["body_part_joints"]["params"]} == {"part": "BodyPart", "side": "any"}
     assert {p["name"] for p in listed["located_on"]["params"]} == {"part", "side"}
     assert [p["name"] for p in listed["arm_end_effector"]["params"]] == ["side"] and listed["body_parts"]["params"] == []
     q = urllib.parse.urlencode({"robot": "pr2", "part": "arm", "side": "left"})
     status, ctype, out = api("GET", f"/queries/body_part_joints?{q}")
     assert status == 200 and ctype.startswith("application/sparql-results+json")
     assert len(json.loads(out)["results"]["bindings"]) == 7
-    status, _, out = api("GET", "/queries/located_on?robot=pr2")
-    assert status == 400 and "needs parameter 'part'" in json.loads(out)["error"]
+    status, _, out = api("GET", "/queries/located_on?robot=pr2")  # every part
+    assert status == 200 and len(json.loads(out)["results"]["bindings"]) == 10
+    status, _, out = api("GET", "/queries/located_on?robot=pr2&part=head&colour=red")
+    assert status == 400 and "no parameter colour" in json.loads(out)["error"]
     jobs.shutdown()
