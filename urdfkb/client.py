@@ -123,7 +123,7 @@ class SubPart:
 
 @dataclass(frozen=True)
 class Component:
-    """A component with its sub-components (`components`; body parts are components too)."""
+    """A component (a sensor or end-effector) with its sub-components (`components`)."""
     name: str
     cls: str
     confidence: float | None
@@ -247,7 +247,8 @@ class KnowledgeBase:
         return out
 
     def components(self, robot: str) -> list[Component]:
-        """Every component with class, confidence, mount and sub-components."""
+        """Every component (the `components` query: sensors and end-effectors) with class, confidence, mount and
+        sub-components."""
         comps: dict[str, dict] = {}
         for r in self.query("components", robot):
             c = comps.setdefault(r["component"], {"name": _name(r["component"]), "cls": _local(r["class"]),
