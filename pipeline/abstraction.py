@@ -15,21 +15,21 @@ from __future__ import annotations
 import json
 from typing import Callable
 
-from . import reasoning
-from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
-from .evidence import LinkEvidence, named
-from .ontology import Kind, Vocabulary
-from .oracle import Oracle
-from .prompts import DRIVE_PART, NONE, sensor_check
-from .stages import tools
-from .stages.asking import Progress, ask
-from .stages.attachment import SubChain, detect_roots
-from .stages.classification import Subject, Typed, descend
-from .stages.grouping import Group, merge
-from .stages.identification import identify
-from .stages.verification import Log, group_root, indexed_units, verify
-from .structure import ToolStructure
-from .tree import KinematicTree
+from urdfkb.pipeline import reasoning
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
+from urdfkb.pipeline.evidence import LinkEvidence, named
+from urdfkb.pipeline.ontology import Kind, Vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import DRIVE_PART, NONE, sensor_check
+from urdfkb.pipeline.stages import tools
+from urdfkb.pipeline.stages.asking import Progress, ask
+from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
+from urdfkb.pipeline.stages.classification import Subject, Typed, descend
+from urdfkb.pipeline.stages.grouping import Group, merge
+from urdfkb.pipeline.stages.identification import identify
+from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
+from urdfkb.pipeline.structure import ToolStructure
+from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
 _NO_FACTS = LinkEvidence()

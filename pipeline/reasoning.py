@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import owlready2
 
-from . import components
-from .ontology import CORE_IRI, load_core, vocabulary
-from .structure import ToolStructure
+from urdfkb.pipeline import components
+from urdfkb.pipeline.ontology import CORE_IRI, load_core, vocabulary
+from urdfkb.pipeline.structure import ToolStructure
 
 log = logging.getLogger(__name__)
 THUMB = "ThumbChain"

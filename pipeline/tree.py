@@ -5,7 +5,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from math import cos, sin
 
-from .evidence import LinkEvidence
+from urdfkb.pipeline.evidence import LinkEvidence
 
 JOINT_TYPES = ("fixed", "revolute", "continuous", "prismatic", "floating", "planar")
 

@@ -11,9 +11,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import BackendError
-from .base import Backend, Question, Stats
-from .prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.llm.base import Backend, Question, Stats
+from urdfkb.pipeline.llm.prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
 
 SENTINEL = "\x00URDFKB\x00"
 # context parameters that change a stored prefix state's bytes or its numerics

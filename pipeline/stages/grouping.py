@@ -20,12 +20,12 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from ..components import END_EFFECTOR
-from ..oracle import Oracle
-from ..prompts import device_name_question
-from .asking import Progress, ask
-from .attachment import SubChain, sub_chain
-from ..tree import KinematicTree
+from urdfkb.pipeline.components import END_EFFECTOR
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import device_name_question
+from urdfkb.pipeline.stages.asking import Progress, ask
+from urdfkb.pipeline.stages.attachment import SubChain, sub_chain
+from urdfkb.pipeline.tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 
