@@ -31,12 +31,12 @@ test: install
 	$(BIN)/python -m pytest -q -ra
 
 bench: install
-	$(BIN)/python benchmarks/ingest_bench.py
-	$(BIN)/python benchmarks/llm_bench.py
-	$(BIN)/python benchmarks/bench_queries.py
-	$(BIN)/python benchmarks/vote_bench.py
-	$(BIN)/python benchmarks/ui_bench.py
-	$(BIN)/python benchmarks/reasoner_bench.py
+	$(BIN)/python -m benchmarks.ingest_bench
+	$(BIN)/python -m benchmarks.llm_bench
+	$(BIN)/python -m benchmarks.bench_queries
+	$(BIN)/python -m benchmarks.vote_bench
+	$(BIN)/python -m benchmarks.ui_bench
+	$(BIN)/python -m benchmarks.reasoner_bench
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -8,7 +8,7 @@ from dataclasses import replace
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import Store

@@ -5,7 +5,7 @@ import urllib.parse
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, free_port, http, live, make_app
+from tests.kb_fixtures import PR2, free_port, http, live, make_app
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store

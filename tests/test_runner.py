@@ -10,7 +10,7 @@ from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import Settings, run
-from test_pipeline import perfect
+from tests.test_pipeline import perfect
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import PR2, fake_runner, http, live, multipart, running
+from tests.kb_fixtures import PR2, fake_runner, http, live, multipart, running
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, pipeline_runner
 from urdfkb.kb_server.security import Policy, check_bind

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, client, free_port, make_app, multipart
+from tests.kb_fixtures import PR2, client, free_port, make_app, multipart
 from urdfkb.kb_server.jobs import pipeline_runner
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store

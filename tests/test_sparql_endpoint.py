@@ -10,7 +10,7 @@ import rdflib
 from rdflib.plugins.stores.sparqlstore import SPARQLStore
 from SPARQLWrapper import JSON, POST, POSTDIRECTLY, TURTLE, XML, SPARQLWrapper
 
-from kb_fixtures import PR2, http, live, make_app
+from tests.kb_fixtures import PR2, http, live, make_app
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 

@@ -6,7 +6,7 @@ import urllib.parse
 
 import pytest
 
-from kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 

@@ -10,7 +10,7 @@ import rdflib
 
 import urdfkb.kb_server.index as index_mod
 import urdfkb.kb_server.store as store_mod
-from kb_fixtures import PR2
+from tests.kb_fixtures import PR2
 from urdfkb.kb_server.sparql import QueryTimeout
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction

@@ -11,7 +11,7 @@ from pathlib import Path
 import owlready2
 import pytest
 import rdflib
-from conftest import SHARED
+from tests.conftest import SHARED
 
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction

@@ -3,8 +3,8 @@ run over HTTP against a live `urdfkb serve` (waitress on 127.0.0.1, see w3c_harn
 
 import pytest
 
-import w3c_harness
-from kb_fixtures import fake_runner, running
+from tests import w3c_harness
+from tests.kb_fixtures import fake_runner, running
 from urdfkb.kb_server.serve import make_server
 
 TOKEN = "w3c"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import client, make_app, multipart
+from tests.kb_fixtures import client, make_app, multipart
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import URDFError
