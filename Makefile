@@ -9,7 +9,7 @@ PORT   ?= 8000
 # and the already-installed check mean it is never rebuilt after that.
 export CMAKE_BUILD_PARALLEL_LEVEL ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: run test install model bench clean
+.PHONY: run test install model bench typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,13 @@ run: model
 
 test: install
 	$(BIN)/python -m pytest -q -ra
+
+$(VENV)/.typecheck: pyproject.toml | $(VENV)/.installed
+	$(BIN)/python -m pip install -q -e '.[typecheck]'
+	touch $@
+
+typecheck: $(VENV)/.typecheck
+	$(BIN)/mypy
 
 bench: install
 	$(BIN)/python -m benchmarks.ingest_bench
