@@ -2,8 +2,8 @@
 
 A deterministic backend answers from a hash of each question's text, so two revisions of the
 pipeline can be compared without a model: a refactor that changes no prompt, option, answer or
-triple gives identical transcripts. Per robot it writes ROBOT.questions.jsonl (system prompt, user
-prompt, options, the probabilities given) and ROBOT.nt (the robot's own graph as sorted N-Triples, blank
+triple gives identical transcripts. Per robot it writes ROBOT.questions.jsonl (backend call, system
+prompt, user prompt, options, the probabilities given) and ROBOT.nt (the robot's own graph as sorted N-Triples, blank
 nodes canonical, without the populate's timestamp and wall time).
 
 Usage: python -m benchmarks.transcript OUT_DIR [TRUTH_DIR] [--salt S] [--traces DIR]; then `diff -r OUT_A OUT_B`.
@@ -44,17 +44,22 @@ def transcribe(truth_path: Path, out: Path, traces: Path | None = None, salt: st
     """Write one truth robot's transcript (and its oracle trace into `traces`); the number of questions asked."""
     truth = evaluation.load_truth(truth_path)
     tree = load_urdf(truth_path.resolve().parents[2] / truth.urdf)
-    asked = []
+    asked, batches = [], []
 
     def rule(question: Question) -> dict[str, float]:
         shares = hashed(question, salt)
-        asked.append({"key": question.key, "system": question.system, "user": question.user,
+        asked.append({"batch": len(batches), "key": question.key, "system": question.system, "user": question.user,
                       "options": list(question.options), "shares": shares})
         return shares
 
+    class Batching(ScriptedBackend):  # numbers each call, since a real model's answers depend on the batch
+        def score(self, questions):
+            batches.append(len(questions))
+            return super().score(questions)
+
     trace = (traces / f"{truth.robot}.trace.jsonl").open("w") if traces else None
     try:
-        abstraction = run(tree, Settings(use_cache=False), backend=ScriptedBackend(rule, name="hashed"), trace=trace)
+        abstraction = run(tree, Settings(use_cache=False), backend=Batching(rule, name="hashed"), trace=trace)
     finally:
         if trace:
             trace.close()
