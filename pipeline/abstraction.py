@@ -20,13 +20,15 @@ from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, FingerFa
 from urdfkb.pipeline.evidence import LinkEvidence, named
 from urdfkb.pipeline.ontology import Kind, Vocabulary
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.prompts import DRIVE_PART, NONE, sensor_check
+from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages import tools
-from urdfkb.pipeline.stages.asking import Progress, ask
+from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge
 from urdfkb.pipeline.stages.identification import identify
+from urdfkb.pipeline.stages.sensor_check import coupled, drive_parts
+from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
 from urdfkb.pipeline.structure import ToolStructure
 from urdfkb.pipeline.tree import KinematicTree
@@ -131,29 +133,15 @@ class Abstractor:
         return self._components(tree, kind, groups, post, structures, fingers)
 
     def _veto_coupled(self, tree: KinematicTree, leaves: list[str]) -> None:
-        """A leaf that itself moves on a <mimic> joint is a finger segment or a linkage, never a sensor
-        frame (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools
-        keep every finger chain."""
-        for leaf in leaves:
-            if self.claims[leaf] == self.tax.kinds[SENSOR].cls and tree.parent_edge(leaf).mimic is not None:
-                self.claims[leaf] = NONE
-                self.log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
+        for leaf in coupled(tree, leaves, self._claimed(leaves), self.log):
+            self.claims[leaf] = NONE
 
     def _check_sensors(self, tree: KinematicTree, leaves: list[str]) -> None:
-        """Ask once more, framed differently (sensor, emitter, drive part or reference frame?), about
-        each leaf identified as a sensor; a leaf the check calls a part of a motor or drive is no sensor.
-        A leaf the file declares a simulator sensor on is not asked (on PR2 that halves the questions).
+        for leaf in drive_parts(self.oracle, tree, leaves, self._claimed(leaves), self.log, self.progress):
+            self.claims[leaf] = NONE
 
-        Only that answer overrules identification: over the ten truth robots it went to motor screws and
-        an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' also
-        took laser scanners and optical frames, so they are traced but change nothing."""
-        sensor = self.tax.kinds[SENSOR].cls
-        checked = [leaf for leaf in leaves if self.claims[leaf] == sensor and not tree.evidence.get(leaf, _NO_FACTS).sensors]
-        questions = [sensor_check(leaf, named(tree.evidence, leaf), tree.chain_to_root(leaf)[1:]) for leaf in checked]
-        for leaf, verdict in zip(checked, ask(self.oracle, questions, "sensor check", self.progress)):
-            if verdict.answer == DRIVE_PART:
-                self.claims[leaf] = NONE
-                self.log(f"not a sensor: {leaf} is a part of a motor or drive ({verdict.confidence:.2f})")
+    def _claimed(self, leaves: list[str]) -> set[str]:
+        return {leaf for leaf in leaves if self.claims[leaf] == self.tax.kinds[SENSOR].cls}
 
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:
@@ -225,35 +213,8 @@ class Abstractor:
     def _components(self, tree: KinematicTree, kind: Kind, groups: list[Group],
                     post: list[Typed], structures: list[ToolStructure] | None = None,
                     fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
-        """Type every member link in the kind's Subpart branch, then assemble the components.
-
-        A device whose class ontologies/shapes.ttl requires a part of (a camera: an optical frame; a
-        sensor forming no images: a sensing element) has one at each of its sub-chains' leaves: a sensor
-        chain runs from its mount to the frame its measurements are expressed in, and nothing hangs below
-        that frame. Those leaves are refined below the required part (core:partQuestion asks which
-        kind, where it has kinds); the device's other links are typed with that part's branch ruled out.
-        """
-        required = self._required_links(groups, post)
-        framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
-        structural = self._structural_parts(tree, kind, groups, structures)
-        rest = [
-            (link, Subject(f"part:{link}", framing,
-                           f"Link: {named(tree.evidence, link)}\nDevice: {self.tax.label(t.cls)}",
-                           self.tax.excluded_parts(t.cls) | self._required_branch(t.cls) | structural.get(link, frozenset())))
-            for g, t in zip(groups, post) for link in g.members if link not in required
-        ]
-        frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
-        for link, device in required.items():
-            part, holder = self.tax.required_part(device), self.tax.label(self.tax.requiring_class(device))
-            frames.setdefault(part, []).append((link, Subject(
-                f"part:{link}", self.tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
-                f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {self.tax.label(device)}",
-                self.tax.excluded_parts(device))))
-        typed = dict(zip([link for link, _ in rest], descend(
-            self.oracle, self.tax, kind.subparts, [s for _, s in rest], "sub-part classification", self.progress)))
-        for part, subjects in frames.items():
-            typed.update(zip([link for link, _ in subjects], descend(
-                self.oracle, self.tax, part, [s for _, s in subjects], "required parts", self.progress)))
+        """Type every member link in the kind's Subpart branch, then assemble the components."""
+        typed = type_subparts(self.oracle, self.tax, tree, kind, groups, post, structures, self.progress)
         return [
             Component(
                 name=f"{kind.name}_{i}_{g.leaves[0]}",
@@ -267,36 +228,3 @@ class Abstractor:
             )
             for i, (g, t) in enumerate(zip(groups, post))
         ]
-
-    def _required_branch(self, cls: str) -> frozenset[str]:
-        """The branch of the part a `cls` device requires (selected separately), or nothing."""
-        part = self.tax.required_part(cls)
-        return self.tax.branch(part) if part else frozenset()
-
-    def _structural_parts(self, tree: KinematicTree, kind: Kind, groups: list[Group],
-                          structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
-        """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
-        a finger chain is a finger or its contact surface; any other link is no finger, nor a palm if
-        the tool has fingers and none hangs from it. (Nothing for sensors.)"""
-        if structures is None:
-            return {}
-        finger, carrier = self.tax.finger_chain_role("link"), self.tax.finger_chain_role("carrier")
-        on_finger = frozenset(set(self.tax.subclasses_below(kind.subparts)) - finger - self.tax.finger_chain_role("tip"))
-        excluded = {}
-        for group, structure in zip(groups, structures):
-            fingers = {link for f in structure.fingers for link in f.links}
-            carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
-            for link in group.members:
-                if link in fingers:
-                    excluded[link] = on_finger
-                elif fingers and link not in carriers:
-                    excluded[link] = finger | carrier
-                else:
-                    excluded[link] = finger
-        return excluded
-
-    def _required_links(self, groups: list[Group], post: list[Typed]) -> dict[str, str]:
-        """The leaf of each sub-chain of a device whose class requires a part (a camera: its optical
-        frame; a lidar: its sensing element) → the device's class."""
-        return {chain.leaf: t.cls for g, t in zip(groups, post) if self.tax.required_part(t.cls) is not None
-                for chain in g.chains}
