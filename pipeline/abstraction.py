@@ -1,25 +1,27 @@
-"""One abstraction pass per component kind, sensors first, each condensing what it abstracted.
+"""The abstraction passes: each component kind's pass is a declared list of named steps (PASSES).
 
-Data path: tree → identification → attachment roots → pre-classification → group merging →
-verification → post-classification → sub-part typing → Components. End-effectors skip pre- and
-post-classification: after verification their extent and mount are settled from structure and their
-kind inferred by a reasoner from the ontology's definitions (stages.tools, structure, reasoning); the
-model is asked the kind only where the structure settles none. After a pass, the links of
-its components are removed from the tree (each device condensed onto its mount), so the next pass
-sees a smaller tree and never claims a link twice. Every schema fact comes from the Vocabulary
-(pipeline.ontology): the kinds and their sub-part branches, the part a shape requires (a camera's
-optical frame), array classes, and the sub-part classes a tool's finger chains bound.
+Sensors pass first. End-effectors skip pre- and post-classification: after verification their
+extent and mount are settled from structure and their kind inferred by a reasoner from the
+ontology's definitions (stages.tools, structure, reasoning); the model is asked the kind only where
+the structure settles none. After a pass, the links of its components are removed from the tree
+(each device condensed onto its mount), so the next pass sees a smaller tree and never claims a link
+twice. Every schema fact comes from the Vocabulary (pipeline.ontology); pipeline.passes runs the
+steps and times them.
 """
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable
 
 from urdfkb.pipeline import reasoning
 from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
+from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.evidence import LinkEvidence, named
 from urdfkb.pipeline.ontology import Kind, Vocabulary
 from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.passes import Pass, PassManager, Step
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages import tools
 from urdfkb.pipeline.stages.asking import Progress
@@ -37,6 +39,26 @@ MAX_FACTS = 3  # links of a chain shown with their facts
 _NO_FACTS = LinkEvidence()
 
 
+@dataclass
+class PassState:
+    """One pass over the current tree: each step reads what the steps before it left here."""
+
+    kind: Kind
+    tree: KinematicTree
+    mounts: set[str]  # where earlier passes condensed their devices
+    leaves: list[str] = field(default_factory=list)  # the leaves this pass may claim
+    chains: list[SubChain] = field(default_factory=list)  # selected leaves with their mounts
+    pre: dict[str, Typed] = field(default_factory=dict)  # leaf → pre-class (sensors)
+    groups: list[Group] = field(default_factory=list)  # the devices
+    post: list[Typed] = field(default_factory=list)  # each device's class
+    structures: list[ToolStructure] | None = None  # each tool's structure (end-effectors)
+    inferred: list[reasoning.Inference] = field(default_factory=list)  # the reasoner's class per tool
+    fingers: list[tuple[FingerFact, ...]] | None = None  # each tool's finger chains
+    parts: dict[str, Typed] = field(default_factory=dict)  # member link → sub-part class
+    components: list[Component] = field(default_factory=list)
+    done: bool = False  # nothing (more) to abstract: the remaining steps are skipped
+
+
 class Abstractor:
     """Runs the passes over one robot, keeping what identification learnt between them."""
 
@@ -45,40 +67,141 @@ class Abstractor:
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
+        if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
+            raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
     def run(self, tree: KinematicTree) -> tuple[Component, ...]:
         components: list[Component] = []
-        for kind in self.tax.kinds:
-            found = self.run_pass(kind, tree, {c.root for c in components})
-            components.extend(found)
-            tree = tree.without({link for c in found for link in c.links})
+        manager = PassManager(self._trace)
+        for declared in PASSES:
+            state = PassState(self.tax.kinds[declared.name], tree, {c.root for c in components})
+            manager.run(declared, self, state)
+            components.extend(state.components)
+            tree = tree.without({link for c in state.components for link in c.links})
         return tuple(components)
 
-    def run_pass(self, kind: str, tree: KinematicTree, mounts: set[str]) -> list[Component]:
-        """All components of one kind in the current tree; `mounts` carry condensed devices."""
-        cls = self.tax.kinds[kind].cls
-        leaves = [leaf for leaf in tree.leaves() if leaf not in mounts]
-        unasked = [leaf for leaf in leaves if leaf not in self.claims]
-        self.claims.update(identify(self.oracle, self.tax, tree, unasked, self.progress))
-        if kind == SENSOR:
-            self._veto_coupled(tree, leaves)
-            self._check_sensors(tree, leaves)
-        selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
+    # --- steps (see PASSES) --------------------------------------------------------------------
+
+    def identification(self, s: PassState) -> None:
+        s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in s.mounts]
+        unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
+        self.claims.update(identify(self.oracle, self.tax, s.tree, unasked, self.progress))
+
+    def mimic_veto(self, s: PassState) -> None:
+        for leaf in coupled(s.tree, s.leaves, self._claimed(s), self.log):
+            self.claims[leaf] = NONE
+
+    def sensor_check(self, s: PassState) -> None:
+        for leaf in drive_parts(self.oracle, s.tree, s.leaves, self._claimed(s), self.log, self.progress):
+            self.claims[leaf] = NONE
+
+    def attachment(self, s: PassState, rigid: bool = False) -> None:
+        """`rigid`: devices of this kind are fixed to their mount (sensors)."""
+        selected = [leaf for leaf in s.leaves if self.claims[leaf] == s.kind.cls]
         if not selected:
-            return []
-        chains = detect_roots(self.oracle, tree, selected, self.tax.kinds[kind], self._blocked(tree, cls), self.progress,
-                              rigid=kind == SENSOR)
-        if kind == END_EFFECTOR:
-            return self._tools(tree, chains, mounts)
-        pre = descend(self.oracle, self.tax, cls, [self._chain_subject(tree, c, cls) for c in chains],
-                      "pre-classification", self.progress)
-        pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
-        categories = {leaf: self._category(t.cls, cls) for leaf, t in pre_by_leaf.items()}
-        groups = merge(self.oracle, tree, chains, kind, categories, self.progress)
-        groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        post = self._post_classify(tree, groups, pre_by_leaf, cls)
-        groups, post = self._split_units(tree, groups, post, pre_by_leaf)
-        return self._components(tree, self.tax.kinds[kind], groups, post)
+            s.done = True
+            return
+        s.chains = detect_roots(self.oracle, s.tree, selected, s.kind, self._blocked(s.tree, s.kind.cls), self.progress,
+                                rigid=rigid)
+
+    def pre_classification(self, s: PassState) -> None:
+        typed = descend(self.oracle, self.tax, s.kind.cls, [self._chain_subject(s.tree, c, s.kind.cls) for c in s.chains],
+                        "pre-classification", self.progress)
+        s.pre = {c.leaf: t for c, t in zip(s.chains, typed)}
+
+    def group_merging(self, s: PassState) -> None:
+        categories = {leaf: self._category(t.cls, s.kind.cls) for leaf, t in s.pre.items()}
+        s.groups = merge(self.oracle, s.tree, s.chains, s.kind.name, categories, self.progress)
+
+    def verification(self, s: PassState) -> None:
+        s.groups = verify(s.tree, s.groups, self._unclaimed(s.tree, s.groups, s.mounts), self.log)
+
+    def post_classification(self, s: PassState) -> None:
+        """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
+
+        The descent starts at the deepest class common to the members' pre-classes, or one level
+        above it when that is a leaf class, so that siblings stay open (several sonar frames may
+        still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
+        """
+        typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
+        by_start: dict[str, list[Group]] = {}
+        for g in s.groups:
+            if len(g.chains) > 1:
+                by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, s.kind.cls), []).append(g)
+        for start, members in by_start.items():
+            results = descend(self.oracle, self.tax, start, [
+                Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
+                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(s.pre[leaf].cls)})" for leaf in g.leaves),
+                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}"))
+                for g in members
+            ], "post-classification", self.progress)
+            typed.update({id(g): t for g, t in zip(members, results)})
+        s.post = [typed[id(g)] for g in s.groups]
+
+    def numbered_units(self, s: PassState) -> None:
+        """Numbered units of one type given one device name are separate devices unless the
+        device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
+        groups, post = [], []
+        for g, t in zip(s.groups, s.post):
+            if len(g.chains) > 1 and not self.tax.has_numbered_units(t.cls) and indexed_units(s.tree, g):
+                self.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
+                groups += [Group([c]) for c in g.chains]
+                post += [s.pre[c.leaf] for c in g.chains]
+            else:
+                groups.append(g)
+                post.append(t)
+        s.groups, s.post = groups, post
+
+    def tool_extent(self, s: PassState) -> None:
+        settled = tools.settle(s.tree, s.groups, lambda leaf: self.claims.get(leaf) == s.kind.cls, self.log)
+        s.groups = [g for g, _ in settled]
+        s.structures = [structure for _, structure in settled]
+
+    def reasoner(self, s: PassState) -> None:
+        """Each tool's class from the ontology's definitions over its structure, and its finger chains."""
+        structures = s.structures or []
+        s.inferred, seconds = reasoning.classify(structures)
+        self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
+            {"leaves": g.leaves, "facts": st.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
+            for g, st, i in zip(s.groups, structures, s.inferred)]})
+        s.fingers = [tuple(FingerFact(f.name, f.drive, self.tax.finger_chain_class(f.motion), f.name in i.thumbs,
+                                      f.opposes, f.moves_with, f.mimics) for f in st.fingers)
+                     for st, i in zip(structures, s.inferred)]
+
+    def tool_classification(self, s: PassState) -> None:
+        """The model is asked the kind of the tools whose structure settles none."""
+        open_groups = [(g, st) for g, st, i in zip(s.groups, s.structures or [], s.inferred) if not i.settled]
+        asked = descend(self.oracle, self.tax, s.kind.cls, [
+            Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
+                    f"Links: {', '.join(g.leaves)}\nStructure: {st.describe()}")
+            for g, st in open_groups
+        ], "end-effector classification", self.progress)
+        by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
+        s.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(s.groups, s.inferred)]
+
+    def subpart_typing(self, s: PassState) -> None:
+        s.parts = type_subparts(self.oracle, self.tax, s.tree, s.kind, s.groups, s.post, s.structures, self.progress)
+
+    def assembly(self, s: PassState) -> None:
+        s.components = [
+            Component(
+                name=f"{s.kind.name}_{i}_{g.leaves[0]}",
+                kind=s.kind.name,
+                cls=t.cls,
+                confidence=round(t.confidence, 4),
+                root=group_root(s.tree, g),
+                subcomponents=tuple(SubComponent(link, s.parts[link].cls, round(s.parts[link].confidence, 4))
+                                    for link in g.members),
+                fingers=s.fingers[i] if s.fingers else (),
+            )
+            for i, (g, t) in enumerate(zip(s.groups, s.post))
+        ]
+
+    # --- helpers ----------------------------------------------------------------------------------
+
+    def _claimed(self, s: PassState) -> set[str]:
+        """The pass's leaves identified as its kind."""
+        return {leaf for leaf in s.leaves if self.claims[leaf] == s.kind.cls}
 
     def _chain_subject(self, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
         """A sub-chain to pre-classify below `cls`: its links, their facts, what a declaration rules out.
@@ -105,44 +228,6 @@ class Abstractor:
             self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
         return ruled_out
 
-    def _tools(self, tree: KinematicTree, chains: list[SubChain], mounts: set[str]) -> list[Component]:
-        """The end-effector pass after attachment: group, verify, settle extent and mount by structure,
-        classify by the ontology's definitions (reasoner), and ask the model only what they leave open."""
-        kind = self.tax.kinds[END_EFFECTOR]
-        cls = kind.cls
-        groups = merge(self.oracle, tree, chains, END_EFFECTOR, {}, self.progress)
-        groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        settled = tools.settle(tree, groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
-        groups = [g for g, _ in settled]
-        structures = [s for _, s in settled]
-        inferred, seconds = reasoning.classify(structures)
-        self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
-            {"leaves": g.leaves, "facts": s.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
-            for g, s, i in zip(groups, structures, inferred)]})
-        open_groups = [(g, s) for (g, s), i in zip(settled, inferred) if not i.settled]
-        asked = descend(self.oracle, self.tax, cls, [
-            Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
-                    f"Links: {', '.join(g.leaves)}\nStructure: {s.describe()}")
-            for g, s in open_groups
-        ], "end-effector classification", self.progress)
-        by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
-        post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(groups, inferred)]
-        fingers = [tuple(FingerFact(f.name, f.drive, self.tax.finger_chain_class(f.motion), f.name in i.thumbs,
-                                    f.opposes, f.moves_with, f.mimics) for f in s.fingers)
-                   for s, i in zip(structures, inferred)]
-        return self._components(tree, kind, groups, post, structures, fingers)
-
-    def _veto_coupled(self, tree: KinematicTree, leaves: list[str]) -> None:
-        for leaf in coupled(tree, leaves, self._claimed(leaves), self.log):
-            self.claims[leaf] = NONE
-
-    def _check_sensors(self, tree: KinematicTree, leaves: list[str]) -> None:
-        for leaf in drive_parts(self.oracle, tree, leaves, self._claimed(leaves), self.log, self.progress):
-            self.claims[leaf] = NONE
-
-    def _claimed(self, leaves: list[str]) -> set[str]:
-        return {leaf for leaf in leaves if self.claims[leaf] == self.tax.kinds[SENSOR].cls}
-
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:
             self.oracle.trace.write(json.dumps(record) + "\n")
@@ -167,64 +252,37 @@ class Abstractor:
             return not tree.is_leaf(link) or self.claims.get(link) == NONE
         return unclaimed
 
-    def _post_classify(self, tree: KinematicTree, groups: list[Group], pre: dict[str, Typed], cls: str) -> list[Typed]:
-        """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
-
-        The descent starts at the deepest class common to the members' pre-classes, or one level
-        above it when that is a leaf class, so that siblings stay open (several sonar frames may
-        still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
-        """
-        typed = {id(g): pre[g.leaves[0]] for g in groups}
-        by_start: dict[str, list[Group]] = {}
-        for g in groups:
-            if len(g.chains) > 1:
-                by_start.setdefault(self._shared_class({pre[leaf].cls for leaf in g.leaves}, cls), []).append(g)
-        for start, members in by_start.items():
-            results = descend(self.oracle, self.tax, start, [
-                Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
-                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves),
-                        self._ruled_out(tree, g.members, start, f"post:{g.leaves[0]}"))
-                for g in members
-            ], "post-classification", self.progress)
-            typed.update({id(g): t for g, t in zip(members, results)})
-        return [typed[id(g)] for g in groups]
-
-    def _split_units(self, tree: KinematicTree, groups: list[Group], post: list[Typed],
-                     pre: dict[str, Typed]) -> tuple[list[Group], list[Typed]]:
-        """Numbered units of one type given one device name are separate devices unless the
-        device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
-        out_groups, out_post = [], []
-        for g, t in zip(groups, post):
-            if len(g.chains) > 1 and not self.tax.has_numbered_units(t.cls) and indexed_units(tree, g):
-                self.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
-                out_groups += [Group([c]) for c in g.chains]
-                out_post += [pre[c.leaf] for c in g.chains]
-            else:
-                out_groups.append(g)
-                out_post.append(t)
-        return out_groups, out_post
-
     def _shared_class(self, classes: set[str], top: str) -> str:
         """The deepest class every one of `classes` falls under (at most `top`), lifted off a leaf."""
         common = [c for c in (top, *self.tax.subclasses_below(top)) if all(self.tax.is_a(x, c) for x in classes)]
         deepest = max(common, key=lambda c: len(self.tax.ancestors(c)))
         return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
-    def _components(self, tree: KinematicTree, kind: Kind, groups: list[Group],
-                    post: list[Typed], structures: list[ToolStructure] | None = None,
-                    fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
-        """Type every member link in the kind's Subpart branch, then assemble the components."""
-        typed = type_subparts(self.oracle, self.tax, tree, kind, groups, post, structures, self.progress)
-        return [
-            Component(
-                name=f"{kind.name}_{i}_{g.leaves[0]}",
-                kind=kind.name,
-                cls=t.cls,
-                confidence=round(t.confidence, 4),
-                root=group_root(tree, g),
-                subcomponents=tuple(SubComponent(link, typed[link].cls, round(typed[link].confidence, 4))
-                                    for link in g.members),
-                fingers=fingers[i] if fingers else (),
-            )
-            for i, (g, t) in enumerate(zip(groups, post))
-        ]
+
+SENSOR_PASS = Pass(SENSOR, (
+    Step("identification", Abstractor.identification),
+    Step("mimic veto", Abstractor.mimic_veto),
+    Step("sensor check", Abstractor.sensor_check),
+    Step("attachment", partial(Abstractor.attachment, rigid=True)),
+    Step("pre-classification", Abstractor.pre_classification),
+    Step("group merging", Abstractor.group_merging),
+    Step("verification", Abstractor.verification),
+    Step("post-classification", Abstractor.post_classification),
+    Step("numbered units", Abstractor.numbered_units),
+    Step("sub-part typing", Abstractor.subpart_typing),
+    Step("assembly", Abstractor.assembly),
+))
+
+END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
+    Step("identification", Abstractor.identification),
+    Step("attachment", Abstractor.attachment),
+    Step("group merging", Abstractor.group_merging),
+    Step("verification", Abstractor.verification),
+    Step("tool extent", Abstractor.tool_extent),
+    Step("reasoner", Abstractor.reasoner),
+    Step("end-effector classification", Abstractor.tool_classification),
+    Step("sub-part typing", Abstractor.subpart_typing),
+    Step("assembly", Abstractor.assembly),
+))
+
+PASSES = (SENSOR_PASS, END_EFFECTOR_PASS)  # in this order; each removes its devices from the tree

@@ -46,7 +46,7 @@ def copy_of_core(tmp_path, edit) -> Vocabulary:
 def test_the_vocabulary_reads_the_schema_from_the_ontology_and_shapes():
     vocab = vocabulary()
     assert vocab is vocabulary()
-    assert list(vocab.kinds) == [SENSOR, END_EFFECTOR]  # passes run in the file's order
+    assert list(vocab.kinds) == [SENSOR, END_EFFECTOR]
     sensor, tool = vocab.kinds[SENSOR], vocab.kinds[END_EFFECTOR]
     assert (sensor.cls, sensor.subparts, sensor.noun) == ("Sensor", "SensorSubpart", "sensor")
     assert (tool.cls, tool.subparts, tool.noun) == ("EndEffector", "EndEffectorSubpart", "end-effector")
