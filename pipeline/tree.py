@@ -225,15 +225,6 @@ class KinematicTree:
             chain.append(edge.parent)
         return tuple(chain)
 
-    def own_chain(self, link: str, limit: int = 3) -> tuple[str, ...]:
-        """`link` and the ancestors that carry nothing else (each the only child of the next), nearest
-        first, at most `limit` links and never the root: the body a leaf frame is part of."""
-        chain = [self._known(link)]
-        while len(chain) < limit and (parent := self.parent(chain[-1])) not in (None, self.root) \
-                and len(self._children[parent]) == 1:
-            chain.append(parent)
-        return tuple(chain)
-
     def descendants(self, link: str) -> tuple[str, ...]:
         """All links below `link`, depth-first in document order, excluding `link`."""
         found: list[str] = []

@@ -10,7 +10,7 @@ import rdflib
 from urdfkb.pipeline.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import CORE_IRI, core_version
+from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
 from urdfkb.pipeline.population import build_robot, escape, robot_iri
 from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
 
@@ -71,7 +71,7 @@ def test_structure():
     assert {CORE[t] for t in ("FixedJoint", "RevoluteJoint", "ContinuousJoint", "PrismaticJoint",
                                "FloatingJoint", "PlanarJoint")} <= types
     assert not list(g.triples((None, CORE.hasComponent, None)))
-    assert str(g.value(robot, CORE.ontologyVersion)) == core_version()
+    assert str(g.value(robot, CORE.ontologyVersion)) == vocabulary().version
 
 
 def test_components_and_provenance():

@@ -16,7 +16,7 @@ from urdfkb.kb_server.jobs import pipeline_runner
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.errors import PipelineError
+from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
@@ -40,7 +40,7 @@ def runner(tree, settings, progress):
         assert GATE.wait(60), "the test never opened the gate"
     EVENTS.append(("exit", settings.structure_only))
     if tree.robot_name.startswith("broken"):
-        raise PipelineError("classification failed: model said 'banana'")
+        raise BackendError("classification failed: model said 'banana'")
     if settings.structure_only:
         return pipeline_runner(tree, settings, progress)
     return PR2 if tree.robot_name.endswith("pr2") else Abstraction((), {"mode": "test"})
