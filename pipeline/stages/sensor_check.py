@@ -4,11 +4,10 @@
   (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools keep
   every finger chain.
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
-  drive part or reference frame?), unless the file declares a simulator sensor on it (on PR2 that
-  halves the questions). Only "part of a motor or drive" overrules identification: over the ten
-  truth robots it went to motor screws and an actuator's dummy link and to no true sensor, while
-  'emitter' and 'reference frame' also took laser scanners and optical frames, so they are traced
-  but change nothing.
+  drive part or reference frame?), unless the file declares a simulator sensor on it. Only "part of
+  a motor or drive" overrules identification: over the ten truth robots it went to motor screws and
+  an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' also took
+  laser scanners and optical frames, so they are traced but change nothing.
 """
 from __future__ import annotations
 
