@@ -155,22 +155,6 @@ def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shar
         store.close()
 
 
-def test_robots_stored_before_corrections_still_get_a_page(store):
-    with store.lock:  # as a store written by an earlier version: no kept source
-        store.world.graph.db.execute("DELETE FROM kb_sources")
-        store.world.save()
-    app, jobs = make_app(store)
-    try:
-        client = app.test_client()
-        page = client.get("/robots/pr2", headers={"Accept": "text/html"})
-        assert page.status_code == 200 and b"<svg" in page.data and b"populate it again" in page.data
-        assert page.data.count(b'class="component"') == len(PR2.components)
-        resp = client.post("/robots/pr2/corrections", json={"action": "confirm", "links": ["base_laser_link"]})
-        assert resp.status_code == 409 and "populate it again" in resp.get_json()["error"]
-    finally:
-        jobs.shutdown()
-
-
 def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_tree):
     path = tmp_path / "kb.sqlite3"
     store = Store(path)

@@ -1,10 +1,8 @@
 """The persistent store: restart, atomic replace, failures leave it as it was, exports, timeouts."""
-import io
 import multiprocessing
 import threading
 import time
 
-import owlready2
 import pytest
 import rdflib
 
@@ -16,7 +14,6 @@ from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import load_core
 
 COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 SELECT (COUNT(?c) AS ?n) WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c }"""
@@ -126,18 +123,3 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     worker.start()
     worker.join(60)
     assert worker.exitcode == 0
-
-
-def test_updates_from_before_kb_graphs_become_the_default_graph(tmp_path):
-    """Stores written by the owlready2 engine kept update triples in an 'updates' ontology."""
-    path = tmp_path / "kb.sqlite3"
-    world = owlready2.World(filename=str(path))
-    load_core(world)
-    legacy = world.get_ontology(store_mod.LEGACY_UPDATES_IRI)
-    legacy.load(fileobj=io.BytesIO(b'<urn:a> <urn:says> "kept" .\n'), format="ntriples")
-    world.save()
-    world.close()
-    s = Store(path, workers=0)
-    assert s.query("SELECT ?g WHERE { GRAPH ?g { <urn:a> ?p ?o } }").as_dicts() == []  # no internal graph
-    assert s.query('ASK { <urn:a> <urn:says> "kept" }').document["boolean"] is True
-    s.close()
