@@ -1,4 +1,5 @@
-# urdfkb: `make run` sets everything up and serves the sample robot; `make test` runs the suite.
+# urdfkb: `make run` sets everything up and serves the sample robot; `make test` runs the suite,
+# `make test-fast` all of it but the slow lanes (FAST; markers in pyproject.toml).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -9,7 +10,9 @@ PORT   ?= 8000
 # and the already-installed check mean it is never rebuilt after that.
 export CMAKE_BUILD_PARALLEL_LEVEL ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: run test install model bench typecheck clean
+FAST   := not (model or reasoner or crash or w3c or browser or slow)
+
+.PHONY: run test test-fast install model bench typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +32,9 @@ run: model
 
 test: install
 	$(BIN)/python -m pytest -q -ra
+
+test-fast: install
+	$(BIN)/python -m pytest -q -ra -m "$(FAST)"
 
 $(VENV)/.typecheck: pyproject.toml | $(VENV)/.installed
 	$(BIN)/python -m pip install -q -e '.[typecheck]'

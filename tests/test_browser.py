@@ -20,9 +20,9 @@ from tests.kb_fixtures import running
 
 CHROMIUM = next((p for p in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if p), None)
 DRIVER = shutil.which("chromedriver")
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.browser, pytest.mark.skipif(
     not (CHROMIUM and DRIVER),
-    reason="headless Chromium and chromedriver not found: install Debian's chromium and chromium-driver to run the browser tests")
+    reason="headless Chromium and chromedriver not found: install Debian's chromium and chromium-driver to run the browser tests")]
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 SHOTS = os.environ.get("URDFKB_SCREENSHOTS")

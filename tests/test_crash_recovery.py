@@ -15,9 +15,12 @@ import urllib.parse
 from http.client import HTTPException
 from pathlib import Path
 
+import pytest
+
 from tests.kb_fixtures import PR2, free_port, http
 
 REPO = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.crash
 
 
 class Server:

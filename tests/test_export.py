@@ -59,6 +59,7 @@ def test_stream_destination(onto):
     assert isomorphic(rdflib.Graph().parse(data=buf.getvalue(), format="turtle"), robot_graph(onto))
 
 
+@pytest.mark.reasoner
 def test_rdfxml_reloads_in_a_fresh_world(hostile_onto, tmp_path):
     path = tmp_path / "robot.owl"
     export_robot(hostile_onto, str(path))
@@ -71,6 +72,7 @@ def test_rdfxml_reloads_in_a_fresh_world(hostile_onto, tmp_path):
     owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
 
 
+@pytest.mark.reasoner
 def test_populated_export_reloads_and_is_consistent(onto, tmp_path):
     path = tmp_path / "bot.owl"
     export_robot(onto, path)
@@ -93,6 +95,7 @@ def test_overwrites_atomically_and_refuses_unknown_format(onto, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["bot.ttl"]
 
 
+@pytest.mark.reasoner
 def test_owlapi_opens_the_file_offline(onto, hostile_onto, tmp_path):
     """HermiT's own OWL API parser (Protégé's) reads the RDF/XML file alone: no import to resolve."""
     for robot in (onto, hostile_onto):

@@ -131,6 +131,7 @@ def test_axioms(core_graph):
         assert (CORE[name], RDF.type, OWL.AnnotationProperty) in g, name
 
 
+@pytest.mark.reasoner
 def test_core_is_consistent_and_every_class_satisfiable():
     world = owlready2.World()
     load_core(world)
@@ -138,6 +139,7 @@ def test_core_is_consistent_and_every_class_satisfiable():
     assert list(world.inconsistent_classes()) == []
 
 
+@pytest.mark.reasoner
 def test_disjointness_is_enforced():
     world = owlready2.World()
     core = load_core(world)

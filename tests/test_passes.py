@@ -51,6 +51,7 @@ def test_every_component_kind_has_a_declared_pass_sensors_first(monkeypatch):
         Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
 
 
+@pytest.mark.reasoner
 def test_the_trace_times_every_step_of_both_passes():
     out = io.StringIO()
     Abstractor(Oracle(ScriptedBackend(perfect), trace=out), vocabulary()).run(load_urdf(TOY))

@@ -98,6 +98,7 @@ def test_components_and_provenance():
     assert str(g.value(robot, CORE.provenanceNote)) == "favourite colour=blue"
 
 
+@pytest.mark.reasoner
 def test_populated_robot_is_consistent_for_hermit():
     world = owlready2.World()
     build_robot(world, sample_tree(), "bot", sample_abstraction())
@@ -221,6 +222,7 @@ def test_empty_robot_name_is_refused():
         robot_iri("")
 
 
+@pytest.mark.reasoner
 def test_shared_urdfs_populate_exactly_and_consistently(shared):
     world = owlready2.World()
     for path in sorted((shared / "urdf").glob("*.urdf")):

@@ -395,6 +395,7 @@ def test_live_server_checks_host_against_its_bound_port(tmp_path):
 # --- non-loopback binds need a token -----------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_non_loopback_bind_needs_a_token(tmp_path, caplog):
     for host in ("127.0.0.1", "::1", "localhost", "127.0.0.2"):
         check_bind(host, None)

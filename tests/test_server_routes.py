@@ -203,6 +203,7 @@ def test_binds_loopback_by_default(tmp_path):
     store.close()
 
 
+@pytest.mark.slow
 def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
     """The real entry point (urdfkb serve, waitress) in a subprocess, restarted over the same store."""
     path = tmp_path / "kb.sqlite3"

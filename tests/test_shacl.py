@@ -138,6 +138,7 @@ def test_robot_provenance_is_required_and_well_formed(prop, value):
     assert prop in breaks(edit)
 
 
+@pytest.mark.slow
 def test_shared_urdfs_conform_structure_only(shared):
     world = owlready2.World()
     for path in sorted((shared / "urdf").glob("*.urdf")):

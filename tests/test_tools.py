@@ -74,6 +74,7 @@ def test_hand_on_the_wrist_is_mounted_on_the_wrist_and_its_digits_move_together(
     assert mount_of(rack, "vise_grip_point") == "vise_body"  # a lone leaf hangs on its parent
 
 
+@pytest.mark.reasoner
 def test_the_reasoner_classifies_every_tool_in_one_run(rack):
     tools = [tool_structure(rack, leaves) for leaves in (VISE, TRIDENT, MITT, ["vise_grip_point"])]
     inferred, seconds = classify(tools)
@@ -138,6 +139,7 @@ def perfect(q: Question) -> str | dict:
     return q.options[0]
 
 
+@pytest.mark.reasoner
 def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack):
     comps = Abstractor(Oracle(ScriptedBackend(perfect)), TAX).run(rack)
     tools = {c.cls: c for c in comps if c.kind == "end_effector"}
@@ -161,6 +163,7 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert (None, core.isMimicOf, None) in graph  # the starboard slide follows the port slide
 
 
+@pytest.mark.reasoner
 def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
     def jaw_as_sensor(q: Question) -> str:
         if q.key == "identify:vise_jaw_starboard":
