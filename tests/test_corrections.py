@@ -24,11 +24,9 @@ def pr2_tree(shared):
 
 
 @pytest.fixture
-def store(tmp_path, pr2_tree):
-    s = Store(tmp_path / "kb.sqlite3")
-    s.replace_robot("pr2", pr2_tree, PR2)
-    yield s
-    s.close()
+def store(store, pr2_tree):
+    store.replace_robot("pr2", pr2_tree, PR2)
+    return store
 
 
 def correct(store, who="ann", **data):
@@ -119,7 +117,7 @@ def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):
 
 
 def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shared):
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store, token=TOKEN)
     auth = {"Authorization": f"Bearer {TOKEN}"}
     try:
@@ -157,13 +155,13 @@ def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shar
 
 def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_tree):
     path = tmp_path / "kb.sqlite3"
-    store = Store(path)
+    store = Store(path, workers=0)
     store.replace_robot("pr2", pr2_tree, PR2)
     correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])
     ask = f"ASK {{ GRAPH <{corrections_iri('pr2')}> {{ ?s ?p ?o }} }}"
     assert json.loads(store.query(ask).body)["boolean"]
     store.close()
-    store = Store(path)
+    store = Store(path, workers=0)
     try:
         assert json.loads(store.query(ask).body)["boolean"]
     finally:

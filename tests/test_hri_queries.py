@@ -16,7 +16,7 @@ C = "https://w3id.org/urdfkb/core#"
 
 @pytest.fixture(scope="module")
 def store(shared, tmp_path_factory):
-    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3")
+    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=0)
     tree = load_urdf(shared / "urdf" / "pr2.urdf")
     s.replace_robot("pr2", tree, PR2)
     s.replace_robot("pr2_bare", tree, None)  # same links, no components: must not leak into pr2's answers
@@ -151,7 +151,7 @@ def test_http_route_and_cli(store):
 
 def test_cli_query(shared, tmp_path):
     path = tmp_path / "kb.sqlite3"
-    s = Store(path)
+    s = Store(path, workers=0)
     s.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     s.close()
     out = run_named_query("end_effectors", "pr2", {}, store_path=path, fmt="tsv")

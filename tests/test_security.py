@@ -17,19 +17,11 @@ from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, pipeline_runner
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.serve import make_server
-from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import UrdfkbError
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 XML = "application/xml"
-
-
-@pytest.fixture
-def store(tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
-    yield store
-    store.close()
 
 
 @pytest.fixture

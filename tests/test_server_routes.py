@@ -47,14 +47,27 @@ def runner(tree, settings, progress):
 
 
 @pytest.fixture
-def server(tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
+def serve(tmp_path):
+    """Starts the app over a new store with `workers` query processes (0: SPARQL in this process),
+    through Flask's test client."""
     EVENTS.clear()
     GATE.clear()
-    app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
-    yield client(app)
-    jobs.shutdown()
-    store.close()
+    opened = []
+
+    def start(workers: int = 0):
+        store = Store(tmp_path / "kb.sqlite3", workers=workers)
+        app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
+        opened.append((store, jobs))
+        return client(app)
+    yield start
+    for store, jobs in opened:
+        jobs.shutdown()
+        store.close()
+
+
+@pytest.fixture
+def server(serve):
+    return serve()
 
 
 def urdf(shared, name="pr2", rename=None) -> bytes:
@@ -121,8 +134,7 @@ def test_bad_input(server, shared):
         assert status == 404 and ctype.startswith("application/json"), path
 
 
-def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
+def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(store):
     app, jobs = make_app(store, runner=pipeline_runner)  # the real runner: it refuses before any model loads
     api = client(app)
     try:
@@ -137,7 +149,6 @@ def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(tm
         assert wait(api, json.loads(out)["id"])["state"] == "succeeded"
     finally:
         jobs.shutdown()
-        store.close()
 
 
 def test_failed_job_leaves_the_store_as_it_was(server, shared):
@@ -207,7 +218,7 @@ def test_binds_loopback_by_default(tmp_path):
 def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
     """The real entry point (urdfkb serve, waitress) in a subprocess, restarted over the same store."""
     path = tmp_path / "kb.sqlite3"
-    store = Store(path)
+    store = Store(path, workers=0)
     store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     store.close()
     for run in range(2):

@@ -30,26 +30,25 @@ def components(store) -> int:
 
 def test_restart_serves_everything_stored(tmp_path, trees):
     path = tmp_path / "kb.sqlite3"
-    s = Store(path)
+    s = Store(path, workers=0)
     s.replace_robot("pr2", trees["pr2"], PR2)
     s.replace_robot("panda", trees["panda"], None)
     s.close()
-    s = Store(path)
+    s = Store(path, workers=0)
     assert [e.name for e in s.robots()] == ["panda", "pr2"]
     assert s.robot("pr2").robot_iri == "https://w3id.org/urdfkb/robot/pr2#robot"
     assert components(s) == len(PR2.components)
     s.close()
 
 
-def test_replace_is_whole_and_failures_leave_the_old_robot(tmp_path, trees, monkeypatch):
-    s = Store(tmp_path / "kb.sqlite3")
-    s.replace_robot("pr2", trees["pr2"], PR2)
-    s.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
-    assert components(s) == 2
+def test_replace_is_whole_and_failures_leave_the_old_robot(store, trees, monkeypatch):
+    store.replace_robot("pr2", trees["pr2"], PR2)
+    store.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
+    assert components(store) == 2
     bad = Abstraction((PR2.components[0].__class__(**{**PR2.components[0].__dict__, "cls": "Toaster"}),))
     with pytest.raises(OntologyError):
-        s.replace_robot("pr2", trees["pr2"], bad)
-    assert components(s) == 2
+        store.replace_robot("pr2", trees["pr2"], bad)
+    assert components(store) == 2
 
     real = store_mod.build_robot
 
@@ -59,14 +58,13 @@ def test_replace_is_whole_and_failures_leave_the_old_robot(tmp_path, trees, monk
 
     monkeypatch.setattr(store_mod, "build_robot", build_then_fail)
     with pytest.raises(RuntimeError):
-        s.replace_robot("pr2", trees["pr2"], PR2)
-    assert components(s) == 2
-    assert s.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).as_dicts()[0]["n"] == str(len(trees["pr2"].links))
-    s.close()
+        store.replace_robot("pr2", trees["pr2"], PR2)
+    assert components(store) == 2
+    assert store.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).as_dicts()[0]["n"] == str(len(trees["pr2"].links))
 
 
 def test_readers_never_see_a_mix(tmp_path, trees):
-    s = Store(tmp_path / "kb.sqlite3")
+    s = Store(tmp_path / "kb.sqlite3", workers=2)  # readers on the workers, which apply a write whole
     small, full = Abstraction(PR2.components[:1]), PR2
     s.replace_robot("pr2", trees["pr2"], small)
     seen, stop = set(), threading.Event()
@@ -85,22 +83,20 @@ def test_readers_never_see_a_mix(tmp_path, trees):
     s.close()
 
 
-def test_delete_and_exports(tmp_path, trees):
-    s = Store(tmp_path / "kb.sqlite3")
-    s.replace_robot("pr2", trees["pr2"], PR2)
+def test_delete_and_exports(store, trees):
+    store.replace_robot("pr2", trees["pr2"], PR2)
     for ext, fmt in (("owl", "xml"), ("ttl", "turtle"), ("nt", "nt")):
-        g = rdflib.Graph().parse(data=s.export("pr2", ext), format=fmt)
+        g = rdflib.Graph().parse(data=store.export("pr2", ext), format=fmt)
         core = rdflib.Namespace("https://w3id.org/urdfkb/core#")
         assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#comp_kinect"), rdflib.RDF.type, core.RGBDCamera) in g
         assert (core.RGBDCamera, rdflib.RDFS.subClassOf, core.Camera) in g  # self-contained: core merged in
-    assert s.delete_robot("pr2").name == "pr2"
-    assert s.delete_robot("pr2") is None and s.export("pr2", "ttl") is None
-    assert components(s) == 0
-    s.close()
+    assert store.delete_robot("pr2").name == "pr2"
+    assert store.delete_robot("pr2") is None and store.export("pr2", "ttl") is None
+    assert components(store) == 0
 
 
 def test_timeout_stops_the_query_and_the_store_keeps_serving(tmp_path, trees):
-    s = Store(tmp_path / "kb.sqlite3")
+    s = Store(tmp_path / "kb.sqlite3", workers=2)  # a deadline is the workers' to enforce
     s.replace_robot("pr2", trees["pr2"], PR2)
     cross = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"
     for q in (cross, cross.replace("}", "MINUS { ?a a <urn:x> } }")):
