@@ -128,10 +128,10 @@ def test_kill_9_inside_an_update_and_during_a_burst_of_readers(shared, tmp_path)
     s = Server(store, marker)
     try:
         assert s.answers() == before  # all or nothing: none of the killed update, all of the earlier one
-        stop, statuses = threading.Event(), []
+        stop, statuses, end = threading.Event(), [], time.monotonic() + 60
 
         def reader():
-            while not stop.is_set():
+            while not stop.is_set() and time.monotonic() < end:
                 try:
                     statuses.append(http("GET", f"{s.base}/sparql?" + urllib.parse.urlencode({"query": ANSWERS[0]}), timeout=5)[0])
                 except (OSError, HTTPException):  # the kill may cut a response short

@@ -92,7 +92,7 @@ def internal():
     def start(status=200):
         server = ThreadingHTTPServer(("127.0.0.1", 0), Recorder)
         server.hits, server.status = [], status
-        threading.Thread(target=server.serve_forever, daemon=True).start()
+        threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True).start()  # shutdown() waits one poll
         servers.append(server)
         return f"http://127.0.0.1:{server.server_address[1]}", server.hits
 
@@ -214,8 +214,9 @@ def test_waiting_clients_are_capped_and_never_hold_every_thread(kb):
         results = []
 
         def wait_long():  # a probe below may hold a slot for a moment: retry on 429
-            while (answer := http("GET", f"{base}/jobs/{job_id}?wait=1&timeout=30"))[0] == 429:
-                pass
+            end = time.monotonic() + 60
+            while (answer := http("GET", f"{base}/jobs/{job_id}?wait=1&timeout=30"))[0] == 429 and time.monotonic() < end:
+                time.sleep(0.01)
             results.append(answer)
 
         waiters = [threading.Thread(target=wait_long) for _ in range(2)]

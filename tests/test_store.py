@@ -67,10 +67,10 @@ def test_readers_never_see_a_mix(tmp_path, trees):
     s = Store(tmp_path / "kb.sqlite3", workers=2)  # readers on the workers, which apply a write whole
     small, full = Abstraction(PR2.components[:1]), PR2
     s.replace_robot("pr2", trees["pr2"], small)
-    seen, stop = set(), threading.Event()
+    seen, stop, end = set(), threading.Event(), time.monotonic() + 60
 
     def read():
-        while not stop.is_set():
+        while not stop.is_set() and time.monotonic() < end:
             seen.add(components(s))
 
     reader = threading.Thread(target=read)
@@ -78,7 +78,7 @@ def test_readers_never_see_a_mix(tmp_path, trees):
     for i in range(6):
         s.replace_robot("pr2", trees["pr2"], full if i % 2 else small)
     stop.set()
-    reader.join()
+    reader.join(10)
     assert seen <= {1, len(full.components)}
     s.close()
 
@@ -113,7 +113,7 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     requests, replies = ctx.Pipe(duplex=False)
     gone = ctx.Process(target=time.sleep, args=(0,))  # a pid that is nobody's parent once it has ended
     gone.start()
-    gone.join()
+    gone.join(60)
     inbox = ctx.Queue()  # held here until the worker has read it
     worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid), daemon=True)
     worker.start()

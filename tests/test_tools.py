@@ -11,7 +11,6 @@ from pathlib import Path
 import owlready2
 import pytest
 import rdflib
-from tests.conftest import SHARED
 
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction
@@ -103,9 +102,9 @@ def test_a_group_not_at_the_end_of_an_arm_is_no_tool(rack):
     assert any(n.startswith("no tool: ['left_shoulder_clamp']") for n in notes)
 
 
-def test_a_group_on_a_link_that_carries_the_rest_of_the_arm_is_no_tool():
+def test_a_group_on_a_link_that_carries_the_rest_of_the_arm_is_no_tool(shared):
     """Sawyer's extra collision volume on its second arm link: five more arm joints hang beside it."""
-    sawyer = load_urdf(SHARED / "urdf" / "sawyer.urdf")
+    sawyer = load_urdf(shared / "urdf" / "sawyer.urdf")
     notes = []
     assert settle(sawyer, [Group([sub_chain(sawyer, "right_l2_2", "right_l2")])], lambda leaf: False, notes.append) == []
     assert notes == ["no tool: ['right_l2_2'] mounted on right_l2, which is not the end of an arm"]
