@@ -127,6 +127,7 @@ def test_hostile_queries_are_answered_or_refused_cleanly(kb):
         assert status == 400 and ctype.startswith("text/plain"), body[:200]
 
 
+@pytest.mark.slow
 def test_a_query_past_its_deadline_never_stalls_others(kb_workers):
     api, _ = kb_workers
     items = ",".join(f'"item{i}"' for i in range(100_000))  # ~1 MB, a 100k-item IN over every triple

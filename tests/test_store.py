@@ -95,6 +95,7 @@ def test_delete_and_exports(store, trees):
     assert components(store) == 0
 
 
+@pytest.mark.slow
 def test_timeout_stops_the_query_and_the_store_keeps_serving(tmp_path, trees):
     s = Store(tmp_path / "kb.sqlite3", workers=2)  # a deadline is the workers' to enforce
     s.replace_robot("pr2", trees["pr2"], PR2)
