@@ -1,6 +1,7 @@
 """One import name per module (README, Layout): absolute imports only, no sys.path edits, a mapped folder
 refuses its bare name, and the type checker's view of the package (.import-root) matches package-dir."""
 import ast
+import functools
 import subprocess
 import sys
 import tomllib
@@ -11,10 +12,10 @@ PACKAGE_DIR = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setu
 SOURCES = sorted(p for folder in [*PACKAGE_DIR.values(), "tests", "benchmarks"] for p in (REPO / folder).rglob("*.py"))
 
 
-def _nodes():
-    for path in SOURCES:
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            yield f"{path.relative_to(REPO)}:{getattr(node, 'lineno', 0)}", node
+@functools.cache
+def _nodes() -> list[tuple[str, ast.AST]]:
+    return [(f"{path.relative_to(REPO)}:{getattr(node, 'lineno', 0)}", node)
+            for path in SOURCES for node in ast.walk(ast.parse(path.read_text(), str(path)))]
 
 
 def test_every_import_is_absolute():
