@@ -285,4 +285,6 @@ END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
     Step("assembly", Abstractor.assembly),
 ))
 
-PASSES = (SENSOR_PASS, END_EFFECTOR_PASS)  # in this order; each removes its devices from the tree
+# Run in this order, each named by the core:componentKind of the components it finds; each pass removes
+# its devices from the tree the next one sees.
+PASSES = (SENSOR_PASS, END_EFFECTOR_PASS)
