@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import hmac
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import rdflib
@@ -19,14 +19,17 @@ from werkzeug.exceptions import HTTPException
 from urdfkb.kb_server import queries, ui
 from urdfkb.kb_server.index import WorkerCrashed
 from urdfkb.kb_server.jobs import JobManager, QueueFull
+from urdfkb.kb_server.results import ResultTooLarge
 from urdfkb.kb_server.security import Policy, Refused
 from urdfkb.kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
 from urdfkb.kb_server.store import ReadOnlyGraph, RobotNameError, Store, check_robot_name
+from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.runner import Settings
-from urdfkb.pipeline.xacro_input import XacroError, load_description, parse_args
+from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
@@ -35,13 +38,15 @@ MAX_WAIT = 30.0
 
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = 10_000_000,
                query_timeout: float = 10.0, policy: Policy | None = None, max_links: int = DEFAULT_MAX_LINKS,
-               max_waiters: int = 4, package_paths: Mapping[str, Path] | None = None) -> Flask:
+               max_waiters: int = 4, package_paths: Mapping[str, Path] | None = None,
+               trust_xacro: bool = False) -> Flask:
     """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
 
     `policy` (default: a loopback server with nothing opened) checks every request; at most
     `max_waiters` clients wait on a job at once (GET /jobs/<id>?wait=1), so waits never hold
     every server thread. Uploaded xacro files may include only from `package_paths` (none: they
-    read no server file)."""
+    read no server file), inside the sandbox of pipeline.sandbox unless `trust_xacro`; expansion
+    is the job's first step, never the request's."""
     app = Flask(__name__)
     app.config["MAX_CONTENT_LENGTH"] = max_body
     policy = policy or Policy()
@@ -73,6 +78,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             return error(403, str(e), True)
         except NotAcceptable as e:
             return error(406, str(e), True)
+        except ResultTooLarge as e:
+            return error(413, str(e), True)
         except QueryTimeout as e:
             return error(503, str(e), True)
         except WorkerCrashed as e:
@@ -182,17 +189,38 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         except Refused as e:
             return error(e.status, str(e))
         try:
-            tree = load_description(data, filename=filename, args=parse_args(xacro_args),
-                                    packages=package_paths, max_bytes=max_body, max_links=max_links)
+            if name is not None:
+                name = check_robot_name(name)
+            args = parse_args(xacro_args)
+            if is_xacro(filename, data):
+                return ui.accepted(jobs.submit(xacro_loader(data, filename, args), name, settings))
+            tree = load_description(data, filename=filename, args=args, max_bytes=max_body, max_links=max_links)
+            return ui.accepted(jobs.submit(tree, check_robot_name(name or tree.robot_name), settings))
         except XacroError as e:
             return error(400, f"cannot expand the xacro: {e}")
         except URDFError as e:
             return error(400, f"not a valid URDF: {e}")
-        try:
-            name = check_robot_name(name or tree.robot_name)
         except RobotNameError as e:
             return error(400, f"{e}: pass ?name=...")
-        return ui.accepted(jobs.submit(tree, name, settings))
+        except Refused as e:
+            return error(e.status, str(e))
+
+    def xacro_loader(data: bytes, filename: str | None, args: Mapping[str, str]) -> Callable[[], KinematicTree]:
+        """The job's first step for a xacro upload: expansion, confined by pipeline.sandbox unless the
+        operator trusts xacro. Refused at once (403) where the machine offers no sandbox."""
+        confined = not trust_xacro
+        if confined and (reason := sandbox.unavailable()):
+            raise Refused(403, f"xacro input is disabled on this server: xacro expressions are Python code, and "
+                             f"this machine cannot run them confined ({reason}); send the expanded URDF, or the "
+                             "operator can start the server with --trust-xacro")
+
+        def load() -> KinematicTree:
+            try:
+                return load_description(data, filename=filename, args=args, packages=package_paths,
+                                        max_bytes=max_body, max_links=max_links, confined=confined)
+            except XacroError as e:
+                raise XacroError(f"cannot expand the xacro: {e}") from None
+        return load
 
     @app.get("/jobs/<job_id>")
     def job_status(job_id: str):

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 from urdfkb import __version__
+from urdfkb.kb_server.limits import CHANNEL_TIMEOUT, MAX_CONNECTIONS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME
 
@@ -178,7 +179,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
     serve(store_path=args.store, host=args.host, port=args.port, token=args.token or os.environ.get("URDFKB_TOKEN"),
           remote_store=args.remote_store, populate=args.populate, allowed_hosts=args.allowed_host,
           model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
-          package_paths=args.package_path, **_limits(args))
+          package_paths=args.package_path, trust_xacro=args.trust_xacro, max_result_rows=args.max_result_rows,
+          max_result_bytes=args.max_result_bytes, max_connections=args.max_connections,
+          channel_timeout=args.channel_timeout, **_limits(args))
     return 0
 
 
@@ -242,6 +245,16 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
     _add_package_path(g, "let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
                          "(repeatable; without it, uploads read no server file)")
+    g.add_argument("--trust-xacro", action="store_true", help="expand uploaded xacro files without the operating-system "
+                   "sandbox (bubblewrap + seccomp): only where every client may run code as the server's user")
+    g.add_argument("--max-result-rows", type=int, default=MAX_RESULT_ROWS, metavar="N",
+                   help=f"refuse (413) query answers with more rows or triples (default {MAX_RESULT_ROWS:,})")
+    g.add_argument("--max-result-bytes", type=int, default=MAX_RESULT_BYTES, metavar="N",
+                   help=f"refuse (413) query answers longer than this serialised (default {MAX_RESULT_BYTES:,})")
+    g.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS, metavar="N",
+                   help=f"open client connections at most; more wait to be accepted (default {MAX_CONNECTIONS:,})")
+    g.add_argument("--channel-timeout", type=int, default=CHANNEL_TIMEOUT, metavar="S",
+                   help=f"close a connection idle this many seconds (default {CHANNEL_TIMEOUT})")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

@@ -22,6 +22,7 @@ from datetime import datetime, timezone
 import rdflib
 from rdflib.namespace import RDF, RDFS, XSD
 
+from urdfkb.kb_server.text import check_text
 from urdfkb.pipeline.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
@@ -58,7 +59,9 @@ class Correction:
 
     @classmethod
     def new(cls, data: dict, reviewer: str | None) -> "Correction":
-        """From request JSON ({action, links, class?, mount?}); CorrectionError if malformed."""
+        """From request JSON ({action, links, class?, mount?}); CorrectionError naming the field if malformed.
+
+        The reviewer's whitespace runs become one space; other control characters are refused."""
         action = data.get("action")
         if action not in ACTIONS:
             raise CorrectionError(f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
@@ -66,11 +69,17 @@ class Correction:
         if not isinstance(links, list) or not links or not all(isinstance(x, str) and x for x in links):
             raise CorrectionError("links must be a non-empty list of URDF link names")
         klass, mount = data.get("class") or None, data.get("mount") or None
+        for field, value in (("class", klass), ("mount", mount), ("reviewer", reviewer)):
+            if value is not None and not isinstance(value, str):
+                raise CorrectionError(f"{field} must be a string, not {type(value).__name__}")
         if action in ("reclassify", "add") and not klass:
             raise CorrectionError(f"{action} needs a class")
         if action == "remount" and not mount:
             raise CorrectionError("remount needs a mount link")
-        who = " ".join(str(reviewer or "").split())[:MAX_REVIEWER] or "anonymous reviewer"
+        try:
+            who = check_text("reviewer", " ".join((reviewer or "").split())[:MAX_REVIEWER]) or "anonymous reviewer"
+        except ValueError as e:
+            raise CorrectionError(str(e)) from None
         return cls(uuid.uuid4().hex[:12], action, tuple(sorted(set(links))), who,
                    datetime.now(timezone.utc).isoformat(timespec="microseconds"),
                    klass if action in ("reclassify", "add") else None,
@@ -109,7 +118,7 @@ def apply(tree: KinematicTree, model: Abstraction, corrections: list[Correction]
             report.stale.append((corr, str(e)))
         else:
             report.applied.append((corr, name))
-    return Abstraction(tuple(comps), dict(model.provenance)), report
+    return Abstraction(tuple(comps), dict(model.provenance), model.body), report
 
 
 def check(tree: KinematicTree, current: Abstraction, corr: Correction) -> None:

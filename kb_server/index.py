@@ -27,6 +27,7 @@ from multiprocessing.connection import wait
 
 import pyoxigraph as ox
 
+from urdfkb.kb_server.results import ResultLimits, ResultTooLarge
 from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
                               run_update)
 from urdfkb.pipeline.errors import UrdfkbError
@@ -38,7 +39,8 @@ class WorkerCrashed(UrdfkbError, RuntimeError):
     """A worker process died while evaluating an operation (a bug in the engine); it was replaced."""
 
 
-_ERRORS = {"QueryError": QueryError, "NotAcceptable": NotAcceptable}
+_ANSWERED = (QueryError, NotAcceptable, ResultTooLarge)  # errors a worker sends back by name, staying up
+_ERRORS = {e.__name__: e for e in _ANSWERED}
 
 
 def _die_with_parent() -> None:
@@ -86,7 +88,7 @@ def _serve(inbox, requests, replies, parent: int) -> None:
                     return
         try:
             replies.send(("ok", (run_query if op == "query" else run_update)(store, *args)))
-        except (QueryError, NotAcceptable) as e:
+        except _ANSWERED as e:
             replies.send((type(e).__name__, str(e)))
 
 
@@ -136,10 +138,11 @@ class _Worker:
 
 
 class Index:
-    """The master store plus `workers` query processes (0: evaluate in this process, no deadline)."""
+    """The master store plus `workers` query processes (0: evaluate in this process, no deadline);
+    every answer is bounded by `limits`."""
 
-    def __init__(self, graphs: Mapping[str, bytes], workers: int = 2):
-        self.master = ox.Store()
+    def __init__(self, graphs: Mapping[str, bytes], workers: int = 2, limits: ResultLimits = ResultLimits()):
+        self.master, self.limits = ox.Store(), limits
         for graph, data in graphs.items():
             put_graph(self.master, graph, data)
         self._ctx = mp.get_context("spawn")
@@ -175,7 +178,7 @@ class Index:
             raise QueryTimeout(f"no query worker free within the {timeout:g} s timeout") from None
         try:
             value = worker.call(op, args, deadline)
-        except (QueryError, NotAcceptable):
+        except _ANSWERED:
             self._idle.put(worker)
             raise
         except QueryTimeout:
@@ -194,8 +197,9 @@ class Index:
 
     def query(self, text: str, accept: str | None = None, timeout: float = 10.0,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
-        """Evaluate a query on a free worker; QueryError, NotAcceptable, or QueryTimeout past `timeout`."""
-        return self._call("query", (text, accept, default_graphs, named_graphs), timeout)
+        """Evaluate a query on a free worker; QueryError, NotAcceptable, ResultTooLarge past the index's
+        limits, or QueryTimeout past `timeout`."""
+        return self._call("query", (text, accept, default_graphs, named_graphs, self.limits), timeout)
 
     def update(self, text: str, timeout: float = 10.0) -> tuple[Changes, _Worker | None]:
         """Apply an update on one replica (the master without workers), which is held until

@@ -1,5 +1,7 @@
 """Populate jobs: the pipeline runs in a worker outside the store lock, then one transaction stores it.
 
+A job's source is an ingested tree, or a loader run in the job itself (a xacro upload: its
+expansion is code, so it costs its own job and never a request thread).
 Job states: queued -> running -> succeeded | failed | mirror_failed. `mirror_failed` means the
 robot *was* stored and is served locally, but the remote store (--remote-store) was not updated;
 the reason is in `errors`; re-populating the robot, or restarting the server (mirror_all), retries. A failed job leaves the
@@ -19,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
-from urdfkb.kb_server.store import Store
+from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Progress, Settings, run
@@ -28,7 +30,7 @@ from urdfkb.pipeline.tree import KinematicTree
 log = logging.getLogger(__name__)
 
 Runner = Callable[[KinematicTree, Settings, Progress], Abstraction]
-FINISHED = ("succeeded", "failed", "mirror_failed")
+Source = KinematicTree | Callable[[], KinematicTree]
 
 
 class QueueFull(Exception):
@@ -49,7 +51,7 @@ class Job:
     """One populate request and how far it got."""
 
     id: str
-    robot: str
+    robot: str | None  # None until a loaded source names it
     state: str = "queued"
     stage: str = "queued"
     done: int = 0
@@ -87,15 +89,16 @@ class JobManager:
         self._robot_locks: dict[str, threading.Lock] = {}
         self._guard = threading.Lock()
 
-    def submit(self, tree: KinematicTree, robot: str, settings: Settings) -> Job:
-        """Queue populating `robot` from an already ingested tree; returns at once (QueueFull if full)."""
+    def submit(self, source: Source, robot: str | None, settings: Settings) -> Job:
+        """Queue populating `robot` (None: the name the loaded robot gives) from an ingested tree or
+        a loader the job runs first; returns at once (QueueFull if full)."""
         job = Job(uuid.uuid4().hex, robot)
         with self._guard:
             self._expire()
             if sum(j.state == "queued" for j in self._jobs.values()) >= self.max_queued:
                 raise QueueFull(f"{self.max_queued} populate jobs are already queued; retry later", 30)
             self._jobs[job.id] = job
-        self._pool.submit(self._run, job, tree, settings)
+        self._pool.submit(self._run, job, source, settings)
         return job
 
     def get(self, job_id: str) -> Job | None:
@@ -148,13 +151,15 @@ class JobManager:
         with self._guard:
             return self._robot_locks.setdefault(robot, threading.Lock())
 
-    def _run(self, job: Job, tree: KinematicTree, settings: Settings) -> None:
+    def _run(self, job: Job, source: Source, settings: Settings) -> None:
         def progress(stage: str, done: int, total: int) -> None:
             job.stage, job.done, job.total = stage, done, total
 
         try:
+            job.state, job.started = "running", time.time()
+            tree = source if isinstance(source, KinematicTree) else self._load(job, source)
             with self._robot_lock(job.robot):
-                job.state, job.stage, job.started = "running", "pipeline", time.time()
+                job.stage = "pipeline"
                 abstraction = self.runner(tree, settings, progress)
                 progress("store", 0, 1)
                 entry = self.store.replace_robot(job.robot, tree, abstraction)
@@ -172,6 +177,17 @@ class JobManager:
             job.finished = time.time()
             job.finished_event.set()
             log.info("populate %s (job %s): %s %s", job.robot, job.id, job.state, "; ".join(job.errors))
+
+    @staticmethod
+    def _load(job: Job, load: Callable[[], KinematicTree]) -> KinematicTree:
+        job.stage = "expand"
+        tree = load()
+        if job.robot is None:
+            try:
+                job.robot = check_robot_name(tree.robot_name)
+            except RobotNameError as e:
+                raise RobotNameError(f"{e}: pass ?name=...") from None
+        return tree
 
     def _mirror(self, job: Job) -> str:
         if not self.remote:

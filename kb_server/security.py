@@ -8,7 +8,8 @@
   multipart body, no Authorization or X-Requested-With header) must show it comes from our own
   pages by its `Origin` or `Sec-Fetch-Site: same-origin`.
 - Pipeline settings over HTTP: `model` only names a .gguf file in `--model-dir`, `llm_url` only
-  one of the `--allow-llm-url` base URLs (http or https).
+  one of the `--allow-llm-url` base URLs (http or https); `llm_model`, stored with the robot, is text
+  without control characters.
 - A non-loopback bind needs a token (or the loud `--insecure-no-token`).
 """
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 
 from flask import Flask, Response, request
 
+from urdfkb.kb_server.text import check_text
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
 
@@ -179,7 +181,10 @@ class Policy:
     # --- pipeline settings ----------------------------------------------------------------
 
     def check_settings(self, settings: Settings) -> Settings:
-        """The settings with `model` resolved in the model directory; Refused for what is not allowed."""
+        """The settings with `model` resolved in the model directory; Refused for what is not allowed,
+        ValueError for an `llm_model` no export could carry."""
+        if settings.llm_model:
+            check_text("llm_model", settings.llm_model)
         if settings.model:
             settings = replace(settings, model=str(self._model_path(settings.model)))
         if settings.llm_url:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import logging
+import resource
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -10,14 +11,19 @@ from waitress.server import BaseWSGIServer
 
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
+from urdfkb.kb_server.limits import CHANNEL_TIMEOUT, MAX_CONNECTIONS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.kb_server.remote import RemoteStore
+from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
+from urdfkb.pipeline import sandbox
+from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.xacro_input import load_description, parse_package_paths
 
 log = logging.getLogger(__name__)
+FD_RESERVE = 256  # descriptors besides the connections': store files, worker pipes, the listening socket
 
 
 def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
@@ -26,23 +32,55 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 allowed_hosts: Sequence[str] = (), model_dir: str | Path | None = None,
                 llm_urls: Sequence[str] = (), insecure_no_token: bool = False,
                 max_links: int = DEFAULT_MAX_LINKS, max_header: int = 32_768,
-                package_paths: dict[str, Path] | None = None) -> tuple[BaseWSGIServer, Store, JobManager]:
+                package_paths: dict[str, Path] | None = None, trust_xacro: bool = False,
+                max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
+                max_connections: int = MAX_CONNECTIONS,
+                channel_timeout: int = CHANNEL_TIMEOUT) -> tuple[BaseWSGIServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
     `model_dir` and `llm_urls` open what kb_server.security refuses by default. Request
-    headers over `max_header` bytes are refused (431). With a remote store, every robot
-    already stored is mirrored to it in the background."""
+    headers over `max_header` bytes are refused (431), query answers past `max_result_rows` or
+    `max_result_bytes` (413). At most `max_connections` clients are connected at once (slow ones
+    hold no thread: waitress hands a request over once it has all of it), and a connection idle for
+    `channel_timeout` seconds is closed. With a remote store, every robot already stored is
+    mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or
+    refused where it is unavailable, unless `trust_xacro`."""
     check_bind(host, token, insecure_no_token)
+    if max_connections < 1 or channel_timeout < 1:
+        raise UrdfkbError("--max-connections and --channel-timeout must be at least 1")
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
-    store = Store(store_path)
+    connections = open_files_for(max_connections)
+    store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes))
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
-                     max_links=max_links, max_waiters=max(1, threads // 4), package_paths=package_paths)
-    server = create_server(app, host=host, port=port, threads=threads, max_request_header_size=max_header)
+                     max_links=max_links, max_waiters=max(1, threads // 4), package_paths=package_paths,
+                     trust_xacro=trust_xacro)
+    # waitress buffers a whole request before the app sees it (refusing a body of max_request_body_size
+    # bytes or more), so bodies over max_body are refused before they fill memory or a temporary file;
+    # poll(), unlike select(), takes descriptors past 1023.
+    server = create_server(app, host=host, port=port, threads=threads, max_request_header_size=max_header,
+                           max_request_body_size=max_body + 1, connection_limit=connections,
+                           channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True)
     policy.port = int(server.effective_port)
     return server, store, jobs
+
+
+def open_files_for(connections: int) -> int:
+    """Raise this process's soft limit on open files (within the hard limit) so that `connections` fit,
+    two descriptors each (the socket, and a request body spooled to a file) plus FD_RESERVE; returns
+    how many connections do fit, fewer than asked (with a warning) only under a lower hard limit."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    need = 2 * connections + FD_RESERVE
+    if soft != resource.RLIM_INFINITY and soft < need:
+        soft = need if hard == resource.RLIM_INFINITY else min(need, hard)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+    if soft == resource.RLIM_INFINITY or soft >= need:
+        return connections
+    fit = max(1, (soft - FD_RESERVE) // 2)
+    log.warning("the open-files limit (%d, hard) leaves room for %d connections, not %d", soft, fit, connections)
+    return fit
 
 
 def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
@@ -66,6 +104,10 @@ def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: i
                                       package_paths=packages, **options)
     for tree in trees:
         jobs.submit(tree, tree.robot_name, Settings())
+    if options.get("trust_xacro"):
+        log.warning("--trust-xacro: uploaded xacro files run unconfined, as this server's user")
+    elif reason := sandbox.unavailable():
+        log.warning("xacro uploads will be refused: %s (see README, Security)", reason)
     log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, server.effective_port)
     try:
         server.run()

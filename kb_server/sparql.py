@@ -2,7 +2,8 @@
 
 The functions `run_query` and `run_update` evaluate one operation on a pyoxigraph Store; they run
 inside the index's worker processes (kb_server/index.py). Results are serialised by Oxigraph's
-own W3C writers (SPARQL results JSON/XML/CSV/TSV; Turtle, RDF/XML, N-Triples for graphs).
+own W3C writers (SPARQL results JSON/XML/CSV/TSV; Turtle, RDF/XML, N-Triples for graphs), within the
+row and byte limits of kb_server/results.py.
 
 Before anything is evaluated, `scan` reads the operation's tokens (strings, IRIs and comments
 skipped) to refuse what would make the server fetch remote data (SERVICE, LOAD: pyoxigraph has an
@@ -18,6 +19,7 @@ from urllib.parse import urljoin
 
 import pyoxigraph as ox
 
+from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
 
 CORE_GRAPH = "https://w3id.org/urdfkb/core#"
@@ -155,12 +157,13 @@ def _graph(iri: str):
 
 
 def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: list[str] | None = None,
-              named_graphs: list[str] | None = None) -> Result:
+              named_graphs: list[str] | None = None, limits: ResultLimits = ResultLimits()) -> Result:
     """Evaluate a query over `store` and serialise it for `accept`.
 
     The default graph is the union of all graphs unless the query's FROM / FROM NAMED or the
     protocol's default-graph-uri / named-graph-uri name a dataset (which must be local graphs).
-    QueryError (400) on a malformed query, NotAcceptable (406) if no format fits `accept`."""
+    QueryError (400) on a malformed query, NotAcceptable (406) if no format fits `accept`,
+    ResultTooLarge once the answer passes `limits`."""
     found = scan(text)
     kw: dict = {"use_default_graph_as_union": True}
     if default_graphs is not None or named_graphs is not None:
@@ -185,7 +188,7 @@ def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: li
     if media is None:
         raise NotAcceptable(f"no media type the Accept header allows is offered; offered: {', '.join(offers)}")
     try:
-        return Result(kind, media, answer.serialize(format=offers[media]))
+        return Result(kind, media, serialize(answer, offers[media], limits))
     except (OSError, ValueError) as e:  # evaluation errors surface while serialising lazily evaluated results
         raise QueryError(f"query failed: {e}") from None
 

@@ -28,6 +28,7 @@ from platformdirs import user_data_dir
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
+from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import CORE_GRAPH, Result, scan
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
@@ -49,7 +50,7 @@ class ReadOnlyGraph(UrdfkbError, PermissionError):
     """An update would change the core ontology, which is read-only to SPARQL Update."""
 
 
-ROBOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+ROBOT_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")  # the whole name: `$` would also match before a final "\n"
 
 
 class RobotNameError(UrdfkbError, ValueError):
@@ -58,7 +59,7 @@ class RobotNameError(UrdfkbError, ValueError):
 
 def check_robot_name(name: str) -> str:
     """`name` if it is 1-64 of A-Z a-z 0-9 _ - ; RobotNameError otherwise."""
-    if not ROBOT_NAME.match(name or ""):
+    if not ROBOT_NAME.fullmatch(name or ""):
         raise RobotNameError(f"robot name {name!r} must be 1-64 of A-Z a-z 0-9 _ - (give another name)")
     return name
 
@@ -85,9 +86,10 @@ class RobotEntry:
 class Store:
     """The quadstore file at `path` (created with the core if new), safe to share between threads.
 
-    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does)."""
+    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does),
+    each answer within `limits`."""
 
-    def __init__(self, path: str | Path | None = None, workers: int = 2):
+    def __init__(self, path: str | Path | None = None, workers: int = 2, limits: ResultLimits = ResultLimits()):
         self.path = Path(path) if path else default_store_path()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
@@ -99,7 +101,7 @@ class Store:
                 if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
                     graphs[review.corrections_iri(e.name)] = corrections
             graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
-        self.index = Index(graphs, workers)
+        self.index = Index(graphs, workers, limits)
 
     def _open(self) -> None:
         self.world = owlready2.World(filename=str(self.path), exclusive=False, journal_mode="WAL")
@@ -169,7 +171,7 @@ class Store:
         `corrections` says which applied and which no longer fit."""
         check_robot_name(name)
         abstraction = abstraction or Abstraction()
-        model = Abstraction(abstraction.components, {**abstraction.provenance, **(provenance or {})})
+        model = Abstraction(abstraction.components, {**abstraction.provenance, **(provenance or {})}, abstraction.body)
         with self._writing() as touched:
             self.world.graph.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)",
                                         (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))

@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass, field
 SENSOR = "sensor"
 END_EFFECTOR = "end_effector"
 KINDS = (SENSOR, END_EFFECTOR)
+SIDES = ("left", "right")
 
 
 @dataclass(frozen=True)
@@ -46,10 +47,28 @@ class Component:
     root: str
     subcomponents: tuple[SubComponent, ...]
     fingers: tuple[FingerFact, ...] = ()
+    joints: tuple[str, ...] = ()      # an end-effector's own movable joints (fingers, jaws)
+    located_on: str | None = None     # the name of the BodyPart carrying its mount
+    side: str | None = None           # "left"/"right" where it carries its body part's side
 
     @property
     def links(self) -> tuple[str, ...]:
         return tuple(s.link for s in self.subcomponents)
+
+
+@dataclass(frozen=True)
+class BodyPart:
+    """One part of the robot's body (an Arm, Leg, Head, Torso, Wheel or MobileBase) from the body pass:
+    its movable joints (root-most first), the links they move, the link it hangs from."""
+
+    name: str
+    cls: str
+    confidence: float
+    root: str | None                  # isMountedOn: the parent link of its first joint (None: a base with no joints)
+    joints: tuple[str, ...]
+    links: tuple[str, ...]
+    side: str | None = None           # "left" / "right" for a member of a mirrored pair
+    parent: str | None = None         # the BodyPart it is a sub-component of (a wheel of the base), None: the robot
 
 
 @dataclass(frozen=True)
@@ -58,6 +77,7 @@ class Abstraction:
 
     components: tuple[Component, ...] = ()
     provenance: dict[str, str] = field(default_factory=dict)
+    body: tuple[BodyPart, ...] = ()
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -66,10 +86,13 @@ class Abstraction:
     def from_dict(cls, data: dict) -> "Abstraction":
         comps = tuple(
             Component(**{**c, "subcomponents": tuple(SubComponent(**s) for s in c["subcomponents"]),
-                         "fingers": tuple(_finger(f) for f in c.get("fingers", ()))})
+                         "fingers": tuple(_finger(f) for f in c.get("fingers", ())),
+                         "joints": tuple(c.get("joints", ()))})
             for c in data["components"]
         )
-        return cls(comps, dict(data.get("provenance", {})))
+        body = tuple(BodyPart(**{**b, "joints": tuple(b["joints"]), "links": tuple(b["links"])})
+                     for b in data.get("body", ()))
+        return cls(comps, dict(data.get("provenance", {})), body)
 
 
 def _finger(data: dict) -> FingerFact:

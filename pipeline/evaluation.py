@@ -18,6 +18,9 @@ Conventions beyond the spec (each also stated where it applies):
   matched; subpart accuracy 0 when subparts are listed but none was matched.
 * Hedging does not pay: an individual with several incomparable most specific classes has no
   class (``None``, no credit), one with several ``isMountedOn`` links has no root.
+
+The whole body (spec: "Whole body") is scored by :func:`score` when it is given the URDF's
+kinematic tree; its conventions are in :func:`score_body`.
 """
 from __future__ import annotations
 
@@ -30,8 +33,9 @@ import rdflib
 import yaml
 from rdflib import RDF, RDFS, URIRef
 
-from urdfkb.pipeline.components import KINDS
+from urdfkb.pipeline.components import END_EFFECTOR, KINDS, SIDES
 from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.tree import KinematicTree
 
 CORE = rdflib.Namespace("https://w3id.org/urdfkb/core#")
 ALL = "all"
@@ -43,6 +47,13 @@ METRICS = (
     "root_accuracy", "subpart_accuracy",
 )
 COUNTS = ("n_predicted", "n_truth", "n_matched", "n_subparts")
+BODY = "body"
+BODY_METRICS = (
+    "part_precision", "part_recall", "part_f1",
+    "typed_precision", "typed_recall", "typed_f1",
+    "side_accuracy", "root_accuracy", "joint_accuracy",
+)
+BODY_COUNTS = ("n_predicted", "n_truth", "n_matched", "n_joints")
 
 
 @dataclass(frozen=True)
@@ -64,12 +75,45 @@ class Alternative:
 
 
 @dataclass(frozen=True)
+class TruthBodyPart:
+    """One part of the truth's ``body:`` section; ``links`` keeps file order (the first one
+    identifies a part without joints)."""
+
+    id: str
+    classes: frozenset[str]
+    roots: frozenset[str]
+    joints: frozenset[str]
+    links: tuple[str, ...] = ()
+    side: str | None = None
+
+
+@dataclass(frozen=True)
+class TruthBody:
+    ignore_joints: frozenset[str]
+    parts: tuple[TruthBodyPart, ...]
+
+
+@dataclass(frozen=True)
 class Truth:
     robot: str
     urdf: str
     ignore: frozenset[str]
     components: tuple[TruthComponent, ...]
     alternatives: tuple[Alternative, ...] = ()
+    body: TruthBody | None = None     # None: the file has no body section (body metrics undefined)
+
+
+@dataclass(frozen=True)
+class PredictedBodyPart:
+    """A body part as read from a graph: every ``hasJoint`` joint's and ``hasLink`` link's
+    ``urdfName`` (unfiltered); ``cls``/``side``/``root`` are None when absent or ambiguous."""
+
+    node: str
+    cls: str | None
+    side: str | None
+    root: str | None
+    joints: frozenset[str]
+    links: frozenset[str]
 
 
 @dataclass(frozen=True)
@@ -95,8 +139,34 @@ def _truth_component(d: dict) -> TruthComponent:
                           leaves, subparts)
 
 
+def _truth_body(data: dict, path) -> TruthBody:
+    ignore = frozenset(data.get("ignore_joints") or ())
+    parts, owner = [], {}
+    for d in data.get("parts") or []:
+        where = f"{path}: body part {d.get('id')!r}"
+        part = TruthBodyPart(str(d["id"]), frozenset(d["classes"]), frozenset(d.get("roots") or ()),
+                             frozenset(d.get("joints") or ()), tuple(d.get("links") or ()), d.get("side"))
+        if not part.classes:
+            raise ValueError(f"{where}: no accepted class")
+        if part.side not in (None, *SIDES):
+            raise ValueError(f"{where}: side {part.side!r} is not one of {', '.join(SIDES)}")
+        if not part.joints and not part.links:
+            raise ValueError(f"{where}: a part without joints needs links (its first one identifies it)")
+        if part.joints & ignore:
+            raise ValueError(f"{where}: lists ignored joints {sorted(part.joints & ignore)}")
+        for joint in part.joints:
+            if owner.setdefault(joint, part.id) != part.id:
+                raise ValueError(f"{where}: joint {joint} is also in part {owner[joint]!r}")
+        parts.append(part)
+    ids = [p.id for p in parts]
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"{path}: duplicate body part ids")
+    return TruthBody(ignore, tuple(parts))
+
+
 def load_truth(path: str | Path) -> Truth:
-    """Parse and sanity-check a truth YAML file (format: ../shared/spec/evaluation.md)."""
+    """Parse and sanity-check a truth YAML file (format: ../shared/spec/evaluation.md), its ``body:``
+    section included where present."""
     data = yaml.safe_load(Path(path).read_text())
     comps = tuple(_truth_component(c) for c in data["components"])
     ids = [c.id for c in comps]
@@ -109,7 +179,8 @@ def load_truth(path: str | Path) -> Truth:
             raise ValueError(f"{path}: alternative replaces unknown or already replaced ids {rep}")
         replaced |= set(rep)
         alts.append(Alternative(rep, tuple(_truth_component(c) for c in a["with"])))
-    return Truth(data["robot"], data["urdf"], frozenset(data.get("ignore") or ()), comps, tuple(alts))
+    body = _truth_body(data["body"] or {}, path) if "body" in data else None
+    return Truth(data["robot"], data["urdf"], frozenset(data.get("ignore") or ()), comps, tuple(alts), body)
 
 
 # ---- reading a prediction -------------------------------------------------------------------
@@ -205,6 +276,42 @@ def read_prediction(graph: rdflib.Graph, urdf_leaves: set[str]) -> list[Predicte
     return _read(graph, _Taxonomy(graph), set(urdf_leaves))
 
 
+def _urdf_names(graph: rdflib.Graph, node, prop: URIRef) -> set[str]:
+    return {str(n) for obj in graph.objects(node, prop) for n in graph.objects(obj, CORE.urdfName)}
+
+
+def _read_body(graph: rdflib.Graph, tax: _Taxonomy) -> list[PredictedBodyPart]:
+    body = CORE.BodyPart
+    reached = set()
+    for robot in graph.subjects(RDF.type, CORE.Robot):
+        reached |= _reach(graph, robot, CORE.hasComponent)
+    out = []
+    for node in sorted(reached):
+        types = [t for t in graph.objects(node, RDF.type) if isinstance(t, URIRef) and tax.is_under(t, body)]
+        if not types:
+            continue
+        sides = {str(s) for s in graph.objects(node, CORE.side)}
+        mounts = _urdf_names(graph, node, CORE.isMountedOn)
+        out.append(PredictedBodyPart(
+            node=str(node),
+            cls=tax.most_specific(types),
+            side=sides.pop() if len(sides) == 1 else None,
+            root=mounts.pop() if len(mounts) == 1 else None,
+            joints=frozenset(_urdf_names(graph, node, CORE.hasJoint)),
+            links=frozenset(_urdf_names(graph, node, CORE.hasLink)),
+        ))
+    return out
+
+
+def read_body(graph: rdflib.Graph) -> list[PredictedBodyPart]:
+    """The predicted body parts of ``graph`` (spec: "Whole body"): individuals typed under
+    ``BodyPart`` reached from the ``Robot`` by one or more ``hasComponent`` steps, so a wheel
+    under the mobile base counts as well as the base. Joints are not yet restricted to the
+    scored ones; :func:`score_body` does that.
+    """
+    return _read_body(graph, _Taxonomy(graph))
+
+
 # ---- scoring --------------------------------------------------------------------------------
 
 def _prf(hits: float, n_pred: int, n_truth: int) -> tuple[float, float, float]:
@@ -263,11 +370,14 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
     return out
 
 
-def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str]) -> dict:
+def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str], tree: KinematicTree | None = None) -> dict:
     """Every metric of ../shared/spec/evaluation.md for one robot.
 
-    Returns ``{"all"|"sensor"|"end_effector": {metric: float, count: int}, "partitions":
-    {replaced ids: "canonical"|"alternative"}, "failed": False}``. Ignored leaves are removed
+    Returns ``{"all"|"sensor"|"end_effector": {metric: float, count: int}, "body": {body
+    metric: float, count: int}, "partitions": {replaced ids: "canonical"|"alternative"},
+    "failed": False}``. The body metrics (:func:`score_body`) need the URDF's ``tree`` (which
+    joints move, which lead to an end-effector) and a truth with a body section; without either
+    they are undefined (None) and skipped in means. Ignored leaves are removed
     from predicted and truth leaf sets. A predicted component with no leaf left is not a
     prediction: the spec identifies components by their leaves, so it can match nothing, and
     counting it would penalise labelling exactly what ``ignore`` (or a non-leaf link, such as
@@ -282,15 +392,119 @@ def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str]) -> dict:
     result = {ALL: _scope(preds, truths, tax)}
     for kind in KINDS:
         result[kind] = _scope([p for p in preds if p.kind == kind], [t for t in truths if t.kind == kind], tax)
+    if tree is not None and truth.body is not None:
+        result[BODY] = score_body(truth.body, _read_body(graph, tax), scored_joints(truth, tree), tax)
+    else:
+        result[BODY] = _undefined_body()
     result["partitions"] = chosen
     result["failed"] = False
     return result
 
 
+def end_effector_joints(truth: Truth, tree: KinematicTree) -> frozenset[str]:
+    """The joints of the truth's end-effectors: those on the path from an end-effector's root to
+    one of its leaves. Of several accepted roots the one nearest the leaf is taken (the roots
+    list alternatives such as the wrist roll link or the wrist flex link above it, and the joint
+    between them is an arm joint, not the gripper's); a leaf with none of its roots above it
+    adds nothing. Canonical components only: the alternatives re-partition the same leaves."""
+    out = set()
+    for comp in truth.components:
+        if comp.kind != END_EFFECTOR:
+            continue
+        for leaf in comp.leaves:
+            if leaf not in tree.links:
+                continue
+            chain = tree.chain_to_root(leaf)
+            above = [chain.index(r) for r in comp.roots if r in chain]
+            if above:
+                out.update(tree.parent_edge(link).joint for link in chain[:min(above)])
+    return frozenset(out)
+
+
+def scored_joints(truth: Truth, tree: KinematicTree) -> frozenset[str]:
+    """The movable joints (URDF type not ``fixed``; a fixed joint named by a transmission is still
+    fixed here) minus the body's ``ignore_joints`` and minus :func:`end_effector_joints`."""
+    ignore = truth.body.ignore_joints if truth.body else frozenset()
+    movable = {e.joint for e in tree.edges if e.joint_type != "fixed"}
+    return frozenset(movable - ignore - end_effector_joints(truth, tree))
+
+
+def _undefined_body() -> dict:
+    return {**dict.fromkeys(BODY_METRICS), **dict.fromkeys(BODY_COUNTS, 0)}
+
+
+def _share(hits: list, listed: bool) -> float | None:
+    """Mean of ``hits``; with none, 0 where the truth lists something to score, else undefined."""
+    return fmean(hits) if hits else (0.0 if listed else None)
+
+
+def score_body(body: TruthBody, preds: list[PredictedBodyPart], scored: frozenset[str], tax: _Taxonomy) -> dict:
+    """The body metrics of spec/evaluation.md ("Whole body") for one robot.
+
+    Conventions the spec leaves open (also in the README, "Accuracy and speed"):
+
+    * Both sides' joint sets are cut to ``scored`` before matching. Matching is one-to-one; the
+      truth parts with joints are matched first (equal scored joint sets), then those without
+      (a prediction whose most specific class is one of ``classes`` and whose ``hasLink``s hold
+      the truth's first ``links`` entry: an ancestor class does not identify a part, it only
+      earns half credit in a match made on joints). Among several candidates the best typed
+      wins, then the one with fewest scored joints.
+    * A predicted part left with no scored joint (all its joints ignored, end-effector joints or
+      fixed, or none at all) that matches no jointless truth part is not a prediction: it is not
+      counted in precision, as a component with no scored leaf is not.
+    * Typed credit: 1 for an accepted class, 0.5 for a strict ancestor of one that is itself
+      strictly below ``BodyPart``, else 0. A robot with no truth part and none predicted scores
+      part and typed precision, recall and F1 of 1; predicting one there makes precision 0.
+    * Side accuracy is over matched parts whose truth has a ``side``; a predicted side on a truth
+      part without one is not scored. Body root accuracy is over matched parts with ``roots``.
+      Either is 0 when the truth has such parts but none matched, undefined (None) when it has none.
+    * Joint accuracy is over the scored joints that a truth part lists (the truth files list all
+      of them; tests check it). A joint claimed by ``hasJoint`` from no predicted part, or from
+      several (hedging), scores 0; otherwise its part's typed credit against the truth part
+      owning the joint, or 0 if that truth part has a side and the predicted side differs.
+      Undefined for a robot with no scored joint.
+    """
+    floors = ("BodyPart",)
+    own = {p.node: p.joints & scored for p in preds}
+    parts = [TruthBodyPart(t.id, t.classes, t.roots, t.joints & scored, t.links, t.side) for t in body.parts]
+
+    def credit(p: PredictedBodyPart, t: TruthBodyPart) -> float:
+        return tax.credit(p.cls, t.classes, floors)
+
+    free, pairs = list(preds), []
+    for t in [t for t in parts if t.joints] + [t for t in parts if not t.joints]:
+        if t.joints:
+            cands = [p for p in free if own[p.node] == t.joints]
+        else:
+            cands = [p for p in free if p.cls in t.classes and t.links and t.links[0] in p.links]
+        if cands:
+            best = max(cands, key=lambda p: (credit(p, t), -len(own[p.node])))
+            free.remove(best)
+            pairs.append((best, t))
+    matched = {p.node for p, _ in pairs}
+    counted = [p for p in preds if own[p.node] or p.node in matched]
+    out = dict(zip(("part_precision", "part_recall", "part_f1"), _prf(len(pairs), len(counted), len(parts))))
+    typed = sum(credit(p, t) for p, t in pairs)
+    out.update(zip(("typed_precision", "typed_recall", "typed_f1"), _prf(typed, len(counted), len(parts))))
+    out["side_accuracy"] = _share([p.side == t.side for p, t in pairs if t.side], any(t.side for t in parts))
+    out["root_accuracy"] = _share([p.root in t.roots for p, t in pairs if t.roots], any(t.roots for t in parts))
+    owner = {j: t for t in parts for j in t.joints}
+    joints = []
+    for j in sorted(owner):
+        claims = [p for p in preds if j in p.joints]
+        t = owner[j]
+        ok = len(claims) == 1 and (t.side is None or claims[0].side == t.side)
+        joints.append(credit(claims[0], t) if ok else 0.0)
+    out["joint_accuracy"] = fmean(joints) if joints else None
+    out.update(n_predicted=len(counted), n_truth=len(parts), n_matched=len(pairs), n_joints=len(joints))
+    return out
+
+
 def failed_scores() -> dict:
-    """Scores of a robot whose run failed: every metric and count 0."""
+    """Scores of a robot whose run failed: every metric and count 0, the body's too."""
     zero = {**dict.fromkeys(METRICS, 0.0), **dict.fromkeys(COUNTS, 0)}
-    return {**{s: dict(zero) for s in SCOPES}, "partitions": {}, "failed": True}
+    body = {**dict.fromkeys(BODY_METRICS, 0.0), **dict.fromkeys(BODY_COUNTS, 0)}
+    return {**{s: dict(zero) for s in SCOPES}, BODY: body, "partitions": {}, "failed": True}
 
 
 def mean_scores(per_robot: Mapping[str, dict]) -> dict:
@@ -302,6 +516,8 @@ def mean_scores(per_robot: Mapping[str, dict]) -> dict:
         return fmean(defined) if defined else None
     out = {s: {**{m: mean([r[s][m] for r in runs]) for m in METRICS},
                **{c: sum(r[s][c] for r in runs) for c in COUNTS}} for s in SCOPES}
+    out[BODY] = {**{m: mean([r[BODY][m] for r in runs]) for m in BODY_METRICS},
+                 **{c: sum(r[BODY][c] for r in runs) for c in BODY_COUNTS}}
     out["failed"] = sum(bool(r.get("failed")) for r in runs)
     return out
 
@@ -311,6 +527,11 @@ _HEADERS = {
     "component_precision": "compP", "component_recall": "compR", "component_f1": "compF1",
     "typed_precision": "typedP", "typed_recall": "typedR", "typed_f1": "TYPED_F1",
     "root_accuracy": "root", "subpart_accuracy": "subpart",
+}
+_BODY_HEADERS = {
+    "part_precision": "partP", "part_recall": "partR", "part_f1": "partF1",
+    "typed_precision": "typedP", "typed_recall": "typedR", "typed_f1": "BODY_F1",
+    "side_accuracy": "side", "root_accuracy": "root", "joint_accuracy": "joint",
 }
 
 
@@ -327,7 +548,8 @@ def _table(rows: list[list[str]]) -> list[str]:
 
 def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapping[str, object]] | None = None) -> str:
     """Plain-text report: one block per scope (all, sensor, end_effector), rows the robots and
-    their mean, columns the metrics (the headline is TYPED_F1). ``extra_columns`` maps a column
+    their mean, columns the metrics (the headline is TYPED_F1), then the "body" block (its
+    headline BODY_F1, the typed body-part F1). ``extra_columns`` maps a column
     title to ``{robot: value}`` (e.g. model, voting, LLM calls, tokens, wall time), shown in a
     final "run" block; a value under the key ``"mean"`` fills the mean row.
     """
@@ -335,10 +557,10 @@ def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapp
     mean = mean_scores(per_robot)
     label = {n: n + (" (failed)" if per_robot[n].get("failed") else "") for n in names} | {"mean": "mean"}
     blocks = []
-    for scope in SCOPES:
-        rows = [[scope, *(_HEADERS[m] for m in METRICS)]]
-        rows += [[label[n], *(_cell(per_robot[n][scope][m]) for m in METRICS)] for n in names]
-        rows.append([label["mean"], *(_cell(mean[scope][m]) for m in METRICS)])
+    for scope, metrics, headers in [*((s, METRICS, _HEADERS) for s in SCOPES), (BODY, BODY_METRICS, _BODY_HEADERS)]:
+        rows = [[scope, *(headers[m] for m in metrics)]]
+        rows += [[label[n], *(_cell(per_robot[n][scope][m]) for m in metrics)] for n in names]
+        rows.append([label["mean"], *(_cell(mean[scope][m]) for m in metrics)])
         blocks.append("\n".join(_table(rows)))
     if extra_columns:
         cols = list(extra_columns)

@@ -307,7 +307,14 @@ def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:
         mimic=mimic.get("joint") if mimic is not None else None,
         mimic_multiplier=float(mimic.get("multiplier", "1")) if mimic is not None else 1.0,
         actuated=actuated,
+        velocity=_number(limit, "velocity"),
+        effort=_number(limit, "effort"),
+        mimic_offset=float(mimic.get("offset", "0")) if mimic is not None else 0.0,
     )
+
+
+def _number(element: ET.Element | None, attribute: str) -> float | None:
+    return float(element.get(attribute)) if element is not None and element.get(attribute) is not None else None
 
 
 def _transmitted_joints(robot: ET.Element) -> set[str]:

@@ -1,6 +1,6 @@
 """Populate one robot as its own OWL ontology: structure from the tree, components from an abstraction.
 
-Individual IRIs in `robot_iri(name)`: `robot`, `link_<l>`, `joint_<j>`, `comp_<c>`, `sub_<c>.<l>`, where
+Individual IRIs in `robot_iri(name)`: `robot`, `link_<l>`, `joint_<j>`, `comp_<c>`, `sub_<c>.<l>`, `body_<b>`, where
 each name is escaped: every byte outside ASCII letters, digits, '-', '_' and '~' is percent-encoded
 (so '.' is free as a separator), which makes any URDF name a valid IRI and keeps distinct names distinct.
 """
@@ -13,7 +13,7 @@ from datetime import datetime, timezone
 import owlready2
 
 from urdfkb import __version__
-from urdfkb.pipeline.components import Abstraction, Component
+from urdfkb.pipeline.components import SIDES, Abstraction, BodyPart, Component
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, load_core, vocabulary
 
@@ -68,7 +68,9 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
     """
     vocab = vocab or vocabulary()
     components = abstraction.components if abstraction else ()
+    body = abstraction.body if abstraction else ()
     _check_components(vocab, tree, components)
+    _check_body(vocab, tree, body, components)
     notes = {"ontologyVersion": vocab.version, **stamp(tree), **(abstraction.provenance if abstraction else {}),
              **(provenance or {})}
     load_core(world, vocab)
@@ -77,8 +79,10 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
         robot = _new(world, onto, "Robot", "robot", robot_name)
         _set(world, "urdfName", robot, tree.robot_name)
         links, joints = _add_structure(world, onto, robot, tree, vocab)
+        parts = _add_body(world, onto, robot, body, links, joints)
         for comp in components:
-            _add_fingers(world, onto, _add_component(world, onto, robot, comp, links), comp, joints)
+            individual = _add_component(world, onto, robot, comp, links, joints, parts)
+            _add_fingers(world, onto, individual, comp, joints)
         _annotate(world, robot, notes)
     return onto
 
@@ -106,6 +110,37 @@ def _check_components(vocab: Vocabulary, tree, components: tuple[Component, ...]
                 raise OntologyError(f"{where} lists sub-link {sub.link!r} twice")
             sub_links.add(sub.link)
         _check_fingers(vocab, tree, comp, where)
+
+
+def _check_body(vocab: Vocabulary, tree, body: tuple[BodyPart, ...], components: tuple[Component, ...]) -> None:
+    known, joints = set(tree.links), {e.joint for e in tree.edges}
+    names = {part.name for part in body}
+    if len(names) != len(body):
+        raise OntologyError("a body part name appears twice")
+    for part in body:
+        where = f"body part {part.name!r}"
+        _check_class(vocab, part.cls, "BodyPart", where)
+        _check_confidence(part.confidence, where)
+        for link in (*part.links, *([part.root] if part.root else [])):
+            _check_link(link, known, where)
+        _check_joints(part.joints, joints, where)
+        if part.side not in (None, *SIDES):
+            raise OntologyError(f"{where}: side {part.side!r} is not one of {', '.join(SIDES)}")
+        if part.parent is not None and part.parent not in names:
+            raise OntologyError(f"{where} is under unknown body part {part.parent!r}")
+    for comp in components:
+        where = f"component {comp.name!r}"
+        _check_joints(comp.joints, joints, where)
+        if comp.located_on is not None and comp.located_on not in names:
+            raise OntologyError(f"{where} is located on unknown body part {comp.located_on!r}")
+        if comp.side not in (None, *SIDES):
+            raise OntologyError(f"{where}: side {comp.side!r} is not one of {', '.join(SIDES)}")
+
+
+def _check_joints(names, joints: set[str], where: str) -> None:
+    unknown = [j for j in names if j not in joints]
+    if unknown:
+        raise OntologyError(f"{where} names joint {unknown[0]!r}, which is not in the URDF")
 
 
 def _check_fingers(vocab: Vocabulary, tree, comp: Component, where: str) -> None:
@@ -166,18 +201,57 @@ def _add_structure(world, onto, robot, tree, vocab: Vocabulary) -> tuple[dict, d
         _set(world, "hasParentLink", joint, links[edge.parent])
         _set(world, "hasChildLink", joint, links[edge.child])
         _set(world, "hasJoint", robot, joint)
+        _add_joint_facts(world, joint, edge)
     for edge in tree.edges:
         if edge.mimic is not None and edge.mimic in joints:
             _set(world, "isMimicOf", joints[edge.joint], joints[edge.mimic])
     return links, joints
 
 
-def _add_component(world, onto, robot, comp: Component, links: dict):
+def _add_joint_facts(world, joint, edge) -> None:
+    """Limits, axis and mimic coefficients: "how far can you turn your head" is one query."""
+    facts = {"axisX": edge.axis[0], "axisY": edge.axis[1], "axisZ": edge.axis[2],
+             "velocityLimit": edge.velocity, "effortLimit": edge.effort}
+    if edge.limits is not None:
+        facts |= {"lowerLimit": edge.limits[0], "upperLimit": edge.limits[1]}
+    if edge.mimic is not None:
+        facts |= {"mimicMultiplier": edge.mimic_multiplier, "mimicOffset": edge.mimic_offset}
+    for prop, value in facts.items():
+        if value is not None and math.isfinite(value):
+            _set(world, prop, joint, _decimal(value))
+
+
+def _add_body(world, onto, robot, body: tuple[BodyPart, ...], links: dict, joints: dict) -> dict:
+    """Body parts: `body_<b>` individuals under the robot (or their parent part), with their joints and links."""
+    parts = {}
+    for part in body:
+        ind = parts[part.name] = _new(world, onto, part.cls, "body_" + escape(part.name), part.name)
+        _set(world, "confidence", ind, _decimal(part.confidence))
+        if part.root is not None:
+            _set(world, "isMountedOn", ind, links[part.root])
+        if part.side is not None:
+            _set(world, "side", ind, part.side)
+        for joint in part.joints:
+            _set(world, "hasJoint", ind, joints[joint])
+        for link in part.links:
+            _set(world, "hasLink", ind, links[link])
+    for part in body:
+        _set(world, "hasComponent", parts[part.parent] if part.parent else robot, parts[part.name])
+    return parts
+
+
+def _add_component(world, onto, robot, comp: Component, links: dict, joints: dict, parts: dict):
     local = escape(comp.name)
     ind = _new(world, onto, comp.cls, "comp_" + local, comp.name)
     _set(world, "confidence", ind, _decimal(comp.confidence))
     _set(world, "isMountedOn", ind, links[comp.root])
     _set(world, "hasComponent", robot, ind)
+    for joint in comp.joints:
+        _set(world, "hasJoint", ind, joints[joint])
+    if comp.located_on is not None:
+        _set(world, "isLocatedOn", ind, parts[comp.located_on])
+    if comp.side is not None:
+        _set(world, "side", ind, comp.side)
     for sub in comp.subcomponents:
         part = _new(world, onto, sub.cls, f"sub_{local}.{escape(sub.link)}", sub.link)
         _set(world, "hasLink", part, links[sub.link])

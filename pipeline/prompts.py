@@ -134,3 +134,30 @@ def device_name_question(frame: str, prefixes: Sequence[str]) -> Question:
         " claw_finger_1_tip_link -> claw.\nReply with the device name only."
     )
     return Question(system, f"Frame: {frame}", tuple(prefixes), key=f"device:{frame}")
+
+
+BODY_PARTS = ("Arm", "Leg", "Head", "Torso", "Wheel", "MobileBase")
+
+
+def body_choice(tax: Vocabulary, evidence: str, key: str) -> Choice:
+    """Which body part (or none) a chain of moving joints is; `evidence` from stages.body."""
+    system = (
+        _PREAMBLE + "Decide which part of the robot's body a chain of moving joints is. Each joint is given with"
+        " its type and how it moves the robot at rest (x forward, y left, z up).\nParts:\n"
+        + _definitions(tax, BODY_PARTS)
+        + f"\n- {NONE}: none of these: a mechanism of the device it carries (a tilting sensor mount, a bumper's"
+        " switch) or a passive linkage.\nReply with the part only."
+    )
+    return _class_choice(system, evidence, tax, BODY_PARTS, key, {NONE: NONE})
+
+
+def side_question(label: str, left: Sequence[str], right: Sequence[str]) -> Question:
+    """Which of two mirrored parts (their joints) the names call the robot's left; the options are their
+    first joints, geometry's left one first."""
+    system = (
+        _PREAMBLE + "Robots often have body parts in mirrored pairs. Names usually tell the robot's left one from"
+        " its right one (l/r, left/right, L/R, or a side letter in a prefix).\nReply with the first joint"
+        " of the part on the robot's left."
+    )
+    user = f"Two {label} parts:\n- {left[0]}: {', '.join(left)}\n- {right[0]}: {', '.join(right)}"
+    return Question(system, user, (left[0], right[0]), key=f"side:{left[0]}")

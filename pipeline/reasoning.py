@@ -95,3 +95,54 @@ def _inference(individual, chains: dict) -> Inference:
     thumbs = tuple(name for name, chain in chains.items()
                    if any(getattr(c, "iri", "") == CORE_IRI + THUMB for c in chain.is_a))
     return Inference(cls, thumbs)
+
+
+@dataclass(frozen=True)
+class PartFacts:
+    """What the code asserts of one candidate body part (pipeline.stages.body): the URDF types of its
+    joints, the classes of the devices on its links, the candidates hanging from them (by index),
+    and whether it reaches the ground."""
+
+    joint_types: tuple[str, ...]
+    devices: tuple[str, ...]
+    carries: tuple[int, ...]
+    reaches_ground: bool
+
+
+def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
+    """Each candidate's BodyPart class inferred from the ontology's sufficient conditions (None where
+    they settle none, or settle two), and the reasoner's wall time (0 when nothing needed it)."""
+    if not parts:
+        return [], 0.0
+    tax, tool = vocabulary(), _tool_class()
+    body = tax.subclasses("BodyPart")
+    world = owlready2.World()
+    try:
+        core = load_core(world)
+        onto = world.get_ontology("urn:urdfkb:body#")
+        with onto:
+            individuals = [core.BodyPart(f"part{i}") for i in range(len(parts))]
+            for i, (facts, part) in enumerate(zip(parts, individuals)):
+                part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
+                part.carriesDevice = [core[cls](f"part{i}_device{j}") for j, cls in enumerate(facts.devices)]
+                part.carriesPart = [individuals[k] for k in facts.carries]
+                part.reachesGround = facts.reaches_ground
+                # what the conditions count is asserted as counts: no closure, no cardinality reasoning
+                part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
+                part.deviceCount = len(facts.devices)
+                part.endEffectorCount = sum(tax.is_a(cls, tool) for cls in facts.devices)
+        started = time.monotonic()
+        try:
+            owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
+        except (owlready2.OwlReadyJavaError, OSError) as e:  # no Java, or HermiT failed: the model is asked
+            log.warning("reasoner unavailable (%s): body parts are left to the model", e)
+            return [None] * len(parts), time.monotonic() - started
+        seconds = time.monotonic() - started
+        inferred = []
+        for part in individuals:
+            classes = {c.iri[len(CORE_IRI):] for c in part.is_a if isinstance(c, owlready2.ThingClass)}
+            settled = [c for c in body if c in classes]
+            inferred.append(settled[0] if len(settled) == 1 else None)
+        return inferred, seconds
+    finally:
+        world.close()

@@ -18,6 +18,7 @@ from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
 from urdfkb.pipeline.population import stamp
 from urdfkb.pipeline.stages.asking import Progress
+from urdfkb.pipeline.stages.body import body_pass
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -130,7 +131,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     model_file = _model_file(settings) if backend is None else {}  # its digest keys the cache: a replaced file misses
     digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
-        return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)})
+        return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)}, hit.body)
     owned = backend is None
     backend = backend or make_backend(settings)
     try:
@@ -139,6 +140,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
         abstractor = Abstractor(oracle, vocabulary(), progress, log)
         components = abstractor.run(tree)
+        body, components = body_pass(oracle, vocabulary(), tree, list(components), progress, log)
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),
@@ -151,7 +153,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     finally:
         if owned:
             backend.close()
-    result = Abstraction(components, provenance)
+    result = Abstraction(tuple(components), provenance, tuple(body))
     if settings.use_cache:
         cache.store(digest, result)
-    return Abstraction(components, {**provenance, **stamp(tree)})
+    return Abstraction(tuple(components), {**provenance, **stamp(tree)}, tuple(body))

@@ -6,9 +6,13 @@
   moving prismatic (sliding), pivoting (revolute, continuous) or frozen (written fixed, yet driven),
   whose tip (its deepest link) closes against another chain's tip.
 - Two chains *oppose* when their tips move towards (or away from) each other along the line joining
-  them as the tool closes, or, where the tips coincide, in opposite directions. Motions are taken
+  them as the tool closes, or, where the tips coincide, in opposite directions. The line is taken
+  in the plane of the two motions: an offset across both (fingers of unequal length on a radial
+  gripper, a thumb beside the row of fingers) neither brings the tips together nor keeps them apart. Motions are taken
   with every joint halfway through its range (a hand written closed shows no opposition), the drive
-  moving positively and each joint of the chain coupled to it by <mimic> moving with it. A driven
+  moving positively and each joint of the chain coupled to it by <mimic> moving with it; a drive
+  that itself follows another joint moves as that joint moves positively (a jaw mimicking the other
+  with multiplier -1 and the same axis turns the other way). A driven
   subtree that opposes no other, whose tip sits on its drive's axis, or that hangs on a planar or
   floating joint, is a *mechanism* (a motor, a lead screw), not a finger.
 - Two chains *move together* when their tips' directions of motion are within 60 degrees
@@ -31,6 +35,7 @@ from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
 OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
 ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together
 APPROACH = 0.4   # separate tips: share of each tip's motion along the line joining them, with opposite signs
+_PLANE = 0.5     # sine of the angle between two tips' motions above which they span a plane
 _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
@@ -156,6 +161,8 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
                 joint = _in_frame(tree, link, fork, (0.0, 0.0, 0.0), pose)
                 part = _cross(axis, (point[0] - joint[0], point[1] - joint[1], point[2] - joint[2]))
             velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
+    if drive.mimic is not None and drive.mimic_multiplier < 0:  # the drive turns against the joint it follows
+        velocity = (-velocity[0], -velocity[1], -velocity[2])
     direction = _unit(velocity) if _dot(velocity, velocity) >= _STILL else None
     return None if direction is None else (point, direction)
 
@@ -214,8 +221,17 @@ def _opposed(a: Motion | None, b: Motion | None) -> bool:
     if a is None or b is None:
         return False
     (pa, va), (pb, vb) = a, b
-    line = _unit((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]))
-    if line is None or _norm((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2])) < _TOUCHING:
+    gap = (pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2])
+    # an offset across both motions brings no tip nearer: the gap in their plane, or along them
+    # where they are nearly collinear
+    if _norm(across_both := _cross(va, vb)) > _PLANE and (normal := _unit(across_both)):
+        across = _dot(gap, normal)
+        gap = (gap[0] - across * normal[0], gap[1] - across * normal[1], gap[2] - across * normal[2])
+    elif _norm(gap) >= _TOUCHING:
+        along = _dot(gap, va)
+        gap = (along * va[0], along * va[1], along * va[2])
+    line = _unit(gap)
+    if line is None or _norm(gap) < _TOUCHING:
         return _dot(va, vb) < OPPOSED
     along_a, along_b = _dot(va, line), _dot(vb, line)
     return along_a * along_b < 0 and min(abs(along_a), abs(along_b)) >= APPROACH

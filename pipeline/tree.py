@@ -25,8 +25,9 @@ class Edge:
     """One joint of the tree, from its parent link to its child link, with what the URDF says of its motion.
 
     `axis` is in the joint (child) frame, (1, 0, 0) where the URDF gives none; `limits` is (lower, upper)
-    where a <limit> gives them; `mimic` names the joint this one follows (position = multiplier x that
-    joint's + offset); `actuated` says a <transmission> names the joint.
+    where a <limit> gives them, `velocity` and `effort` its other two bounds; `mimic` names the joint this
+    one follows (position = mimic_multiplier x that joint's + mimic_offset); `actuated` says a
+    <transmission> names the joint.
     """
 
     joint: str
@@ -39,6 +40,9 @@ class Edge:
     mimic: str | None = None
     mimic_multiplier: float = 1.0
     actuated: bool = False
+    velocity: float | None = None
+    effort: float | None = None
+    mimic_offset: float = 0.0
 
     @property
     def movable(self) -> bool:

@@ -37,4 +37,4 @@ def run_truth_robot(truth_path: str | Path, settings: Settings, backend: Backend
     abstraction = run(tree, settings, backend=backend, progress=progress, trace=trace)
     seconds = time.monotonic() - started
     graph = robot_graph(build_robot(owlready2.World(), tree, truth.robot, abstraction))
-    return RobotRun(truth.robot, evaluation.score(truth, graph, set(tree.leaves())), abstraction, seconds)
+    return RobotRun(truth.robot, evaluation.score(truth, graph, set(tree.leaves()), tree), abstraction, seconds)

@@ -1,9 +1,13 @@
 """xacro robot descriptions: expanded to URDF by the ROS `xacro` package in a bounded child process.
 
-The child (`pipeline/xacro_worker.py`, started as `python -I FILE` without a shell) has CPU,
-memory and time limits and may read only the main file's folder (command line) and the package
-paths given; see its docstring for every guard. Every refusal is a XacroError (a URDFError)
-naming the file and line.
+xacro's `${...}` expressions are Python, so a xacro document is code. The child
+(`pipeline/xacro_worker.py`, started as `python -I FILE` without a shell) sets CPU, memory and
+file-size limits and lowers its priority before reading its input, and may read only the main
+file's folder (command line) and the package paths given; see its docstring for every guard.
+Those guards live in the interpreter that runs the expression, so for documents from strangers
+(`confined=True`, the server) the child also runs inside the operating-system boundary of
+pipeline.sandbox (bubblewrap and seccomp, as an unprivileged user). Its output is read with a cap.
+Every refusal is a XacroError (a URDFError) naming the file and line.
 """
 from __future__ import annotations
 
@@ -16,6 +20,7 @@ import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
 from urdfkb.pipeline.tree import KinematicTree
@@ -24,6 +29,8 @@ WORKER = Path(__file__).with_name("xacro_worker.py")
 TIMEOUT = 20.0          # seconds of wall time for one expansion
 CPU_SECONDS = 10
 MEMORY = 1 << 30        # address space of the child
+SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the sandbox
+SANDBOX_MAIN = "/main"
 XACRO_NS = b"http://www.ros.org/wiki/xacro"
 _RUNNING = threading.BoundedSemaphore(2)  # at most two children (2 x MEMORY) at once per process
 
@@ -64,29 +71,46 @@ def parse_package_paths(items: Iterable[str]) -> dict[str, Path]:
 
 def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
            args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-           max_bytes: int = DEFAULT_MAX_BYTES, timeout: float = TIMEOUT) -> bytes:
+           max_bytes: int = DEFAULT_MAX_BYTES, timeout: float = TIMEOUT, confined: bool = False) -> bytes:
     """The URDF that xacro document `data` (called `name`) expands to.
 
     Includes, `$(find NAME)` and `package://NAME/` resolve inside `main_dir` (None for uploads:
     then nothing beside the package paths) and `packages` only; `args` are the xacro:arg values.
-    """
+    `confined` runs the child inside pipeline.sandbox (sandbox.Unavailable where it cannot)."""
     if len(data) > max_bytes:
         raise XacroError(f"{name}: too large: over the {max_bytes}-byte limit")
-    request = {"text": data.decode("utf-8", "replace"), "name": name,
-               "main_dir": str(Path(main_dir).resolve()) if main_dir else None,
-               "args": dict(args or {}), "packages": {k: str(v) for k, v in (packages or {}).items()},
-               "max_bytes": max_bytes}
+    packages = {k: Path(v).resolve() for k, v in (packages or {}).items()}
+    main = Path(main_dir).resolve() if main_dir else None
+    if confined:  # the child sees these folders at fixed places, and never the host's paths
+        mounts = {f"{SANDBOX_PACKAGES}/{k}": v for k, v in packages.items()} | ({SANDBOX_MAIN: main} if main else {})
+        seen_packages = {k: f"{SANDBOX_PACKAGES}/{k}" for k in packages}
+        seen_main = SANDBOX_MAIN if main else None
+    else:
+        seen_packages, seen_main = {k: str(v) for k, v in packages.items()}, str(main) if main else None
+    request = {"text": data.decode("utf-8", "replace"), "name": name, "main_dir": seen_main,
+               "args": dict(args or {}), "packages": seen_packages, "max_bytes": max_bytes}
     limits = json.dumps({"memory": MEMORY, "cpu": CPU_SECONDS})
+    cap = 2 * max_bytes + 65536  # the JSON answer around an expanded URDF of at most max_bytes
     with _RUNNING, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
         try:
-            proc = subprocess.run([sys.executable, "-I", str(WORKER), limits], input=json.dumps(request).encode(),
-                                  capture_output=True, timeout=timeout, cwd=empty, env={"PATH": "/usr/bin:/bin"})
+            if confined:
+                argv, bpf = sandbox.confine(WORKER, [limits], mounts)
+                code, out, err = sandbox.run(argv, bpf, json.dumps(request).encode(), timeout, cap)
+            else:
+                code, out, err = sandbox.bounded_run([sys.executable, "-I", str(WORKER), limits],
+                                                     json.dumps(request).encode(), timeout, cap,
+                                                     cwd=empty, env={"PATH": "/usr/bin:/bin"})
         except subprocess.TimeoutExpired:
             raise XacroError(f"{name}: expansion took longer than {timeout:.0f} s (a macro or expression that does not end?)") from None
-    if proc.returncode != 0 or not proc.stdout:
+        except sandbox.Unavailable as e:
+            raise XacroError(f"{name}: cannot confine the expansion: {e}") from None
+    if code != 0 or not out:
         raise XacroError(f"{name}: expansion stopped by its CPU or memory limit (an expression or macro that grows "
-                         f"without bound?){_tail(proc.stderr)}")
-    answer = json.loads(proc.stdout)
+                         f"without bound?){_tail(err)}")
+    try:
+        answer = json.loads(out)
+    except ValueError:
+        raise XacroError(f"{name}: expansion wrote more than {cap} bytes or no answer") from None
     if "error" in answer:
         raise XacroError(answer["error"])
     return answer["urdf"].encode()
@@ -100,11 +124,11 @@ def _tail(stderr: bytes) -> str:
 def load_description(source: str | os.PathLike | bytes, *, filename: str | None = None,
                      args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
                      max_bytes: int = DEFAULT_MAX_BYTES, max_links: int = DEFAULT_MAX_LINKS,
-                     trust_folder: bool = True) -> KinematicTree:
+                     trust_folder: bool = True, confined: bool = False) -> KinematicTree:
     """A URDF or xacro file (path) or document (bytes) as a checked tree.
 
     For a path, the file's own folder may be read by includes when `trust_folder` (the command
-    line); uploaded bytes never read anything but the package paths."""
+    line); uploaded bytes never read anything but the package paths. `confined`: see expand()."""
     main_dir = None
     if isinstance(source, bytes):
         data = source
@@ -123,7 +147,7 @@ def load_description(source: str | os.PathLike | bytes, *, filename: str | None 
             raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
         return load_urdf(data, max_bytes=max_bytes, max_links=max_links)
     urdf = expand(data, filename or "robot.urdf.xacro", main_dir=main_dir, args=args, packages=packages,
-                  max_bytes=max_bytes)
+                  max_bytes=max_bytes, confined=confined)
     try:
         return load_urdf(urdf, max_bytes=max_bytes, max_links=max_links)
     except URDFError as e:

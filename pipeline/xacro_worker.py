@@ -2,9 +2,12 @@
 
 Reads a JSON request on stdin, writes {"urdf": text} or {"error": message} on stdout. The ROS
 `xacro` package evaluates `${...}` with Python's eval and `$(eval ...)` with full builtins, so it
-cannot be trusted with hostile input in the server's own process. Here it runs with:
+cannot be trusted with hostile input in the server's own process. The guards below run in the same
+interpreter as the expressions, so they only help an honest document fail clearly; for documents
+from strangers the real boundary is the operating system's (pipeline.sandbox: bubblewrap, seccomp,
+an unprivileged user), around this process. Here it runs with:
 
-- CPU, address-space and file-size limits set before any input is read;
+- CPU, address-space and file-size limits and the lowest CPU priority, set before any input is read;
 - a Python audit hook (which nothing can remove) refusing processes, sockets, native code and
   every file write, and file reads outside the allowed directories;
 - `open` in xacro's module replaced by one that resolves `package://NAME/` and only opens files
@@ -220,7 +223,9 @@ def audit(event: str, args: tuple) -> None:
         path, mode, flags = args
         if isinstance(path, int):
             return
-        if (mode and any(c in mode for c in "wax+")) or (flags or 0) & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+        if not isinstance(path, (str, bytes)):  # a PathLike's __fspath__ could answer differently when opened
+            raise PermissionError("xacro expansion opens files by name only")
+        if (mode and any(c in mode for c in "wax+")) or (flags or 0) & (os.O_WRONLY | os.O_RDWR | os.O_CREAT | os.O_TRUNC):
             raise PermissionError("xacro expansion may not write files")
         if not REQ.inside(os.fsdecode(path)):
             raise PermissionError(f"reading {os.path.basename(os.fsdecode(path))} is outside the allowed directories")
@@ -269,6 +274,7 @@ def main() -> int:
     resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
     resource.setrlimit(resource.RLIMIT_CPU, (limits["cpu"], limits["cpu"] + 1))
     resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+    os.nice(19)  # a document that burns its CPU seconds does so behind every request of the server
     REQ = Request(json.loads(sys.stdin.read()))
     install_guards()
     sys.setrecursionlimit(3000)
@@ -277,7 +283,7 @@ def main() -> int:
         result = {"urdf": expand(REQ)}
     except Exception as e:  # everything becomes a message for the parent
         result = {"error": describe(e)}
-    sys.stdout.write(json.dumps(result))
+    sys.stdout.buffer.write(json.dumps(result, ensure_ascii=False).encode("utf-8", "replace"))
     return 0
 
 

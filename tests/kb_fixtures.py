@@ -5,10 +5,11 @@ from __future__ import annotations
 import socket
 import threading
 from contextlib import contextmanager
+from dataclasses import replace
 
 from waitress import create_server
 
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, BodyPart, Component, SubComponent
 
 
 def _comp(name, kind, cls, conf, root, *subs):
@@ -40,6 +41,56 @@ PR2 = Abstraction((
           ("r_gripper_l_finger_tip_link", "ContactSurface", 0.8),
           ("r_gripper_r_finger_tip_link", "ContactSurface", 0.8)),
 ), {"mode": "hand-written test fixture"})
+
+
+def _arm(side: str) -> BodyPart:
+    s = side[0]
+    joints = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "elbow_flex", "forearm_roll", "wrist_flex", "wrist_roll")
+    links = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "upper_arm", "elbow_flex", "forearm_roll", "forearm",
+             "wrist_flex", "wrist_roll")
+    return BodyPart(f"{s}_arm", "Arm", 0.9, "torso_lift_link", tuple(f"{s}_{j}_joint" for j in joints),
+                    tuple(f"{s}_{l}_link" for l in links), side)
+
+
+# PR2's whole body as the body pass would give it (joints root-most first), and PR2 with it: every component
+# of PR2 located on its body part, the right gripper's finger joints, and a left gripper on the left arm.
+PR2_BODY = (
+    BodyPart("base", "MobileBase", 0.95, "base_link", tuple(f"{c}_caster_rotation_joint" for c in ("fl", "fr", "bl", "br")),
+             tuple(f"{c}_caster_rotation_link" for c in ("fl", "fr", "bl", "br"))),
+    *(BodyPart(f"{c}_caster_{w}_wheel", "Wheel", 0.9, f"{c}_caster_rotation_link", (f"{c}_caster_{w}_wheel_joint",),
+               (f"{c}_caster_{w}_wheel_link",), parent="base") for c in ("fl", "fr", "bl", "br") for w in "lr"),
+    BodyPart("torso", "Torso", 0.85, "base_link", ("torso_lift_joint",),
+             ("torso_lift_link", "l_torso_lift_side_plate_link", "r_torso_lift_side_plate_link")),
+    BodyPart("head", "Head", 0.8, "torso_lift_link", ("head_pan_joint", "head_tilt_joint"),
+             ("head_pan_link", "head_tilt_link", "head_plate_frame", "sensor_mount_link", "double_stereo_link", "head_mount_link")),
+    _arm("right"),
+    _arm("left"),
+)
+_LOCATED = {"kinect": "head", "wide_stereo": "head", "prosilica": "head", "r_forearm_cam": "r_arm", "base_laser": "base",
+            "tilt_laser": "torso", "imu": "torso", "r_gripper_accelerometer": "r_arm", "r_gripper": "r_arm"}
+
+
+def _fingers(s: str) -> tuple[str, ...]:
+    return tuple(f"{s}_gripper_{f}_joint" for f in ("l_finger", "r_finger", "l_finger_tip", "r_finger_tip"))
+
+
+def _located(c: Component) -> Component:
+    part = _LOCATED[c.name]
+    return replace(c, located_on=part, side="right" if part == "r_arm" else None,
+                   joints=_fingers("r") if c.name == "r_gripper" else ())
+
+
+PR2_WHOLE = Abstraction((
+    *(_located(c) for c in PR2.components),
+    replace(_comp("l_gripper", END_EFFECTOR, "ParallelGripper", 0.86, "l_wrist_roll_link",
+                  ("l_gripper_palm_link", "Palm", 0.9),
+                  ("l_gripper_tool_frame", "ToolCenterPoint", 0.9),
+                  ("l_gripper_l_finger_link", "Finger", 0.85),
+                  ("l_gripper_r_finger_link", "Finger", 0.85),
+                  ("l_gripper_l_finger_tip_link", "ContactSurface", 0.8),
+                  ("l_gripper_r_finger_tip_link", "ContactSurface", 0.8)),
+            located_on="l_arm", side="left", joints=_fingers("l")),
+), {"mode": "hand-written test fixture"}, PR2_BODY)
 
 
 def free_port() -> int:

@@ -9,7 +9,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE_DIR = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
-SOURCES = sorted(p for folder in [*PACKAGE_DIR.values(), "tests", "benchmarks"] for p in (REPO / folder).rglob("*.py"))
+SOURCES = sorted(p for folder in [*PACKAGE_DIR.values(), "tests", "benchmarks", "examples"]
+                 for p in (REPO / folder).rglob("*.py"))
 
 
 @functools.cache
@@ -40,7 +41,8 @@ def test_import_root_lays_out_the_installed_package():
         if package != "urdfkb":
             link = root.joinpath(*package.split("."))
             assert link.is_symlink() and link.resolve() == (REPO / folder).resolve(), package
-    for name in ("__init__.py", "__main__.py"):
+    modules = {p.name for p in (REPO / "urdfkb").glob("*.py")}
+    for name in modules:
         assert (root / "urdfkb" / name).resolve() == REPO / "urdfkb" / name
     assert {p.name for p in (root / "urdfkb").iterdir()} == {
-        "__init__.py", "__main__.py", *(p.split(".", 1)[1] for p in PACKAGE_DIR if p != "urdfkb")}
+        *modules, *(p.split(".", 1)[1] for p in PACKAGE_DIR if p != "urdfkb")}

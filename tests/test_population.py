@@ -232,3 +232,62 @@ def test_shared_urdfs_populate_exactly_and_consistently(shared):
         assert names == set(tree.links), path.name
     owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
     assert list(world.inconsistent_classes()) == []
+
+
+def test_joint_facts_body_parts_and_locations():
+    """Limits, axis and mimic on every joint; body parts under the robot (a wheel under the base), with their
+    joints, links, mount and side; a device located on the part carrying its mount, with its own joints."""
+    urdf = (b'<robot name="j"><link name="base"/><link name="wheel"/><link name="upper"/><link name="hand"/>'
+            b'<link name="jaw"/><link name="jaw2"/>'
+            b'<joint name="roll" type="continuous"><parent link="base"/><child link="wheel"/><axis xyz="0 1 0"/></joint>'
+            b'<joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/><origin xyz="0 0.2 0"/>'
+            b'<axis xyz="0 0 1"/><limit lower="-1.5" upper="2.25" velocity="3" effort="40"/></joint>'
+            b'<joint name="wrist" type="fixed"><parent link="upper"/><child link="hand"/></joint>'
+            b'<joint name="grip" type="prismatic"><parent link="hand"/><child link="jaw"/>'
+            b'<limit lower="0" upper="0.04" velocity="0.1" effort="5"/></joint>'
+            b'<joint name="grip2" type="prismatic"><parent link="hand"/><child link="jaw2"/><mimic joint="grip" multiplier="-1" offset="0.01"/>'
+            b'<limit lower="-0.04" upper="0" velocity="0.1" effort="5"/></joint></robot>')
+    tree = load_urdf(urdf)
+    from urdfkb.pipeline.components import BodyPart
+    gripper = Component("g", "end_effector", "ParallelGripper", 1.0, "upper",
+                        (SubComponent("hand", "Palm", 1.0), SubComponent("jaw", "Finger", 1.0), SubComponent("jaw2", "Finger", 1.0)),
+                        joints=("grip", "grip2"), located_on="arm", side="left")
+    body = (BodyPart("base", "MobileBase", 1.0, None, (), ("base",)),
+            BodyPart("wheel", "Wheel", 1.0, "base", ("roll",), ("wheel",), parent="base"),
+            BodyPart("arm", "Arm", 0.9, "base", ("shoulder",), ("upper",), side="left"))
+    world = owlready2.World()
+    g = triples(build_robot(world, tree, "j", Abstraction((gripper,), {}, body)))
+    owlready2.sync_reasoner(world, infer_property_values=False, debug=0)  # the body's axioms hold: consistent
+    assert list(world.inconsistent_classes()) == []
+    shoulder, grip2 = named(g, "shoulder"), named(g, "grip2")
+    facts = {p.split("#")[1]: float(o) for p, o in g.predicate_objects(shoulder)
+             if isinstance(o, rdflib.Literal) and p.startswith(CORE_IRI) and p != CORE.urdfName}
+    assert facts == {"lowerLimit": -1.5, "upperLimit": 2.25, "velocityLimit": 3.0, "effortLimit": 40.0,
+                     "axisX": 0.0, "axisY": 0.0, "axisZ": 1.0}
+    assert float(g.value(grip2, CORE.mimicMultiplier)) == -1 and float(g.value(grip2, CORE.mimicOffset)) == 0.01
+    assert (grip2, CORE.isMimicOf, named(g, "grip")) in g
+    robot = next(g.subjects(rdflib.RDF.type, CORE.Robot))
+    [base] = g.subjects(rdflib.RDF.type, CORE.MobileBase)
+    [wheel] = g.subjects(rdflib.RDF.type, CORE.Wheel)
+    [arm] = g.subjects(rdflib.RDF.type, CORE.Arm)
+    assert {(robot, CORE.hasComponent, base), (base, CORE.hasComponent, wheel), (robot, CORE.hasComponent, arm)} <= set(g)
+    assert (wheel, CORE.hasJoint, named(g, "roll")) in g and (wheel, CORE.isMountedOn, named(g, "base")) in g
+    assert str(g.value(arm, CORE.side)) == "left" and (arm, CORE.hasLink, named(g, "upper")) in g
+    assert g.value(base, CORE.isMountedOn) is None and (base, CORE.hasLink, named(g, "base")) in g
+    [comp] = g.subjects(rdflib.RDF.type, CORE.ParallelGripper)
+    assert (comp, CORE.isLocatedOn, arm) in g and str(g.value(comp, CORE.side)) == "left"
+    assert set(g.objects(comp, CORE.hasJoint)) == {named(g, "grip"), grip2}
+
+
+@pytest.mark.parametrize("part,message", [
+    (dict(cls="Sonar"), "not a BodyPart class"),
+    (dict(joints=("nope",)), "names joint 'nope'"),
+    (dict(side="up"), "side 'up'"),
+    (dict(parent="ghost"), "unknown body part 'ghost'"),
+])
+def test_bad_body_parts_are_refused(part, message):
+    from urdfkb.pipeline.components import BodyPart
+    body = (BodyPart(**{**dict(name="p", cls="Arm", confidence=1.0, root="base_link", joints=("head_joint",),
+                               links=("head_link",)), **part}),)
+    with pytest.raises(OntologyError, match=message):
+        build_robot(owlready2.World(), sample_tree(), "t", Abstraction((), {}, body))

@@ -5,7 +5,8 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
   moving joints (a caster on a base), or whose mount carries an arm beside the tool (a cover half-way
   up an arm), is no tool;
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
-  ARM_JOINTS independent moving joints: an arm, not a finger) is split at that fork;
+  ARM_JOINTS independent moving joints reaching at least ARM_REACH of the fork's distance from the
+  root: an arm, not a finger of four joints) is split at that fork;
 - the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
   never above the arm's last moving link: links above that mount leave the tool;
 - the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
@@ -17,6 +18,7 @@ the link it is mounted on may be (a camera on a palm).
 """
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 from urdfkb.pipeline.structure import ToolStructure, fork_of, tool_structure
@@ -25,7 +27,8 @@ from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group
 from urdfkb.pipeline.stages.verification import Log
 
-ARM_JOINTS = 4  # independent moving joints in series that make an arm (a finger has at most 3)
+ARM_JOINTS = 4  # independent moving joints in series that make an arm, if long enough (ARM_REACH)
+ARM_REACH = 0.5  # share of the distance from the root that a chain of ARM_JOINTS must reach to be an arm
 
 
 def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str], bool],
@@ -47,7 +50,7 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
     settled = []
     for leaves, structure, links in done:
         mount = structure.mount
-        if _joints_above(tree, mount) < 2 or any(_serial_joints(tree, child) >= ARM_JOINTS
+        if _joints_above(tree, mount) < 2 or any(_carries_arm(tree, child)
                                                  for child in tree.children(mount) if child not in links):
             log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
             continue
@@ -66,7 +69,7 @@ def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
     if len(group.leaves) < 2:
         return [group]
     fork = fork_of(tree, group.leaves)
-    if not any(_serial_joints(tree, child) >= ARM_JOINTS for child in tree.children(fork)):
+    if not any(_carries_arm(tree, child) for child in tree.children(fork)):
         return [group]
     parts: dict[str, list[str]] = {}
     for leaf in group.leaves:
@@ -80,6 +83,21 @@ def _joints_above(tree: KinematicTree, link: str) -> int:
     """Independent moving joints (no <mimic>) between the tree's root and `link`, its own included."""
     edges = (tree.parent_edge(x) for x in tree.chain_to_root(link)[:-1])
     return sum(e.independent for e in edges)
+
+
+def _carries_arm(tree: KinematicTree, top: str) -> bool:
+    """`top` and what hangs below it make an arm: a serial chain of at least ARM_JOINTS independent
+    moving joints that reaches at least ARM_REACH of the distance from the tree's root to `top`'s parent
+    (a finger of four joints, as on many hands, is short beside the arm that carries it)."""
+    if _serial_joints(tree, top) < ARM_JOINTS:
+        return False
+    parent = tree.parent_edge(top).parent
+    reach = max(_norm(tree.position_in(link, parent)) for link in (top, *tree.descendants(top)))
+    return reach >= ARM_REACH * _norm(tree.position_in(parent, tree.root))
+
+
+def _norm(v) -> float:
+    return math.sqrt(sum(x * x for x in v))
 
 
 def _serial_joints(tree: KinematicTree, top: str) -> int:

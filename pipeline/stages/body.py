@@ -1,0 +1,306 @@
+"""The body pass: every movable joint not owned by a device, grouped into body parts and classified.
+
+Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
+joints between branch points (a link from which two or more chains go on), cut after a sliding
+joint that lifts turning ones, with a trailing rolling joint that carries nothing split off as a
+wheel candidate. The code asserts what structure says of
+each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
+the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
+(a part carrying an end-effector off the ground is an arm, ...). The model classifies the
+candidates those leave open among the BodyPart classes (or none: a device's mechanism), shown: its
+joints with their type and the direction of their axis in the robot's frame, the links it moves,
+what it hangs from, what it carries (devices, further chains) and whether it reaches the ground.
+Adjacent chains given the same class join (a shoulder joint split off by a head hung on the same
+link); chains of the mobile base join it, around the chassis its wheels and base joints hang from.
+`side` comes from geometry (REP 103: +y of the root frame is left, at the zero pose), checked once
+per class of mirrored parts against the model's reading of the names, which wins where it is sure.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from urdfkb.pipeline import reasoning
+from urdfkb.pipeline.components import END_EFFECTOR, BodyPart, Component
+from urdfkb.pipeline.evidence import named
+from urdfkb.pipeline.ontology import Vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import NONE, body_choice, side_question
+from urdfkb.pipeline.stages.asking import Progress, ask
+from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
+
+BASE, WHEEL = "MobileBase", "Wheel"
+JOINING = ("Arm", "Leg", "Head", "Torso")  # classes whose adjacent chains are one part
+SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
+GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
+NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
+Log = Callable[[str], None]
+
+
+@dataclass
+class Chain:
+    """A candidate: serial body joints (root-most first) and the links they move."""
+
+    joints: list[Edge]
+    links: list[str]
+    cls: str = NONE
+    confidence: float = 0.0
+
+    @property
+    def mount(self) -> str:
+        return self.joints[0].parent
+
+    @property
+    def end(self) -> str:
+        return self.joints[-1].child
+
+
+def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
+    """The movable joints on the paths from a component's mount to its links (an end-effector's fingers)."""
+    found: dict[str, None] = {}
+    for link in comp.links:
+        for current in tree.chain_to_root(link):
+            if current == comp.root:
+                break
+            edge = tree.parent_edge(current)
+            if edge.movable:
+                found[edge.joint] = None
+    return tuple(j for j in (e.joint for e in tree.edges) if j in found)
+
+
+def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
+    """Candidate chains of body joints, in document order of their first joints."""
+    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints]
+    upper = {e.joint: _upper(tree, e, {b.joint for b in body}) for e in body}
+    below: dict[str | None, list[Edge]] = {}
+    for e in body:
+        below.setdefault(upper[e.joint], []).append(e)
+    out = []
+    for start in body:
+        above = upper[start.joint]
+        if above is not None and len(below[above]) == 1:
+            continue  # continues its upper joint's chain
+        run = [start]
+        while len(below.get(run[-1].joint, ())) == 1:
+            run.append(below[run[-1].joint][0])
+        out += [piece for part in _split_lifts(run) for piece in _split_wheel(tree, part, below, owned_links)]
+    for chain in out:
+        chain.links = [link for e in chain.joints for link in _moved(tree, e.child, {b.joint for b in body}, owned_links)]
+    return out
+
+
+def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
+    for link in tree.chain_to_root(edge.parent):
+        above = tree.parent_edge(link)
+        if above is not None and above.joint in body:
+            return above.joint
+    return None
+
+
+def _split_lifts(run: list[Edge]) -> list[list[Edge]]:
+    """A run is cut after each sliding joint followed by a turning one: a lift and what it lifts are two
+    candidates (they join again where the model gives them one class)."""
+    pieces = [[run[0]]]
+    for previous, edge in zip(run, run[1:]):
+        if previous.joint_type == "prismatic" and edge.joint_type in ("revolute", "continuous"):
+            pieces.append([])
+        pieces[-1].append(edge)
+    return pieces
+
+
+def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
+    """A trailing continuous joint that carries nothing (no further joint, no device) is its own candidate."""
+    last = run[-1]
+    carries = {last.child, *tree.descendants(last.child)} & owned_links
+    if len(run) > 1 and last.joint_type == "continuous" and not below.get(last.joint) and not carries:
+        return [Chain(run[:-1], []), Chain([last], [])]
+    return [Chain(run, [])]
+
+
+def _moved(tree: KinematicTree, link: str, body: set[str], owned_links: set[str]) -> list[str]:
+    """`link` and what hangs from it by joints that are not body joints, minus devices' links."""
+    out, stack = [], [link]
+    while stack:
+        current = stack.pop()
+        if current not in owned_links:
+            out.append(current)
+        stack += [c for c in reversed(tree.children(current)) if tree.parent_edge(c).joint not in body]
+    return out
+
+
+# --- evidence --------------------------------------------------------------------------------
+
+def _direction(tree: KinematicTree, edge: Edge) -> str:
+    """The joint axis in the root frame at the zero pose, in words (REP 103: x forward, y left, z up)."""
+    axis: Vector = edge.axis
+    current = edge.child
+    while (parent := tree.parent_edge(current)) is not None:
+        axis = rotate_rpy(parent.origin.rpy, axis)
+        current = parent.parent
+    dominant = max(range(3), key=lambda i: abs(axis[i]))
+    if edge.joint_type == "prismatic":
+        return ("slides forward-back", "slides sideways", "slides up-down")[dominant]
+    return ("rolls about the forward axis", "pitches about the sideways axis", "turns about the vertical axis")[dominant]
+
+
+def _height(tree: KinematicTree, link: str) -> float:
+    return tree.position_in(link, tree.root)[2]
+
+
+def evidence(tree: KinematicTree, chain: Chain, carried: list[str], further: int, grounded: bool) -> str:
+    """What structure says of a candidate, in a few lines."""
+    joints = ", ".join(f"{e.joint} ({e.joint_type}, {_direction(tree, e)})" for e in chain.joints)
+    lines = [f"Joints: {joints}", f"Links: {', '.join(chain.links[:-1] + [named(tree.evidence, chain.links[-1])])}",
+             f"Hangs from: {chain.mount}"]
+    ends = list(carried) + ([f"{further} more moving chain{'s' if further > 1 else ''}"] if further else [])
+    lines.append("Carries: " + ("; ".join(ends) if ends else "nothing"))
+    if grounded:
+        lines.append("Reaches the ground: its end is the robot's lowest point")
+    return "\n".join(lines)
+
+
+# --- the pass ----------------------------------------------------------------------------------
+
+def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: list[Component],
+              progress: Progress | None = None, log: Log | None = None) -> tuple[list[BodyPart], list[Component]]:
+    """Body parts of the robot, and the components with their joints, body part and side."""
+    log = log or (lambda _msg: None)
+    components = [replace(c, joints=device_joints(tree, c)) if c.kind == END_EFFECTOR else c for c in components]
+    owned_joints = {j for c in components for j in device_joints(tree, c)}
+    owned_links = {link for c in components for link in c.links}
+    found = chains(tree, owned_joints, owned_links)
+    if not found:
+        return [], components
+    _classify(oracle, tax, tree, found, components, progress, log)
+    found = _join(found)
+    parts = _parts(tree, [c for c in found if c.cls != NONE])
+    parts = _sides(oracle, tree, parts, progress, log)
+    return parts, [_locate(tree, c, parts) for c in components]
+
+
+def _classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
+              components: list[Component], progress: Progress | None, log: Log) -> None:
+    """Structure first (the ontology's sufficient conditions, by the reasoner), the model for the rest."""
+    by_link = {link: ch for ch in found for link in ch.links}
+    lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
+    devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
+    carries = [[i for i, other in enumerate(found) if other is not chain and other.mount in chain.links] for chain in found]
+    grounded = [_reaches_ground(tree, chain, lowest) for chain in found]
+    facts = [reasoning.PartFacts(tuple(e.joint_type for e in chain.joints), tuple(c.cls for c in held),
+                                 tuple(follow), ground)
+             for chain, held, follow, ground in zip(found, devices, carries, grounded)]
+    inferred, seconds = reasoning.classify_parts(facts)
+    log(f"body reasoner: {seconds:.2f} s, " + ", ".join(f"{c.joints[0].joint}={cls}" for c, cls in zip(found, inferred)))
+    open_ = [i for i, cls in enumerate(inferred) if cls is None]
+    for i, cls in enumerate(inferred):
+        if cls is not None:
+            found[i].cls, found[i].confidence = cls, 1.0
+    questions = [body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]], len(carries[i]),
+                                           grounded[i]), f"body:{found[i].joints[0].joint}") for i in open_]
+    for i, question, verdict in zip(open_, questions, ask(oracle, [q.question for q in questions],
+                                                          "body classification", progress)):
+        found[i].cls = question.meaning.get(verdict.answer, NONE)
+        found[i].confidence = verdict.confidence
+
+
+def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float) -> bool:
+    """What the chain moves comes down to the robot's lowest frame, below where it hangs from (an arm on a
+    fixed base holds the lowest frames too, but above its mount)."""
+    reach = min(_height(tree, link) for e in chain.joints for link in (e.child, *tree.descendants(e.child)))
+    return reach <= lowest + GROUND_EPS and reach < _height(tree, chain.mount) - GROUND_EPS
+
+
+def _nearest(tree: KinematicTree, link: str, by_link: dict[str, Chain]) -> Chain | None:
+    """The chain whose links hold `link` or its nearest ancestor."""
+    return next((by_link[a] for a in tree.chain_to_root(link) if a in by_link), None)
+
+
+def _join(found: list[Chain]) -> list[Chain]:
+    """A chain of a joining class whose only follower of that class hangs from its links is one part with it."""
+    joined = True
+    while joined:
+        joined = False
+        for parent in found:
+            followers = [c for c in found if c is not parent and c.mount in parent.links and c.cls == parent.cls]
+            if parent.cls in JOINING and len(followers) == 1:
+                child = followers[0]
+                parent.joints += child.joints
+                parent.links += child.links
+                parent.confidence = min(parent.confidence, child.confidence)
+                found.remove(child)
+                joined = True
+                break
+    return found
+
+
+def _parts(tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
+    """Body parts: one per chain, the base chains joined into one MobileBase around its chassis."""
+    base_chains = [c for c in found if c.cls == BASE]
+    wheels = [c for c in found if c.cls == WHEEL]
+    parts = [BodyPart(f"{c.cls.lower()}_{c.joints[0].joint}", c.cls, round(c.confidence, 4), c.mount,
+                      tuple(e.joint for e in c.joints), tuple(c.links))
+             for c in found if c.cls not in (BASE,)]
+    if not base_chains and not wheels:
+        return parts
+    chassis = _common_ancestor(tree, [c.mount for c in base_chains + wheels])
+    joints = tuple(e.joint for c in base_chains for e in c.joints)
+    links = tuple(dict.fromkeys([chassis, *(link for c in base_chains for link in c.links)]))
+    root = base_chains[0].mount if base_chains else tree.parent(chassis)
+    confidence = min([c.confidence for c in base_chains] or [1.0])
+    base = BodyPart(f"mobile_base_{chassis}", BASE, round(confidence, 4), root, joints, links)
+    return [base] + [replace(p, parent=base.name) if p.cls == WHEEL else p for p in parts]
+
+
+def _common_ancestor(tree: KinematicTree, links: list[str]) -> str:
+    paths = [tree.chain_to_root(link)[::-1] for link in links]
+    common = tree.root
+    for step in zip(*paths):
+        if len(set(step)) != 1:
+            break
+        common = step[0]
+    return common
+
+
+def _sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: Progress | None,
+           log: Log) -> list[BodyPart]:
+    """left/right by the sign of y in the root frame for classes with parts on both sides; per such class,
+    the model names the left one of its widest pair, and where it disagrees with geometry and is sure,
+    the names win for the whole class."""
+    y = {p.name: sum(tree.position_in(link, tree.root)[1] for link in _anchor(tree, p)) / len(_anchor(tree, p))
+         for p in parts}
+    sides = {p.name: ("left" if y[p.name] > 0 else "right") for p in parts if abs(y[p.name]) > SIDE_EPS}
+    pairs = {}
+    for cls in dict.fromkeys(p.cls for p in parts):
+        members = [p for p in parts if p.cls == cls and p.name in sides]
+        lefts = [p for p in members if sides[p.name] == "left"]
+        rights = [p for p in members if sides[p.name] == "right"]
+        if not lefts or not rights:
+            for p in members:
+                sides.pop(p.name)  # no mirrored pair: no side
+            continue
+        pairs[cls] = (max(lefts, key=lambda p: y[p.name]), min(rights, key=lambda p: y[p.name]))
+    if pairs:
+        questions = [side_question(cls.lower(), left.joints, right.joints) for cls, (left, right) in pairs.items()]
+        for (cls, (left, right)), q, verdict in zip(pairs.items(), questions, ask(oracle, questions, "sides", progress)):
+            if verdict.answer == q.options[1] and verdict.confidence >= NAMES_WIN:
+                log(f"sides of {cls}: names say {right.joints[0]} is left ({verdict.confidence:.2f}), "
+                    "against geometry: names win")
+                for p in parts:
+                    if p.cls == cls and p.name in sides:
+                        sides[p.name] = "right" if sides[p.name] == "left" else "left"
+    return [replace(p, side=sides.get(p.name)) for p in parts]
+
+
+def _anchor(tree: KinematicTree, part: BodyPart) -> list[str]:
+    """The links whose position tells a part's side: its joints' child links (a base: its chassis)."""
+    edges = {e.joint: e for e in tree.edges}
+    return [edges[j].child for j in part.joints] or list(part.links[:1])
+
+
+def _locate(tree: KinematicTree, comp: Component, parts: list[BodyPart]) -> Component:
+    """The body part carrying a component's mount (the nearest part up its chain), and that part's side."""
+    owner = {link: p for p in parts for link in p.links}
+    part = next((owner[a] for a in tree.chain_to_root(comp.root) if a in owner), None)
+    if part is None:
+        return comp
+    return replace(comp, located_on=part.name, side=part.side)

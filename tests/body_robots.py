@@ -1,0 +1,149 @@
+"""Random but plausible robots for the body pass, with the truth of what was built.
+
+Names are meaningless (a seeded random stem per link and joint), so whatever a test asserts comes
+from structure alone: wheeled mobile manipulators (drive wheels, optional casters that swivel, a
+lift, a pan-tilt head with a camera, one or two arms ending in a two-jaw gripper) and legged robots
+(two or four legs of 2-4 joints, an optional arm). Frames follow REP 103: x forward, y left, z up.
+"""
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass, field
+
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, SubComponent
+
+
+@dataclass
+class Part:
+    cls: str
+    joints: list[str]
+    side: str | None = None
+
+
+@dataclass
+class Built:
+    urdf: bytes
+    parts: list[Part]
+    components: list[Component]
+    device_joints: dict[str, list[str]] = field(default_factory=dict)  # component name → its own joints
+    located: dict[str, str] = field(default_factory=dict)             # component name → first joint of its part
+
+
+class _Writer:
+    def __init__(self, rng: random.Random):
+        self.rng, self.links, self.joints, self.used = rng, [], [], set()
+
+    def name(self) -> str:
+        while True:
+            stem = "".join(self.rng.choice("bcdfghjkmnpqrstvwxz") + self.rng.choice("aeiou") for _ in range(3))
+            if stem not in self.used:
+                self.used.add(stem)
+                return stem
+
+    def link(self, geometry: str = "") -> str:
+        name = self.name()
+        visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
+        self.links.append(f'<link name="{name}">{visual}</link>')
+        return name
+
+    def joint(self, kind: str, parent: str, child: str, xyz=(0, 0, 0), axis=(0, 0, 1), mimic: str | None = None) -> str:
+        name = self.name()
+        limit = '<limit lower="-1" upper="1" effort="10" velocity="1"/>' if kind in ("revolute", "prismatic") else ""
+        mimic_tag = f'<mimic joint="{mimic}" multiplier="1"/>' if mimic else ""
+        self.joints.append(
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz[0]} {xyz[1]} {xyz[2]}" rpy="0 0 0"/><axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
+            f'{limit}{mimic_tag}</joint>')
+        return name
+
+    def urdf(self) -> bytes:
+        return f'<robot name="{self.name()}">{"".join(self.links)}{"".join(self.joints)}</robot>'.encode()
+
+
+def _arm(w: _Writer, built: Built, mount: str, y: float, z: float, side: str | None) -> None:
+    """A serial arm of 4-7 revolute joints ending in a two-jaw gripper (an end-effector)."""
+    parent, joints = mount, []
+    for i in range(w.rng.randint(4, 7)):
+        child = w.link('<cylinder radius="0.04" length="0.2"/>')
+        joints.append(w.joint("revolute", parent, child, (0.1 if i else 0, y if not i else 0, z if not i else 0.1),
+                              (0, 1, 0) if i % 2 else (0, 0, 1)))
+        parent = child
+    palm = w.link('<box size="0.05 0.08 0.04"/>')
+    w.joint("fixed", parent, palm, (0.05, 0, 0))
+    jaws = [w.link('<box size="0.04 0.01 0.02"/>') for _ in range(2)]
+    first = w.joint("prismatic", palm, jaws[0], (0.05, 0.02, 0), (0, 1, 0))
+    second = w.joint("prismatic", palm, jaws[1], (0.05, -0.02, 0), (0, -1, 0), mimic=first)
+    tcp = w.link()
+    w.joint("fixed", palm, tcp, (0.08, 0, 0))
+    name = f"gripper_{len(built.components)}"
+    built.components.append(Component(name, END_EFFECTOR, "ParallelGripper", 1.0, parent,
+                                      tuple(SubComponent(link, "Finger", 1.0) for link in (palm, *jaws, tcp))))
+    built.device_joints[name] = [first, second]
+    built.located[name] = joints[0]
+    built.parts.append(Part("Arm", joints, side))
+
+
+def wheeled(seed: int) -> Built:
+    """A mobile manipulator: drive wheels (and casters), a lift carrying a head and one or two arms."""
+    rng = random.Random(seed)
+    w = _Writer(rng)
+    built = Built(b"", [], [])
+    base = w.link('<box size="0.6 0.5 0.2"/>')
+    wheels = []
+    for y, side in ((0.25, "left"), (-0.25, "right")):
+        wheel = w.link('<cylinder radius="0.08" length="0.04"/>')
+        wheels.append(Part("Wheel", [w.joint("continuous", base, wheel, (0, y, -0.05), (0, 1, 0))], side))
+    base_joints = []
+    if rng.random() < 0.5:  # two casters, front and back, each a swivel carrying a wheel
+        for x in (0.25, -0.25):
+            fork, wheel = w.link(), w.link('<cylinder radius="0.03" length="0.02"/>')
+            base_joints.append(w.joint("continuous", base, fork, (x, 0, -0.05)))
+            wheels.append(Part("Wheel", [w.joint("continuous", fork, wheel, (-0.03, 0, -0.05), (0, 1, 0))]))
+    lift = w.link('<box size="0.2 0.3 0.6"/>')
+    lift_joint = w.joint("prismatic", base, lift, (0, 0, 0.3))
+    built.parts.append(Part("Torso", [lift_joint]))
+    pan, tilt, camera, optical = w.link(), w.link('<box size="0.1 0.2 0.1"/>'), w.link(), w.link()
+    head = [w.joint("revolute", lift, pan, (0, 0, 0.4)), w.joint("revolute", pan, tilt, (0, 0, 0.05), (0, 1, 0))]
+    w.joint("fixed", tilt, camera, (0.05, 0, 0))
+    w.joint("fixed", camera, optical)
+    built.components.append(Component("camera", SENSOR, "MonocularCamera", 1.0, tilt,
+                                      (SubComponent(camera, "SensorHousing", 1.0), SubComponent(optical, "RgbFrame", 1.0))))
+    built.located["camera"] = head[0]
+    built.parts.append(Part("Head", head))
+    arms = rng.random()
+    if arms < 0.3:  # one arm on the base: the lift carries the head alone (a run the pass cuts after the lift)
+        _arm(w, built, base, 0.0, 0.3, None)
+    elif arms < 0.6:
+        _arm(w, built, lift, 0.0, 0.2, None)
+    else:
+        _arm(w, built, lift, 0.2, 0.2, "left")
+        _arm(w, built, lift, -0.2, 0.2, "right")
+    built.parts.append(Part("MobileBase", base_joints))
+    built.parts += wheels
+    built.urdf = w.urdf()
+    return built
+
+
+def legged(seed: int) -> Built:
+    """Two or four legs of 2-4 joints reaching the ground, and sometimes an arm on the back."""
+    rng = random.Random(seed)
+    w = _Writer(rng)
+    built = Built(b"", [], [])
+    trunk = w.link('<box size="0.5 0.3 0.1"/>')
+    joints_per_leg = rng.randint(2, 4)
+    spots = [(0.0, 0.1, "left"), (0.0, -0.1, "right")] if rng.random() < 0.5 else \
+        [(0.2, 0.1, "left"), (0.2, -0.1, "right"), (-0.2, 0.1, "left"), (-0.2, -0.1, "right")]
+    for x, y, side in spots:
+        parent, joints = trunk, []
+        for i in range(joints_per_leg):
+            child = w.link('<box size="0.03 0.03 0.2"/>')
+            joints.append(w.joint("revolute", parent, child, (x, y, 0) if not i else (0, 0, -0.2),
+                                  (1, 0, 0) if not i else (0, 1, 0)))
+            parent = child
+        foot = w.link('<sphere radius="0.02"/>')
+        w.joint("fixed", parent, foot, (0, 0, -0.2))
+        built.parts.append(Part("Leg", joints, side))
+    if rng.random() < 0.5:
+        _arm(w, built, trunk, 0.0, 0.1, None)
+    built.urdf = w.urdf()
+    return built

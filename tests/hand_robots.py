@@ -1,0 +1,257 @@
+"""Random but plausible arms ending in a gripper or a hand, with the truth of what was built.
+
+Names are meaningless (a seeded random stem per link and joint), so whatever a test asserts comes
+from structure alone. An arm of 4-7 revolute joints ends in one of:
+- a *gripper*: two jaws, sliding (prismatic) or pivoting (revolute), the second jaw sometimes a
+  <mimic> of the first (multiplier -1 or 1, its axis written to match);
+- a *radial hand* (no thumb): 3-5 fingers evenly spaced around the palm's axis, each closing
+  towards the axis, straight at the middle of their ranges;
+- a *thumbed hand*: 2-4 fingers side by side in a row curling the same way, an abduction joint
+  first on some of them, and a thumb in front of the palm facing them, hung on the palm, on a base link fixed to it, or
+  on a base link turning about the thumb's own length (an opposition joint).
+Fingers have 1-4 joints; joints of one finger are sometimes coupled to its first flexion joint by
+<mimic> (multipliers 0.8, 1, 1.2). Fingers hang on a palm (bolted to the flange, or to an adapter
+plate on it) or straight on the arm's last moving link; fingertip frames (fixed links at the tips)
+and a TCP frame are optional.
+
+The truth (`Built`) follows pipeline/structure.py's definitions and the ontology's class
+definitions: the mount is the link the palm is bolted to (the flange, or the adapter), or the
+flange when the fingers hang straight on it; a finger chain starts at the first link hung on the
+palm's rigid body by a moving joint, its drive is that joint. Kinds: two opposing jaws are a
+ParallelGripper; a radial hand a MultiFingerGripper (each finger opposes two or more others, none
+moves with another, so none is a ThumbChain); a thumbed hand with two fingers a MultiFingerGripper
+(three chains), with three or more fingers an AnthropomorphicHand (the thumb opposes fingers that
+move together).
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Chain:
+    links: list[str]           # top first, the tip frame included
+    drive: str                 # joint name
+    motion: str                # prismatic | pivoting
+    mimics: str | None = None  # first link of the chain whose joint this one's drive follows
+    role: str = "finger"       # jaw | finger | radial | thumb
+
+    @property
+    def name(self) -> str:
+        return self.links[0]
+
+
+@dataclass
+class Built:
+    urdf: bytes
+    layout: str                # gripper | radial | thumbed
+    kind: str                  # the ontology class the reasoner should infer
+    mount: str
+    fork: str
+    links: set[str]            # the tool's links (the mount excluded)
+    leaves: list[str]          # the tool's leaf links
+    chains: list[Chain]
+    flange: str                # the arm's last moving link
+    description: str = ""
+    thumb: str | None = None   # first link of the thumb chain
+    notes: list[str] = field(default_factory=list)
+
+
+def _f(x: float) -> str:
+    return f"{x:.5f}".rstrip("0").rstrip(".") or "0"
+
+
+class _Writer:
+    def __init__(self, rng: random.Random):
+        self.rng, self.links, self.joints, self.used = rng, [], [], set()
+
+    def name(self) -> str:
+        while True:
+            stem = "".join(self.rng.choice("bcdfghjkmnpqrstvwxz") + self.rng.choice("aeiou") for _ in range(3))
+            if stem not in self.used:
+                self.used.add(stem)
+                return stem
+
+    def link(self) -> str:
+        name = self.name()
+        self.links.append(f'<link name="{name}"/>')
+        return name
+
+    def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
+              limits: tuple[float, float] | None = None, mimic: str | None = None, multiplier: float = 1.0,
+              rpy=(0.0, 0.0, 0.0)) -> str:
+        name = self.name()
+        limit = ""
+        if kind in ("revolute", "prismatic"):
+            lo, hi = limits or (-1.0, 1.0)
+            limit = f'<limit lower="{_f(lo)}" upper="{_f(hi)}" effort="10" velocity="1"/>'
+        mimic_tag = f'<mimic joint="{mimic}" multiplier="{multiplier}" offset="0"/>' if mimic else ""
+        axis_tag = "" if kind == "fixed" else f'<axis xyz="{_f(axis[0])} {_f(axis[1])} {_f(axis[2])}"/>'
+        self.joints.append(
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{_f(xyz[0])} {_f(xyz[1])} {_f(xyz[2])}" rpy="{_f(rpy[0])} {_f(rpy[1])} {_f(rpy[2])}"/>'
+            f'{axis_tag}{limit}{mimic_tag}</joint>')
+        return name
+
+    def urdf(self) -> bytes:
+        return f'<robot name="{self.name()}">{"".join(self.links)}{"".join(self.joints)}</robot>'.encode()
+
+
+def build(seed: int) -> Built:
+    """One random arm and end-effector; the same seed builds the same robot."""
+    rng = random.Random(seed)
+    w = _Writer(rng)
+    # the arm
+    link = w.link()
+    for i in range(rng.randint(4, 7)):
+        child = w.link()
+        w.joint("revolute", link, child, (0.0, 0.0, rng.uniform(0.08, 0.3)),
+                (0.0, 0.0, 1.0) if i % 2 == 0 else (0.0, 1.0, 0.0), (-2.5, 2.5))
+        link = child
+    flange = link
+    layout = rng.choice(["gripper", "radial", "thumbed"])
+    on_palm = rng.random() < 0.7
+    tool_links: set[str] = set()
+    if on_palm:
+        mount = flange
+        if rng.random() < 0.3:  # an adapter plate between flange and palm: the palm is bolted to it
+            adapter = w.link()
+            w.joint("fixed", flange, adapter, (0.0, 0.0, 0.01))
+            mount = adapter
+        palm = w.link()
+        w.joint("fixed", mount, palm, (0.0, 0.0, rng.uniform(0.01, 0.04)), rpy=(0.0, 0.0, rng.uniform(-math.pi, math.pi)))
+        tool_links.add(palm)
+        base, base_z = palm, rng.uniform(0.05, 0.1)
+    else:
+        mount = base = flange
+        base_z = rng.uniform(0.01, 0.04)
+    tips = rng.random() < 0.5
+    chains: list[Chain] = []
+    thumb = None
+
+    def segments(parent: str, start, axis, count: int, lengths: tuple[float, float], limits,
+                 couple: bool, first_axis=None, first_limits=None, mimic_first=None) -> tuple[list[str], str]:
+        """A finger of `count` joints from `start` on `parent`, pointing along the parent's +z."""
+        links, drive, flex = [], None, None
+        xyz = start
+        for j in range(count):
+            child = w.link()
+            abduct = j == 0 and first_axis is not None
+            mimic, mult = None, 1.0
+            if j == 0 and mimic_first is not None:
+                mimic, mult = mimic_first
+            elif not abduct and flex is not None and couple:
+                mimic, mult = flex, rng.choice([0.8, 1.0, 1.2])
+            lim = first_limits if abduct else limits()
+            joint = w.joint("revolute", parent, child, xyz, first_axis if abduct else axis, lim, mimic, mult)
+            if not abduct and flex is None:
+                flex = joint
+            drive = drive or joint
+            links.append(child)
+            parent = child
+            xyz = (0.0, 0.0, 0.012) if abduct else (0.0, 0.0, rng.uniform(*lengths))
+        if tips or count == 1:  # a one-joint finger's own frame sits on its axis: its tip frame shows it move
+            tip = w.link()
+            w.joint("fixed", parent, tip, xyz if count else start)
+            links.append(tip)
+        return links, drive
+
+    if layout == "gripper":
+        prismatic = rng.random() < 0.5
+        mimic_mode = rng.choice([None, -1.0, 1.0])
+        gap = rng.uniform(0.015, 0.05)
+        first_drive = None
+        for side in (1.0, -1.0):
+            jaw = w.link()
+            if prismatic:
+                axis = (0.0, -side, 0.0)  # towards the other jaw
+                mimic, mult = None, 1.0
+                if side < 0 and mimic_mode is not None:
+                    mimic, mult = first_drive, mimic_mode
+                    axis = (0.0, mimic_mode, 0.0)  # multiplier x axis: still towards the other jaw
+                drive = w.joint("prismatic", base, jaw, (0.0, side * gap, base_z), axis, (0.0, gap * 0.9), mimic, mult)
+                motion = "prismatic"
+            else:
+                axis = (side, 0.0, 0.0)  # the tip (+z) moves towards -side y
+                mimic, mult = None, 1.0
+                if side < 0 and mimic_mode is not None:
+                    mimic, mult = first_drive, mimic_mode
+                    axis = (-mimic_mode, 0.0, 0.0)
+                drive = w.joint("revolute", base, jaw, (0.0, side * gap, base_z), axis, (-0.2, 0.6), mimic, mult)
+                motion = "pivoting"
+            links = [jaw]
+            if rng.random() < 0.5:  # a pad on the jaw
+                pad = w.link()
+                w.joint("fixed", jaw, pad, (0.0, -side * 0.005, 0.04))
+                links.append(pad)
+            elif not prismatic or tips:
+                pad = w.link()
+                w.joint("fixed", jaw, pad, (0.0, 0.0, 0.05))
+                links.append(pad)
+            first_drive = first_drive or drive
+            chains.append(Chain(links, drive, motion, chains[0].name if mimic else None, "jaw"))
+        kind = "ParallelGripper"
+        description = f"{'sliding' if prismatic else 'pivoting'} jaws, mimic {mimic_mode}"
+    elif layout == "radial":
+        n = rng.randint(3, 5)
+        offset = rng.uniform(0, 2 * math.pi)
+        radius = rng.uniform(0.025, 0.05)
+        for i in range(n):
+            theta = offset + 2 * math.pi * i / n
+            axis = (math.sin(theta), -math.cos(theta), 0.0)  # the tip (+z) moves towards the axis
+            span = rng.uniform(0.4, 1.2)
+            links, drive = segments(base, (radius * math.cos(theta), radius * math.sin(theta), base_z), axis,
+                                    rng.randint(1, 4), (0.025, 0.05), lambda s=span: (-s, s), rng.random() < 0.5)
+            chains.append(Chain(links, drive, "pivoting", None, "radial"))
+        kind = "MultiFingerGripper"
+        description = f"radial hand of {n}"
+    else:
+        k = rng.randint(2, 4)
+        spacing = rng.uniform(0.018, 0.025)
+        for i in range(k):
+            x = (i - (k - 1) / 2) * spacing
+            count = rng.randint(1, 4)
+            abduct = count >= 3 and rng.random() < 0.5
+            links, drive = segments(
+                base, (x, 0.0, base_z), (-1.0, 0.0, 0.0), count, (0.025, 0.05),
+                lambda: (rng.uniform(-0.2, 0.0), rng.uniform(0.6, 1.2)), rng.random() < 0.5,
+                (0.0, 1.0, 0.0) if abduct else None, (-0.3, 0.3))
+            chains.append(Chain(links, drive, "pivoting", None, "finger"))
+        thumb_mode = rng.choice(["palm", "fixed_base", "turning_base"])
+        tx = rng.uniform(-0.5, 0.5) * spacing * k
+        ty, tz = rng.uniform(0.06, 0.09), base_z + rng.uniform(0.0, 0.03)  # in front of the palm, facing the fingers
+        count = rng.randint(1, 3)
+        lim = lambda: (rng.uniform(-0.3, 0.0), rng.uniform(0.8, 1.4))  # noqa: E731
+        if thumb_mode == "palm":
+            links, drive = segments(base, (tx, ty, tz), (1.0, 0.0, 0.0), count, (0.025, 0.04), lim, rng.random() < 0.5)
+        elif thumb_mode == "fixed_base":
+            thumb_base = w.link()
+            w.joint("fixed", base, thumb_base, (tx, ty, tz), rpy=(rng.uniform(-0.3, 0.3), 0.0, 0.0))
+            tool_links.add(thumb_base)
+            links, drive = segments(thumb_base, (0.0, 0.0, 0.015), (1.0, 0.0, 0.0), count, (0.025, 0.04), lim,
+                                    rng.random() < 0.5)
+        else:  # opposition joint: the thumb turns about its own length, then flexes
+            links, drive = segments(base, (tx, ty, tz), (1.0, 0.0, 0.0), count + 1, (0.025, 0.04), lim,
+                                    rng.random() < 0.5, (0.0, 0.0, 1.0), (-0.4, 0.6))
+        chains.append(Chain(links, drive, "pivoting", None, "thumb"))
+        thumb = links[0]
+        kind = "MultiFingerGripper" if k == 2 else "AnthropomorphicHand"
+        description = f"{k} fingers and a thumb ({thumb_mode})"
+    for c in chains:
+        tool_links.update(c.links)
+    if rng.random() < 0.5:  # a TCP frame
+        tcp = w.link()
+        w.joint("fixed", base, tcp, (0.0, 0.0, base_z + 0.1))
+        tool_links.add(tcp)
+    urdf = w.urdf()
+    parent_of = {}
+    for j in w.joints:
+        p = j.split('<parent link="')[1].split('"')[0]
+        c = j.split('<child link="')[1].split('"')[0]
+        parent_of[c] = p
+    has_child = set(parent_of.values())
+    leaves = sorted(x for x in tool_links if x not in has_child)
+    return Built(urdf, layout, kind, mount, base, tool_links, leaves, chains, flange,
+                 f"{description}, {'on a palm' if on_palm else 'on the flange'}", thumb)

@@ -1,0 +1,90 @@
+"""The body pass on generated robots with known truth (tests/body_robots.py): candidate chains over
+hundreds of seeds (structure only), and whole passes with the reasoner and a scripted model."""
+from __future__ import annotations
+
+import pytest
+
+from tests.body_robots import Built, legged, wheeled
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.stages import body
+
+needs_java = pytest.mark.skipif(not __import__("shutil").which("java"), reason="HermiT needs Java")
+
+
+def _candidates(built: Built) -> set[tuple[str, ...]]:
+    tree = load_urdf(built.urdf)
+    owned = {j for joints in built.device_joints.values() for j in joints}
+    links = {link for c in built.components for link in c.links}
+    return {tuple(e.joint for e in c.joints) for c in body.chains(tree, owned, links)}
+
+
+@pytest.mark.parametrize("make", [wheeled, legged])
+def test_candidate_chains_are_the_parts_over_many_seeds(make):
+    """Every part built is one candidate (a mobile base's swivels each a candidate of their own)."""
+    for seed in range(300):
+        built = make(seed)
+        expected = {tuple(p.joints) for p in built.parts if p.cls != "MobileBase"}
+        expected |= {(j,) for p in built.parts if p.cls == "MobileBase" for j in p.joints}
+        assert _candidates(built) == expected, seed
+
+
+def test_device_joints_are_the_fingers():
+    built = wheeled(3)
+    tree = load_urdf(built.urdf)
+    for comp in built.components:
+        assert list(body.device_joints(tree, comp)) == built.device_joints.get(comp.name, [])
+
+
+def _torso_rule(built: Built, flip_sides: bool = False):
+    """A model that calls a lift a torso, and reads sides as geometry does (or, flipped, the other way)."""
+    torso = {p.joints[0] for p in built.parts if p.cls == "Torso"}
+
+    def rule(question):
+        if question.key.startswith("side:"):
+            return question.options[1 if flip_sides else 0]
+        if question.key.startswith("body:"):
+            return "torso" if question.key[len("body:"):] in torso else "none"
+        raise AssertionError(f"unexpected question {question.key}")
+    return rule
+
+
+def _run(built: Built, flip_sides: bool = False):
+    tree = load_urdf(built.urdf)
+    oracle = Oracle(ScriptedBackend(_torso_rule(built, flip_sides)))
+    return body.body_pass(oracle, vocabulary(), tree, list(built.components))
+
+
+@needs_java
+@pytest.mark.parametrize("make,seed", [(wheeled, s) for s in range(3)] + [(legged, s) for s in range(3)])
+def test_the_pass_finds_every_part_with_its_class_side_and_devices(make, seed):
+    built = make(seed)
+    parts, components = _run(built)
+    found = {(p.cls, p.joints, p.side) for p in parts if p.joints or p.cls == "MobileBase"}
+    assert found == {(p.cls, tuple(p.joints), p.side) for p in built.parts if p.joints or p.cls == "MobileBase"}
+    by_name = {p.name: p for p in parts}
+    bases = [p for p in parts if p.cls == "MobileBase"]
+    for wheel in (p for p in parts if p.cls == "Wheel"):
+        assert wheel.parent == bases[0].name  # wheels are the base's sub-components
+    for comp in components:
+        assert list(comp.joints) == built.device_joints.get(comp.name, [])
+        assert by_name[comp.located_on].joints[0] == built.located[comp.name]
+        assert comp.side == by_name[comp.located_on].side
+
+
+@needs_java
+def test_names_win_over_geometry_for_a_whole_class_of_mirrored_parts():
+    built = legged(1)  # legs on both sides
+    parts, _ = _run(built, flip_sides=True)
+    truth = {tuple(p.joints): p.side for p in built.parts if p.side}
+    flipped = {"left": "right", "right": "left"}
+    assert {p.joints: p.side for p in parts if p.side} == {j: flipped[s] for j, s in truth.items()}
+
+
+def test_a_robot_without_body_joints_has_no_parts():
+    tree = load_urdf(b'<robot name="r"><link name="a"/><link name="b"/>'
+                     b'<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>')
+    oracle = Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected")))
+    assert body.body_pass(oracle, vocabulary(), tree, []) == ([], [])

@@ -1,0 +1,134 @@
+"""xacro is code: uploads are expanded inside the operating system's boundary (pipeline.sandbox),
+in the job queue, with their output capped (issue 19). Each attack here worked on the code before."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import sys
+import time
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import pytest
+
+from tests.kb_fixtures import client, http, make_app, running
+from urdfkb.kb_server.serve import make_server
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline import sandbox
+from urdfkb.pipeline.xacro_input import XacroError, expand
+
+XNS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
+ATTACKS = Path(__file__).parent / "data" / "sandbox" / "attacks.py"
+confined_only = pytest.mark.skipif(bool(sandbox.unavailable()), reason=f"no sandbox here: {sandbox.unavailable()}")
+
+# A published escape from xacro's expression namespace: python.vars/python.type reach a function's
+# __globals__ through string keys (the '__' check reads only names), then the real builtins' exec.
+_GLOBALS_OF = "python.vars(python.type(xacro.load_yaml))['_'+'_globals_'+'_']"
+_XACRO_GLOBALS = f"python.vars(python.type({_GLOBALS_OF}))['_'+'_get_'+'_']({_GLOBALS_OF}, xacro.load_yaml)"
+_BUILTINS = f"{_XACRO_GLOBALS}['_'+'_builtins_'+'_']"
+
+
+def escape(code: str) -> bytes:
+    """A xacro document whose one expression runs `code` with the real builtins and the worker's
+    module as `main`, its audit hook switched off first."""
+    disarm = "main=G['sys'].modules['_'+'_main_'+'_']; main.audit.__code__=(lambda e, a: None).__code__\n"
+    expr = (f"{_BUILTINS}['exec']({disarm + code!r}, "
+            f"python.dict([('_'+'_builtins_'+'_', {_BUILTINS}), ('G', {_XACRO_GLOBALS})]))")
+    return f'<robot name="r" {XNS}><link name={quoteattr("${" + expr + "}")}/></robot>'.encode()
+
+
+RUN_ID = "import subprocess; raise ValueError('uid_' + subprocess.run(['id', '-u'], capture_output=True, text=True).stdout.strip())"
+
+
+def test_the_escape_runs_commands_without_the_sandbox():
+    """Why the boundary exists: the interpreter's own guards are no boundary (the trusted path of the CLI)."""
+    with pytest.raises(XacroError, match=r"uid_\d+"):
+        expand(escape(RUN_ID), "escape.urdf.xacro")
+
+
+@confined_only
+def test_the_escape_runs_no_command_inside_the_sandbox():
+    with pytest.raises(XacroError) as refused:
+        expand(escape(RUN_ID), "escape.urdf.xacro", confined=True)
+    assert not re.search(r"uid_\d", str(refused.value)) and "Operation not permitted" in str(refused.value)
+
+
+@confined_only
+def test_code_loose_in_the_sandbox_can_reach_nothing(tmp_path):
+    """Whatever Python runs inside: no command, process, socket, signal or pidfd to the server,
+    no host file, no /proc, no write to a package file or anywhere, no root."""
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "part.xacro").write_text("<robot/>")
+    package.chmod(0o755)
+    (package / "part.xacro").chmod(0o644)
+    secret = tmp_path / "secret.txt"
+    secret.write_text("the server's")
+    argv, bpf = sandbox.confine(ATTACKS, [str(os.getpid()), str(secret), "/packages/pkg/part.xacro"],
+                                {"/packages/pkg": package})
+    code, out, err = sandbox.run(argv, bpf, b"", 30, 65536)
+    assert code == 0, err
+    assert json.loads(out) == []
+    assert (package / "part.xacro").read_text() == "<robot/>"
+
+
+def test_a_flood_of_output_is_read_with_a_cap():
+    """A child writing 100 MB to stderr (five times over HTTP grew the server by ~1 GB before)."""
+    flood = "import sys\nfor _ in range(100): sys.stderr.write('x' * 1_000_000)\nprint('done')"
+    code, out, err = sandbox.bounded_run([sys.executable, "-c", flood], b"", 60, 4096)
+    assert code == 0 and out == b"done\n" and len(err) == 4096
+
+
+@confined_only
+def test_a_confined_expansion_that_floods_its_output_fails_cleanly():
+    with pytest.raises(XacroError, match="expansion"):
+        expand(escape("main.sys.stdout.write('x' * 50_000_000); main.sys.stdout.flush(); main.os._exit(0)"),
+               "flood.urdf.xacro", confined=True, max_bytes=100_000)
+
+
+def test_the_server_refuses_xacro_where_no_sandbox_can_run(tmp_path, monkeypatch):
+    monkeypatch.setattr(sandbox, "unavailable", lambda: "bubblewrap (bwrap) is not installed")
+    store = Store(tmp_path / "kb.sqlite3")
+    doc = f'<robot name="plain" {XNS}><link name="a"/><link name="b"/>' \
+          '<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>'.encode()
+    try:
+        app, jobs = make_app(store)
+        status, _, out = client(app)("POST", "/populate?structure_only=true", doc, {"Content-Type": "application/xml"})
+        assert status == 403
+        message = json.loads(out)["error"]
+        assert "bubblewrap (bwrap) is not installed" in message and "--trust-xacro" in message
+        jobs.shutdown()
+        app, jobs = make_app(store, trust_xacro=True)  # the operator's explicit choice: expanded unconfined
+        status, _, out = client(app)("POST", "/populate?structure_only=true", doc, {"Content-Type": "application/xml"})
+        assert status == 202
+        assert jobs.get(json.loads(out)["id"]).wait(30)
+        assert [e.name for e in store.robots()] == ["plain"]
+        jobs.shutdown()
+    finally:
+        store.close()
+
+
+@confined_only
+def test_hostile_xacro_jobs_cost_no_other_route(tmp_path):
+    """Twenty CPU-burning xacros: each is a job (a full queue answers 429 at once), expansion never
+    runs on a request thread, and other routes answer within a second throughout."""
+    burn = f'<robot name="burn" {XNS}><link name="${{9**9**9**9}}"/></robot>'.encode()
+    server, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0)
+    with running(server):
+        base = f"http://127.0.0.1:{server.effective_port}"
+        started = time.monotonic()
+        statuses = [http("POST", f"{base}/populate", burn, {"Content-Type": "application/xml"})[0] for _ in range(20)]
+        posting = time.monotonic() - started
+        assert set(statuses) == {202, 429} and statuses.count(202) >= 2
+        assert posting < 10  # 20 posts answered without waiting for any expansion
+        slowest = 0.0
+        for _ in range(10):
+            t = time.monotonic()
+            status, _, _ = http("GET", f"{base}/robots")
+            slowest = max(slowest, time.monotonic() - t)
+            assert status == 200
+            time.sleep(0.3)
+        assert slowest < 1.0, slowest
+    jobs.shutdown()
+    store.close()
