@@ -1,12 +1,13 @@
-"""The abstraction passes: each component kind's pass is a declared list of named steps (PASSES).
+"""The abstraction passes: each a declared list of named steps (PASSES), sensors, end-effectors, then the body.
 
-Sensors pass first. End-effectors skip pre- and post-classification: after verification their
+End-effectors skip pre- and post-classification: after verification their
 extent and mount are settled from structure and their kind inferred by a reasoner from the
 ontology's definitions (stages.tools, structure, reasoning); the model is asked the kind only where
 the structure settles none. After a pass, the links of its components are removed from the tree
 (each device condensed onto its mount), so the next pass sees a smaller tree and never claims a link
-twice. Every schema fact comes from the Vocabulary (pipeline.ontology); pipeline.passes runs the
-steps and times them.
+twice. The body pass (stages.body) then sees the whole robot again and groups the movable joints no
+device owns into body parts. Every schema fact comes from the Vocabulary (pipeline.ontology);
+pipeline.passes runs the steps and times them.
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from functools import partial
 from typing import Callable
 
 from urdfkb.pipeline import reasoning
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, BodyPart, Component, FingerFact, SubComponent
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.evidence import LinkEvidence, named
 from urdfkb.pipeline.ontology import Kind, Vocabulary
@@ -26,6 +27,7 @@ from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages import tools
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
+from urdfkb.pipeline.stages.body import body_pass
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge
 from urdfkb.pipeline.stages.identification import identify
@@ -39,13 +41,17 @@ MAX_FACTS = 3  # links of a chain shown with their facts
 _NO_FACTS = LinkEvidence()
 
 
+BODY = "body"  # the pass that finds no component kind: body parts
+
+
 @dataclass
 class PassState:
     """One pass over the current tree: each step reads what the steps before it left here."""
 
-    kind: Kind
-    tree: KinematicTree
-    mounts: set[str]  # where earlier passes condensed their devices
+    kind: Kind | None  # the component kind the pass finds (None: the body pass)
+    robot: KinematicTree  # the whole robot
+    tree: KinematicTree  # what the pass sees: the robot less the devices of earlier device passes
+    components: list[Component]  # every component so far; a device pass adds its own (`found`)
     leaves: list[str] = field(default_factory=list)  # the leaves this pass may claim
     chains: list[SubChain] = field(default_factory=list)  # selected leaves with their mounts
     pre: dict[str, Typed] = field(default_factory=dict)  # leaf → pre-class (sensors)
@@ -55,7 +61,8 @@ class PassState:
     inferred: list[reasoning.Inference] = field(default_factory=list)  # the reasoner's class per tool
     fingers: list[tuple[FingerFact, ...]] | None = None  # each tool's finger chains
     parts: dict[str, Typed] = field(default_factory=dict)  # member link → sub-part class
-    components: list[Component] = field(default_factory=list)
+    found: list[Component] = field(default_factory=list)  # the devices this pass found
+    body: list[BodyPart] = field(default_factory=list)  # the body pass's parts
     done: bool = False  # nothing (more) to abstract: the remaining steps are skipped
 
 
@@ -67,23 +74,28 @@ class Abstractor:
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
+        self.body: tuple[BodyPart, ...] = ()  # the last run's body parts
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
-    def run(self, tree: KinematicTree) -> tuple[Component, ...]:
+    def run(self, robot: KinematicTree) -> tuple[Component, ...]:
+        """The robot's components (its body parts in `self.body`)."""
         components: list[Component] = []
-        manager = PassManager(self._trace)
+        body: list[BodyPart] = []
+        tree, manager = robot, PassManager(self._trace)
         for declared in PASSES:
-            state = PassState(self.tax.kinds[declared.name], tree, {c.root for c in components})
+            state = PassState(self.tax.kinds.get(declared.name), robot, tree, list(components))
             manager.run(declared, self, state)
-            components.extend(state.components)
-            tree = tree.without({link for c in state.components for link in c.links})
+            components, body = state.components, body + state.body
+            tree = tree.without({link for c in state.found for link in c.links})
+        self.body = tuple(body)
         return tuple(components)
 
     # --- steps (see PASSES) --------------------------------------------------------------------
 
     def identification(self, s: PassState) -> None:
-        s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in s.mounts]
+        mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
+        s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
         unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
         self.claims.update(identify(self.oracle, self.tax, s.tree, unasked, self.progress))
 
@@ -97,24 +109,27 @@ class Abstractor:
 
     def attachment(self, s: PassState, rigid: bool = False) -> None:
         """`rigid`: devices of this kind are fixed to their mount (sensors)."""
-        selected = [leaf for leaf in s.leaves if self.claims[leaf] == s.kind.cls]
+        kind = self._kind(s)
+        selected = [leaf for leaf in s.leaves if self.claims[leaf] == kind.cls]
         if not selected:
             s.done = True
             return
-        s.chains = detect_roots(self.oracle, s.tree, selected, s.kind, self._blocked(s.tree, s.kind.cls), self.progress,
+        s.chains = detect_roots(self.oracle, s.tree, selected, kind, self._blocked(s.tree, kind.cls), self.progress,
                                 rigid=rigid)
 
     def pre_classification(self, s: PassState) -> None:
-        typed = descend(self.oracle, self.tax, s.kind.cls, [self._chain_subject(s.tree, c, s.kind.cls) for c in s.chains],
+        kind = self._kind(s)
+        typed = descend(self.oracle, self.tax, kind.cls, [self._chain_subject(s.tree, c, kind.cls) for c in s.chains],
                         "pre-classification", self.progress)
         s.pre = {c.leaf: t for c, t in zip(s.chains, typed)}
 
     def group_merging(self, s: PassState) -> None:
-        categories = {leaf: self._category(t.cls, s.kind.cls) for leaf, t in s.pre.items()}
-        s.groups = merge(self.oracle, s.tree, s.chains, s.kind.name, categories, self.progress)
+        kind = self._kind(s)
+        categories = {leaf: self._category(t.cls, kind.cls) for leaf, t in s.pre.items()}
+        s.groups = merge(self.oracle, s.tree, s.chains, kind.name, categories, self.progress)
 
     def verification(self, s: PassState) -> None:
-        s.groups = verify(s.tree, s.groups, self._unclaimed(s.tree, s.groups, s.mounts), self.log)
+        s.groups = verify(s.tree, s.groups, self._unclaimed(s.tree, s.groups, {c.root for c in s.components}), self.log)
 
     def post_classification(self, s: PassState) -> None:
         """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
@@ -123,11 +138,12 @@ class Abstractor:
         above it when that is a leaf class, so that siblings stay open (several sonar frames may
         still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
         """
+        top = self._kind(s).cls
         typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
         by_start: dict[str, list[Group]] = {}
         for g in s.groups:
             if len(g.chains) > 1:
-                by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, s.kind.cls), []).append(g)
+                by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
         for start, members in by_start.items():
             results = descend(self.oracle, self.tax, start, [
                 Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
@@ -153,7 +169,8 @@ class Abstractor:
         s.groups, s.post = groups, post
 
     def tool_extent(self, s: PassState) -> None:
-        settled = tools.settle(s.tree, s.groups, lambda leaf: self.claims.get(leaf) == s.kind.cls, self.log)
+        cls = self._kind(s).cls
+        settled = tools.settle(s.tree, s.groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
         s.groups = [g for g, _ in settled]
         s.structures = [structure for _, structure in settled]
 
@@ -171,7 +188,7 @@ class Abstractor:
     def tool_classification(self, s: PassState) -> None:
         """The model is asked the kind of the tools whose structure settles none."""
         open_groups = [(g, st) for g, st, i in zip(s.groups, s.structures or [], s.inferred) if not i.settled]
-        asked = descend(self.oracle, self.tax, s.kind.cls, [
+        asked = descend(self.oracle, self.tax, self._kind(s).cls, [
             Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
                     f"Links: {', '.join(g.leaves)}\nStructure: {st.describe()}")
             for g, st in open_groups
@@ -180,13 +197,15 @@ class Abstractor:
         s.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(s.groups, s.inferred)]
 
     def subpart_typing(self, s: PassState) -> None:
-        s.parts = type_subparts(self.oracle, self.tax, s.tree, s.kind, s.groups, s.post, s.structures, self.progress)
+        s.parts = type_subparts(self.oracle, self.tax, s.tree, self._kind(s), s.groups, s.post, s.structures,
+                                self.progress)
 
     def assembly(self, s: PassState) -> None:
-        s.components = [
+        kind = self._kind(s)
+        s.found = [
             Component(
-                name=f"{s.kind.name}_{i}_{g.leaves[0]}",
-                kind=s.kind.name,
+                name=f"{kind.name}_{i}_{g.leaves[0]}",
+                kind=kind.name,
                 cls=t.cls,
                 confidence=round(t.confidence, 4),
                 root=group_root(s.tree, g),
@@ -196,12 +215,24 @@ class Abstractor:
             )
             for i, (g, t) in enumerate(zip(s.groups, s.post))
         ]
+        s.components += s.found
+
+    def body_parts(self, s: PassState) -> None:
+        """Body parts from the movable joints no device owns; each component gets its joints and the part it
+        is located on."""
+        body, s.components = body_pass(self.oracle, self.tax, s.robot, s.components, self.progress, self.log)
+        s.body = list(body)
 
     # --- helpers ----------------------------------------------------------------------------------
 
+    def _kind(self, s: PassState) -> Kind:
+        if s.kind is None:
+            raise ValueError("a step of the device passes ran in a pass that finds no component kind")
+        return s.kind
+
     def _claimed(self, s: PassState) -> set[str]:
         """The pass's leaves identified as its kind."""
-        return {leaf for leaf in s.leaves if self.claims[leaf] == s.kind.cls}
+        return {leaf for leaf in s.leaves if self.claims[leaf] == self._kind(s).cls}
 
     def _chain_subject(self, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
         """A sub-chain to pre-classify below `cls`: its links, their facts, what a declaration rules out.
@@ -285,6 +316,10 @@ END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
     Step("assembly", Abstractor.assembly),
 ))
 
-# Run in this order, each named by the core:componentKind of the components it finds; each pass removes
-# its devices from the tree the next one sees.
-PASSES = (SENSOR_PASS, END_EFFECTOR_PASS)
+BODY_PASS = Pass(BODY, (
+    Step("body parts", Abstractor.body_parts),
+))
+
+# Run in this order; a device pass is named by the core:componentKind of the components it finds, and
+# removes them from the tree the next device pass sees.
+PASSES = (SENSOR_PASS, END_EFFECTOR_PASS, BODY_PASS)

@@ -18,7 +18,6 @@ from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
 from urdfkb.pipeline.population import stamp
 from urdfkb.pipeline.stages.asking import Progress
-from urdfkb.pipeline.stages.body import body_pass
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -139,8 +138,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         started = time.monotonic()
         log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
         abstractor = Abstractor(oracle, vocabulary(), progress, log)
-        components = abstractor.run(tree)
-        body, components = body_pass(oracle, vocabulary(), tree, list(components), progress, log)
+        components, body = abstractor.run(tree), abstractor.body
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),

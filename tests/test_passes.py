@@ -45,14 +45,14 @@ def test_a_pass_names_each_step_once():
 
 
 def test_every_component_kind_has_a_declared_pass_sensors_first(monkeypatch):
-    assert [p.name for p in PASSES] == ["sensor", "end_effector"]
+    assert [p.name for p in PASSES] == ["sensor", "end_effector", "body"]
     monkeypatch.setattr(abstraction, "PASSES", PASSES[:1])
     with pytest.raises(OntologyError, match="no pass declared for component kind.*end_effector"):
         Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
 
 
 @pytest.mark.reasoner
-def test_the_trace_times_every_step_of_both_passes():
+def test_the_trace_times_every_step_of_every_pass():
     out = io.StringIO()
     Abstractor(Oracle(ScriptedBackend(perfect), trace=out), vocabulary()).run(load_urdf(TOY))
     timed = [(r["pass"], r["step"]) for r in map(json.loads, out.getvalue().splitlines()) if r["key"] == "timing"]

@@ -140,7 +140,8 @@ def perfect(q: Question) -> str | dict:
 
 @pytest.mark.reasoner
 def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack):
-    comps = Abstractor(Oracle(ScriptedBackend(perfect)), TAX).run(rack)
+    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), TAX)
+    comps = abstractor.run(rack)
     tools = {c.cls: c for c in comps if c.kind == "end_effector"}
     assert set(tools) == {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand"}
     assert tools["ParallelGripper"].root == "left_flange" and tools["AnthropomorphicHand"].root == "mid_wrist"
@@ -151,7 +152,7 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert "palm" in OFFERED["part:vise_body@EndEffectorSubpart"]  # the jaws hang from it
     assert not {"palm", "finger"} & set(OFFERED["part:vise_grip_point@EndEffectorSubpart"])
 
-    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps))
+    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps, body=abstractor.body))
     graph = robot_graph(onto)
     assert validate(graph)[0]
     core = rdflib.Namespace(CORE_IRI)
