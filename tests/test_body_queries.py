@@ -141,8 +141,10 @@ def test_the_end_effector_at_the_end_of_an_arm(store):
 
 
 @pytest.mark.parametrize("name,args", [("body_parts", {}), ("body_part_joints", {"part": "arm", "side": "left"}),
-                                       ("body_part_joints", {"part": "bodypart"}), ("located_on", {"part": "arm"}),
+                                       ("body_part_joints", {"part": "bodypart"}),
+                                       ("located_on", {"part": "arm"}),
                                        ("arm_end_effector", {})])
+@pytest.mark.slow
 def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
     """An independent engine (rdflib) over the robot's self-contained export gives the same rows in the same order."""
     text = load_queries()[name].bind(R + "robot", args)

@@ -43,6 +43,7 @@ def test_graph_is_self_contained(onto):
     assert len(list(g.subjects(RDF.type, CORE.Link))) == 10
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", BY_NAME)
 def test_round_trip_through_a_file(onto, hostile_onto, tmp_path, fmt):
     for robot in (onto, hostile_onto):

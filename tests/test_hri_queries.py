@@ -82,6 +82,7 @@ def test_low_confidence_for_review(store):
 
 @pytest.mark.parametrize("name,args", [("cameras", {}), ("sensors", {}), ("mounted_below", {"link": "torso_lift_link"}),
                                        ("end_effectors", {}), ("low_confidence", {}), ("components", {})])
+@pytest.mark.slow
 def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
     """An independent engine (rdflib) over the robot's self-contained export gives the same rows."""
     text = load_queries()[name].bind(R + "robot", args)

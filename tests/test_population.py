@@ -234,6 +234,7 @@ def test_shared_urdfs_populate_exactly_and_consistently(shared):
     assert list(world.inconsistent_classes()) == []
 
 
+@pytest.mark.reasoner
 def test_joint_facts_body_parts_and_locations():
     """Limits, axis and mimic on every joint; body parts under the robot (a wheel under the base), with their
     joints, links, mount and side; a device located on the part carrying its mount, with its own joints."""

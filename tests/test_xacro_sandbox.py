@@ -109,6 +109,7 @@ def test_the_server_refuses_xacro_where_no_sandbox_can_run(tmp_path, monkeypatch
         store.close()
 
 
+@pytest.mark.slow
 @confined_only
 def test_hostile_xacro_jobs_cost_no_other_route(tmp_path):
     """Twenty CPU-burning xacros: each is a job (a full queue answers 429 at once), expansion never
