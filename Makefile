@@ -1,4 +1,5 @@
-# urdfkb: `make run` sets everything up and serves the sample robot; `make test` runs the suite.
+# urdfkb: `make run` sets everything up and serves the sample robot; `make test` runs the suite,
+# `make test-fast` all of it but the slow lanes (FAST; markers in pyproject.toml).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -9,7 +10,9 @@ PORT   ?= 8000
 # and the already-installed check mean it is never rebuilt after that.
 export CMAKE_BUILD_PARALLEL_LEVEL ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: run test install model bench clean
+FAST   := not (model or reasoner or crash or w3c or browser or slow)
+
+.PHONY: run test test-fast install model bench typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -30,13 +33,23 @@ run: model
 test: install
 	$(BIN)/python -m pytest -q -ra
 
+test-fast: install
+	$(BIN)/python -m pytest -q -ra -m "$(FAST)"
+
+$(VENV)/.typecheck: pyproject.toml | $(VENV)/.installed
+	$(BIN)/python -m pip install -q -e '.[typecheck]'
+	touch $@
+
+typecheck: $(VENV)/.typecheck
+	$(BIN)/mypy
+
 bench: install
-	$(BIN)/python benchmarks/ingest_bench.py
-	$(BIN)/python benchmarks/llm_bench.py
-	$(BIN)/python benchmarks/bench_queries.py
-	$(BIN)/python benchmarks/vote_bench.py
-	$(BIN)/python benchmarks/ui_bench.py
-	$(BIN)/python benchmarks/reasoner_bench.py
+	$(BIN)/python -m benchmarks.ingest_bench
+	$(BIN)/python -m benchmarks.llm_bench
+	$(BIN)/python -m benchmarks.bench_queries
+	$(BIN)/python -m benchmarks.vote_bench
+	$(BIN)/python -m benchmarks.ui_bench
+	$(BIN)/python -m benchmarks.reasoner_bench
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -8,7 +8,7 @@ with its defaults) and get the same query text (POST
 application/sparql-query, keep-alive connections); printed: p50 latency with one client and
 throughput with 1 and 8 concurrent clients, side by side.
 
-    .venv/bin/python benchmarks/bench_queries.py [--robots 100] [--seconds 3]
+    .venv/bin/python -m benchmarks.bench_queries [--robots 100] [--seconds 3]
 """
 from __future__ import annotations
 
@@ -24,15 +24,13 @@ from pathlib import Path
 
 import pyoxigraph
 
+from tests.kb_fixtures import PR2, free_port
+from urdfkb.kb_server.queries import load_queries
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
+from urdfkb.pipeline.ingest import load_urdf
+
 REPO = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(REPO), str(REPO / "tests")]
-
-from kb_fixtures import PR2, free_port  # noqa: E402
-from urdfkb.kb_server.queries import load_queries  # noqa: E402
-from urdfkb.kb_server.store import Store  # noqa: E402
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent  # noqa: E402
-from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
-
 SHARED = REPO.parent / "shared" / "urdf"
 QUERIES = {"cameras": {}, "sensors": {}, "mounted_below": {"link": "base_link"}, "end_effectors": {},
            "low_confidence": {"threshold": "0.5"}, "components": {}}

@@ -1,15 +1,12 @@
-"""Median load_urdf time per shared robot: python benchmarks/ingest_bench.py [-n RUNS] [DIR]."""
+"""Median load_urdf time per shared robot: python -m benchmarks.ingest_bench [-n RUNS] [DIR]."""
 import argparse
 import statistics
-import sys
 import time
 from pathlib import Path
 
+from urdfkb.pipeline.ingest import load_urdf
+
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-
-from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
-
 
 def median_ms(path: Path, runs: int) -> float:
     times = []

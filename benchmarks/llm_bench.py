@@ -1,6 +1,6 @@
 """Speed of the embedded llama.cpp backend: cold vs warm prefix, batched vs one question at a time.
 
-Usage: python benchmarks/llm_bench.py [--test-model] [--reps 3]
+Usage: python -m benchmarks.llm_bench [--test-model] [--reps 3]
 Prints medians over rounds that interleave the cases. Each question has ~30 user tokens and 5 options of 2-5 tokens.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """One robot end to end and cold, `urdfkb populate --no-cache`: this checkout, or it against another revision.
 
-Usage: python benchmarks/populate_bench.py [--urdf PR2.urdf] [--against REV] [--runs 2]
+Usage: python -m benchmarks.populate_bench [--urdf PR2.urdf] [--against REV] [--runs 2]
 
 Every run is a fresh process (cold model load, result cache off, prefix-state cache off). With
 --against, the revision's files (`git archive`) are laid out as an importable `urdfkb` the way

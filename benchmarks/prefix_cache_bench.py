@@ -1,6 +1,6 @@
 """End-to-end `urdfkb populate` with and without the on-disk prefix KV-state cache.
 
-Usage: python benchmarks/prefix_cache_bench.py [--robot PR2.urdf] [--first TIAGO.urdf] [--reps 1]
+Usage: python -m benchmarks.prefix_cache_bench [--robot PR2.urdf] [--first TIAGO.urdf] [--reps 1]
 
 Each round runs, as fresh processes with the result cache off (`--no-cache`), in an isolated
 cache root (models linked from the real one):

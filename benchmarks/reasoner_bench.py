@@ -1,4 +1,4 @@
-"""Median cost of classifying tools with HermiT: python benchmarks/reasoner_bench.py [-n RUNS].
+"""Median cost of classifying tools with HermiT: python -m benchmarks.reasoner_bench [-n RUNS].
 
 Prints the JVM's fixed cost (a one-class ontology), the core alone, and the tools of the invented
 tests/data/tool_rack.urdf (a vise, a three-prong gripper, a hand) repeated 1, 2 and 4 times in one
@@ -6,20 +6,17 @@ world, as one end-effector pass would assert them; with the ratio to the core al
 """
 import argparse
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import owlready2
 
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.ontology import load_core
+from urdfkb.pipeline.reasoning import classify
+from urdfkb.pipeline.structure import tool_structure
+
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-
-from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
-from urdfkb.pipeline.ontology import load_core  # noqa: E402
-from urdfkb.pipeline.reasoning import classify  # noqa: E402
-from urdfkb.pipeline.structure import tool_structure  # noqa: E402
-
 RACK = REPO / "tests" / "data" / "tool_rack.urdf"
 TOOLS = (["vise_jaw_port", "vise_jaw_starboard", "vise_grip_point"],
          ["trident_motor", "trident_prong0_tip", "trident_prong1_tip", "trident_prong2_tip"],

@@ -4,25 +4,22 @@ PR2 is populated with the hand-written scripted abstraction (tests/kb_fixtures.P
 two reviewers' corrections; the page is rendered N times through the Flask app (no network), and
 the median and spread are printed beside the JSON route for the same robot. Target: <= 300 ms.
 
-    .venv/bin/python benchmarks/ui_bench.py [--iterations 30]
+    .venv/bin/python -m benchmarks.ui_bench [--iterations 30]
 """
 from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
 
+from tests.kb_fixtures import PR2, make_app
+from urdfkb.kb_server.corrections import Correction
+from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.ingest import load_urdf
+
 REPO = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(REPO), str(REPO / "tests")]
-
-from kb_fixtures import PR2, make_app  # noqa: E402
-from urdfkb.kb_server.corrections import Correction  # noqa: E402
-from urdfkb.kb_server.store import Store  # noqa: E402
-from urdfkb.pipeline.ingest import load_urdf  # noqa: E402
-
 SHARED = REPO.parent / "shared" / "urdf"
 HTML = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
 

@@ -2,7 +2,7 @@
 
 Each mode runs the whole pipeline cold (model load included, result cache off) and is scored
 against the truth file; the table gives wall time, LLM calls, prompt tokens and accuracy, and
-the ratios sample / exact. Usage: python benchmarks/vote_bench.py [--robot pr2] [--votes 5]
+the ratios sample / exact. Usage: python -m benchmarks.vote_bench [--robot pr2] [--votes 5]
 """
 from __future__ import annotations
 

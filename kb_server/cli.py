@@ -217,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("eval", help="score the pipeline against ground-truth robots",
-                       description="Run the pipeline on each truth robot and print the metrics of spec/evaluation.md per robot and their mean, with model, voting, LLM calls, tokens and wall time.")
+                       description="Run the pipeline on each truth robot and print the metrics of ../shared/spec/evaluation.md per robot and their mean, with model, voting, LLM calls, tokens and wall time.")
     p.add_argument("truth_dir", nargs="?", default=str(DEFAULT_TRUTH), help=f"folder of truth *.yaml files (default {DEFAULT_TRUTH}); URDF paths in them are relative to its grandparent")
     p.add_argument("--json", metavar="FILE", help="also write the scores as JSON")
     p.add_argument("--traces", metavar="DIR", help="write each robot's question trace to DIR/<robot>.jsonl")

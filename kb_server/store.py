@@ -44,7 +44,6 @@ _SCHEMA = ("""CREATE TABLE IF NOT EXISTS kb_robots (
     name TEXT PRIMARY KEY, ontology_iri TEXT NOT NULL, robot_iri TEXT NOT NULL, updated TEXT NOT NULL)""",
            "CREATE TABLE IF NOT EXISTS kb_graphs (graph TEXT PRIMARY KEY, ntriples BLOB NOT NULL)",
            "CREATE TABLE IF NOT EXISTS kb_sources (name TEXT PRIMARY KEY, tree TEXT NOT NULL, abstraction TEXT NOT NULL)")
-LEGACY_UPDATES_IRI = "https://w3id.org/urdfkb/updates#"  # where updates went before kb_graphs
 
 
 class ReadOnlyGraph(UrdfkbError, PermissionError):
@@ -109,10 +108,6 @@ class Store:
         self.core = load_core(self.world)
         for statement in _SCHEMA:
             self.world.graph.db.execute(statement)
-        legacy = self.world.ontologies.get(LEGACY_UPDATES_IRI)
-        if legacy is not None:  # a store written before kb_graphs: its update triples become the default graph
-            self.world.graph.db.execute("INSERT OR REPLACE INTO kb_graphs VALUES ('', ?)", (_ntriples(legacy),))
-            legacy.destroy()
         self.world.save()
 
     def _discard(self) -> None:
@@ -202,8 +197,8 @@ class Store:
     # --- reviewers' corrections (graph review.corrections_iri(name)) ----------------------------
 
     def source(self, name: str) -> tuple[KinematicTree, Abstraction] | None:
-        """The tree and the model's own abstraction robot `name` was last populated from (None for
-        robots stored before corrections existed, or never)."""
+        """The tree and the model's own abstraction robot `name` was last populated from (None for a
+        robot never stored)."""
         with self.lock:
             row = self.world.graph.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
         if row is None:
@@ -231,14 +226,13 @@ class Store:
 
     def add_correction(self, name: str, correction: review.Correction) -> RobotEntry:
         """Store `correction` (CorrectionError if it does not fit the robot as it is now, LookupError
-        if the robot is unknown or was populated before corrections existed) and rebuild the robot
-        graph with it, in one transaction. Writes the robot's graph and its corrections graph."""
+        if the robot is unknown) and rebuild the robot graph with it, in one transaction. Writes the
+        robot's graph and its corrections graph."""
         with self._writing() as touched:
             touched.add(review.corrections_iri(name))
             source = self.source(name) if self.robot(name) is not None else None
             if source is None:
-                raise LookupError(f"no robot {name!r}" if self.robot(name) is None else
-                                  f"robot {name!r} was stored before corrections existed: populate it again first")
+                raise LookupError(f"no robot {name!r}")
             tree, model = source
             existing = self._corrections(name)
             current, _ = review.apply(tree, model, existing)

@@ -1,38 +1,69 @@
-"""One abstraction pass per component kind, sensors first, each condensing what it abstracted.
+"""The abstraction passes: each a declared list of named steps (PASSES), sensors, end-effectors, then the body.
 
-Data path: tree → identification → attachment roots → pre-classification → group merging →
-verification → post-classification → sub-part typing → Components. End-effectors skip pre- and
-post-classification: after verification their extent and mount are settled from structure and their
-kind inferred by a reasoner from the ontology's definitions (stages.tools, structure, reasoning); the
-model is asked the kind only where the structure settles none. After a pass, the links of
-its components are removed from the tree (each device condensed onto its mount), so the next pass
-sees a smaller tree and never claims a link twice. Every schema fact comes from the Vocabulary
-(pipeline.ontology): the kinds and their sub-part branches, the part a shape requires (a camera's
-optical frame), array classes, and the sub-part classes a tool's finger chains bound.
+End-effectors skip pre- and post-classification: after verification their
+extent and mount are settled from structure and their kind inferred by a reasoner from the
+ontology's definitions (stages.tools, structure, reasoning); the model is asked the kind only where
+the structure settles none. After a pass, the links of its components are removed from the tree
+(each device condensed onto its mount), so the next pass sees a smaller tree and never claims a link
+twice. The body pass (stages.body) then sees the whole robot again and groups the movable joints no
+device owns into body parts. Every schema fact comes from the Vocabulary (pipeline.ontology);
+pipeline.passes runs the steps and times them.
 """
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable
 
-from . import reasoning
-from .components import END_EFFECTOR, SENSOR, Component, FingerFact, SubComponent
-from .evidence import LinkEvidence, named
-from .ontology import Kind, Vocabulary
-from .oracle import Oracle
-from .prompts import DRIVE_PART, NONE, sensor_check
-from .stages import tools
-from .stages.asking import Progress, ask
-from .stages.attachment import SubChain, detect_roots
-from .stages.classification import Subject, Typed, descend
-from .stages.grouping import Group, merge
-from .stages.identification import identify
-from .stages.verification import Log, group_root, indexed_units, verify
-from .structure import ToolStructure
-from .tree import KinematicTree
+from urdfkb.pipeline import reasoning
+from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, BodyPart, Component, FingerFact, SubComponent
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.evidence import LinkEvidence, named
+from urdfkb.pipeline.ontology import Kind, Vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.passes import Pass, PassManager, Step
+from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.stages import tools
+from urdfkb.pipeline.stages.asking import Progress
+from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
+from urdfkb.pipeline.stages.body import body_pass
+from urdfkb.pipeline.stages.classification import Subject, Typed, descend
+from urdfkb.pipeline.stages.grouping import Group, merge
+from urdfkb.pipeline.stages.identification import identify
+from urdfkb.pipeline.stages.sensor_check import coupled, drive_parts
+from urdfkb.pipeline.stages.subparts import type_subparts
+from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
+from urdfkb.pipeline.structure import ToolStructure
+from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
 _NO_FACTS = LinkEvidence()
+
+
+BODY = "body"  # the pass that finds no component kind: body parts
+
+
+@dataclass
+class PassState:
+    """One pass over the current tree: each step reads what the steps before it left here."""
+
+    kind: Kind | None  # the component kind the pass finds (None: the body pass)
+    robot: KinematicTree  # the whole robot
+    tree: KinematicTree  # what the pass sees: the robot less the devices of earlier device passes
+    components: list[Component]  # every component so far; a device pass adds its own (`found`)
+    leaves: list[str] = field(default_factory=list)  # the leaves this pass may claim
+    chains: list[SubChain] = field(default_factory=list)  # selected leaves with their mounts
+    pre: dict[str, Typed] = field(default_factory=dict)  # leaf → pre-class (sensors)
+    groups: list[Group] = field(default_factory=list)  # the devices
+    post: list[Typed] = field(default_factory=list)  # each device's class
+    structures: list[ToolStructure] | None = None  # each tool's structure (end-effectors)
+    inferred: list[reasoning.Inference] = field(default_factory=list)  # the reasoner's class per tool
+    fingers: list[tuple[FingerFact, ...]] | None = None  # each tool's finger chains
+    parts: dict[str, Typed] = field(default_factory=dict)  # member link → sub-part class
+    found: list[Component] = field(default_factory=list)  # the devices this pass found
+    body: list[BodyPart] = field(default_factory=list)  # the body pass's parts
+    done: bool = False  # nothing (more) to abstract: the remaining steps are skipped
 
 
 class Abstractor:
@@ -43,40 +74,165 @@ class Abstractor:
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
+        self.body: tuple[BodyPart, ...] = ()  # the last run's body parts
+        if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
+            raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
-    def run(self, tree: KinematicTree) -> tuple[Component, ...]:
+    def run(self, robot: KinematicTree) -> tuple[Component, ...]:
+        """The robot's components (its body parts in `self.body`)."""
         components: list[Component] = []
-        for kind in self.tax.kinds:
-            found = self.run_pass(kind, tree, {c.root for c in components})
-            components.extend(found)
-            tree = tree.without({link for c in found for link in c.links})
+        body: list[BodyPart] = []
+        tree, manager = robot, PassManager(self._trace)
+        for declared in PASSES:
+            state = PassState(self.tax.kinds.get(declared.name), robot, tree, list(components))
+            manager.run(declared, self, state)
+            components, body = state.components, body + state.body
+            tree = tree.without({link for c in state.found for link in c.links})
+        self.body = tuple(body)
         return tuple(components)
 
-    def run_pass(self, kind: str, tree: KinematicTree, mounts: set[str]) -> list[Component]:
-        """All components of one kind in the current tree; `mounts` carry condensed devices."""
-        cls = self.tax.kinds[kind].cls
-        leaves = [leaf for leaf in tree.leaves() if leaf not in mounts]
-        unasked = [leaf for leaf in leaves if leaf not in self.claims]
-        self.claims.update(identify(self.oracle, self.tax, tree, unasked, self.progress))
-        if kind == SENSOR:
-            self._veto_coupled(tree, leaves)
-            self._check_sensors(tree, leaves)
-        selected = [leaf for leaf in leaves if self.claims[leaf] == cls]
+    # --- steps (see PASSES) --------------------------------------------------------------------
+
+    def identification(self, s: PassState) -> None:
+        mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
+        s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
+        unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
+        self.claims.update(identify(self.oracle, self.tax, s.tree, unasked, self.progress))
+
+    def mimic_veto(self, s: PassState) -> None:
+        for leaf in coupled(s.tree, s.leaves, self._claimed(s), self.log):
+            self.claims[leaf] = NONE
+
+    def sensor_check(self, s: PassState) -> None:
+        for leaf in drive_parts(self.oracle, s.tree, s.leaves, self._claimed(s), self.log, self.progress):
+            self.claims[leaf] = NONE
+
+    def attachment(self, s: PassState, rigid: bool = False) -> None:
+        """`rigid`: devices of this kind are fixed to their mount (sensors)."""
+        kind = self._kind(s)
+        selected = [leaf for leaf in s.leaves if self.claims[leaf] == kind.cls]
         if not selected:
-            return []
-        chains = detect_roots(self.oracle, tree, selected, self.tax.kinds[kind], self._blocked(tree, cls), self.progress,
-                              rigid=kind == SENSOR)
-        if kind == END_EFFECTOR:
-            return self._tools(tree, chains, mounts)
-        pre = descend(self.oracle, self.tax, cls, [self._chain_subject(tree, c, cls) for c in chains],
-                      "pre-classification", self.progress)
-        pre_by_leaf = {c.leaf: t for c, t in zip(chains, pre)}
-        categories = {leaf: self._category(t.cls, cls) for leaf, t in pre_by_leaf.items()}
-        groups = merge(self.oracle, tree, chains, kind, categories, self.progress)
-        groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        post = self._post_classify(tree, groups, pre_by_leaf, cls)
-        groups, post = self._split_units(tree, groups, post, pre_by_leaf)
-        return self._components(tree, self.tax.kinds[kind], groups, post)
+            s.done = True
+            return
+        s.chains = detect_roots(self.oracle, s.tree, selected, kind, self._blocked(s.tree, kind.cls), self.progress,
+                                rigid=rigid)
+
+    def pre_classification(self, s: PassState) -> None:
+        kind = self._kind(s)
+        typed = descend(self.oracle, self.tax, kind.cls, [self._chain_subject(s.tree, c, kind.cls) for c in s.chains],
+                        "pre-classification", self.progress)
+        s.pre = {c.leaf: t for c, t in zip(s.chains, typed)}
+
+    def group_merging(self, s: PassState) -> None:
+        kind = self._kind(s)
+        categories = {leaf: self._category(t.cls, kind.cls) for leaf, t in s.pre.items()}
+        s.groups = merge(self.oracle, s.tree, s.chains, kind.name, categories, self.progress)
+
+    def verification(self, s: PassState) -> None:
+        s.groups = verify(s.tree, s.groups, self._unclaimed(s.tree, s.groups, {c.root for c in s.components}), self.log)
+
+    def post_classification(self, s: PassState) -> None:
+        """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
+
+        The descent starts at the deepest class common to the members' pre-classes, or one level
+        above it when that is a leaf class, so that siblings stay open (several sonar frames may
+        still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
+        """
+        top = self._kind(s).cls
+        typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
+        by_start: dict[str, list[Group]] = {}
+        for g in s.groups:
+            if len(g.chains) > 1:
+                by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
+        for start, members in by_start.items():
+            results = descend(self.oracle, self.tax, start, [
+                Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
+                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(s.pre[leaf].cls)})" for leaf in g.leaves),
+                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}"))
+                for g in members
+            ], "post-classification", self.progress)
+            typed.update({id(g): t for g, t in zip(members, results)})
+        s.post = [typed[id(g)] for g in s.groups]
+
+    def numbered_units(self, s: PassState) -> None:
+        """Numbered units of one type given one device name are separate devices unless the
+        device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
+        groups, post = [], []
+        for g, t in zip(s.groups, s.post):
+            if len(g.chains) > 1 and not self.tax.has_numbered_units(t.cls) and indexed_units(s.tree, g):
+                self.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
+                groups += [Group([c]) for c in g.chains]
+                post += [s.pre[c.leaf] for c in g.chains]
+            else:
+                groups.append(g)
+                post.append(t)
+        s.groups, s.post = groups, post
+
+    def tool_extent(self, s: PassState) -> None:
+        cls = self._kind(s).cls
+        settled = tools.settle(s.tree, s.groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
+        s.groups = [g for g, _ in settled]
+        s.structures = [structure for _, structure in settled]
+
+    def reasoner(self, s: PassState) -> None:
+        """Each tool's class from the ontology's definitions over its structure, and its finger chains."""
+        structures = s.structures or []
+        s.inferred, seconds = reasoning.classify(structures)
+        self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
+            {"leaves": g.leaves, "facts": st.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
+            for g, st, i in zip(s.groups, structures, s.inferred)]})
+        s.fingers = [tuple(FingerFact(f.name, f.drive, self.tax.finger_chain_class(f.motion), f.name in i.thumbs,
+                                      f.opposes, f.moves_with, f.mimics) for f in st.fingers)
+                     for st, i in zip(structures, s.inferred)]
+
+    def tool_classification(self, s: PassState) -> None:
+        """The model is asked the kind of the tools whose structure settles none."""
+        open_groups = [(g, st) for g, st, i in zip(s.groups, s.structures or [], s.inferred) if not i.settled]
+        asked = descend(self.oracle, self.tax, self._kind(s).cls, [
+            Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
+                    f"Links: {', '.join(g.leaves)}\nStructure: {st.describe()}")
+            for g, st in open_groups
+        ], "end-effector classification", self.progress)
+        by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
+        s.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(s.groups, s.inferred)]
+
+    def subpart_typing(self, s: PassState) -> None:
+        s.parts = type_subparts(self.oracle, self.tax, s.tree, self._kind(s), s.groups, s.post, s.structures,
+                                self.progress)
+
+    def assembly(self, s: PassState) -> None:
+        kind = self._kind(s)
+        s.found = [
+            Component(
+                name=f"{kind.name}_{i}_{g.leaves[0]}",
+                kind=kind.name,
+                cls=t.cls,
+                confidence=round(t.confidence, 4),
+                root=group_root(s.tree, g),
+                subcomponents=tuple(SubComponent(link, s.parts[link].cls, round(s.parts[link].confidence, 4))
+                                    for link in g.members),
+                fingers=s.fingers[i] if s.fingers else (),
+            )
+            for i, (g, t) in enumerate(zip(s.groups, s.post))
+        ]
+        s.components += s.found
+
+    def body_parts(self, s: PassState) -> None:
+        """Body parts from the movable joints no device owns; each component gets its joints and the part it
+        is located on."""
+        body, s.components = body_pass(self.oracle, self.tax, s.robot, s.components, self.progress, self.log)
+        s.body = list(body)
+
+    # --- helpers ----------------------------------------------------------------------------------
+
+    def _kind(self, s: PassState) -> Kind:
+        if s.kind is None:
+            raise ValueError("a step of the device passes ran in a pass that finds no component kind")
+        return s.kind
+
+    def _claimed(self, s: PassState) -> set[str]:
+        """The pass's leaves identified as its kind."""
+        return {leaf for leaf in s.leaves if self.claims[leaf] == self._kind(s).cls}
 
     def _chain_subject(self, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
         """A sub-chain to pre-classify below `cls`: its links, their facts, what a declaration rules out.
@@ -103,58 +259,6 @@ class Abstractor:
             self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
         return ruled_out
 
-    def _tools(self, tree: KinematicTree, chains: list[SubChain], mounts: set[str]) -> list[Component]:
-        """The end-effector pass after attachment: group, verify, settle extent and mount by structure,
-        classify by the ontology's definitions (reasoner), and ask the model only what they leave open."""
-        kind = self.tax.kinds[END_EFFECTOR]
-        cls = kind.cls
-        groups = merge(self.oracle, tree, chains, END_EFFECTOR, {}, self.progress)
-        groups = verify(tree, groups, self._unclaimed(tree, groups, mounts), self.log)
-        settled = tools.settle(tree, groups, lambda leaf: self.claims.get(leaf) == cls, self.log)
-        groups = [g for g, _ in settled]
-        structures = [s for _, s in settled]
-        inferred, seconds = reasoning.classify(structures)
-        self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
-            {"leaves": g.leaves, "facts": s.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
-            for g, s, i in zip(groups, structures, inferred)]})
-        open_groups = [(g, s) for (g, s), i in zip(settled, inferred) if not i.settled]
-        asked = descend(self.oracle, self.tax, cls, [
-            Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
-                    f"Links: {', '.join(g.leaves)}\nStructure: {s.describe()}")
-            for g, s in open_groups
-        ], "end-effector classification", self.progress)
-        by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
-        post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(groups, inferred)]
-        fingers = [tuple(FingerFact(f.name, f.drive, self.tax.finger_chain_class(f.motion), f.name in i.thumbs,
-                                    f.opposes, f.moves_with, f.mimics) for f in s.fingers)
-                   for s, i in zip(structures, inferred)]
-        return self._components(tree, kind, groups, post, structures, fingers)
-
-    def _veto_coupled(self, tree: KinematicTree, leaves: list[str]) -> None:
-        """A leaf that itself moves on a <mimic> joint is a finger segment or a linkage, never a sensor
-        frame (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools
-        keep every finger chain."""
-        for leaf in leaves:
-            if self.claims[leaf] == self.tax.kinds[SENSOR].cls and tree.parent_edge(leaf).mimic is not None:
-                self.claims[leaf] = NONE
-                self.log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
-
-    def _check_sensors(self, tree: KinematicTree, leaves: list[str]) -> None:
-        """Ask once more, framed differently (sensor, emitter, drive part or reference frame?), about
-        each leaf identified as a sensor; a leaf the check calls a part of a motor or drive is no sensor.
-        A leaf the file declares a simulator sensor on is not asked (on PR2 that halves the questions).
-
-        Only that answer overrules identification: over the ten truth robots it went to motor screws and
-        an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' also
-        took laser scanners and optical frames, so they are traced but change nothing."""
-        sensor = self.tax.kinds[SENSOR].cls
-        checked = [leaf for leaf in leaves if self.claims[leaf] == sensor and not tree.evidence.get(leaf, _NO_FACTS).sensors]
-        questions = [sensor_check(leaf, named(tree.evidence, leaf), tree.chain_to_root(leaf)[1:]) for leaf in checked]
-        for leaf, verdict in zip(checked, ask(self.oracle, questions, "sensor check", self.progress)):
-            if verdict.answer == DRIVE_PART:
-                self.claims[leaf] = NONE
-                self.log(f"not a sensor: {leaf} is a part of a motor or drive ({verdict.confidence:.2f})")
-
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:
             self.oracle.trace.write(json.dumps(record) + "\n")
@@ -179,124 +283,43 @@ class Abstractor:
             return not tree.is_leaf(link) or self.claims.get(link) == NONE
         return unclaimed
 
-    def _post_classify(self, tree: KinematicTree, groups: list[Group], pre: dict[str, Typed], cls: str) -> list[Typed]:
-        """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
-
-        The descent starts at the deepest class common to the members' pre-classes, or one level
-        above it when that is a leaf class, so that siblings stay open (several sonar frames may
-        still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
-        """
-        typed = {id(g): pre[g.leaves[0]] for g in groups}
-        by_start: dict[str, list[Group]] = {}
-        for g in groups:
-            if len(g.chains) > 1:
-                by_start.setdefault(self._shared_class({pre[leaf].cls for leaf in g.leaves}, cls), []).append(g)
-        for start, members in by_start.items():
-            results = descend(self.oracle, self.tax, start, [
-                Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
-                        "Frames: " + "; ".join(f"{leaf} ({self.tax.label(pre[leaf].cls)})" for leaf in g.leaves),
-                        self._ruled_out(tree, g.members, start, f"post:{g.leaves[0]}"))
-                for g in members
-            ], "post-classification", self.progress)
-            typed.update({id(g): t for g, t in zip(members, results)})
-        return [typed[id(g)] for g in groups]
-
-    def _split_units(self, tree: KinematicTree, groups: list[Group], post: list[Typed],
-                     pre: dict[str, Typed]) -> tuple[list[Group], list[Typed]]:
-        """Numbered units of one type given one device name are separate devices unless the
-        device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
-        out_groups, out_post = [], []
-        for g, t in zip(groups, post):
-            if len(g.chains) > 1 and not self.tax.has_numbered_units(t.cls) and indexed_units(tree, g):
-                self.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
-                out_groups += [Group([c]) for c in g.chains]
-                out_post += [pre[c.leaf] for c in g.chains]
-            else:
-                out_groups.append(g)
-                out_post.append(t)
-        return out_groups, out_post
-
     def _shared_class(self, classes: set[str], top: str) -> str:
         """The deepest class every one of `classes` falls under (at most `top`), lifted off a leaf."""
         common = [c for c in (top, *self.tax.subclasses_below(top)) if all(self.tax.is_a(x, c) for x in classes)]
         deepest = max(common, key=lambda c: len(self.tax.ancestors(c)))
         return self.tax.parents(deepest)[0] if self.tax.is_leaf(deepest) and deepest != top else deepest
 
-    def _components(self, tree: KinematicTree, kind: Kind, groups: list[Group],
-                    post: list[Typed], structures: list[ToolStructure] | None = None,
-                    fingers: list[tuple[FingerFact, ...]] | None = None) -> list[Component]:
-        """Type every member link in the kind's Subpart branch, then assemble the components.
 
-        A device whose class ontologies/shapes.ttl requires a part of (a camera: an optical frame; a
-        sensor forming no images: a sensing element) has one at each of its sub-chains' leaves: a sensor
-        chain runs from its mount to the frame its measurements are expressed in, and nothing hangs below
-        that frame. Those leaves are refined below the required part (core:partQuestion asks which
-        kind, where it has kinds); the device's other links are typed with that part's branch ruled out.
-        """
-        required = self._required_links(groups, post)
-        framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
-        structural = self._structural_parts(tree, kind, groups, structures)
-        rest = [
-            (link, Subject(f"part:{link}", framing,
-                           f"Link: {named(tree.evidence, link)}\nDevice: {self.tax.label(t.cls)}",
-                           self.tax.excluded_parts(t.cls) | self._required_branch(t.cls) | structural.get(link, frozenset())))
-            for g, t in zip(groups, post) for link in g.members if link not in required
-        ]
-        frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
-        for link, device in required.items():
-            part, holder = self.tax.required_part(device), self.tax.label(self.tax.requiring_class(device))
-            frames.setdefault(part, []).append((link, Subject(
-                f"part:{link}", self.tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
-                f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {self.tax.label(device)}",
-                self.tax.excluded_parts(device))))
-        typed = dict(zip([link for link, _ in rest], descend(
-            self.oracle, self.tax, kind.subparts, [s for _, s in rest], "sub-part classification", self.progress)))
-        for part, subjects in frames.items():
-            typed.update(zip([link for link, _ in subjects], descend(
-                self.oracle, self.tax, part, [s for _, s in subjects], "required parts", self.progress)))
-        return [
-            Component(
-                name=f"{kind.name}_{i}_{g.leaves[0]}",
-                kind=kind.name,
-                cls=t.cls,
-                confidence=round(t.confidence, 4),
-                root=group_root(tree, g),
-                subcomponents=tuple(SubComponent(link, typed[link].cls, round(typed[link].confidence, 4))
-                                    for link in g.members),
-                fingers=fingers[i] if fingers else (),
-            )
-            for i, (g, t) in enumerate(zip(groups, post))
-        ]
+SENSOR_PASS = Pass(SENSOR, (
+    Step("identification", Abstractor.identification),
+    Step("mimic veto", Abstractor.mimic_veto),
+    Step("sensor check", Abstractor.sensor_check),
+    Step("attachment", partial(Abstractor.attachment, rigid=True)),
+    Step("pre-classification", Abstractor.pre_classification),
+    Step("group merging", Abstractor.group_merging),
+    Step("verification", Abstractor.verification),
+    Step("post-classification", Abstractor.post_classification),
+    Step("numbered units", Abstractor.numbered_units),
+    Step("sub-part typing", Abstractor.subpart_typing),
+    Step("assembly", Abstractor.assembly),
+))
 
-    def _required_branch(self, cls: str) -> frozenset[str]:
-        """The branch of the part a `cls` device requires (selected separately), or nothing."""
-        part = self.tax.required_part(cls)
-        return self.tax.branch(part) if part else frozenset()
+END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
+    Step("identification", Abstractor.identification),
+    Step("attachment", Abstractor.attachment),
+    Step("group merging", Abstractor.group_merging),
+    Step("verification", Abstractor.verification),
+    Step("tool extent", Abstractor.tool_extent),
+    Step("reasoner", Abstractor.reasoner),
+    Step("end-effector classification", Abstractor.tool_classification),
+    Step("sub-part typing", Abstractor.subpart_typing),
+    Step("assembly", Abstractor.assembly),
+))
 
-    def _structural_parts(self, tree: KinematicTree, kind: Kind, groups: list[Group],
-                          structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
-        """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
-        a finger chain is a finger or its contact surface; any other link is no finger, nor a palm if
-        the tool has fingers and none hangs from it. (Nothing for sensors.)"""
-        if structures is None:
-            return {}
-        finger, carrier = self.tax.finger_chain_role("link"), self.tax.finger_chain_role("carrier")
-        on_finger = frozenset(set(self.tax.subclasses_below(kind.subparts)) - finger - self.tax.finger_chain_role("tip"))
-        excluded = {}
-        for group, structure in zip(groups, structures):
-            fingers = {link for f in structure.fingers for link in f.links}
-            carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
-            for link in group.members:
-                if link in fingers:
-                    excluded[link] = on_finger
-                elif fingers and link not in carriers:
-                    excluded[link] = finger | carrier
-                else:
-                    excluded[link] = finger
-        return excluded
+BODY_PASS = Pass(BODY, (
+    Step("body parts", Abstractor.body_parts),
+))
 
-    def _required_links(self, groups: list[Group], post: list[Typed]) -> dict[str, str]:
-        """The leaf of each sub-chain of a device whose class requires a part (a camera: its optical
-        frame; a lidar: its sensing element) → the device's class."""
-        return {chain.leaf: t.cls for g, t in zip(groups, post) if self.tax.required_part(t.cls) is not None
-                for chain in g.chains}
+# Run in this order; a device pass is named by the core:componentKind of the components it finds, and
+# removes them from the tree the next device pass sees.
+PASSES = (SENSOR_PASS, END_EFFECTOR_PASS, BODY_PASS)

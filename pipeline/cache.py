@@ -10,7 +10,7 @@ from pathlib import Path
 
 import platformdirs
 
-from .components import Abstraction
+from urdfkb.pipeline.components import Abstraction
 
 
 @functools.cache

@@ -19,7 +19,3 @@ class OntologyError(UrdfkbError):
 
 class BackendError(UrdfkbError):
     """The model backend failed: it raised, timed out or kept answering outside the valid set."""
-
-
-class PipelineError(UrdfkbError):
-    """A pipeline stage could not produce a valid result."""

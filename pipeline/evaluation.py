@@ -1,6 +1,6 @@
-"""Abstraction accuracy against the ground truth, as defined in spec/evaluation.md.
+"""Abstraction accuracy against the ground truth, as defined in ../shared/spec/evaluation.md.
 
-A populated graph is read by the core namespace and the local names of spec/ontology.md only;
+A populated graph is read by the core namespace and the local names of ../shared/spec/ontology.md only;
 class ancestry comes from the graph's own ``rdfs:subClassOf`` triples, and which class roots each
 kind and its sub-parts from the Vocabulary (``core:componentKind`` and its ``hasComponent`` branch).
 
@@ -165,7 +165,7 @@ def _truth_body(data: dict, path) -> TruthBody:
 
 
 def load_truth(path: str | Path) -> Truth:
-    """Parse and sanity-check a truth YAML file (format: spec/evaluation.md), its ``body:``
+    """Parse and sanity-check a truth YAML file (format: ../shared/spec/evaluation.md), its ``body:``
     section included where present."""
     data = yaml.safe_load(Path(path).read_text())
     comps = tuple(_truth_component(c) for c in data["components"])
@@ -371,7 +371,7 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
 
 
 def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str], tree: KinematicTree | None = None) -> dict:
-    """Every metric of spec/evaluation.md for one robot.
+    """Every metric of ../shared/spec/evaluation.md for one robot.
 
     Returns ``{"all"|"sensor"|"end_effector": {metric: float, count: int}, "body": {body
     metric: float, count: int}, "partitions": {replaced ids: "canonical"|"alternative"},

@@ -41,11 +41,6 @@ def _packaged(name: str) -> pathlib.Path:
     return pathlib.Path(str(importlib.resources.files("urdfkb.ontologies").joinpath(name)))
 
 
-def core_version() -> str:
-    """Short SHA-256 of the core file: changes whenever the vocabulary does (cache keys)."""
-    return vocabulary().version
-
-
 def load_core(world: owlready2.World, vocab: "Vocabulary | None" = None) -> owlready2.Ontology:
     """Load the core (of `vocab`, the packaged one by default) into `world`, offline; no-op if this
     version is there.

@@ -6,8 +6,8 @@ import math
 from dataclasses import dataclass
 from typing import Sequence, TextIO
 
-from .errors import BackendError
-from .llm.base import Backend, Question, Stats
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.llm.base import Backend, Question, Stats
 
 MODES = ("exact", "sample")  # the values of core:votingMode
 MAX_VOTES = 100

@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
-from .llm.base import Question
-from .ontology import Kind, Vocabulary
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.ontology import Kind, Vocabulary
 
 NONE = "none"  # identification: the leaf is part of no component
 MAX_CHAIN = 4  # ancestors shown as context for a link

@@ -4,8 +4,8 @@ Each tool becomes an EndEffector individual in a temporary world holding the cor
 one individual per finger chain typed by its drive's motion (the class the ontology aligns to it by
 `core:fingerDrive`), `opposes`, `movesWith` and `isMimicOf` between chains.
 The code closes what it knows (the tool has no chain but these, each opposes and moves with no chain
-but those: an at-most cardinality equal to the count of asserted, all-different chains; measured
-several times faster in HermiT than the same closure with nominals), so the qualified cardinalities in the definitions of `ParallelGripper`,
+but those: an at-most cardinality equal to the count of asserted, all-different chains, which
+HermiT classifies faster than the same closure with nominals), so the qualified cardinalities in the definitions of `ParallelGripper`,
 `MultiFingerGripper`, `AnthropomorphicHand` and `ThumbChain` apply. One reasoner run covers every
 tool of a robot pass. A tool without finger chains is left to the model: the URDF does not say
 whether a rigid tool holds by suction, a magnet, or fingers written as fixed links.
@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import owlready2
 
-from . import components
-from .ontology import CORE_IRI, load_core, vocabulary
-from .structure import ToolStructure
+from urdfkb.pipeline import components
+from urdfkb.pipeline.ontology import CORE_IRI, load_core, vocabulary
+from urdfkb.pipeline.structure import ToolStructure
 
 log = logging.getLogger(__name__)
 THUMB = "ThumbChain"

@@ -9,17 +9,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, TextIO
 
-from . import cache
-from .abstraction import Abstractor
-from .components import Abstraction
-from .errors import BackendError, URDFError
-from .llm.base import Backend
-from .ontology import vocabulary
-from .oracle import Oracle, check_voting
-from .population import stamp
-from .stages.asking import Progress
-from .stages.body import body_pass
-from .tree import KinematicTree
+from urdfkb.pipeline import cache
+from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.errors import BackendError, URDFError
+from urdfkb.pipeline.llm.base import Backend
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.oracle import Oracle, check_voting
+from urdfkb.pipeline.population import stamp
+from urdfkb.pipeline.stages.asking import Progress
+from urdfkb.pipeline.tree import KinematicTree
 
 
 @dataclass(frozen=True)
@@ -75,10 +74,10 @@ def _coerce(name: str, kind: str, raw: object) -> object:
 def make_backend(settings: Settings) -> Backend:
     """The backend the settings ask for: an HTTP server, a given GGUF, or the default model."""
     if settings.llm_url:
-        from .llm.http import OpenAIBackend
+        from urdfkb.pipeline.llm.http import OpenAIBackend
         return OpenAIBackend(settings.llm_url, settings.llm_model or "default")
-    from .llm.fetch import DEFAULT_MODEL, ensure_model
-    from .llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, ensure_model
+    from urdfkb.pipeline.llm.llama import LlamaBackend
     return LlamaBackend(settings.model or str(ensure_model(DEFAULT_MODEL)))
 
 
@@ -96,7 +95,7 @@ def _model_file(settings: Settings) -> dict[str, str]:
     another file is hashed once per path, size and mtime (llm.fetch.model_sha256)."""
     if settings.llm_url:
         return {}
-    from .llm.fetch import DEFAULT_MODEL, model_sha256
+    from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, model_sha256
     if settings.model is None:
         return {"modelFile": DEFAULT_MODEL.filename, "modelSha256": DEFAULT_MODEL.sha256}
     try:
@@ -139,8 +138,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         started = time.monotonic()
         log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
         abstractor = Abstractor(oracle, vocabulary(), progress, log)
-        components = abstractor.run(tree)
-        body, components = body_pass(oracle, vocabulary(), tree, list(components), progress, log)
+        components, body = abstractor.run(tree), abstractor.body
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .tree import Edge, KinematicTree, Vector, rotate_rpy
+from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
 
 OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
 ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together

@@ -5,7 +5,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from math import cos, sin
 
-from .evidence import LinkEvidence
+from urdfkb.pipeline.evidence import LinkEvidence
 
 JOINT_TYPES = ("fixed", "revolute", "continuous", "prismatic", "floating", "planar")
 
@@ -227,15 +227,6 @@ class KinematicTree:
         chain = [self._known(link)]
         while (edge := self._parent_edge.get(chain[-1])) is not None:
             chain.append(edge.parent)
-        return tuple(chain)
-
-    def own_chain(self, link: str, limit: int = 3) -> tuple[str, ...]:
-        """`link` and the ancestors that carry nothing else (each the only child of the next), nearest
-        first, at most `limit` links and never the root: the body a leaf frame is part of."""
-        chain = [self._known(link)]
-        while len(chain) < limit and (parent := self.parent(chain[-1])) not in (None, self.root) \
-                and len(self._children[parent]) == 1:
-            chain.append(parent)
         return tuple(chain)
 
     def descendants(self, link: str) -> tuple[str, ...]:

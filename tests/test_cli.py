@@ -117,6 +117,7 @@ def test_version_is_the_package_version():
     assert importlib.metadata.version("urdfkb") == urdfkb.__version__
 
 
+@pytest.mark.slow
 def test_the_wheel_installs_one_top_level_package(tmp_path):
     """`pip install .` must put only `urdfkb` into site-packages, with the data files it reads."""
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],

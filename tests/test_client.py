@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import pytest
 
-from kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
+from tests.kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
 from urdfkb.client import (ArmEndEffector, BodyPart, CameraLink, ClientError, Joint, KnowledgeBase, LocatedComponent,
                            QueryFailed, ServerUnavailable, UnknownRobot, class_words)
 from urdfkb.kb_server.store import Store

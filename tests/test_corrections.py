@@ -8,7 +8,7 @@ from dataclasses import replace
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import Store
@@ -24,11 +24,9 @@ def pr2_tree(shared):
 
 
 @pytest.fixture
-def store(tmp_path, pr2_tree):
-    s = Store(tmp_path / "kb.sqlite3")
-    s.replace_robot("pr2", pr2_tree, PR2)
-    yield s
-    s.close()
+def store(store, pr2_tree):
+    store.replace_robot("pr2", pr2_tree, PR2)
+    return store
 
 
 def correct(store, who="ann", **data):
@@ -119,7 +117,7 @@ def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):
 
 
 def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shared):
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store, token=TOKEN)
     auth = {"Authorization": f"Bearer {TOKEN}"}
     try:
@@ -155,31 +153,15 @@ def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shar
         store.close()
 
 
-def test_robots_stored_before_corrections_still_get_a_page(store):
-    with store.lock:  # as a store written by an earlier version: no kept source
-        store.world.graph.db.execute("DELETE FROM kb_sources")
-        store.world.save()
-    app, jobs = make_app(store)
-    try:
-        client = app.test_client()
-        page = client.get("/robots/pr2", headers={"Accept": "text/html"})
-        assert page.status_code == 200 and b"<svg" in page.data and b"populate it again" in page.data
-        assert page.data.count(b'class="component"') == len(PR2.components)
-        resp = client.post("/robots/pr2/corrections", json={"action": "confirm", "links": ["base_laser_link"]})
-        assert resp.status_code == 409 and "populate it again" in resp.get_json()["error"]
-    finally:
-        jobs.shutdown()
-
-
 def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_tree):
     path = tmp_path / "kb.sqlite3"
-    store = Store(path)
+    store = Store(path, workers=0)
     store.replace_robot("pr2", pr2_tree, PR2)
     correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])
     ask = f"ASK {{ GRAPH <{corrections_iri('pr2')}> {{ ?s ?p ?o }} }}"
     assert json.loads(store.query(ask).body)["boolean"]
     store.close()
-    store = Store(path)
+    store = Store(path, workers=0)
     try:
         assert json.loads(store.query(ask).body)["boolean"]
     finally:

@@ -1,11 +1,8 @@
 """kill -9 during a populate, an update, or a burst of readers: after restart nothing stored is lost,
 nothing half-written exists, and queries answer as before.
 
-The real server runs in a subprocess (SERVER below). Its test-only hooks wrap build_robot (for the
-robot named in URDFKB_TEST_HANG_ON) and Store._persist (for an update writing the graph named in
-URDFKB_TEST_HANG_ON) so that they touch a marker file and sleep *inside* the store lock and the open
-SQLite transaction (old content destroyed, new written, nothing committed); the test then kills
-the process with SIGKILL.
+The real server runs in a subprocess (tests/crash_server.py), whose hooks make a populate or an
+update touch a marker file and sleep inside the store transaction; the test then kills it with SIGKILL.
 """
 import json
 import os
@@ -18,38 +15,12 @@ import urllib.parse
 from http.client import HTTPException
 from pathlib import Path
 
-from kb_fixtures import PR2, free_port, http
+import pytest
+
+from tests.kb_fixtures import PR2, free_port, http
 
 REPO = Path(__file__).resolve().parents[1]
-SERVER = """
-import os, sys, time
-sys.path[:0] = [{repo!r}, {tests!r}]
-import urdfkb.kb_server.store as store_mod
-from kb_fixtures import PR2, fake_runner
-from urdfkb.kb_server.serve import make_server
-
-real_build, hang_on, marker = store_mod.build_robot, os.environ.get("URDFKB_TEST_HANG_ON") or None, os.environ["URDFKB_TEST_MARKER"]
-
-def build_then_hang(world, tree, name, *args, **kw):
-    onto = real_build(world, tree, name, *args, **kw)
-    if name == hang_on:
-        open(marker, "w").close()
-        time.sleep(3600)
-    return onto
-
-real_persist = store_mod.Store._persist
-
-def persist_then_hang(self, graph, data):
-    real_persist(self, graph, data)
-    if graph == hang_on:
-        open(marker, "w").close()
-        time.sleep(3600)
-
-store_mod.build_robot = build_then_hang
-store_mod.Store._persist = persist_then_hang
-server, store, jobs = make_server(sys.argv[1], port=int(sys.argv[2]), runner=fake_runner({{"pr2": PR2}}), token="t")
-server.run()
-""".format(repo=str(REPO), tests=str(REPO / "tests"))
+pytestmark = pytest.mark.crash
 
 
 class Server:
@@ -58,7 +29,8 @@ class Server:
         self.base = f"http://127.0.0.1:{self.port}"
         self.marker = marker
         env = {**os.environ, "URDFKB_TEST_HANG_ON": hang_on, "URDFKB_TEST_MARKER": str(marker)}
-        self.proc = subprocess.Popen([sys.executable, "-c", SERVER, str(store), str(self.port)], env=env)
+        self.proc = subprocess.Popen([sys.executable, "-m", "tests.crash_server", str(store), str(self.port)],
+                                     cwd=REPO, env=env)
         for _ in range(200):
             try:
                 if http("GET", self.base + "/robots", timeout=1)[0] == 200:
@@ -156,10 +128,10 @@ def test_kill_9_inside_an_update_and_during_a_burst_of_readers(shared, tmp_path)
     s = Server(store, marker)
     try:
         assert s.answers() == before  # all or nothing: none of the killed update, all of the earlier one
-        stop, statuses = threading.Event(), []
+        stop, statuses, end = threading.Event(), [], time.monotonic() + 60
 
         def reader():
-            while not stop.is_set():
+            while not stop.is_set() and time.monotonic() < end:
                 try:
                     statuses.append(http("GET", f"{s.base}/sparql?" + urllib.parse.urlencode({"query": ANSWERS[0]}), timeout=5)[0])
                 except (OSError, HTTPException):  # the kill may cut a response short

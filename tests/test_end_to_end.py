@@ -13,7 +13,7 @@ from urdfkb.kb_server.cli import main
 from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
 from urdfkb.pipeline.ontology import vocabulary
 
-pytestmark = pytest.mark.integration
+pytestmark = pytest.mark.model
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 CORE = "https://w3id.org/urdfkb/core#"
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
+from tests.kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 

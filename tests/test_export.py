@@ -16,7 +16,7 @@ from urdfkb.pipeline.formats import BY_NAME
 from urdfkb.pipeline.ontology import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import Edge, KinematicTree
-from test_population import HOSTILE, ZERO, sample_abstraction, sample_tree
+from tests.test_population import HOSTILE, ZERO, sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)
 PARSERS = {"rdfxml": "xml", "turtle": "turtle", "ntriples": "nt"}
@@ -43,6 +43,7 @@ def test_graph_is_self_contained(onto):
     assert len(list(g.subjects(RDF.type, CORE.Link))) == 10
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", BY_NAME)
 def test_round_trip_through_a_file(onto, hostile_onto, tmp_path, fmt):
     for robot in (onto, hostile_onto):
@@ -59,6 +60,7 @@ def test_stream_destination(onto):
     assert isomorphic(rdflib.Graph().parse(data=buf.getvalue(), format="turtle"), robot_graph(onto))
 
 
+@pytest.mark.reasoner
 def test_rdfxml_reloads_in_a_fresh_world(hostile_onto, tmp_path):
     path = tmp_path / "robot.owl"
     export_robot(hostile_onto, str(path))
@@ -71,6 +73,7 @@ def test_rdfxml_reloads_in_a_fresh_world(hostile_onto, tmp_path):
     owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
 
 
+@pytest.mark.reasoner
 def test_populated_export_reloads_and_is_consistent(onto, tmp_path):
     path = tmp_path / "bot.owl"
     export_robot(onto, path)
@@ -93,6 +96,7 @@ def test_overwrites_atomically_and_refuses_unknown_format(onto, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["bot.ttl"]
 
 
+@pytest.mark.reasoner
 def test_owlapi_opens_the_file_offline(onto, hostile_onto, tmp_path):
     """HermiT's own OWL API parser (Protégé's) reads the RDF/XML file alone: no import to resolve."""
     for robot in (onto, hostile_onto):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from hand_robots import Built, build
+from tests.hand_robots import Built, build
 
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.reasoning import classify
@@ -103,6 +103,7 @@ def test_the_generator_covers_every_layout():
     assert {b.mount == b.flange for b in builds} == {True, False}
 
 
+@pytest.mark.reasoner
 def test_the_reasoner_infers_each_kind():
     builds = [build(seed) for seed in REASONED]
     structures = [settled(b)[1][0][1] for b in builds]

@@ -5,7 +5,7 @@ import urllib.parse
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, client, make_app
 from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
@@ -16,7 +16,7 @@ C = "https://w3id.org/urdfkb/core#"
 
 @pytest.fixture(scope="module")
 def store(shared, tmp_path_factory):
-    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3")
+    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=0)
     tree = load_urdf(shared / "urdf" / "pr2.urdf")
     s.replace_robot("pr2", tree, PR2)
     s.replace_robot("pr2_bare", tree, None)  # same links, no components: must not leak into pr2's answers
@@ -82,6 +82,7 @@ def test_low_confidence_for_review(store):
 
 @pytest.mark.parametrize("name,args", [("cameras", {}), ("sensors", {}), ("mounted_below", {"link": "torso_lift_link"}),
                                        ("end_effectors", {}), ("low_confidence", {}), ("components", {})])
+@pytest.mark.slow
 def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
     """An independent engine (rdflib) over the robot's self-contained export gives the same rows."""
     text = load_queries()[name].bind(R + "robot", args)
@@ -151,7 +152,7 @@ def test_http_route_and_cli(store):
 
 def test_cli_query(shared, tmp_path):
     path = tmp_path / "kb.sqlite3"
-    s = Store(path)
+    s = Store(path, workers=0)
     s.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     s.close()
     out = run_named_query("end_effectors", "pr2", {}, store_path=path, fmt="tsv")

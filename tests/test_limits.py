@@ -17,7 +17,7 @@ import xml.dom.minidom
 import pyoxigraph as ox
 import pytest
 
-from kb_fixtures import PR2, fake_runner, http, make_app, running
+from tests.kb_fixtures import PR2, fake_runner, http, make_app, running
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.results import ResultLimits, ResultTooLarge, serialize
@@ -175,6 +175,7 @@ def test_a_body_over_the_size_limit_is_refused_before_it_is_buffered(server):
         assert s.recv(100).startswith(b"HTTP/1.1 413 ")  # at once, with no byte of the body sent
 
 
+@pytest.mark.slow
 def test_an_idle_connection_is_closed_after_the_channel_timeout(tmp_path):
     srv, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, runner=fake_runner(), channel_timeout=1)
     try:
@@ -187,6 +188,7 @@ def test_an_idle_connection_is_closed_after_the_channel_timeout(tmp_path):
         store.close()
 
 
+@pytest.mark.slow
 def test_the_open_files_limit_is_raised_for_the_connections():
     """In a child process: a soft limit of 512 is raised to fit 1,000 connections; a hard limit of
     600 fits fewer, which the server then accepts instead (with a warning)."""
@@ -210,7 +212,7 @@ def test_the_open_files_limit_is_raised_for_the_connections():
 @pytest.fixture
 def api(tmp_path, shared):
     """The app (test client) with PR2 populated from its URDF, so it takes corrections."""
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store)
     c = app.test_client()
     r = c.post("/populate", data=(shared / "urdf" / "pr2.urdf").read_bytes(), content_type=XML)
@@ -259,7 +261,7 @@ def test_a_model_name_with_control_characters_is_refused(tmp_path, shared):
     """llm_model is stored with the robot (its abstractionModel): refused before anything is queued."""
     policy = Policy(llm_urls=["http://llm.lan/v1"])
     assert policy.check_settings(Settings(llm_url="http://llm.lan/v1", llm_model="qwen2.5:1.5b")).llm_model
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store, policy=policy)
     try:
         r = app.test_client().post("/populate?" + urllib.parse.urlencode(

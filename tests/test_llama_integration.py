@@ -8,7 +8,7 @@ from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
 from urdfkb.pipeline.oracle import Oracle, softmax
 
-pytestmark = pytest.mark.integration
+pytestmark = pytest.mark.model
 
 SYSTEM = ("You classify links of a robot. Answer with exactly one of: sensor, gripper, wheel, structure. "
           "A sensor measures (camera, laser, imu); a gripper grasps (finger, palm); a wheel rolls.")

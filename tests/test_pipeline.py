@@ -69,6 +69,7 @@ def abstract(tree, rule=perfect, vote=None):
     return Abstractor(Oracle(ScriptedBackend(rule), vote=vote), TAX).run(tree)
 
 
+@pytest.mark.reasoner
 def test_toy_robot_is_abstracted_into_its_devices(toy):
     comps = {c.cls: c for c in abstract(toy)}
     assert set(comps) == {"Lidar", "RGBDCamera", "ParallelGripper"}
@@ -84,11 +85,13 @@ def test_toy_robot_is_abstracted_into_its_devices(toy):
     assert set(gripper.links) == {"claw_base", "claw_jaw_a", "claw_jaw_b", "claw_tcp", "claw_status_light"}
 
 
+@pytest.mark.reasoner
 def test_every_link_belongs_to_at_most_one_component(toy):
     links = [link for c in abstract(toy) for link in c.links]
     assert len(links) == len(set(links))
 
 
+@pytest.mark.reasoner
 def test_confidence_is_the_product_along_the_descent(toy):
     def unsure(q):
         if q.key == "pre:front_scanner@Sensor":
@@ -100,6 +103,7 @@ def test_confidence_is_the_product_along_the_descent(toy):
     assert lidar.cls == "Lidar" and lidar.confidence == pytest.approx(0.48, abs=1e-3)
 
 
+@pytest.mark.reasoner
 def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
     def screw_scanner(q):
         return "mechanism" if q.key == "check:front_scanner" else perfect(q)
@@ -110,6 +114,7 @@ def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
         assert "Lidar" in {c.cls for c in kept}
 
 
+@pytest.mark.reasoner
 def test_sampled_voting_reaches_the_same_devices(toy):
     assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
 
@@ -124,6 +129,7 @@ def _asking(toy) -> tuple[list, list[str]]:
     return abstract(toy, spy), asked
 
 
+@pytest.mark.reasoner
 def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy):
     components, asked = _asking(toy)
     camera = next(c for c in components if c.cls == "RGBDCamera")
@@ -136,6 +142,7 @@ def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy)
     assert parts["mast_rgbd_body"] == "SensorHousing"
 
 
+@pytest.mark.reasoner
 def test_a_non_vision_sensor_measures_at_its_chain_leaf_with_no_question(toy):
     components, asked = _asking(toy)
     lidar = next(c for c in components if c.cls == "Lidar")
@@ -144,6 +151,7 @@ def test_a_non_vision_sensor_measures_at_its_chain_leaf_with_no_question(toy):
     assert not any(k.startswith("part:front_scanner") for k in asked)
 
 
+@pytest.mark.reasoner
 def test_end_effector_chains_meeting_inside_a_mount_are_one_tool(toy):
     def tcp_high(q):
         if q.key == "root:claw_tcp":
@@ -162,6 +170,7 @@ def test_backend_failure_is_a_clear_error(toy, failure):
         abstract(toy, broken)
 
 
+@pytest.mark.reasoner
 def test_answers_outside_the_options_are_abstentions_not_classes(toy):
     def wild(q):
         if q.key.startswith("pre:"):
@@ -171,6 +180,7 @@ def test_answers_outside_the_options_are_abstentions_not_classes(toy):
     assert all(c.cls in TAX for c in comps)
 
 
+@pytest.mark.reasoner
 def test_identification_offers_the_component_kinds_and_none(toy):
     seen = {}
 
@@ -260,6 +270,7 @@ def test_verification_absorbs_unclaimed_links(toy):
     assert notes and notes[0].startswith("absorb")
 
 
+@pytest.mark.reasoner
 def test_trace_records_every_question(toy):
     out = io.StringIO()
     Abstractor(Oracle(ScriptedBackend(perfect), trace=out), TAX).run(toy)
@@ -271,6 +282,7 @@ def test_trace_records_every_question(toy):
     assert reasoner["tools"][0]["inferred"] == "ParallelGripper"
 
 
+@pytest.mark.reasoner
 def test_post_classification_starts_from_what_the_members_share(toy):
     asked = []
 

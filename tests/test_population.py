@@ -10,7 +10,7 @@ import rdflib
 from urdfkb.pipeline.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import CORE_IRI, core_version
+from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
 from urdfkb.pipeline.population import build_robot, escape, robot_iri
 from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
 
@@ -71,7 +71,7 @@ def test_structure():
     assert {CORE[t] for t in ("FixedJoint", "RevoluteJoint", "ContinuousJoint", "PrismaticJoint",
                                "FloatingJoint", "PlanarJoint")} <= types
     assert not list(g.triples((None, CORE.hasComponent, None)))
-    assert str(g.value(robot, CORE.ontologyVersion)) == core_version()
+    assert str(g.value(robot, CORE.ontologyVersion)) == vocabulary().version
 
 
 def test_components_and_provenance():
@@ -98,6 +98,7 @@ def test_components_and_provenance():
     assert str(g.value(robot, CORE.provenanceNote)) == "favourite colour=blue"
 
 
+@pytest.mark.reasoner
 def test_populated_robot_is_consistent_for_hermit():
     world = owlready2.World()
     build_robot(world, sample_tree(), "bot", sample_abstraction())
@@ -221,6 +222,7 @@ def test_empty_robot_name_is_refused():
         robot_iri("")
 
 
+@pytest.mark.reasoner
 def test_shared_urdfs_populate_exactly_and_consistently(shared):
     world = owlready2.World()
     for path in sorted((shared / "urdf").glob("*.urdf")):
@@ -232,6 +234,7 @@ def test_shared_urdfs_populate_exactly_and_consistently(shared):
     assert list(world.inconsistent_classes()) == []
 
 
+@pytest.mark.reasoner
 def test_joint_facts_body_parts_and_locations():
     """Limits, axis and mimic on every joint; body parts under the robot (a wheel under the base), with their
     joints, links, mount and side; a device located on the part carrying its mount, with its own joints."""

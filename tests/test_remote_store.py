@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, free_port, http, live, make_app
+from tests.kb_fixtures import PR2, free_port, http, live, make_app
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
@@ -58,7 +58,7 @@ def graph_has_kinect(base):
 
 @pytest.fixture
 def server(oxigraph, tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store, token=TOKEN, remote=RemoteStore(oxigraph + "/store"))
     with live(app) as base:
         yield base
@@ -90,7 +90,7 @@ def test_populate_put_replaces_and_delete_drops_the_named_graph(server, oxigraph
 
 
 def test_startup_mirrors_robots_stored_before(oxigraph, shared, tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     store.replace_robot("pr2_early", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     store.close()
     server, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, remote_store=oxigraph + "/store")
@@ -103,7 +103,7 @@ def test_startup_mirrors_robots_stored_before(oxigraph, shared, tmp_path):
 
 
 def test_remote_down_is_reported_and_the_robot_is_stored(tmp_path, shared):
-    store = Store(tmp_path / "kb.sqlite3")
+    store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store, token=TOKEN, remote=RemoteStore(f"http://127.0.0.1:{free_port()}/store", timeout=2))
     with live(app) as base:
         job = populate(base, shared)

@@ -10,7 +10,7 @@ from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import Settings, run
-from test_pipeline import perfect
+from tests.test_pipeline import perfect
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 
@@ -37,6 +37,7 @@ def test_structure_only_asks_nothing():
     assert result.components == () and backend.stats.calls == 0
 
 
+@pytest.mark.reasoner
 def test_an_identical_second_run_comes_from_the_cache():
     tree = load_urdf(TOY)
     first_backend = ScriptedBackend(perfect)
@@ -53,6 +54,7 @@ def test_an_identical_second_run_comes_from_the_cache():
     assert second.provenance["generatedAt"] >= first.provenance["generatedAt"]
 
 
+@pytest.mark.reasoner
 def test_other_settings_or_robots_miss_the_cache():
     tree = load_urdf(TOY)
     run(tree, Settings(), backend=ScriptedBackend(perfect))
@@ -73,6 +75,7 @@ def test_a_failing_backend_raises_and_caches_nothing(tmp_path):
     assert not list((tmp_path / "cache").glob("**/*.json"))
 
 
+@pytest.mark.reasoner
 def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     tree = load_urdf(TOY)
     first = run(tree, Settings(), backend=ScriptedBackend(perfect))
@@ -83,6 +86,7 @@ def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     assert cache.load(entry.stem).components == again.components  # rewritten whole
 
 
+@pytest.mark.reasoner
 def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):
     tree = load_urdf(TOY)
     run(tree, Settings(), backend=ScriptedBackend(perfect))
@@ -115,6 +119,7 @@ def _robot_provenance(tree, abstraction) -> dict:
     return {str(p).removeprefix(core): o for p, o in g.predicate_objects(robot) if str(p).startswith(core)}
 
 
+@pytest.mark.reasoner
 def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp_path, monkeypatch):
     import hashlib
     from datetime import datetime, timedelta, timezone
@@ -150,6 +155,7 @@ def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp
     assert run(tree, Settings(model=str(gguf))).provenance["result_cache"] == "hit"
 
 
+@pytest.mark.reasoner
 def test_the_default_model_is_named_by_its_verified_digest_without_hashing(monkeypatch):
     from urdfkb.pipeline import runner
     from urdfkb.pipeline.llm import fetch
@@ -159,6 +165,7 @@ def test_the_default_model_is_named_by_its_verified_digest_without_hashing(monke
     assert (prov["modelFile"], prov["modelSha256"]) == (fetch.DEFAULT_MODEL.filename, fetch.DEFAULT_MODEL.sha256)
 
 
+@pytest.mark.reasoner
 def test_structure_only_and_http_runs_write_what_is_known(monkeypatch):
     from urdfkb.pipeline import runner
     tree = load_urdf(TOY)

@@ -11,7 +11,7 @@ from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, models_dir, ensure_model
 from urdfkb.pipeline.runner import Settings, run
 
-pytestmark = [pytest.mark.integration, pytest.mark.default_model]
+pytestmark = [pytest.mark.model, pytest.mark.default_model]
 SENSOR_LEAVES = {"base_scan", "imu_link", "camera_rgb_optical_frame"}
 SAMPLE = Path(__file__).resolve().parents[1] / "kb_server" / "samples" / "turtlebot3_waffle_pi.urdf"
 

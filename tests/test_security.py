@@ -12,24 +12,16 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import PR2, fake_runner, http, live, multipart, running
+from tests.kb_fixtures import PR2, fake_runner, http, live, multipart, running
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, pipeline_runner
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.serve import make_server
-from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import UrdfkbError
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 XML = "application/xml"
-
-
-@pytest.fixture
-def store(tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
-    yield store
-    store.close()
 
 
 @pytest.fixture
@@ -100,7 +92,7 @@ def internal():
     def start(status=200):
         server = ThreadingHTTPServer(("127.0.0.1", 0), Recorder)
         server.hits, server.status = [], status
-        threading.Thread(target=server.serve_forever, daemon=True).start()
+        threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True).start()  # shutdown() waits one poll
         servers.append(server)
         return f"http://127.0.0.1:{server.server_address[1]}", server.hits
 
@@ -222,8 +214,9 @@ def test_waiting_clients_are_capped_and_never_hold_every_thread(kb):
         results = []
 
         def wait_long():  # a probe below may hold a slot for a moment: retry on 429
-            while (answer := http("GET", f"{base}/jobs/{job_id}?wait=1&timeout=30"))[0] == 429:
-                pass
+            end = time.monotonic() + 60
+            while (answer := http("GET", f"{base}/jobs/{job_id}?wait=1&timeout=30"))[0] == 429 and time.monotonic() < end:
+                time.sleep(0.01)
             results.append(answer)
 
         waiters = [threading.Thread(target=wait_long) for _ in range(2)]
@@ -395,6 +388,7 @@ def test_live_server_checks_host_against_its_bound_port(tmp_path):
 # --- non-loopback binds need a token -----------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_non_loopback_bind_needs_a_token(tmp_path, caplog):
     for host in ("127.0.0.1", "::1", "localhost", "127.0.0.2"):
         check_bind(host, None)

@@ -5,18 +5,20 @@ import subprocess
 import sys
 import threading
 import time
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
 import pytest
 import rdflib
 
-from kb_fixtures import PR2, client, free_port, make_app, multipart
+import urdfkb.kb_server.index as index_mod
+from tests.kb_fixtures import PR2, client, free_port, make_app, multipart
 from urdfkb.kb_server.jobs import pipeline_runner
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.errors import PipelineError
+from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
@@ -30,8 +32,8 @@ GATE = threading.Event()  # what a 'gated*' robot's runner waits for
 
 
 def runner(tree, settings, progress):
-    """By URDF robot name: 'slow*' takes 0.6 s, 'gated*' waits for GATE, 'broken*' fails, '*pr2' gets
-    the PR2 abstraction. Entries and exits go to EVENTS."""
+    """By URDF robot name: 'slow*' takes 0.6 s, 'gated*' waits for GATE, 'broken*' fails, '*half_pr2'
+    gets three of the PR2 abstraction's components, '*pr2' all of them. Entries and exits go to EVENTS."""
     EVENTS.append(("enter", settings.structure_only))
     for i in range(3):
         progress("classify", i, 3)
@@ -40,21 +42,36 @@ def runner(tree, settings, progress):
         assert GATE.wait(60), "the test never opened the gate"
     EVENTS.append(("exit", settings.structure_only))
     if tree.robot_name.startswith("broken"):
-        raise PipelineError("classification failed: model said 'banana'")
+        raise BackendError("classification failed: model said 'banana'")
     if settings.structure_only:
         return pipeline_runner(tree, settings, progress)
+    if tree.robot_name.endswith("half_pr2"):
+        return Abstraction(PR2.components[:3])
     return PR2 if tree.robot_name.endswith("pr2") else Abstraction((), {"mode": "test"})
 
 
 @pytest.fixture
-def server(tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
+def serve(tmp_path):
+    """Starts the app over a new store with `workers` query processes (0: SPARQL in this process),
+    through Flask's test client."""
     EVENTS.clear()
     GATE.clear()
-    app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
-    yield client(app)
-    jobs.shutdown()
-    store.close()
+    opened = []
+
+    def start(workers: int = 0):
+        store = Store(tmp_path / "kb.sqlite3", workers=workers)
+        app, jobs = make_app(store, runner=runner, token=TOKEN, max_body=2_000_000)
+        opened.append((store, jobs))
+        return client(app)
+    yield start
+    for store, jobs in opened:
+        jobs.shutdown()
+        store.close()
+
+
+@pytest.fixture
+def server(serve):
+    return serve()
 
 
 def urdf(shared, name="pr2", rename=None) -> bytes:
@@ -121,8 +138,7 @@ def test_bad_input(server, shared):
         assert status == 404 and ctype.startswith("application/json"), path
 
 
-def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(tmp_path):
-    store = Store(tmp_path / "kb.sqlite3")
+def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(store):
     app, jobs = make_app(store, runner=pipeline_runner)  # the real runner: it refuses before any model loads
     api = client(app)
     try:
@@ -137,7 +153,6 @@ def test_a_robot_whose_root_is_its_only_leaf_fails_its_job_with_a_clear_error(tm
         assert wait(api, json.loads(out)["id"])["state"] == "succeeded"
     finally:
         jobs.shutdown()
-        store.close()
 
 
 def test_failed_job_leaves_the_store_as_it_was(server, shared):
@@ -151,8 +166,9 @@ def test_failed_job_leaves_the_store_as_it_was(server, shared):
 def test_queries_answered_while_a_model_runs_and_jobs_report_progress(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
     job = populate(server, urdf(shared, rename="gated_pr2"), "?name=pr2")[2]
+    end = time.monotonic() + 30
     while (state := json.loads(server("GET", f"/jobs/{job['id']}")[2]))["stage"] != "classify":
-        assert state["state"] in ("queued", "running")
+        assert state["state"] in ("queued", "running") and time.monotonic() < end, state
         time.sleep(0.01)
     assert state["state"] == "running" and state["progress"]["total"] == 3
     for _ in range(3):  # the job cannot end before the gate opens: these are answered while it runs
@@ -163,25 +179,65 @@ def test_queries_answered_while_a_model_runs_and_jobs_report_progress(server, sh
     assert wait(server, job["id"])["state"] == "succeeded"
 
 
-def test_repopulate_is_atomic_and_same_robot_jobs_are_serialised(server, shared):
-    wait(server, populate(server, urdf(shared))[2]["id"])
-    n_full = len(PR2.components)
-    seen, stop = set(), threading.Event()
+COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
+SELECT ?c ?class ?link WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c .
+  ?c a ?class ; core:hasComponent/core:hasLink/core:urdfName ?link } ORDER BY ?c ?class ?link"""
+
+
+def test_a_reader_sees_the_old_robot_or_the_new_one_never_a_mix(serve, shared, monkeypatch):
+    """SPARQL readers (who never take the store lock) poll PR2's components while a re-populate replaces
+    them by three of them. They must see the old robot, then the new one, and nothing between:
+    no 404, no empty or partial component list, although this process's copy of the index is left
+    without the robot's graph for a while in the middle of the replacement. The query workers (as
+    served) apply a replacement whole between two queries; without them a reader sees the gap."""
+    real_put = index_mod.put_graph
+
+    def put_with_a_gap(store, graph, data):
+        real_put(store, graph, None)
+        time.sleep(0.3)
+        real_put(store, graph, data)
+
+    monkeypatch.setattr(index_mod, "put_graph", put_with_a_gap)
+    api = serve(workers=2)
+    wait(api, populate(api, urdf(shared))[2]["id"])
+
+    def look() -> str:
+        status, _, out = api("GET", "/sparql?" + urllib.parse.urlencode({"query": COMPONENTS}))
+        return json.dumps(json.loads(out)["results"]["bindings"]) if status == 200 else f"status {status}"
+
+    old = look()
+    job = populate(api, urdf(shared, rename="gated_half_pr2"), "?name=pr2")[2]
+    seen, stop, end = [], threading.Event(), time.monotonic() + 60
 
     def read():
-        while not stop.is_set():
-            seen.add(len(json.loads(server("GET", "/robots/pr2")[2])["components"]))
+        while not stop.is_set() and time.monotonic() < end:
+            seen.append(look())
 
     reader = threading.Thread(target=read)
     reader.start()
-    # Two slow jobs for the same robot at once (two workers): structure-only (0 components) and full.
+    try:
+        while not seen and time.monotonic() < end:  # the reader is under way before the write
+            time.sleep(0.01)
+        GATE.set()
+        assert wait(api, job["id"])["state"] == "succeeded"
+        new = look()
+        while (not seen or seen[-1] != new) and time.monotonic() < end:  # and on until it has seen the write
+            time.sleep(0.01)
+    finally:
+        stop.set()
+        reader.join(10)
+    assert (len({row["c"]["value"] for row in json.loads(old)}), len({row["c"]["value"] for row in json.loads(new)})) \
+        == (len(PR2.components), 3)
+    assert set(seen) == {old, new} and seen.index(new) > seen.index(old)
+    assert seen[seen.index(new):] == [new] * (len(seen) - seen.index(new))  # never back to the old robot
+
+
+def test_same_robot_jobs_are_serialised(server, shared):
+    wait(server, populate(server, urdf(shared))[2]["id"])
     EVENTS.clear()
+    # Two slow jobs for the same robot at once (two job workers): structure-only and full.
     ids = [populate(server, urdf(shared, rename="slow_pr2"), "?name=pr2&structure_only=" + s)[2]["id"] for s in ("true", "false")]
-    jobs = [wait(server, i) for i in ids]
-    stop.set()
-    reader.join()
-    assert [j["state"] for j in jobs] == ["succeeded", "succeeded"]
-    assert seen <= {0, n_full}  # a reader sees the old robot or the new one, never a mix
+    assert [wait(server, i)["state"] for i in ids] == ["succeeded", "succeeded"]
     # serialised: each job's runner exits before the other's enters
     assert [e for e, _ in EVENTS] == ["enter", "exit", "enter", "exit"] and EVENTS[0][1] == EVENTS[1][1]
 
@@ -203,10 +259,11 @@ def test_binds_loopback_by_default(tmp_path):
     store.close()
 
 
+@pytest.mark.slow
 def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
     """The real entry point (urdfkb serve, waitress) in a subprocess, restarted over the same store."""
     path = tmp_path / "kb.sqlite3"
-    store = Store(path)
+    store = Store(path, workers=0)
     store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     store.close()
     for run in range(2):

@@ -10,7 +10,7 @@ import rdflib
 from rdflib.plugins.stores.sparqlstore import SPARQLStore
 from SPARQLWrapper import JSON, POST, POSTDIRECTLY, TURTLE, XML, SPARQLWrapper
 
-from kb_fixtures import PR2, http, live, make_app
+from tests.kb_fixtures import PR2, http, live, make_app
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
@@ -117,6 +117,7 @@ def test_named_graphs_are_robot_ontologies(url):
     assert json.loads(get(url, q)[2])["results"]["bindings"][0]["n"]["value"] == "2"
 
 
+@pytest.mark.slow
 def test_timeout_is_an_error_and_the_server_keeps_serving(url):
     status, _, body = get(url, "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }")
     assert status == 503 and b"timeout" in body

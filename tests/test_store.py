@@ -1,22 +1,19 @@
 """The persistent store: restart, atomic replace, failures leave it as it was, exports, timeouts."""
-import io
 import multiprocessing
 import threading
 import time
 
-import owlready2
 import pytest
 import rdflib
 
 import urdfkb.kb_server.index as index_mod
 import urdfkb.kb_server.store as store_mod
-from kb_fixtures import PR2
+from tests.kb_fixtures import PR2
 from urdfkb.kb_server.sparql import QueryTimeout
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import load_core
 
 COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 SELECT (COUNT(?c) AS ?n) WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c }"""
@@ -33,26 +30,25 @@ def components(store) -> int:
 
 def test_restart_serves_everything_stored(tmp_path, trees):
     path = tmp_path / "kb.sqlite3"
-    s = Store(path)
+    s = Store(path, workers=0)
     s.replace_robot("pr2", trees["pr2"], PR2)
     s.replace_robot("panda", trees["panda"], None)
     s.close()
-    s = Store(path)
+    s = Store(path, workers=0)
     assert [e.name for e in s.robots()] == ["panda", "pr2"]
     assert s.robot("pr2").robot_iri == "https://w3id.org/urdfkb/robot/pr2#robot"
     assert components(s) == len(PR2.components)
     s.close()
 
 
-def test_replace_is_whole_and_failures_leave_the_old_robot(tmp_path, trees, monkeypatch):
-    s = Store(tmp_path / "kb.sqlite3")
-    s.replace_robot("pr2", trees["pr2"], PR2)
-    s.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
-    assert components(s) == 2
+def test_replace_is_whole_and_failures_leave_the_old_robot(store, trees, monkeypatch):
+    store.replace_robot("pr2", trees["pr2"], PR2)
+    store.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
+    assert components(store) == 2
     bad = Abstraction((PR2.components[0].__class__(**{**PR2.components[0].__dict__, "cls": "Toaster"}),))
     with pytest.raises(OntologyError):
-        s.replace_robot("pr2", trees["pr2"], bad)
-    assert components(s) == 2
+        store.replace_robot("pr2", trees["pr2"], bad)
+    assert components(store) == 2
 
     real = store_mod.build_robot
 
@@ -62,20 +58,19 @@ def test_replace_is_whole_and_failures_leave_the_old_robot(tmp_path, trees, monk
 
     monkeypatch.setattr(store_mod, "build_robot", build_then_fail)
     with pytest.raises(RuntimeError):
-        s.replace_robot("pr2", trees["pr2"], PR2)
-    assert components(s) == 2
-    assert s.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).as_dicts()[0]["n"] == str(len(trees["pr2"].links))
-    s.close()
+        store.replace_robot("pr2", trees["pr2"], PR2)
+    assert components(store) == 2
+    assert store.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).as_dicts()[0]["n"] == str(len(trees["pr2"].links))
 
 
 def test_readers_never_see_a_mix(tmp_path, trees):
-    s = Store(tmp_path / "kb.sqlite3")
+    s = Store(tmp_path / "kb.sqlite3", workers=2)  # readers on the workers, which apply a write whole
     small, full = Abstraction(PR2.components[:1]), PR2
     s.replace_robot("pr2", trees["pr2"], small)
-    seen, stop = set(), threading.Event()
+    seen, stop, end = set(), threading.Event(), time.monotonic() + 60
 
     def read():
-        while not stop.is_set():
+        while not stop.is_set() and time.monotonic() < end:
             seen.add(components(s))
 
     reader = threading.Thread(target=read)
@@ -83,27 +78,26 @@ def test_readers_never_see_a_mix(tmp_path, trees):
     for i in range(6):
         s.replace_robot("pr2", trees["pr2"], full if i % 2 else small)
     stop.set()
-    reader.join()
+    reader.join(10)
     assert seen <= {1, len(full.components)}
     s.close()
 
 
-def test_delete_and_exports(tmp_path, trees):
-    s = Store(tmp_path / "kb.sqlite3")
-    s.replace_robot("pr2", trees["pr2"], PR2)
+def test_delete_and_exports(store, trees):
+    store.replace_robot("pr2", trees["pr2"], PR2)
     for ext, fmt in (("owl", "xml"), ("ttl", "turtle"), ("nt", "nt")):
-        g = rdflib.Graph().parse(data=s.export("pr2", ext), format=fmt)
+        g = rdflib.Graph().parse(data=store.export("pr2", ext), format=fmt)
         core = rdflib.Namespace("https://w3id.org/urdfkb/core#")
         assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#comp_kinect"), rdflib.RDF.type, core.RGBDCamera) in g
         assert (core.RGBDCamera, rdflib.RDFS.subClassOf, core.Camera) in g  # self-contained: core merged in
-    assert s.delete_robot("pr2").name == "pr2"
-    assert s.delete_robot("pr2") is None and s.export("pr2", "ttl") is None
-    assert components(s) == 0
-    s.close()
+    assert store.delete_robot("pr2").name == "pr2"
+    assert store.delete_robot("pr2") is None and store.export("pr2", "ttl") is None
+    assert components(store) == 0
 
 
+@pytest.mark.slow
 def test_timeout_stops_the_query_and_the_store_keeps_serving(tmp_path, trees):
-    s = Store(tmp_path / "kb.sqlite3")
+    s = Store(tmp_path / "kb.sqlite3", workers=2)  # a deadline is the workers' to enforce
     s.replace_robot("pr2", trees["pr2"], PR2)
     cross = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"
     for q in (cross, cross.replace("}", "MINUS { ?a a <urn:x> } }")):
@@ -120,24 +114,9 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     requests, replies = ctx.Pipe(duplex=False)
     gone = ctx.Process(target=time.sleep, args=(0,))  # a pid that is nobody's parent once it has ended
     gone.start()
-    gone.join()
+    gone.join(60)
     inbox = ctx.Queue()  # held here until the worker has read it
     worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid), daemon=True)
     worker.start()
     worker.join(60)
     assert worker.exitcode == 0
-
-
-def test_updates_from_before_kb_graphs_become_the_default_graph(tmp_path):
-    """Stores written by the owlready2 engine kept update triples in an 'updates' ontology."""
-    path = tmp_path / "kb.sqlite3"
-    world = owlready2.World(filename=str(path))
-    load_core(world)
-    legacy = world.get_ontology(store_mod.LEGACY_UPDATES_IRI)
-    legacy.load(fileobj=io.BytesIO(b'<urn:a> <urn:says> "kept" .\n'), format="ntriples")
-    world.save()
-    world.close()
-    s = Store(path, workers=0)
-    assert s.query("SELECT ?g WHERE { GRAPH ?g { <urn:a> ?p ?o } }").as_dicts() == []  # no internal graph
-    assert s.query('ASK { <urn:a> <urn:says> "kept" }').document["boolean"] is True
-    s.close()

@@ -11,7 +11,6 @@ from pathlib import Path
 import owlready2
 import pytest
 import rdflib
-from conftest import SHARED
 
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction
@@ -74,6 +73,7 @@ def test_hand_on_the_wrist_is_mounted_on_the_wrist_and_its_digits_move_together(
     assert mount_of(rack, "vise_grip_point") == "vise_body"  # a lone leaf hangs on its parent
 
 
+@pytest.mark.reasoner
 def test_the_reasoner_classifies_every_tool_in_one_run(rack):
     tools = [tool_structure(rack, leaves) for leaves in (VISE, TRIDENT, MITT, ["vise_grip_point"])]
     inferred, seconds = classify(tools)
@@ -102,9 +102,9 @@ def test_a_group_not_at_the_end_of_an_arm_is_no_tool(rack):
     assert any(n.startswith("no tool: ['left_shoulder_clamp']") for n in notes)
 
 
-def test_a_group_on_a_link_that_carries_the_rest_of_the_arm_is_no_tool():
+def test_a_group_on_a_link_that_carries_the_rest_of_the_arm_is_no_tool(shared):
     """Sawyer's extra collision volume on its second arm link: five more arm joints hang beside it."""
-    sawyer = load_urdf(SHARED / "urdf" / "sawyer.urdf")
+    sawyer = load_urdf(shared / "urdf" / "sawyer.urdf")
     notes = []
     assert settle(sawyer, [Group([sub_chain(sawyer, "right_l2_2", "right_l2")])], lambda leaf: False, notes.append) == []
     assert notes == ["no tool: ['right_l2_2'] mounted on right_l2, which is not the end of an arm"]
@@ -138,8 +138,10 @@ def perfect(q: Question) -> str | dict:
     return q.options[0]
 
 
+@pytest.mark.reasoner
 def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack):
-    comps = Abstractor(Oracle(ScriptedBackend(perfect)), TAX).run(rack)
+    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), TAX)
+    comps = abstractor.run(rack)
     tools = {c.cls: c for c in comps if c.kind == "end_effector"}
     assert set(tools) == {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand"}
     assert tools["ParallelGripper"].root == "left_flange" and tools["AnthropomorphicHand"].root == "mid_wrist"
@@ -150,7 +152,7 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert "palm" in OFFERED["part:vise_body@EndEffectorSubpart"]  # the jaws hang from it
     assert not {"palm", "finger"} & set(OFFERED["part:vise_grip_point@EndEffectorSubpart"])
 
-    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps))
+    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps, body=abstractor.body))
     graph = robot_graph(onto)
     assert validate(graph)[0]
     core = rdflib.Namespace(CORE_IRI)
@@ -161,6 +163,7 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert (None, core.isMimicOf, None) in graph  # the starboard slide follows the port slide
 
 
+@pytest.mark.reasoner
 def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
     def jaw_as_sensor(q: Question) -> str:
         if q.key == "identify:vise_jaw_starboard":

@@ -3,10 +3,11 @@ run over HTTP against a live `urdfkb serve` (waitress on 127.0.0.1, see w3c_harn
 
 import pytest
 
-import w3c_harness
-from kb_fixtures import fake_runner, running
+from tests import w3c_harness
+from tests.kb_fixtures import fake_runner, running
 from urdfkb.kb_server.serve import make_server
 
+pytestmark = pytest.mark.w3c
 TOKEN = "w3c"
 # Tests that fail here, each with its reason. Every one of them fails the same way when this harness
 # runs against `oxigraph serve` 0.5.13 (`python tests/w3c_harness.py http://HOST/query http://HOST/update`):

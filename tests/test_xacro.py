@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from kb_fixtures import client, make_app, multipart
+from tests.kb_fixtures import client, make_app, multipart
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline import sandbox
@@ -67,6 +67,7 @@ def test_hostile_or_broken_xacro_is_refused_naming_file_and_line(body, message):
     assert message in str(err.value)
 
 
+@pytest.mark.slow
 def test_include_loops_oversize_and_runaway_expressions_are_bounded(tmp_path):
     loop = tmp_path / "loop.urdf.xacro"
     loop.write_text(f'<robot name="l" {XNS}><xacro:include filename="loop.urdf.xacro"/></robot>')

@@ -12,7 +12,7 @@ from xml.sax.saxutils import quoteattr
 
 import pytest
 
-from kb_fixtures import client, http, make_app, running
+from tests.kb_fixtures import client, http, make_app, running
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline import sandbox
@@ -109,6 +109,7 @@ def test_the_server_refuses_xacro_where_no_sandbox_can_run(tmp_path, monkeypatch
         store.close()
 
 
+@pytest.mark.slow
 @confined_only
 def test_hostile_xacro_jobs_cost_no_other_route(tmp_path):
     """Twenty CPU-burning xacros: each is a job (a full queue answers 429 at once), expansion never

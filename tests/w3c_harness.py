@@ -22,7 +22,6 @@ import pyoxigraph as ox
 
 ROOT = Path(__file__).resolve().parent / "w3c"
 BASE = "https://w3c.github.io/rdf-tests/sparql/"
-MF = "http://www.w3.org/2001/sw/DataAccess/tests/test-manifest#"
 RS = "http://www.w3.org/2001/sw/DataAccess/tests/result-set#"
 EMPTY = "urn:x-urdfkb-test:empty"
 _LIST = """PREFIX mf: <http://www.w3.org/2001/sw/DataAccess/tests/test-manifest#>

@@ -12,8 +12,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from ..cache import cache_root
-from ..errors import BackendError
+from urdfkb.pipeline.cache import cache_root
+from urdfkb.pipeline.errors import BackendError
 
 CHUNK = 1 << 20
 

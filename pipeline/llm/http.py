@@ -9,8 +9,8 @@ import urllib.parse
 import urllib.request
 from typing import Sequence
 
-from ..errors import BackendError
-from .base import Backend, Question, Stats
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.llm.base import Backend, Question, Stats
 
 MAX_REPLY = 10_000_000  # a chat completion of a few short answers is a few kilobytes
 

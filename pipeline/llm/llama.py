@@ -11,9 +11,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import BackendError
-from .base import Backend, Question, Stats
-from .prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
+from urdfkb.pipeline.errors import BackendError
+from urdfkb.pipeline.llm.base import Backend, Question, Stats
+from urdfkb.pipeline.llm.prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
 
 SENTINEL = "\x00URDFKB\x00"
 # context parameters that change a stored prefix state's bytes or its numerics
@@ -53,10 +53,8 @@ class LlamaBackend(Backend):
     used system texts, and is reused by every question with the same system text; each option is
     a sequence sharing that prefix and its question's suffix. Every resident prefix widens the span
     of KV cells each batch token attends over (masked or not), and the pipeline seldom returns to an
-    earlier system text, so few slots are kept: on PR2 cold, 4, 2 and 1 slots took 127.8, 124.9 and
-    122.6 s (medians of two alternating runs, within 4 tokens of each other). Two is the default:
-    with one, the changed cell layout tipped TurtleBot3's near tie on base_scan (ranging 0.33 against
-    vision 0.30) the wrong way.
+    earlier system text, so few slots are kept (README, Accuracy and speed). Two is the default:
+    with one, the changed cell layout tipped TurtleBot3's near tie on base_scan the wrong way.
     Not thread-safe: use one backend per thread.
     """
 

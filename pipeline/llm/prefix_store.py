@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import Sequence
 
-from ..cache import cache_root
+from urdfkb.pipeline.cache import cache_root
 
 log = logging.getLogger(__name__)
 

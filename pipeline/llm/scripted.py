@@ -5,7 +5,7 @@ import math
 import random
 from typing import Callable, Sequence
 
-from .base import Backend, Question, Stats
+from urdfkb.pipeline.llm.base import Backend, Question, Stats
 
 Rule = Callable[[Question], "str | dict[str, float]"]
 EPSILON = 1e-9

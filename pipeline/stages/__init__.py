@@ -1,8 +1,9 @@
-"""The seven stages of one abstraction pass, each a function over the current kinematic tree.
+"""The stages of one abstraction pass, each a function over the current kinematic tree.
 
-Numbered as in the README: 1 identification, 2 attachment root detection, 3 pre-classification,
-4 group merging, 5 verification, 6 post-classification (for end-effectors: extent and mount by
-structure, kind by the reasoner, stages.tools), 7 population (sub-part typing). All but
-verification can ask the model constrained questions through an Oracle; verification is
-deterministic. pipeline.abstraction runs them for each component kind.
+Numbered as in the README: 1 identification (and, for sensors, sensor_check), 2 attachment root
+detection, 3 pre-classification, 4 group merging, 5 verification, 6 post-classification (for
+end-effectors: extent and mount by structure, kind by the reasoner, tools), 7 sub-part typing
+(subparts). All but verification can ask the model constrained questions through an Oracle;
+verification is deterministic. pipeline.abstraction declares each kind's pass as the steps that
+call them.
 """

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from typing import Callable, Sequence
 
-from ..llm.base import Question
-from ..oracle import Oracle, Verdict
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.oracle import Oracle, Verdict
 
 Progress = Callable[[str, int, int], None]
 CHUNK = 8  # questions per backend call: large enough to batch, small enough to show progress

@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..ontology import Kind
-from ..oracle import Oracle
-from ..prompts import root_question
-from ..tree import KinematicTree
-from .asking import Progress, ask
+from urdfkb.pipeline.ontology import Kind
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import root_question
+from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.stages.asking import Progress, ask
 
 MAX_CANDIDATES = 8
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..ontology import Vocabulary
-from ..oracle import Oracle
-from ..prompts import level_choice, level_options
-from .asking import Progress, ask
+from urdfkb.pipeline.ontology import Vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import level_choice, level_options
+from urdfkb.pipeline.stages.asking import Progress, ask
 
 
 @dataclass(frozen=True)

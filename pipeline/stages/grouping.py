@@ -20,12 +20,12 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from ..components import END_EFFECTOR
-from ..oracle import Oracle
-from ..prompts import device_name_question
-from .asking import Progress, ask
-from .attachment import SubChain, sub_chain
-from ..tree import KinematicTree
+from urdfkb.pipeline.components import END_EFFECTOR
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.prompts import device_name_question
+from urdfkb.pipeline.stages.asking import Progress, ask
+from urdfkb.pipeline.stages.attachment import SubChain, sub_chain
+from urdfkb.pipeline.tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 
@@ -107,7 +107,7 @@ def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool],
                   progress: Progress | None) -> list[str]:
     """Each sub-chain's device name as the model gives it. Only a chain that could join another (one
     near it, of its category) is asked: for the others no answer changes the partition, so their own
-    leaf name stands (on PR2 that is half the questions of this stage)."""
+    leaf name stands."""
     asked = [c for c, j in zip(chains, joinable) if j]
     verdicts = iter(ask(oracle, [device_name_question(c.leaf, device_names(c)) for c in asked], "group merging", progress))
     return [(next(verdicts).answer or c.leaf) if j else c.leaf for c, j in zip(chains, joinable)]

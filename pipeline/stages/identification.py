@@ -1,11 +1,11 @@
 """Stage 1, identification: which kind of component (if any) each leaf link belongs to."""
 from __future__ import annotations
 
-from ..oracle import Oracle
-from ..ontology import Vocabulary
-from ..prompts import NONE, kind_choice
-from ..tree import KinematicTree
-from .asking import Progress, ask
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.ontology import Vocabulary
+from urdfkb.pipeline.prompts import NONE, kind_choice
+from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.stages.asking import Progress, ask
 
 def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str],
              progress: Progress | None = None) -> dict[str, str]:

@@ -21,11 +21,11 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from ..structure import ToolStructure, fork_of, tool_structure
-from ..tree import KinematicTree
-from .attachment import sub_chain
-from .grouping import Group
-from .verification import Log
+from urdfkb.pipeline.structure import ToolStructure, fork_of, tool_structure
+from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.grouping import Group
+from urdfkb.pipeline.stages.verification import Log
 
 ARM_JOINTS = 4  # independent moving joints in series that make an arm, if long enough (ARM_REACH)
 ARM_REACH = 0.5  # share of the distance from the root that a chain of ARM_JOINTS must reach to be an arm

@@ -14,9 +14,9 @@ from __future__ import annotations
 import re
 from typing import Callable
 
-from ..tree import KinematicTree
-from .attachment import sub_chain
-from .grouping import Group
+from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.grouping import Group
 
 Log = Callable[[str], None]
 

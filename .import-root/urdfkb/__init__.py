@@ -1,0 +1,1 @@
+../../urdfkb/__init__.py

@@ -1,0 +1,1 @@
+../../urdfkb/__main__.py

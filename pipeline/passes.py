@@ -1,0 +1,51 @@
+"""Declared passes and the manager that runs them, in the style of numba's PassManager.
+
+A pass is a name and a list of named steps; a step is a function of the pass's context (what lasts
+across passes) and its state (what this pass has built so far). The manager runs a pass's steps in
+order, ends the pass early when a step sets `state.done` (nothing left to abstract), and writes each
+step's wall time to the trace as `{"key": "timing", "pass": ..., "step": ..., "seconds": ...}`.
+Timings go to the trace only, never into a prompt or the ontology. pipeline.abstraction declares the
+passes; adding one is adding a list of steps there.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Protocol
+
+
+class State(Protocol):
+    done: bool
+
+
+@dataclass(frozen=True)
+class Step:
+    name: str
+    run: Callable[[Any, Any], None]  # (context, state) -> None
+
+
+@dataclass(frozen=True)
+class Pass:
+    name: str
+    steps: tuple[Step, ...]
+
+    def __post_init__(self) -> None:
+        names = [s.name for s in self.steps]
+        if len(set(names)) != len(names):
+            raise ValueError(f"pass {self.name!r} names a step twice: {names}")
+
+
+class PassManager:
+    """Runs passes step by step; `record` receives each step's timing (the trace writer)."""
+
+    def __init__(self, record: Callable[[dict], None]):
+        self.record = record
+
+    def run(self, declared: Pass, context: Any, state: State) -> None:
+        for step in declared.steps:
+            started = time.perf_counter()
+            step.run(context, state)
+            self.record({"key": "timing", "pass": declared.name, "step": step.name,
+                         "seconds": round(time.perf_counter() - started, 4)})
+            if state.done:
+                return

@@ -1,0 +1,83 @@
+"""Stage 7, sub-part typing: every member link of a device typed in its kind's Subpart branch.
+
+A device whose class ontologies/shapes.ttl requires a part of (a camera: an optical frame; a sensor
+forming no images: a sensing element) has one at each of its sub-chains' leaves: a sensor chain runs
+from its mount to the frame its measurements are expressed in, and nothing hangs below that frame.
+Those leaves are refined below the required part (core:partQuestion asks which kind, where it has
+kinds); the device's other links are typed with that part's branch ruled out, and a tool's links
+with what its finger chains rule out (core:fingerChainRole).
+"""
+from __future__ import annotations
+
+from urdfkb.pipeline.evidence import named
+from urdfkb.pipeline.ontology import Kind, Vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.stages.asking import Progress
+from urdfkb.pipeline.stages.classification import Subject, Typed, descend
+from urdfkb.pipeline.stages.grouping import Group
+from urdfkb.pipeline.structure import ToolStructure
+from urdfkb.pipeline.tree import KinematicTree
+
+
+def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
+                  classes: list[Typed], structures: list[ToolStructure] | None = None,
+                  progress: Progress | None = None) -> dict[str, Typed]:
+    """Each member link of `groups` (devices of `kind`, classified as `classes`) → its sub-part class;
+    `structures`: the tools' structures (end-effectors only)."""
+    required = _required_links(tax, groups, classes)
+    framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
+    structural = _structural_parts(tax, tree, kind, groups, structures)
+    rest = [
+        (link, Subject(f"part:{link}", framing,
+                       f"Link: {named(tree.evidence, link)}\nDevice: {tax.label(t.cls)}",
+                       tax.excluded_parts(t.cls) | _required_branch(tax, t.cls) | structural.get(link, frozenset())))
+        for g, t in zip(groups, classes) for link in g.members if link not in required
+    ]
+    frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
+    for link, device in required.items():
+        part, holder = tax.required_part(device), tax.label(tax.requiring_class(device))
+        frames.setdefault(part, []).append((link, Subject(
+            f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
+            f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}",
+            tax.excluded_parts(device))))
+    typed = dict(zip([link for link, _ in rest], descend(
+        oracle, tax, kind.subparts, [s for _, s in rest], "sub-part classification", progress)))
+    for part, subjects in frames.items():
+        typed.update(zip([link for link, _ in subjects], descend(
+            oracle, tax, part, [s for _, s in subjects], "required parts", progress)))
+    return typed
+
+
+def _required_links(tax: Vocabulary, groups: list[Group], classes: list[Typed]) -> dict[str, str]:
+    """The leaf of each sub-chain of a device whose class requires a part → the device's class."""
+    return {chain.leaf: t.cls for g, t in zip(groups, classes) if tax.required_part(t.cls) is not None
+            for chain in g.chains}
+
+
+def _required_branch(tax: Vocabulary, cls: str) -> frozenset[str]:
+    """The branch of the part a `cls` device requires (typed separately), or nothing."""
+    part = tax.required_part(cls)
+    return tax.branch(part) if part else frozenset()
+
+
+def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
+                      structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
+    """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
+    a finger chain is a finger or its contact surface; any other link is no finger, nor a palm if
+    the tool has fingers and none hangs from it. (Nothing for sensors.)"""
+    if structures is None:
+        return {}
+    finger, carrier = tax.finger_chain_role("link"), tax.finger_chain_role("carrier")
+    on_finger = frozenset(set(tax.subclasses_below(kind.subparts)) - finger - tax.finger_chain_role("tip"))
+    excluded = {}
+    for group, structure in zip(groups, structures):
+        fingers = {link for f in structure.fingers for link in f.links}
+        carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
+        for link in group.members:
+            if link in fingers:
+                excluded[link] = on_finger
+            elif fingers and link not in carriers:
+                excluded[link] = finger | carrier
+            else:
+                excluded[link] = finger
+    return excluded

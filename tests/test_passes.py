@@ -1,0 +1,59 @@
+"""The pass manager: declared steps run in order, each timed into the trace, a pass ends when a step is done."""
+import io
+import json
+from dataclasses import dataclass, field
+
+import pytest
+
+from tests.test_pipeline import TOY, perfect
+from urdfkb.pipeline import abstraction
+from urdfkb.pipeline.abstraction import PASSES, Abstractor
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.passes import Pass, PassManager, Step
+
+
+@dataclass
+class Ran:
+    ran: list[str] = field(default_factory=list)
+    done: bool = False
+
+
+def test_steps_run_in_order_each_timed_until_one_is_done():
+    records = []
+
+    def note(name, finish=False):
+        def run(context, state):
+            state.ran.append(f"{context}:{name}")
+            state.done = finish
+        return run
+
+    state = Ran()
+    declared = Pass("p", (Step("a", note("a")), Step("b", note("b", finish=True)), Step("c", note("c"))))
+    PassManager(records.append).run(declared, "ctx", state)
+    assert state.ran == ["ctx:a", "ctx:b"]
+    assert [(r["key"], r["pass"], r["step"]) for r in records] == [("timing", "p", "a"), ("timing", "p", "b")]
+    assert all(isinstance(r["seconds"], float) and r["seconds"] >= 0 for r in records)
+
+
+def test_a_pass_names_each_step_once():
+    with pytest.raises(ValueError, match="twice"):
+        Pass("p", (Step("a", print), Step("a", print)))
+
+
+def test_every_component_kind_has_a_declared_pass_sensors_first(monkeypatch):
+    assert [p.name for p in PASSES] == ["sensor", "end_effector", "body"]
+    monkeypatch.setattr(abstraction, "PASSES", PASSES[:1])
+    with pytest.raises(OntologyError, match="no pass declared for component kind.*end_effector"):
+        Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
+
+
+@pytest.mark.reasoner
+def test_the_trace_times_every_step_of_every_pass():
+    out = io.StringIO()
+    Abstractor(Oracle(ScriptedBackend(perfect), trace=out), vocabulary()).run(load_urdf(TOY))
+    timed = [(r["pass"], r["step"]) for r in map(json.loads, out.getvalue().splitlines()) if r["key"] == "timing"]
+    assert timed == [(p.name, s.name) for p in PASSES for s in p.steps]
