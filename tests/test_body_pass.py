@@ -21,6 +21,7 @@ def _candidates(built: Built) -> set[tuple[str, ...]]:
     return {tuple(e.joint for e in c.joints) for c in body.chains(tree, owned, links)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("make", [wheeled, legged])
 def test_candidate_chains_are_the_parts_over_many_seeds(make):
     """Every part built is one candidate (a mobile base's swivels each a candidate of their own)."""

@@ -10,6 +10,8 @@ from tests.kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
+pytestmark = pytest.mark.slow  # the example runs in a subprocess
+
 SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "ask_the_robot.py"
 
 

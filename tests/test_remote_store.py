@@ -15,6 +15,8 @@ from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
+pytestmark = pytest.mark.slow  # a real Oxigraph server process
+
 OXIGRAPH = Path(sys.executable).with_name("oxigraph")
 PR2_GRAPH = "https://w3id.org/urdfkb/robot/pr2#"
 TOKEN = "tk"
