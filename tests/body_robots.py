@@ -10,6 +10,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass, field
 
+from tests.urdf_writer import Writer
 from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, SubComponent
 
 
@@ -29,38 +30,7 @@ class Built:
     located: dict[str, str] = field(default_factory=dict)             # component name → first joint of its part
 
 
-class _Writer:
-    def __init__(self, rng: random.Random):
-        self.rng, self.links, self.joints, self.used = rng, [], [], set()
-
-    def name(self) -> str:
-        while True:
-            stem = "".join(self.rng.choice("bcdfghjkmnpqrstvwxz") + self.rng.choice("aeiou") for _ in range(3))
-            if stem not in self.used:
-                self.used.add(stem)
-                return stem
-
-    def link(self, geometry: str = "") -> str:
-        name = self.name()
-        visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
-        self.links.append(f'<link name="{name}">{visual}</link>')
-        return name
-
-    def joint(self, kind: str, parent: str, child: str, xyz=(0, 0, 0), axis=(0, 0, 1), mimic: str | None = None) -> str:
-        name = self.name()
-        limit = '<limit lower="-1" upper="1" effort="10" velocity="1"/>' if kind in ("revolute", "prismatic") else ""
-        mimic_tag = f'<mimic joint="{mimic}" multiplier="1"/>' if mimic else ""
-        self.joints.append(
-            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="{xyz[0]} {xyz[1]} {xyz[2]}" rpy="0 0 0"/><axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>'
-            f'{limit}{mimic_tag}</joint>')
-        return name
-
-    def urdf(self) -> bytes:
-        return f'<robot name="{self.name()}">{"".join(self.links)}{"".join(self.joints)}</robot>'.encode()
-
-
-def _arm(w: _Writer, built: Built, mount: str, y: float, z: float, side: str | None) -> None:
+def _arm(w: Writer, built: Built, mount: str, y: float, z: float, side: str | None) -> None:
     """A serial arm of 4-7 revolute joints ending in a two-jaw gripper (an end-effector)."""
     parent, joints = mount, []
     for i in range(w.rng.randint(4, 7)):
@@ -86,7 +56,7 @@ def _arm(w: _Writer, built: Built, mount: str, y: float, z: float, side: str | N
 def wheeled(seed: int) -> Built:
     """A mobile manipulator: drive wheels (and casters), a lift carrying a head and one or two arms."""
     rng = random.Random(seed)
-    w = _Writer(rng)
+    w = Writer(rng)
     built = Built(b"", [], [])
     base = w.link('<box size="0.6 0.5 0.2"/>')
     wheels = []
@@ -127,7 +97,7 @@ def wheeled(seed: int) -> Built:
 def legged(seed: int) -> Built:
     """Two or four legs of 2-4 joints reaching the ground, and sometimes an arm on the back."""
     rng = random.Random(seed)
-    w = _Writer(rng)
+    w = Writer(rng)
     built = Built(b"", [], [])
     trunk = w.link('<box size="0.5 0.3 0.1"/>')
     joints_per_leg = rng.randint(2, 4)

@@ -29,6 +29,8 @@ import math
 import random
 from dataclasses import dataclass, field
 
+from tests.urdf_writer import Writer
+
 
 @dataclass
 class Chain:
@@ -59,50 +61,10 @@ class Built:
     notes: list[str] = field(default_factory=list)
 
 
-def _f(x: float) -> str:
-    return f"{x:.5f}".rstrip("0").rstrip(".") or "0"
-
-
-class _Writer:
-    def __init__(self, rng: random.Random):
-        self.rng, self.links, self.joints, self.used = rng, [], [], set()
-
-    def name(self) -> str:
-        while True:
-            stem = "".join(self.rng.choice("bcdfghjkmnpqrstvwxz") + self.rng.choice("aeiou") for _ in range(3))
-            if stem not in self.used:
-                self.used.add(stem)
-                return stem
-
-    def link(self) -> str:
-        name = self.name()
-        self.links.append(f'<link name="{name}"/>')
-        return name
-
-    def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
-              limits: tuple[float, float] | None = None, mimic: str | None = None, multiplier: float = 1.0,
-              rpy=(0.0, 0.0, 0.0)) -> str:
-        name = self.name()
-        limit = ""
-        if kind in ("revolute", "prismatic"):
-            lo, hi = limits or (-1.0, 1.0)
-            limit = f'<limit lower="{_f(lo)}" upper="{_f(hi)}" effort="10" velocity="1"/>'
-        mimic_tag = f'<mimic joint="{mimic}" multiplier="{multiplier}" offset="0"/>' if mimic else ""
-        axis_tag = "" if kind == "fixed" else f'<axis xyz="{_f(axis[0])} {_f(axis[1])} {_f(axis[2])}"/>'
-        self.joints.append(
-            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="{_f(xyz[0])} {_f(xyz[1])} {_f(xyz[2])}" rpy="{_f(rpy[0])} {_f(rpy[1])} {_f(rpy[2])}"/>'
-            f'{axis_tag}{limit}{mimic_tag}</joint>')
-        return name
-
-    def urdf(self) -> bytes:
-        return f'<robot name="{self.name()}">{"".join(self.links)}{"".join(self.joints)}</robot>'.encode()
-
-
 def build(seed: int) -> Built:
     """One random arm and end-effector; the same seed builds the same robot."""
     rng = random.Random(seed)
-    w = _Writer(rng)
+    w = Writer(rng)
     # the arm
     link = w.link()
     for i in range(rng.randint(4, 7)):

@@ -1,0 +1,52 @@
+"""The URDF writer of the generated test robots (tests/body_robots.py, tests/hand_robots.py)."""
+from __future__ import annotations
+
+import random
+
+
+def _number(x: float) -> str:
+    return f"{x:.5f}".rstrip("0").rstrip(".") or "0"
+
+
+def _vector(v) -> str:
+    return " ".join(map(_number, v))
+
+
+class Writer:
+    """Builds a URDF of seeded random, meaningless, distinct link and joint names."""
+
+    def __init__(self, rng: random.Random):
+        self.rng, self.links, self.joints, self.used = rng, [], [], set()
+
+    def name(self) -> str:
+        while True:
+            stem = "".join(self.rng.choice("bcdfghjkmnpqrstvwxz") + self.rng.choice("aeiou") for _ in range(3))
+            if stem not in self.used:
+                self.used.add(stem)
+                return stem
+
+    def link(self, geometry: str = "") -> str:
+        """A new link; `geometry` (a URDF geometry element) gives it a visual."""
+        name = self.name()
+        visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
+        self.links.append(f'<link name="{name}">{visual}</link>')
+        return name
+
+    def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
+              limits: tuple[float, float] | None = None, mimic: str | None = None, multiplier: float = 1.0,
+              rpy=(0.0, 0.0, 0.0)) -> str:
+        name = self.name()
+        limit = ""
+        if kind in ("revolute", "prismatic"):
+            lo, hi = limits or (-1.0, 1.0)
+            limit = f'<limit lower="{_number(lo)}" upper="{_number(hi)}" effort="10" velocity="1"/>'
+        mimic_tag = f'<mimic joint="{mimic}" multiplier="{multiplier}" offset="0"/>' if mimic else ""
+        axis_tag = "" if kind == "fixed" else f'<axis xyz="{_vector(axis)}"/>'
+        self.joints.append(
+            f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{_vector(xyz)}" rpy="{_vector(rpy)}"/>'
+            f'{axis_tag}{limit}{mimic_tag}</joint>')
+        return name
+
+    def urdf(self) -> bytes:
+        return f'<robot name="{self.name()}">{"".join(self.links)}{"".join(self.joints)}</robot>'.encode()
