@@ -43,12 +43,14 @@ PR2 = Abstraction((
 ), {"mode": "hand-written test fixture"})
 
 
+PR2_ARM = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "elbow_flex", "forearm_roll", "wrist_flex", "wrist_roll")
+
+
 def _arm(side: str) -> BodyPart:
     s = side[0]
-    joints = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "elbow_flex", "forearm_roll", "wrist_flex", "wrist_roll")
     links = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "upper_arm", "elbow_flex", "forearm_roll", "forearm",
              "wrist_flex", "wrist_roll")
-    return BodyPart(f"{s}_arm", "Arm", 0.9, "torso_lift_link", tuple(f"{s}_{j}_joint" for j in joints),
+    return BodyPart(f"{s}_arm", "Arm", 0.9, "torso_lift_link", tuple(f"{s}_{j}_joint" for j in PR2_ARM),
                     tuple(f"{s}_{l}_link" for l in links), side)
 
 
@@ -91,6 +93,14 @@ PR2_WHOLE = Abstraction((
                   ("l_gripper_r_finger_tip_link", "ContactSurface", 0.8)),
             located_on="l_arm", side="left", joints=_fingers("l")),
 ), {"mode": "hand-written test fixture"}, PR2_BODY)
+
+
+def store_whole_pr2(store, tree) -> None:
+    """PR2 with its whole body (PR2_WHOLE), the same with nothing on its left arm, and one with no body."""
+    store.replace_robot("pr2", tree, PR2_WHOLE)
+    store.replace_robot("pr2_one_gripper", tree, replace(PR2_WHOLE, components=tuple(
+        c for c in PR2_WHOLE.components if c.name != "l_gripper")))
+    store.replace_robot("pr2_no_body", tree, PR2)
 
 
 def free_port() -> int:
@@ -191,3 +201,20 @@ def multipart(fields: dict[str, str], files: dict[str, tuple[str, bytes]]) -> tu
                      f'Content-Type: application/xml\r\n\r\n'.encode() + data + b"\r\n")
     parts.append(f"--{boundary}--\r\n".encode())
     return b"".join(parts), f"multipart/form-data; boundary={boundary}"
+
+
+def both_engines(store, robot: str, name: str, args: dict) -> tuple[list[str], list[dict], list[dict]]:
+    """A bundled query on `robot` answered by the store (Oxigraph) and, independently, by rdflib over the
+    robot's self-contained export: (variables, the store's rows, rdflib's rows), rows as {var: string}."""
+    import rdflib
+
+    from urdfkb.kb_server.queries import load_queries
+    from urdfkb.pipeline.population import robot_iri
+
+    text = load_queries()[name].bind(robot_iri(robot) + "robot", args)
+    answer = store.query(text)
+    # rdflib still tells "x" from "x"^^xsd:string (RDF 1.1 makes them one term): give it plain literals
+    export = store.export(robot, "nt").replace(b"^^<http://www.w3.org/2001/XMLSchema#string>", b"")
+    reference = rdflib.Graph().parse(data=export, format="nt").query(text)
+    return answer.vars, answer.as_dicts(), [{v: (str(row[v]) if row[v] is not None else None) for v in answer.vars}
+                                            for row in reference]

@@ -4,32 +4,26 @@ independent engine's agreement."""
 import json
 import re
 import urllib.parse
-from dataclasses import replace
 from decimal import Decimal
 
 import pytest
-import rdflib
 
-from tests.kb_fixtures import PR2, PR2_BODY, PR2_WHOLE, client, make_app
-from urdfkb.kb_server.queries import ParamError, load_queries, run_named
+from tests.kb_fixtures import PR2_ARM, PR2_BODY, both_engines, client, make_app, store_whole_pr2
+from urdfkb.kb_server.queries import ParamError, run_named
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction, BodyPart
 from urdfkb.pipeline.ingest import load_urdf
 
 R = "https://w3id.org/urdfkb/robot/pr2#"
 C = "https://w3id.org/urdfkb/core#"
-ARM = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "elbow_flex", "forearm_roll", "wrist_flex", "wrist_roll")
 
 
 @pytest.fixture(scope="module")
 def store(shared, tmp_path_factory):
     s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
     tree = load_urdf(shared / "urdf" / "pr2.urdf")
-    s.replace_robot("pr2", tree, PR2_WHOLE)
-    # the same robot with nothing on its left arm, one without a body, one whose base stands for its chassis
-    s.replace_robot("pr2_one_gripper", tree, replace(PR2_WHOLE, components=tuple(
-        c for c in PR2_WHOLE.components if c.name != "l_gripper")))
-    s.replace_robot("pr2_no_body", tree, PR2)
+    store_whole_pr2(s, tree)
+    # and one whose base stands for its chassis
     s.replace_robot("pr2_chassis", tree, Abstraction((), {}, (BodyPart("base", "MobileBase", 0.7, None, (), ("base_link",)),)))
     yield s
     s.close()
@@ -49,8 +43,8 @@ def test_body_parts_with_class_side_and_joints(store):
         part["joints"].append(r["joint"])
     assert set(parts) == {p.name for p in PR2_BODY}
     assert parts["l_arm"] == {"class": "Arm", "label": "arm", "side": "left", "parent": None, "mount": "torso_lift_link",
-                              "confidence": "0.9", "joints": [f"l_{j}_joint" for j in ARM]}  # root-most first
-    assert parts["r_arm"]["side"] == "right" and parts["r_arm"]["joints"] == [f"r_{j}_joint" for j in ARM]
+                              "confidence": "0.9", "joints": [f"l_{j}_joint" for j in PR2_ARM]}  # root-most first
+    assert parts["r_arm"]["side"] == "right" and parts["r_arm"]["joints"] == [f"r_{j}_joint" for j in PR2_ARM]
     assert parts["head"] == {"class": "Head", "label": "head", "side": None, "parent": None, "mount": "torso_lift_link",
                              "confidence": "0.8", "joints": ["head_pan_joint", "head_tilt_joint"]}
     assert parts["base"]["class"] == "MobileBase" and parts["base"]["label"] == "mobile base"
@@ -68,7 +62,7 @@ def test_body_parts_with_class_side_and_joints(store):
 
 def test_joints_of_the_left_arm_with_limits_and_axis(store):
     got = rows(store, "body_part_joints", part="arm", side="left")
-    assert [r["joint"] for r in got] == [f"l_{j}_joint" for j in ARM]
+    assert [r["joint"] for r in got] == [f"l_{j}_joint" for j in PR2_ARM]
     assert {(r["bodyPart"], r["name"], r["side"]) for r in got} == {(R + "body_l_arm", "l_arm", "left")}
     pan = got[0]
     assert pan["type"] == "revolute"
@@ -85,9 +79,9 @@ def test_a_part_is_chosen_by_class_and_side(store):
     def joints(**args):
         return [r["joint"] for r in rows(store, "body_part_joints", **args)]
 
-    assert joints(part="Arm", side="right") == [f"r_{j}_joint" for j in ARM]
+    assert joints(part="Arm", side="right") == [f"r_{j}_joint" for j in PR2_ARM]
     assert joints(part="ARM", side="Left") == joints(part="arm", side="left")
-    assert joints(part="arm") == [f"l_{j}_joint" for j in ARM] + [f"r_{j}_joint" for j in ARM]  # side any: both
+    assert joints(part="arm") == [f"l_{j}_joint" for j in PR2_ARM] + [f"r_{j}_joint" for j in PR2_ARM]  # side any: both
     assert joints(part="arm", side="") == joints(part="arm", side="any") == joints(part="arm")
     assert joints(part="head") == ["head_pan_joint", "head_tilt_joint"]
     assert joints(part="head", side="left") == []  # the head has no side
@@ -147,22 +141,18 @@ def test_the_end_effector_at_the_end_of_an_arm(store):
 @pytest.mark.slow
 def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
     """An independent engine (rdflib) over the robot's self-contained export gives the same rows in the same order."""
-    text = load_queries()[name].bind(R + "robot", args)
-    answer = store.query(text)
-    export = store.export("pr2", "nt").replace(b"^^<http://www.w3.org/2001/XMLSchema#string>", b"")
-    reference = rdflib.Graph().parse(data=export, format="nt").query(text)
+    variables, store_rows, rdflib_rows = both_engines(store, "pr2", name, args)
 
     def value(text):  # rdflib writes decimals in canonical form ("0.0" for "0"): compare them as numbers
         return Decimal(text) if re.fullmatch(r"-?[0-9]+(\.[0-9]+)?", text) else " ".join(sorted(text.split()))
 
     def norm(rows):
-        return [tuple(value(r[v]) if r.get(v) is not None else None for v in answer.vars) for r in rows]
+        return [tuple(value(r[v]) if r.get(v) is not None else None for v in variables) for r in rows]
 
-    got = norm(answer.as_dicts())
-    want = norm([{v: (str(row[v]) if row[v] is not None else None) for v in answer.vars} for row in reference])
+    got, want = norm(store_rows), norm(rdflib_rows)
     assert got and sorted(got, key=str) == sorted(want, key=str)
     if name in ("body_parts", "body_part_joints"):  # the joint order is part of the answer
-        assert [(r[0], r[answer.vars.index("joint")]) for r in got] == [(r[0], r[answer.vars.index("joint")]) for r in want]
+        assert [(r[0], r[variables.index("joint")]) for r in got] == [(r[0], r[variables.index("joint")]) for r in want]
 
 
 def test_listed_and_served_over_http(store):

@@ -2,27 +2,22 @@
 bundled query, Python values, and the errors (down, too slow, unknown robot, refused query, token)."""
 import socket
 import time
-from dataclasses import replace
 
 import pytest
 
-from tests.kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
+from tests.kb_fixtures import PR2_ARM, free_port, live, make_app, store_whole_pr2
 from urdfkb.client import (ArmEndEffector, BodyPart, CameraLink, ClientError, Joint, KnowledgeBase, LocatedComponent,
                            QueryFailed, ServerUnavailable, UnknownRobot, class_words)
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
-ARM = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "elbow_flex", "forearm_roll", "wrist_flex", "wrist_roll")
 
 
 @pytest.fixture(scope="module")
 def store(shared, tmp_path_factory):
     s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
     tree = load_urdf(shared / "urdf" / "pr2.urdf")
-    s.replace_robot("pr2", tree, PR2_WHOLE)
-    s.replace_robot("pr2_one_gripper", tree, replace(PR2_WHOLE, components=tuple(
-        c for c in PR2_WHOLE.components if c.name != "l_gripper")))
-    s.replace_robot("pr2_no_body", tree, PR2)
+    store_whole_pr2(s, tree)
     yield s
     s.close()
 
@@ -76,7 +71,7 @@ def test_end_effectors_review_and_components(kb):
 def test_body_parts(kb):
     parts = {p.name: p for p in kb.body_parts("pr2")}
     assert parts["l_arm"] == BodyPart("l_arm", "Arm", "arm", "left", None, "torso_lift_link", 0.9,
-                                      tuple(f"l_{j}_joint" for j in ARM))
+                                      tuple(f"l_{j}_joint" for j in PR2_ARM))
     assert parts["head"].joints == ("head_pan_joint", "head_tilt_joint") and parts["head"].side is None
     assert parts["fr_caster_r_wheel"].parent == "base" and parts["fr_caster_r_wheel"].cls == "Wheel"
     assert parts["base"].label == "mobile base" and len(parts["base"].joints) == 4
@@ -85,12 +80,12 @@ def test_body_parts(kb):
 
 def test_which_joints_move_the_left_arm(kb):
     joints = kb.body_part_joints("pr2", "arm", side="left")
-    assert [j.name for j in joints] == [f"l_{j}_joint" for j in ARM]
+    assert [j.name for j in joints] == [f"l_{j}_joint" for j in PR2_ARM]
     assert joints[0] == Joint("l_shoulder_pan_joint", "revolute", -0.7146, 2.2854, 2.088, 30.0, (0.0, 0.0, 1.0), "l_arm", "left")
     assert all(isinstance(v, float) for j in joints for v in (j.velocity, j.effort, *j.axis))
     roll = joints[4]
     assert (roll.name, roll.type, roll.lower, roll.upper, roll.velocity) == ("l_forearm_roll_joint", "continuous", None, None, 3.6)
-    assert [j.name for j in kb.body_part_joints("pr2", "Arm", side="RIGHT")] == [f"r_{j}_joint" for j in ARM]
+    assert [j.name for j in kb.body_part_joints("pr2", "Arm", side="RIGHT")] == [f"r_{j}_joint" for j in PR2_ARM]
     assert len(kb.body_part_joints("pr2", "arm")) == 14
     assert [j.name for j in kb.body_part_joints("pr2", "head")] == ["head_pan_joint", "head_tilt_joint"]
     with pytest.raises(ValueError, match="side"):

@@ -3,9 +3,8 @@ import json
 import urllib.parse
 
 import pytest
-import rdflib
 
-from tests.kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, both_engines, client, make_app
 from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
@@ -85,18 +84,13 @@ def test_low_confidence_for_review(store):
 @pytest.mark.slow
 def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
     """An independent engine (rdflib) over the robot's self-contained export gives the same rows."""
-    text = load_queries()[name].bind(R + "robot", args)
-    answer = store.query(text)
-    # rdflib still tells "x" from "x"^^xsd:string (RDF 1.1 makes them one term): give it plain literals
-    export = store.export("pr2", "nt").replace(b"^^<http://www.w3.org/2001/XMLSchema#string>", b"")
-    reference = rdflib.Graph().parse(data=export, format="nt").query(text)
+    variables, got, want = both_engines(store, "pr2", name, args)
 
     def norm(rows):
-        return sorted((tuple(" ".join(sorted(r[v].split())) if r.get(v) is not None else None for v in answer.vars)
+        return sorted((tuple(" ".join(sorted(r[v].split())) if r.get(v) is not None else None for v in variables)
                        for r in rows), key=str)
 
-    assert norm(answer.as_dicts()) == norm([{v: (str(row[v]) if row[v] is not None else None) for v in answer.vars}
-                                           for row in reference])
+    assert norm(got) == norm(want)
 
 
 def test_parameters_are_typed_and_checked(store):
