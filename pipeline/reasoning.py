@@ -74,16 +74,24 @@ def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
                 individuals.append((individual, chains))
             if len(chains_all) > 1:
                 owlready2.AllDifferent(chains_all)
-        started = time.monotonic()
-        try:
-            owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
-        except (owlready2.OwlReadyJavaError, OSError) as e:  # no Java, or HermiT failed: the model is asked
-            log.warning("reasoner unavailable (%s): end-effector kinds are left to the model", e)
-            return [Inference(_tool_class(), ()) for _ in tools], time.monotonic() - started
-        seconds = time.monotonic() - started
+        ran, seconds = _hermit(world, "end-effector kinds are")
+        if not ran:
+            return [Inference(_tool_class(), ()) for _ in tools], seconds
         return [_inference(individual, chains) for individual, chains in individuals], seconds
     finally:
         world.close()
+
+
+def _hermit(world: owlready2.World, left: str) -> tuple[bool, float]:
+    """Run HermiT over `world`: (whether it ran, its wall time). Without Java, or when HermiT fails, what
+    it would have settled (`left`, e.g. "body parts are") is left to the model."""
+    started = time.monotonic()
+    try:
+        owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
+    except (owlready2.OwlReadyJavaError, OSError) as e:
+        log.warning("reasoner unavailable (%s): %s left to the model", e, left)
+        return False, time.monotonic() - started
+    return True, time.monotonic() - started
 
 
 def _inference(individual, chains: dict) -> Inference:
@@ -131,13 +139,9 @@ def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
                 part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
                 part.deviceCount = len(facts.devices)
                 part.endEffectorCount = sum(tax.is_a(cls, tool) for cls in facts.devices)
-        started = time.monotonic()
-        try:
-            owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
-        except (owlready2.OwlReadyJavaError, OSError) as e:  # no Java, or HermiT failed: the model is asked
-            log.warning("reasoner unavailable (%s): body parts are left to the model", e)
-            return [None] * len(parts), time.monotonic() - started
-        seconds = time.monotonic() - started
+        ran, seconds = _hermit(world, "body parts are")
+        if not ran:
+            return [None] * len(parts), seconds
         inferred = []
         for part in individuals:
             classes = {c.iri[len(CORE_IRI):] for c in part.is_a if isinstance(c, owlready2.ThingClass)}

@@ -71,7 +71,8 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
     """Candidate chains of body joints, in document order of their first joints."""
     body = [e for e in tree.edges if e.movable and e.joint not in owned_joints]
-    upper = {e.joint: _upper(tree, e, {b.joint for b in body}) for e in body}
+    names = {e.joint for e in body}
+    upper = {e.joint: _upper(tree, e, names) for e in body}
     below: dict[str | None, list[Edge]] = {}
     for e in body:
         below.setdefault(upper[e.joint], []).append(e)
@@ -85,7 +86,7 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
             run.append(below[run[-1].joint][0])
         out += [piece for part in _split_lifts(run) for piece in _split_wheel(tree, part, below, owned_links)]
     for chain in out:
-        chain.links = [link for e in chain.joints for link in _moved(tree, e.child, {b.joint for b in body}, owned_links)]
+        chain.links = [link for e in chain.joints for link in _moved(tree, e.child, names, owned_links)]
     return out
 
 
@@ -165,8 +166,9 @@ def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: 
               progress: Progress | None = None, log: Log | None = None) -> tuple[list[BodyPart], list[Component]]:
     """Body parts of the robot, and the components with their joints, body part and side."""
     log = log or (lambda _msg: None)
-    components = [replace(c, joints=device_joints(tree, c)) if c.kind == END_EFFECTOR else c for c in components]
-    owned_joints = {j for c in components for j in device_joints(tree, c)}
+    owned = [device_joints(tree, c) for c in components]
+    components = [replace(c, joints=joints) if c.kind == END_EFFECTOR else c for c, joints in zip(components, owned)]
+    owned_joints = {j for joints in owned for j in joints}
     owned_links = {link for c in components for link in c.links}
     found = chains(tree, owned_joints, owned_links)
     if not found:
@@ -239,7 +241,7 @@ def _parts(tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
     wheels = [c for c in found if c.cls == WHEEL]
     parts = [BodyPart(f"{c.cls.lower()}_{c.joints[0].joint}", c.cls, round(c.confidence, 4), c.mount,
                       tuple(e.joint for e in c.joints), tuple(c.links))
-             for c in found if c.cls not in (BASE,)]
+             for c in found if c.cls != BASE]
     if not base_chains and not wheels:
         return parts
     chassis = _common_ancestor(tree, [c.mount for c in base_chains + wheels])
@@ -266,8 +268,7 @@ def _sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress:
     """left/right by the sign of y in the root frame for classes with parts on both sides; per such class,
     the model names the left one of its widest pair, and where it disagrees with geometry and is sure,
     the names win for the whole class."""
-    y = {p.name: sum(tree.position_in(link, tree.root)[1] for link in _anchor(tree, p)) / len(_anchor(tree, p))
-         for p in parts}
+    y = {p.name: _mean_y(tree, _anchor(tree, p)) for p in parts}
     sides = {p.name: ("left" if y[p.name] > 0 else "right") for p in parts if abs(y[p.name]) > SIDE_EPS}
     pairs = {}
     for cls in dict.fromkeys(p.cls for p in parts):
@@ -289,6 +290,10 @@ def _sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress:
                     if p.cls == cls and p.name in sides:
                         sides[p.name] = "right" if sides[p.name] == "left" else "left"
     return [replace(p, side=sides.get(p.name)) for p in parts]
+
+
+def _mean_y(tree: KinematicTree, links: list[str]) -> float:
+    return sum(tree.position_in(link, tree.root)[1] for link in links) / len(links)
 
 
 def _anchor(tree: KinematicTree, part: BodyPart) -> list[str]:
