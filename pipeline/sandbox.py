@@ -1,7 +1,7 @@
 """An operating-system boundary for running untrusted code: bubblewrap with a seccomp filter.
 
 Used for xacro documents sent to the server (xacro's `${...}` is Python, so an upload is code).
-The command from `confine()` runs its program:
+`run()` runs its program:
 
 - in new PID, network, IPC and UTS namespaces (`bwrap --unshare-*`): it sees no other process, so
   it can signal, trace or `pidfd_open` none, and has no network but an unconfigured loopback;
@@ -42,7 +42,7 @@ DENIED = ("ptrace", "process_vm_readv", "process_vm_writev", "pidfd_open", "pidf
           "delete_module", "kexec_load", "kexec_file_load", "reboot", "swapon", "swapoff", "acct",
           "open_by_handle_at", "name_to_handle_at", "fanotify_init", "move_mount", "open_tree", "fsopen",
           "fsmount", "fspick", "mount_setattr")
-SANDBOX_PYTHON_PATHS = "/urdfkb"  # where the program is mounted inside
+PROGRAM_DIR = "/urdfkb"  # where the program is mounted inside
 
 
 class Unavailable(RuntimeError):
@@ -114,13 +114,27 @@ def _drop_user() -> list[str]:
             "--bounding-set=-all", "--no-new-privs", "--"]
 
 
-def confine(program: Path, args: Iterable[str], read_only: Mapping[str, Path]) -> tuple[list[str], bytes]:
-    """(argv, seccomp program) running `python -I program args` confined; each of `read_only`'s
-    folders (sandbox path → host folder) is visible read-only at its sandbox path.
-
-    Run it with `run()`, which passes the seccomp program to bwrap on a file descriptor."""
+def run(program: Path, args: Iterable[str], read_only: Mapping[str, Path], stdin: bytes, timeout: float,
+        max_output: int) -> tuple[int, bytes, bytes]:
+    """Run `python -I program args` confined, each of `read_only`'s folders (sandbox path → host folder)
+    visible read-only at its sandbox path: (exit status, stdout, stderr), each output cut at
+    `max_output` bytes (the rest is read and dropped, so a flood costs no memory); TimeoutExpired past
+    `timeout`, Unavailable where the machine cannot confine it."""
     bwrap, bpf = _bwrap(), _seccomp_filter()
-    inside = f"{SANDBOX_PYTHON_PATHS}/{program.name}"
+    read_fd, write_fd = os.pipe()  # bwrap reads the seccomp program from a file descriptor
+    try:
+        os.write(write_fd, bpf)  # a BPF program is a few hundred bytes: far below the pipe's buffer
+    finally:
+        os.close(write_fd)
+    try:
+        return bounded_run(_argv(bwrap, read_fd, program, args, read_only), stdin, timeout, max_output,
+                           pass_fds=(read_fd,))
+    finally:
+        os.close(read_fd)
+
+
+def _argv(bwrap: str, seccomp_fd: int, program: Path, args: Iterable[str], read_only: Mapping[str, Path]) -> list[str]:
+    inside = f"{PROGRAM_DIR}/{program.name}"
     argv = [bwrap, "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts", "--unshare-cgroup-try",
             "--die-with-parent", "--new-session", "--clearenv", "--setenv", "PATH", "/usr/bin:/bin",
             "--cap-drop", "ALL"]
@@ -132,24 +146,8 @@ def confine(program: Path, args: Iterable[str], read_only: Mapping[str, Path]) -
     argv += _dirs_to(inside) + ["--ro-bind", str(program), inside]
     for target, source in read_only.items():
         argv += _dirs_to(target) + ["--ro-bind", str(source), target]
-    argv += ["--remount-ro", "/", "--chdir", "/", "--seccomp", "{seccomp_fd}"]
-    argv += _drop_user() + [sys.executable, "-I", inside, *args]
-    return argv, bpf
-
-
-def run(argv: list[str], bpf: bytes, stdin: bytes, timeout: float, max_output: int) -> tuple[int, bytes, bytes]:
-    """Run a `confine()` command: (exit status, stdout, stderr), each output cut at `max_output`
-    bytes (the rest is read and dropped, so a flood costs no memory); TimeoutExpired past `timeout`."""
-    read_fd, write_fd = os.pipe()
-    try:
-        os.write(write_fd, bpf)  # a BPF program is a few hundred bytes: far below the pipe's buffer
-    finally:
-        os.close(write_fd)
-    try:
-        argv = [a.replace("{seccomp_fd}", str(read_fd)) for a in argv]
-        return bounded_run(argv, stdin, timeout, max_output, pass_fds=(read_fd,))
-    finally:
-        os.close(read_fd)
+    argv += ["--remount-ro", "/", "--chdir", "/", "--seccomp", str(seccomp_fd)]
+    return argv + _drop_user() + [sys.executable, "-I", inside, *args]
 
 
 def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, **popen) -> tuple[int, bytes, bytes]:
@@ -191,8 +189,7 @@ def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, 
 def unavailable() -> str | None:
     """None if a confined program runs here; else why not (checked once per process)."""
     try:
-        argv, bpf = confine(Path(__file__).with_name("sandbox_probe.py"), [], {})
-        code, out, err = run(argv, bpf, b"", 20, 4096)
+        code, out, err = run(Path(__file__).with_name("sandbox_probe.py"), [], {}, b"", 20, 4096)
     except Unavailable as e:
         return str(e)
     except (OSError, subprocess.TimeoutExpired) as e:

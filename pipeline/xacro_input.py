@@ -94,8 +94,7 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
     with _RUNNING, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
         try:
             if confined:
-                argv, bpf = sandbox.confine(WORKER, [limits], mounts)
-                code, out, err = sandbox.run(argv, bpf, json.dumps(request).encode(), timeout, cap)
+                code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap)
             else:
                 code, out, err = sandbox.bounded_run([sys.executable, "-I", str(WORKER), limits],
                                                      json.dumps(request).encode(), timeout, cap,

@@ -65,9 +65,8 @@ def test_code_loose_in_the_sandbox_can_reach_nothing(tmp_path):
     (package / "part.xacro").chmod(0o644)
     secret = tmp_path / "secret.txt"
     secret.write_text("the server's")
-    argv, bpf = sandbox.confine(ATTACKS, [str(os.getpid()), str(secret), "/packages/pkg/part.xacro"],
-                                {"/packages/pkg": package})
-    code, out, err = sandbox.run(argv, bpf, b"", 30, 65536)
+    code, out, err = sandbox.run(ATTACKS, [str(os.getpid()), str(secret), "/packages/pkg/part.xacro"],
+                                 {"/packages/pkg": package}, b"", 30, 65536)
     assert code == 0, err
     assert json.loads(out) == []
     assert (package / "part.xacro").read_text() == "<robot/>"
