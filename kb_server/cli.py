@@ -155,6 +155,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
         finally:
             bars.close()
         per_robot[robot] = result.scores
+        if args.explain:
+            for line in result.scores["differences"]:
+                print(f"  {robot}: {line}", file=sys.stderr)
         prov = result.abstraction.provenance
         extra["model"][robot] = prov.get("model", "?").removeprefix("llama.cpp:")
         extra["vote"][robot] = prov.get("vote", "?") + (f" x{prov.get('votes')}" if prov.get("vote") == "sample" else "")
@@ -221,6 +224,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("truth_dir", nargs="?", default=str(DEFAULT_TRUTH), help=f"folder of truth *.yaml files (default {DEFAULT_TRUTH}); URDF paths in them are relative to its grandparent")
     p.add_argument("--json", metavar="FILE", help="also write the scores as JSON")
     p.add_argument("--traces", metavar="DIR", help="write each robot's question trace to DIR/<robot>.jsonl")
+    p.add_argument("--explain", action="store_true",
+                   help="after each robot, print what it got wrong (missed, extra, mistyped, misrooted components and sub-parts)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     _add_model_options(p)
     p.set_defaults(func=cmd_eval)

@@ -375,7 +375,7 @@ def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str], tree: Kinema
 
     Returns ``{"all"|"sensor"|"end_effector": {metric: float, count: int}, "body": {body
     metric: float, count: int}, "partitions": {replaced ids: "canonical"|"alternative"},
-    "failed": False}``. The body metrics (:func:`score_body`) need the URDF's ``tree`` (which
+    "differences": [what the prediction got wrong, one line each], "failed": False}``. The body metrics (:func:`score_body`) need the URDF's ``tree`` (which
     joints move, which lead to an end-effector) and a truth with a body section; without either
     they are undefined (None) and skipped in means. Ignored leaves are removed
     from predicted and truth leaf sets. A predicted component with no leaf left is not a
@@ -397,8 +397,30 @@ def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str], tree: Kinema
     else:
         result[BODY] = _undefined_body()
     result["partitions"] = chosen
+    result["differences"] = differences(preds, truths, tax)
     result["failed"] = False
     return result
+
+
+def differences(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _Taxonomy) -> list[str]:
+    """What a robot's prediction gets wrong, one line each: missed and extra components, classes
+    without full credit, roots outside the accepted ones, sub-parts without full credit."""
+    pairs = _match(preds, truths, tax)
+    matched_preds, matched_truths = {id(p) for p, _ in pairs}, {t.id for _, t in pairs}
+    found = [f"missed {t.id} ({t.kind}, {'|'.join(sorted(t.classes))}): {sorted(t.leaves)}"
+             for t in truths if t.id not in matched_truths]
+    found += [f"extra {p.cls} ({p.kind}) on {p.root}: {sorted(p.leaves)}" for p in preds if id(p) not in matched_preds]
+    kinds = _kind_roots().values()
+    subpart_roots = [kind.subparts for kind in vocabulary().kinds.values()]
+    for p, t in pairs:
+        if (credit := tax.credit(p.cls, t.classes, kinds)) < 1:
+            found.append(f"typed {t.id} {p.cls}, truth {'|'.join(sorted(t.classes))} (credit {credit:g})")
+        if p.root not in t.roots:
+            found.append(f"root of {t.id} {p.root}, truth {'|'.join(sorted(t.roots))}")
+        for leaf, accepted in t.subparts.items():
+            if tax.credit(p.subparts.get(leaf), accepted, subpart_roots) < 1:
+                found.append(f"subpart {leaf} of {t.id} {p.subparts.get(leaf)}, truth {'|'.join(sorted(accepted))}")
+    return found
 
 
 def end_effector_joints(truth: Truth, tree: KinematicTree) -> frozenset[str]:
@@ -504,7 +526,7 @@ def failed_scores() -> dict:
     """Scores of a robot whose run failed: every metric and count 0, the body's too."""
     zero = {**dict.fromkeys(METRICS, 0.0), **dict.fromkeys(COUNTS, 0)}
     body = {**dict.fromkeys(BODY_METRICS, 0.0), **dict.fromkeys(BODY_COUNTS, 0)}
-    return {**{s: dict(zero) for s in SCOPES}, BODY: body, "partitions": {}, "failed": True}
+    return {**{s: dict(zero) for s in SCOPES}, BODY: body, "partitions": {}, "differences": ["run failed"], "failed": True}
 
 
 def mean_scores(per_robot: Mapping[str, dict]) -> dict:

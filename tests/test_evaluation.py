@@ -136,6 +136,19 @@ def test_merged_and_split_groups(truth):
     assert sensor["component_precision"] == sensor["component_recall"] == 0.5
 
 
+def test_differences_name_each_miss_extra_type_root_and_subpart(truth):
+    assert run(truth, PERFECT)["differences"] == []
+    merged = ("Camera", "base", {"cam_c": None, "cam_l": None, "cam_r": "OpticalFrame", "tip": None})
+    gripper = ("ParallelGripper", "wrist", {"tip": "Finger", "tcp": "EndEffectorSubpart"})
+    assert sorted(run(truth, [("Camera", "base", STEREO[2]), gripper, merged])["differences"]) == [
+        "extra Camera (sensor) on base: ['cam_c', 'cam_l', 'cam_r', 'tip']",
+        "missed mics (sensor, MicrophoneArray): ['mic_bl', 'mic_br', 'mic_fl', 'mic_fr']",
+        "root of stereo base, truth head",
+        "subpart tcp of gripper EndEffectorSubpart, truth ToolCenterPoint",
+        "typed stereo Camera, truth StereoCamera (credit 0.5)",
+    ]
+
+
 def test_strict_ancestor_class_gets_half_credit(truth):
     camera = ("Camera", "head", STEREO[2])
     sensor = ("Sensor", "base", ARRAY[2])                          # not strictly below Sensor
