@@ -14,16 +14,16 @@ ROW = 22           # px between leaf rows
 CHAR = 6.6         # px per character of a 11px monospace label
 GAP = 34           # px between columns
 PAD = 12
-COLOURS = {"sensor": "#1f77b4", "end_effector": "#d95f02", "added": "#2ca02c"}
 
 
 @dataclass(frozen=True)
 class Outline:
-    """One component to draw: its name, kind, member links, mount link and whether it is low-confidence."""
+    """One component to draw: its name, colour (its kind's), member links, mount link and whether it is
+    low-confidence."""
 
     key: str
     label: str
-    kind: str
+    colour: str
     links: tuple[str, ...]
     mount: str | None
     low: bool = False
@@ -75,18 +75,17 @@ def render(tree: KinematicTree, outlines: list[Outline]) -> str:
         y0 = min(b[1] for b in members) - 5
         x1 = max(b[0] + b[2] for b in members) + 5
         y1 = max(b[1] + b[3] for b in members) + 5
-        colour = COLOURS.get(o.kind, "#777")
         dash = ' stroke-dasharray="5 3"' if o.low else ""
         parts.append(f'<g class="component" data-component="{escape(o.key)}"><title>{escape(o.label)}</title>'
                      f'<rect x="{x0:.1f}" y="{y0:.1f}" width="{x1 - x0:.1f}" height="{y1 - y0:.1f}" rx="7" '
-                     f'fill="{colour}" fill-opacity="0.12" stroke="{colour}" stroke-width="2"{dash}/>')
+                     f'fill="{o.colour}" fill-opacity="0.12" stroke="{o.colour}" stroke-width="2"{dash}/>')
         if o.mount in pos:
             mx, my = pos[o.mount]
             mx += len(o.mount) * CHAR + 10
             parts.append(f'<path d="M{mx:.1f},{my:.1f} C{mx + 20:.1f},{my:.1f} {x0 - 20:.1f},{(y0 + y1) / 2:.1f} '
-                         f'{x0:.1f},{(y0 + y1) / 2:.1f}" fill="none" stroke="{colour}" stroke-width="1.5" '
+                         f'{x0:.1f},{(y0 + y1) / 2:.1f}" fill="none" stroke="{o.colour}" stroke-width="1.5" '
                          f'stroke-dasharray="3 3"/>'
-                         f'<path class="mount" d="M{mx:.1f},{my - 6:.1f} l6,6 l-6,6 l-6,-6 z" fill="{colour}"/>')
+                         f'<path class="mount" d="M{mx:.1f},{my - 6:.1f} l6,6 l-6,6 l-6,-6 z" fill="{o.colour}"/>')
         parts.append("</g>")
     for edge in tree.edges:
         px, py = pos[edge.parent]

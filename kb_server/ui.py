@@ -12,7 +12,7 @@ from typing import Callable
 from flask import Blueprint, Response, jsonify, render_template, request
 
 from urdfkb.kb_server import corrections as review
-from urdfkb.kb_server import queries, tree_svg
+from urdfkb.kb_server import palette, queries, tree_svg
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ontology import vocabulary
@@ -42,9 +42,13 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool],
             comps = queries.components(store, entry.name)
             low = queries.run_named(store, "low_confidence", entry.name, {})
             kinds = Counter(review.kind_of(c["class"]) or "other" for c in comps)
-            robots.append({"name": entry.name, "updated": entry.updated, "sensors": kinds["sensor"],
-                           "end_effectors": kinds["end_effector"], "low": len(low.bindings())})
+            robots.append({"name": entry.name, "updated": entry.updated, "kinds": kinds, "low": len(low.bindings())})
         return render_template("index.html", robots=robots)
+
+    @bp.app_context_processor
+    def colours() -> dict:
+        """Every page's legend entries and dot colours (kb_server.palette)."""
+        return {"kinds": palette.kinds(), "palette_css": palette.css()}
 
     @bp.get("/robots/<name>/corrections")
     def list_corrections(name: str):
@@ -127,7 +131,7 @@ def robot_page(store: Store, name: str) -> Response | str:
             "added": any(n["action"] == "add" for n in notes)})
     rows.sort(key=lambda r: (r["confidence"] if r["confidence"] is not None else 1.0, r["key"]))
     outlines = [tree_svg.Outline(r["key"], f"{r['class']} ({r['confidence']:.2f})" if r["confidence"] is not None
-                                 else r["class"], r["kind"], r["links"], r["mount"],
+                                 else r["class"], palette.kind_colour(r["kind"]), r["links"], r["mount"],
                                  (r["confidence"] or 0) < 0.5 and not r["confirmed"]) for r in rows]
     tax = vocabulary()
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
