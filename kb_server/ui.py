@@ -15,6 +15,7 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import palette, queries, tree_svg
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.population import escape
 from urdfkb.pipeline.runner import Settings
@@ -109,8 +110,10 @@ def robot_page(store: Store, name: str) -> Response | str:
     tree = source[0] if source else _tree_from_store(store, name)
     influenced: dict[str, list[dict]] = {}
     corrected_comps = {}
+    body: list[dict] = []
     if source:
         corrected, report = review.apply(*source, store.corrections(name))
+        body = _body_rows(corrected)
         corrected_comps = {f"{entry.ontology_iri}comp_{escape(c.name)}": c for c in corrected.components}
         for corr, comp_name in report.applied:
             influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
@@ -136,9 +139,21 @@ def robot_page(store: Store, name: str) -> Response | str:
     tax = vocabulary()
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
-    return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines),
+    bands = [tree_svg.Band(p["key"], f"{p['class']} {p['name']}" + (f" ({p['side']})" if p["side"] else ""),
+                           p["swatch"].colour, p["links"], p["joints"], p["side"]) for p in body]
+    return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, bands),
                            reviewable=source is not None, stale=stale, links=tree.links, claimed=claimed,
-                           addable=addable)
+                           addable=addable, body=body, body_legend=list(dict.fromkeys(p["swatch"] for p in body)))
+
+
+def _body_rows(corrected: Abstraction) -> list[dict]:
+    """The robot's body parts as the page lists them, each with the components located on it."""
+    located: dict[str | None, list[dict]] = {}
+    for c in corrected.components:
+        located.setdefault(c.located_on, []).append({"name": c.name, "class": c.cls, "key": f"comp_{escape(c.name)}"})
+    return [{"name": p.name, "key": f"body_{escape(p.name)}", "class": p.cls, "side": p.side, "mount": p.root,
+             "confidence": p.confidence, "joints": p.joints, "links": p.links, "parent": p.parent,
+             "swatch": palette.body_swatch(p.cls), "located": located.get(p.name, [])} for p in corrected.body]
 
 
 def _tree_from_store(store: Store, name: str) -> KinematicTree:

@@ -122,9 +122,9 @@ if (robot) {
       correct(body);
       return;
     }
-    const outline = event.target.closest("g.component");
+    const outline = event.target.closest("g.component, g.body-part");
     if (outline) {
-      const row = document.getElementById("row-" + outline.dataset.component);
+      const row = document.getElementById("row-" + (outline.dataset.component || outline.dataset.part));
       if (row) {
         row.scrollIntoView({ block: "center" });
         row.classList.add("flash");
