@@ -201,8 +201,16 @@ def _add(tree: KinematicTree, comps: list[Component], corr: Correction) -> tuple
     name = f"reviewed_{corr.links[0]}"
     while name in names:
         name += "_"
-    subs = tuple(SubComponent(link, vocabulary().subpart, 1.0) for link in corr.links)
-    return kept + [Component(name, kind, corr.cls, 1.0, mount, subs)], name
+    return kept + [Component(name, kind, corr.cls, 1.0, mount, _new_parts(tree, corr))], name
+
+
+def _new_parts(tree: KinematicTree, corr: Correction) -> tuple[SubComponent, ...]:
+    """An added component's sub-parts: each chain's last link is the part the shapes require of its class (a
+    camera's optical frame), as the pipeline types it; the other links, and all of a class requiring none, Subpart."""
+    tax = vocabulary()
+    required = tax.required_part(corr.cls or "")
+    ends = {link for link in corr.links if not any(o != link and link in tree.chain_to_root(o) for o in corr.links)}
+    return tuple(SubComponent(link, required if required and link in ends else tax.subpart, 1.0) for link in corr.links)
 
 
 # --- the named graph ---------------------------------------------------------------------------

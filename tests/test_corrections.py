@@ -49,7 +49,8 @@ def test_each_action_changes_the_stored_robot(store):
     assert "r_gripper_accelerometer" not in comps
     added = comps["reviewed_l_forearm_cam_frame"]
     assert added["class"] == "MonocularCamera" and added["mount"] == "l_forearm_roll_link"
-    assert {s["link"] for s in added["subcomponents"]} == {"l_forearm_cam_optical_frame", "l_forearm_cam_frame"}
+    assert {(s["link"], s["class"]) for s in added["subcomponents"]} == {  # the camera's optical frame, as the shapes want
+        ("l_forearm_cam_optical_frame", "OpticalFrame"), ("l_forearm_cam_frame", "Subpart")}
     assert len(entry.corrections["applied"]) == 4 and entry.corrections["stale"] == []
 
 
