@@ -8,6 +8,8 @@ unlike the model's component names) and says one of:
 - `reject` (not a component), `confirm` (right as it is),
 - `add` a component of `cls` made of `links`, mounted on `mount`.
 
+The store keeps a correction only if the robot it makes satisfies the SHACL shapes (Store.add_correction).
+
 Corrections live in their own named graph per robot (`corrections_iri(robot)`), as PROV-O
 activities (who: `prov:wasAssociatedWith` an agent, when: `prov:endedAtTime`), so they survive
 re-populating the robot: `apply` lays them over the model's abstraction in time order and says

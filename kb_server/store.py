@@ -36,6 +36,7 @@ from urdfkb.pipeline.export import export_robot, robot_graph
 from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.ontology import CORE_IRI, load_core
 from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.shacl import violations
 from urdfkb.pipeline.tree import KinematicTree
 
 # kb_sources: the model's own answer per robot (tree and abstraction as JSON), so reviewers'
@@ -225,9 +226,9 @@ class Store:
             self.world.get_ontology(iri).load(fileobj=io.BytesIO(data), format="ntriples")
 
     def add_correction(self, name: str, correction: review.Correction) -> RobotEntry:
-        """Store `correction` (CorrectionError if it does not fit the robot as it is now, LookupError
-        if the robot is unknown) and rebuild the robot graph with it, in one transaction. Writes the
-        robot's graph and its corrections graph."""
+        """Store `correction` (CorrectionError if it does not fit the robot as it is now, or if the robot it
+        would make breaks the SHACL shapes; LookupError if the robot is unknown) and rebuild the robot graph
+        with it, in one transaction. Writes the robot's graph and its corrections graph."""
         with self._writing() as touched:
             touched.add(review.corrections_iri(name))
             source = self.source(name) if self.robot(name) is not None else None
@@ -238,7 +239,13 @@ class Store:
             current, _ = review.apply(tree, model, existing)
             review.check(tree, current, correction)
             self._write_corrections(name, existing + [correction])
-            return self._build(name, tree, model, touched)
+            entry = self._build(name, tree, model, touched)
+            broken = violations(robot_graph(self._ontology(entry), self._corrections_graph(name)))
+            if broken:  # the transaction rolls back: nothing stored changes
+                raise review.CorrectionError("the robot this correction makes breaks the SHACL shapes, so it was not "
+                                             f"stored: {'; '.join(broken)}")
+            return entry
+
     def delete_robot(self, name: str) -> RobotEntry | None:
         """Remove robot `name`; returns what was removed, None if there was no such robot."""
         with self._writing() as touched:
