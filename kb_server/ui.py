@@ -2,7 +2,8 @@
 
 `/` lists the robots and uploads a URDF or xacro file; `/robots/<name>` (for clients asking for
 HTML) draws the tree and the component table with review controls; `/sparql` (HTML, no query)
-is a query editor. `GET/POST /robots/<name>/corrections` list and add reviewers' corrections.
+is a query editor. `GET/POST /robots/<name>/corrections` list and add reviewers' corrections
+(of components and of body parts).
 """
 from __future__ import annotations
 
@@ -66,15 +67,17 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool],
             return error(403, "corrections need the server's token (Authorization: Bearer ...)")
         data = request.get_json(silent=True)
         if not isinstance(data, dict):
-            return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?}")
+            return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?} "
+                              "or, for a body part, {part, action, class?, side?, with?, at?, reviewer?}")
         try:
-            correction = review.Correction.new(data, data.get("reviewer"))
+            correction = review.new(data)
             entry = store.add_correction(name, correction)
         except review.CorrectionError as e:
             return error(400, str(e))
         except LookupError as e:
             return error(404 if store.robot(name) is None else 409, e.args[0])
-        resp = jsonify({"correction": correction.to_dict(), "corrections": entry.corrections})
+        stored = next(a for a in (entry.corrections or {})["applied"] if a["id"] == correction.id)
+        resp = jsonify({"correction": stored, "corrections": entry.corrections})
         resp.status_code = 201
         return resp
 
@@ -116,7 +119,8 @@ def robot_page(store: Store, name: str) -> Response | str:
         body = _body_rows(corrected)
         corrected_comps = {f"{entry.ontology_iri}comp_{escape(c.name)}": c for c in corrected.components}
         for corr, comp_name in report.applied:
-            influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
+            if isinstance(corr, review.Correction):
+                influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
         stale = [{**c.to_dict(), "reason": why} for c, why in report.stale]
     else:
         stale = []

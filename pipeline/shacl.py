@@ -28,9 +28,9 @@ def violations(data: rdflib.Graph, vocab: Vocabulary | None = None) -> list[str]
     for result in [] if conforms else results.subjects(RDF.type, SH.ValidationResult):
         source = results.value(result, SH.sourceShape)
         shape = vocab.shapes.value(predicate=SH.property, object=source) or source  # a property shape's node shape
-        path = results.value(result, SH.resultPath)
-        where = " ".join(_local(n) for n in (results.value(result, SH.focusNode), path) if isinstance(n, rdflib.URIRef))
-        lines.append(f"{_local(shape)}: {where}: {results.value(result, SH.resultMessage)}")
+        where = [results.value(result, SH.focusNode), results.value(result, SH.resultPath)]
+        lines.append(f"{_local(shape)}: {' '.join(_local(n) for n in where if isinstance(n, rdflib.URIRef))}: "
+                     f"{results.value(result, SH.resultMessage)}")
     return sorted(lines)
 
 
@@ -41,5 +41,5 @@ def _run(data: rdflib.Graph, vocab: Vocabulary) -> tuple[bool, rdflib.Graph, str
     return bool(conforms), results, text
 
 
-def _local(node: rdflib.term.Node) -> str:
+def _local(node: rdflib.term.Node | None) -> str:
     return str(node).rsplit("#", 1)[-1]
