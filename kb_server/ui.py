@@ -1,9 +1,9 @@
 """The browser pages of `urdfkb serve` (Jinja2 templates, plain JavaScript, every asset served locally).
 
 `/` lists the robots and uploads a URDF or xacro file; `/robots/<name>` (for clients asking for
-HTML) draws the tree and the component table with review controls; `/sparql` (HTML, no query)
-is a query editor. `GET/POST /robots/<name>/corrections` list and add reviewers' corrections
-(of components and of body parts).
+HTML) draws the tree with the body parts and components, and lists both with review controls;
+`/sparql` (HTML, no query) is a query editor. `GET/POST /robots/<name>/corrections` list and add
+reviewers' corrections (of components and of body parts).
 """
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from typing import Callable
 from flask import Blueprint, Response, jsonify, render_template, request
 
 from urdfkb.kb_server import corrections as review
-from urdfkb.kb_server import palette, queries, tree_svg
+from urdfkb.kb_server import body_view, palette, queries, tree_svg
+from urdfkb.kb_server.body_corrections import SIDE_CHOICES
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.population import escape
 from urdfkb.pipeline.runner import Settings
@@ -116,7 +116,7 @@ def robot_page(store: Store, name: str) -> Response | str:
     body: list[dict] = []
     if source:
         corrected, report = review.apply(*source, store.corrections(name))
-        body = _body_rows(corrected)
+        body = body_view.rows(tree, corrected, report)
         corrected_comps = {f"{entry.ontology_iri}comp_{escape(c.name)}": c for c in corrected.components}
         for corr, comp_name in report.applied:
             if isinstance(corr, review.Correction):
@@ -143,21 +143,9 @@ def robot_page(store: Store, name: str) -> Response | str:
     tax = vocabulary()
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
-    bands = [tree_svg.Band(p["key"], f"{p['class']} {p['name']}" + (f" ({p['side']})" if p["side"] else ""),
-                           p["swatch"].colour, p["links"], p["joints"], p["side"]) for p in body]
-    return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, bands),
+    return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, body_view.bands(body)),
                            reviewable=source is not None, stale=stale, links=tree.links, claimed=claimed,
-                           addable=addable, body=body, body_legend=list(dict.fromkeys(p["swatch"] for p in body)))
-
-
-def _body_rows(corrected: Abstraction) -> list[dict]:
-    """The robot's body parts as the page lists them, each with the components located on it."""
-    located: dict[str | None, list[dict]] = {}
-    for c in corrected.components:
-        located.setdefault(c.located_on, []).append({"name": c.name, "class": c.cls, "key": f"comp_{escape(c.name)}"})
-    return [{"name": p.name, "key": f"body_{escape(p.name)}", "class": p.cls, "side": p.side, "mount": p.root,
-             "confidence": p.confidence, "joints": p.joints, "links": p.links, "parent": p.parent,
-             "swatch": palette.body_swatch(p.cls), "located": located.get(p.name, [])} for p in corrected.body]
+                           addable=addable, body=body, body_legend=body_view.legend(body), sides=SIDE_CHOICES)
 
 
 def _tree_from_store(store: Store, name: str) -> KinematicTree:

@@ -81,11 +81,11 @@ def test_the_page_lists_and_draws_every_body_part(api):
     status, _, html = api("GET", "/robots/pr2", headers=HTML)
     page = Page(html.decode())
     assert set(page.rows) == {p.name for p in PR2_WHOLE.body}
-    part, side, mount, joints, on = page.rows["l_arm"]
-    assert words(part) == ["Arm", "l_arm"] and side.strip() == "left" and mount.strip() == "torso_lift_link"
+    part, side, joints, on, _ = page.rows["l_arm"]
+    assert words(part) == ["Arm", "l_arm", "hangs", "from", "torso_lift_link"] and side.strip() == "left"
     assert words(joints) == [f"l_{j}_joint" for j in PR2_ARM]  # root-most first
     assert words(on) == ["l_gripper", "ParallelGripper"]
-    part, side, _, joints, on = page.rows["head"]
+    part, side, joints, on, _ = page.rows["head"]
     assert side.strip() == "" and words(joints) == ["head_pan_joint", "head_tilt_joint"]
     assert set(words(on)) == {"kinect", "RGBDCamera", "wide_stereo", "StereoCamera", "prosilica", "MonocularCamera"}
     assert "part of base" in page.rows["fl_caster_l_wheel"][0]
@@ -234,6 +234,8 @@ def test_over_http_with_provenance(store, api):
     (activity,) = graph.subjects(RDF.type, REVIEW.BodyPartCorrection)
     assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#body_head"), PROV.wasInfluencedBy, activity) in graph
     assert {str(j) for j in graph.objects(activity, REVIEW.joint)} == {"head_pan_joint", "head_tilt_joint"}
+    _, _, html = api("GET", "/robots/pr2", headers=HTML)
+    assert "corrected by Bo" in Page(html.decode()).rows["head"][0]
 
 
 def test_an_added_component_leaves_the_body_part_and_is_located_on_it(store):
