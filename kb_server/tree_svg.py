@@ -95,7 +95,7 @@ def render(tree: KinematicTree, outlines: list[Outline], bands: Sequence[Band] =
                              f'{escape(b.side[0].upper())}</text>')
         parts.append("</g>")
     joint_band = {j: b for b in bands for j in b.joints}
-    for o in outlines:  # outlines under everything else
+    for o in outlines:  # outlines over the bands, under joints and links
         members = [box(link) for link in o.links if link in pos]
         if not members:
             continue
