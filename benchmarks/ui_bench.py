@@ -1,7 +1,7 @@
 """Server time to render the PR2 robot page (HTML: SVG tree, component table, review controls).
 
-PR2 is populated with the hand-written scripted abstraction (tests/kb_fixtures.PR2, no model) and
-two reviewers' corrections; the page is rendered N times through the Flask app (no network), and
+PR2 is populated with the hand-written scripted abstraction and body (tests/kb_fixtures.PR2_WHOLE, no
+model) and three reviewers' corrections (one of a body part); the page is rendered N times through the Flask app (no network), and
 the median and spread are printed beside the JSON route for the same robot. Target: <= 300 ms.
 
     .venv/bin/python -m benchmarks.ui_bench [--iterations 30]
@@ -14,8 +14,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from tests.kb_fixtures import PR2, make_app
-from urdfkb.kb_server.corrections import Correction
+from tests.kb_fixtures import PR2_WHOLE, make_app
+from urdfkb.kb_server.corrections import Correction, new
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
@@ -41,10 +41,11 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         store = Store(Path(tmp) / "kb.sqlite3")
         tree = load_urdf(SHARED / "pr2.urdf")
-        store.replace_robot("pr2", tree, PR2)
+        store.replace_robot("pr2", tree, PR2_WHOLE)
         store.add_correction("pr2", Correction.new({"action": "reclassify", "links": ["head_mount_prosilica_optical_frame"],
-                                                    "class": "InfraredCamera"}, "bench"))
+                                                    "class": "StereoCamera"}, "bench"))
         store.add_correction("pr2", Correction.new({"action": "confirm", "links": ["base_laser_link"]}, "bench"))
+        store.add_correction("pr2", new({"part": "l_arm", "action": "split", "at": "l_elbow_flex_joint"}))
         app, jobs = make_app(store)
         client = app.test_client()
         timed(client, "/robots/pr2", HTML, 3)  # warm: query parses, templates compiled
@@ -57,7 +58,7 @@ def main() -> None:
         size = len(client.get("/robots/pr2", headers=HTML).data)
         jobs.shutdown()
         store.close()
-    print(f"PR2 ({len(tree.links)} links, {len(PR2.components)} components), {args.iterations} renders each, server time:")
+    print(f"PR2 ({len(tree.links)} links, {len(PR2_WHOLE.components)} components, {len(PR2_WHOLE.body)} body parts), {args.iterations} renders each, server time:")
     print(f"{'route':22} {'median ms':>10} {'min':>8} {'max':>8}")
     for label, med, lo, hi in rows:
         print(f"{label:22} {med:10.1f} {lo:8.1f} {hi:8.1f}")

@@ -36,6 +36,7 @@ from urdfkb.pipeline.export import export_robot, robot_graph
 from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.ontology import CORE_IRI, load_core
 from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.shacl import violations
 from urdfkb.pipeline.tree import KinematicTree
 
 # kb_sources: the model's own answer per robot (tree and abstraction as JSON), so reviewers'
@@ -205,18 +206,18 @@ class Store:
             return None
         return KinematicTree.from_dict(json.loads(row[0])), Abstraction.from_dict(json.loads(row[1]))
 
-    def corrections(self, name: str) -> list[review.Correction]:
+    def corrections(self, name: str) -> list[review.AnyCorrection]:
         """Robot `name`'s stored corrections, oldest first."""
         with self.lock:
             return self._corrections(name)
 
-    def _corrections(self, name: str) -> list[review.Correction]:
+    def _corrections(self, name: str) -> list[review.AnyCorrection]:
         onto = self.world.ontologies.get(review.corrections_iri(name))
         if onto is None:
             return []
         return review.from_graph(rdflib.Graph().parse(data=_ntriples(onto), format="nt"))
 
-    def _write_corrections(self, name: str, items: list[review.Correction]) -> None:
+    def _write_corrections(self, name: str, items: list[review.AnyCorrection]) -> None:
         iri = review.corrections_iri(name)
         if (old := self.world.ontologies.get(iri)) is not None:
             old.destroy()
@@ -224,10 +225,11 @@ class Store:
             data = review.to_graph(name, items).serialize(format="nt", encoding="utf-8")
             self.world.get_ontology(iri).load(fileobj=io.BytesIO(data), format="ntriples")
 
-    def add_correction(self, name: str, correction: review.Correction) -> RobotEntry:
-        """Store `correction` (CorrectionError if it does not fit the robot as it is now, LookupError
-        if the robot is unknown) and rebuild the robot graph with it, in one transaction. Writes the
-        robot's graph and its corrections graph."""
+    def add_correction(self, name: str, correction: review.AnyCorrection) -> RobotEntry:
+        """Store `correction` (a body correction naming its parts by their joints: review.resolve), or raise
+        CorrectionError if it does not fit the robot as it is now or the robot it would make breaks the SHACL
+        shapes, LookupError if the robot is unknown; and rebuild the robot graph with it, in one transaction.
+        Writes the robot's graph and its corrections graph."""
         with self._writing() as touched:
             touched.add(review.corrections_iri(name))
             source = self.source(name) if self.robot(name) is not None else None
@@ -236,9 +238,16 @@ class Store:
             tree, model = source
             existing = self._corrections(name)
             current, _ = review.apply(tree, model, existing)
+            correction = review.resolve(current, correction)
             review.check(tree, current, correction)
             self._write_corrections(name, existing + [correction])
-            return self._build(name, tree, model, touched)
+            entry = self._build(name, tree, model, touched)
+            broken = violations(robot_graph(self._ontology(entry), self._corrections_graph(name)))
+            if broken:  # the transaction rolls back: nothing stored changes
+                raise review.CorrectionError("the robot this correction makes breaks the SHACL shapes, so it was not "
+                                             f"stored: {'; '.join(broken)}")
+            return entry
+
     def delete_robot(self, name: str) -> RobotEntry | None:
         """Remove robot `name`; returns what was removed, None if there was no such robot."""
         with self._writing() as touched:

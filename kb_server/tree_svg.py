@@ -1,10 +1,13 @@
 """The kinematic tree as an SVG, laid out in pure Python (no Graphviz): root on the left, one column
 per depth, each leaf on its own row and every parent centred on its children (a tidy tree for a
 tree that is one). Components are drawn as coloured outlines around their links, their mount
-marked with a dashed tie; every link is labelled with its URDF name.
+marked with a dashed tie; body parts as a band of their colour under each of their links (with the
+initial of their side, L or R, at its end) and their joints drawn in that colour; every link is
+labelled with its URDF name.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from html import escape
 
@@ -14,19 +17,32 @@ ROW = 22           # px between leaf rows
 CHAR = 6.6         # px per character of a 11px monospace label
 GAP = 34           # px between columns
 PAD = 12
-COLOURS = {"sensor": "#1f77b4", "end_effector": "#d95f02", "added": "#2ca02c"}
+SIDE = 12          # px a sided part's band reaches past a link's box, for the side's initial
 
 
 @dataclass(frozen=True)
 class Outline:
-    """One component to draw: its name, kind, member links, mount link and whether it is low-confidence."""
+    """One component to draw: its name, colour (its kind's), member links, mount link and whether it is
+    low-confidence."""
 
     key: str
     label: str
-    kind: str
+    colour: str
     links: tuple[str, ...]
     mount: str | None
     low: bool = False
+
+
+@dataclass(frozen=True)
+class Band:
+    """One body part to draw: its name, label, colour, links, joints and side (None: it has none)."""
+
+    key: str
+    label: str
+    colour: str
+    links: tuple[str, ...]
+    joints: tuple[str, ...]
+    side: str | None = None
 
 
 def layout(tree: KinematicTree) -> tuple[dict[str, tuple[float, float]], int]:
@@ -58,7 +74,7 @@ def layout(tree: KinematicTree) -> tuple[dict[str, tuple[float, float]], int]:
     return {link: (left[depth[link]], y[link]) for link in tree.links}, rows
 
 
-def render(tree: KinematicTree, outlines: list[Outline]) -> str:
+def render(tree: KinematicTree, outlines: list[Outline], bands: Sequence[Band] = ()) -> str:
     """The SVG document (a string safe to inline in HTML)."""
     pos, rows = layout(tree)
 
@@ -67,7 +83,19 @@ def render(tree: KinematicTree, outlines: list[Outline]) -> str:
         return x, yc - 8, len(link) * CHAR + 10, 16
 
     parts: list[str] = []
-    for o in outlines:  # outlines under everything else
+    for b in bands:  # bands under everything else
+        parts.append(f'<g class="body-part" data-part="{escape(b.key)}"><title>{escape(b.label)}</title>')
+        for link in b.links:
+            x, y0, w, h = box(link)
+            reach = SIDE if b.side else 0
+            parts.append(f'<rect x="{x - 3:.1f}" y="{y0 - 3:.1f}" width="{w + 6 + reach:.1f}" height="{h + 6}" rx="4" '
+                         f'fill="{b.colour}" fill-opacity="0.5"/>')
+            if b.side:
+                parts.append(f'<text class="side" x="{x + w + 2:.1f}" y="{y0 + 12:.1f}" fill="{b.colour}">'
+                             f'{escape(b.side[0].upper())}</text>')
+        parts.append("</g>")
+    joint_band = {j: b for b in bands for j in b.joints}
+    for o in outlines:  # outlines over the bands, under joints and links
         members = [box(link) for link in o.links if link in pos]
         if not members:
             continue
@@ -75,26 +103,28 @@ def render(tree: KinematicTree, outlines: list[Outline]) -> str:
         y0 = min(b[1] for b in members) - 5
         x1 = max(b[0] + b[2] for b in members) + 5
         y1 = max(b[1] + b[3] for b in members) + 5
-        colour = COLOURS.get(o.kind, "#777")
         dash = ' stroke-dasharray="5 3"' if o.low else ""
         parts.append(f'<g class="component" data-component="{escape(o.key)}"><title>{escape(o.label)}</title>'
                      f'<rect x="{x0:.1f}" y="{y0:.1f}" width="{x1 - x0:.1f}" height="{y1 - y0:.1f}" rx="7" '
-                     f'fill="{colour}" fill-opacity="0.12" stroke="{colour}" stroke-width="2"{dash}/>')
+                     f'fill="{o.colour}" fill-opacity="0.12" stroke="{o.colour}" stroke-width="2"{dash}/>')
         if o.mount in pos:
             mx, my = pos[o.mount]
             mx += len(o.mount) * CHAR + 10
             parts.append(f'<path d="M{mx:.1f},{my:.1f} C{mx + 20:.1f},{my:.1f} {x0 - 20:.1f},{(y0 + y1) / 2:.1f} '
-                         f'{x0:.1f},{(y0 + y1) / 2:.1f}" fill="none" stroke="{colour}" stroke-width="1.5" '
+                         f'{x0:.1f},{(y0 + y1) / 2:.1f}" fill="none" stroke="{o.colour}" stroke-width="1.5" '
                          f'stroke-dasharray="3 3"/>'
-                         f'<path class="mount" d="M{mx:.1f},{my - 6:.1f} l6,6 l-6,6 l-6,-6 z" fill="{colour}"/>')
+                         f'<path class="mount" d="M{mx:.1f},{my - 6:.1f} l6,6 l-6,6 l-6,-6 z" fill="{o.colour}"/>')
         parts.append("</g>")
     for edge in tree.edges:
         px, py = pos[edge.parent]
         cx, cy = pos[edge.child]
         px += len(edge.parent) * CHAR + 10
         mid = (px + cx) / 2
-        parts.append(f'<path class="joint" d="M{px:.1f},{py:.1f} C{mid:.1f},{py:.1f} {mid:.1f},{cy:.1f} {cx:.1f},{cy:.1f}">'
-                     f'<title>{escape(edge.joint)} ({edge.joint_type})</title></path>')
+        band = joint_band.get(edge.joint)
+        style = f' style="stroke: {band.colour}; stroke-width: 3"' if band else ""
+        part = f" of {band.label}" if band else ""
+        parts.append(f'<path class="joint" d="M{px:.1f},{py:.1f} C{mid:.1f},{py:.1f} {mid:.1f},{cy:.1f} {cx:.1f},{cy:.1f}"'
+                     f'{style}><title>{escape(edge.joint)} ({edge.joint_type}){escape(part)}</title></path>')
     for link in tree.links:
         x, y0, w, h = box(link)
         parts.append(f'<g class="link" data-link="{escape(link)}"><rect x="{x:.1f}" y="{y0:.1f}" width="{w:.1f}" '

@@ -1,8 +1,9 @@
 """The browser pages of `urdfkb serve` (Jinja2 templates, plain JavaScript, every asset served locally).
 
 `/` lists the robots and uploads a URDF or xacro file; `/robots/<name>` (for clients asking for
-HTML) draws the tree and the component table with review controls; `/sparql` (HTML, no query)
-is a query editor. `GET/POST /robots/<name>/corrections` list and add reviewers' corrections.
+HTML) draws the tree with the body parts and components, and lists both with review controls;
+`/sparql` (HTML, no query) is a query editor. `GET/POST /robots/<name>/corrections` list and add
+reviewers' corrections (of components and of body parts).
 """
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ from typing import Callable
 from flask import Blueprint, Response, jsonify, render_template, request
 
 from urdfkb.kb_server import corrections as review
-from urdfkb.kb_server import queries, tree_svg
+from urdfkb.kb_server import body_view, palette, queries, tree_svg
+from urdfkb.kb_server.body_corrections import SIDE_CHOICES
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ontology import vocabulary
@@ -42,9 +44,13 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool],
             comps = queries.components(store, entry.name)
             low = queries.run_named(store, "low_confidence", entry.name, {})
             kinds = Counter(review.kind_of(c["class"]) or "other" for c in comps)
-            robots.append({"name": entry.name, "updated": entry.updated, "sensors": kinds["sensor"],
-                           "end_effectors": kinds["end_effector"], "low": len(low.bindings())})
+            robots.append({"name": entry.name, "updated": entry.updated, "kinds": kinds, "low": len(low.bindings())})
         return render_template("index.html", robots=robots)
+
+    @bp.app_context_processor
+    def colours() -> dict:
+        """Every page's legend entries and dot colours (kb_server.palette)."""
+        return {"kinds": palette.kinds(), "palette_css": palette.css()}
 
     @bp.get("/robots/<name>/corrections")
     def list_corrections(name: str):
@@ -61,15 +67,17 @@ def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool],
             return error(403, "corrections need the server's token (Authorization: Bearer ...)")
         data = request.get_json(silent=True)
         if not isinstance(data, dict):
-            return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?}")
+            return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?} "
+                              "or, for a body part, {part, action, class?, side?, with?, at?, reviewer?}")
         try:
-            correction = review.Correction.new(data, data.get("reviewer"))
+            correction = review.new(data)
             entry = store.add_correction(name, correction)
         except review.CorrectionError as e:
             return error(400, str(e))
         except LookupError as e:
             return error(404 if store.robot(name) is None else 409, e.args[0])
-        resp = jsonify({"correction": correction.to_dict(), "corrections": entry.corrections})
+        stored = next(a for a in (entry.corrections or {})["applied"] if a["id"] == correction.id)
+        resp = jsonify({"correction": stored, "corrections": entry.corrections})
         resp.status_code = 201
         return resp
 
@@ -105,11 +113,14 @@ def robot_page(store: Store, name: str) -> Response | str:
     tree = source[0] if source else _tree_from_store(store, name)
     influenced: dict[str, list[dict]] = {}
     corrected_comps = {}
+    body: list[dict] = []
     if source:
         corrected, report = review.apply(*source, store.corrections(name))
+        body = body_view.rows(tree, corrected, report)
         corrected_comps = {f"{entry.ontology_iri}comp_{escape(c.name)}": c for c in corrected.components}
         for corr, comp_name in report.applied:
-            influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
+            if isinstance(corr, review.Correction):
+                influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
         stale = [{**c.to_dict(), "reason": why} for c, why in report.stale]
     else:
         stale = []
@@ -127,14 +138,14 @@ def robot_page(store: Store, name: str) -> Response | str:
             "added": any(n["action"] == "add" for n in notes)})
     rows.sort(key=lambda r: (r["confidence"] if r["confidence"] is not None else 1.0, r["key"]))
     outlines = [tree_svg.Outline(r["key"], f"{r['class']} ({r['confidence']:.2f})" if r["confidence"] is not None
-                                 else r["class"], r["kind"], r["links"], r["mount"],
+                                 else r["class"], palette.kind_colour(r["kind"]), r["links"], r["mount"],
                                  (r["confidence"] or 0) < 0.5 and not r["confirmed"]) for r in rows]
     tax = vocabulary()
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
-    return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines),
+    return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, body_view.bands(body)),
                            reviewable=source is not None, stale=stale, links=tree.links, claimed=claimed,
-                           addable=addable)
+                           addable=addable, body=body, body_legend=body_view.legend(body), sides=SIDE_CHOICES)
 
 
 def _tree_from_store(store: Store, name: str) -> KinematicTree:

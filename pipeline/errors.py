@@ -19,3 +19,7 @@ class OntologyError(UrdfkbError):
 
 class BackendError(UrdfkbError):
     """The model backend failed: it raised, timed out or kept answering outside the valid set."""
+
+
+class CorrectionError(UrdfkbError, ValueError):
+    """A reviewer's correction that does not fit the robot (or is malformed); the message says why."""

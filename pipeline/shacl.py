@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import pyshacl
 import rdflib
+from rdflib.namespace import RDF, SH
 
 from urdfkb.pipeline.ontology import Vocabulary, vocabulary
 
@@ -14,8 +15,31 @@ from urdfkb.pipeline.ontology import Vocabulary, vocabulary
 def validate(data: rdflib.Graph, vocab: Vocabulary | None = None) -> tuple[bool, str]:
     """(conforms, human-readable report) against `vocab`'s shapes (the packaged ones by default);
     `data` itself is left unchanged."""
+    conforms, _, text = _run(data, vocab or vocabulary())
+    return conforms, text
+
+
+def violations(data: rdflib.Graph, vocab: Vocabulary | None = None) -> list[str]:
+    """One line per violation, naming the shape, the node and why ("CameraShape: comp_x hasComponent: a camera
+    needs ..."); empty when `data` conforms."""
     vocab = vocab or vocabulary()
-    conforms, _, text = pyshacl.validate(
+    conforms, results, _ = _run(data, vocab)
+    lines = []
+    for result in [] if conforms else results.subjects(RDF.type, SH.ValidationResult):
+        source = results.value(result, SH.sourceShape)
+        shape = vocab.shapes.value(predicate=SH.property, object=source) or source  # a property shape's node shape
+        where = [results.value(result, SH.focusNode), results.value(result, SH.resultPath)]
+        lines.append(f"{_local(shape)}: {' '.join(_local(n) for n in where if isinstance(n, rdflib.URIRef))}: "
+                     f"{results.value(result, SH.resultMessage)}")
+    return sorted(lines)
+
+
+def _run(data: rdflib.Graph, vocab: Vocabulary) -> tuple[bool, rdflib.Graph, str]:
+    conforms, results, text = pyshacl.validate(
         data, shacl_graph=vocab.shapes, ont_graph=vocab.graph, inference="none", abort_on_first=False,
     )
-    return bool(conforms), text
+    return bool(conforms), results, text
+
+
+def _local(node: rdflib.term.Node | None) -> str:
+    return str(node).rsplit("#", 1)[-1]

@@ -157,3 +157,58 @@ def test_query_page_runs_a_bundled_query(server, browser):
     assert "mast_rgbd" in table.text or "front_scanner" in table.text
     assert "row" in browser.find_element("id", "message").text
     shot(browser, "sparql")
+
+
+def body_row(driver, part):
+    return driver.find_element("css selector", f'tr.body-row[data-part="{part}"]')
+
+
+def joints_of(driver, part):
+    return [li.text for li in body_row(driver, part).find_elements("css selector", "ol.joints li")]
+
+
+def test_body_parts_are_shown_corrected_and_kept_across_a_repopulate(server, browser):
+    from selenium.webdriver.support.ui import Select
+
+    upload(browser, server, TOY)
+    browser.get(server + "/robots/toy_robot")
+    svg = wait_for(browser, "svg.tree")
+    assert {g.get_attribute("data-part") for g in svg.find_elements("css selector", "g.body-part")} == {
+        "body_mobile_base_chassis", "body_wheel_wl", "body_wheel_wr", "body_arm_a1"}
+    rows = browser.find_elements("css selector", "#body tr.body-row")
+    assert {r.get_attribute("data-part"): r.find_element("css selector", ".cls").text for r in rows} == {
+        "mobile_base_chassis": "MobileBase", "wheel_wl": "Wheel", "wheel_wr": "Wheel", "arm_a1": "Arm"}
+    assert body_row(browser, "wheel_wl").find_element("css selector", ".side").text == "left"
+    assert joints_of(browser, "arm_a1") == ["a1", "a2", "a3"]
+    assert "ParallelGripper" in body_row(browser, "arm_a1").find_element("css selector", ".located").text
+    assert "RGBDCamera" in body_row(browser, "mobile_base_chassis").find_element("css selector", ".located").text
+
+    # split the arm at its second joint, then give the new forearm a side, through the page
+    row = body_row(browser, "arm_a1")
+    row.find_element("css selector", "details.review summary").click()
+    Select(row.find_element("css selector", ".part-at")).select_by_visible_text("a2")
+    row.find_element("css selector", 'button[data-body="split"]').click()
+    wait_for(browser, 'tr.body-row[data-part="arm_a1"] .badge.reviewed')
+    row = body_row(browser, "arm_a2")
+    row.find_element("css selector", "details.review summary").click()
+    Select(row.find_element("css selector", ".part-side")).select_by_visible_text("right")
+    row.find_element("css selector", 'button[data-body="side"]').click()
+    wait_for(browser, 'tr.body-row[data-part="arm_a2"] .side', text="right")
+
+    def corrected():
+        assert joints_of(browser, "arm_a1") == ["a1"] and joints_of(browser, "arm_a2") == ["a2", "a3"]
+        assert "ParallelGripper" in body_row(browser, "arm_a2").find_element("css selector", ".located").text
+        assert body_row(browser, "arm_a2").find_element("css selector", ".side").text == "right"
+        assert len(browser.find_elements("css selector", 'g.body-part[data-part="body_arm_a2"] text.side')) == 2
+
+    corrected()
+    shot(browser, "robot_body")
+
+    # populate again from the page, from the stored URDF: both corrections are re-applied
+    browser.find_element("id", "repopulate").click()
+    wait_for(browser, "#job-state", text="succeeded")
+    applied = browser.find_element("id", "job-corrections").text
+    assert "re-applied: body part arm_a1: split at a2" in applied and "re-applied: body part arm_a2: side -> right" in applied
+    browser.refresh()
+    wait_for(browser, 'tr.body-row[data-part="arm_a2"]')
+    corrected()

@@ -14,9 +14,13 @@ from urdfkb.pipeline.ingest import load_urdf
 
 
 @pytest.fixture(scope="module")
-def store(shared, tmp_path_factory):
+def tree(shared):
+    return load_urdf(shared / "urdf" / "pr2.urdf")
+
+
+@pytest.fixture(scope="module")
+def store(tree, tmp_path_factory):
     s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
-    tree = load_urdf(shared / "urdf" / "pr2.urdf")
     store_whole_pr2(s, tree)
     yield s
     s.close()
@@ -78,9 +82,17 @@ def test_body_parts(kb):
     assert kb.body_parts("pr2_no_body") == []
 
 
-def test_which_joints_move_the_left_arm(kb):
+def test_which_joints_move_the_left_arm(kb, tree):
     joints = kb.body_part_joints("pr2", "arm", side="left")
     assert [j.name for j in joints] == [f"l_{j}_joint" for j in PR2_ARM]
+
+    def stored(e):  # the URDF's limits as the store keeps them: 4 places, no position limits on a continuous joint
+        lower, upper = (round(x, 4) for x in e.limits) if e.limits else (None, None)
+        return e.joint, e.joint_type, lower, upper, round(e.velocity, 4), round(e.effort, 4)
+
+    urdf = {e.joint: e for e in tree.edges}
+    assert [(j.name, j.type, j.lower, j.upper, j.velocity, j.effort) for j in joints] == [
+        stored(urdf[j.name]) for j in joints]  # all seven with their limits
     assert joints[0] == Joint("l_shoulder_pan_joint", "revolute", -0.7146, 2.2854, 2.088, 30.0, (0.0, 0.0, 1.0), "l_arm", "left")
     assert all(isinstance(v, float) for j in joints for v in (j.velocity, j.effort, *j.axis))
     roll = joints[4]

@@ -14,6 +14,7 @@ from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionErr
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.shacl import violations
 
 TOKEN = "s3cret"
 
@@ -49,7 +50,8 @@ def test_each_action_changes_the_stored_robot(store):
     assert "r_gripper_accelerometer" not in comps
     added = comps["reviewed_l_forearm_cam_frame"]
     assert added["class"] == "MonocularCamera" and added["mount"] == "l_forearm_roll_link"
-    assert {s["link"] for s in added["subcomponents"]} == {"l_forearm_cam_optical_frame", "l_forearm_cam_frame"}
+    assert {(s["link"], s["class"]) for s in added["subcomponents"]} == {  # the camera's optical frame, as the shapes want
+        ("l_forearm_cam_optical_frame", "OpticalFrame"), ("l_forearm_cam_frame", "Subpart")}
     assert len(entry.corrections["applied"]) == 4 and entry.corrections["stale"] == []
 
 
@@ -68,6 +70,25 @@ def test_corrections_that_do_not_fit_are_refused_and_change_nothing(store, data,
     with pytest.raises(CorrectionError, match=message):
         store.add_correction("pr2", Correction.new(data, "ann"))
     assert store.export("pr2", "nt") == before and store.corrections("pr2") == []
+
+
+def test_a_correction_that_breaks_the_shapes_is_refused_and_changes_nothing(store):
+    correct(store, action="add", links=["l_forearm_cam_frame"], **{"class": "VisionSensor"})  # no frame required
+    before, stored = store.export("pr2", "nt"), store.corrections("pr2")
+    with pytest.raises(CorrectionError, match="CameraShape: comp_reviewed_l_forearm_cam_frame hasComponent: "
+                                              "a camera needs at least one OpticalFrame"):
+        correct(store, action="reclassify", links=["l_forearm_cam_frame"], **{"class": "MonocularCamera"})
+    assert store.export("pr2", "nt") == before and store.corrections("pr2") == stored
+    assert components(store)["reviewed_l_forearm_cam_frame"]["class"] == "VisionSensor"
+
+
+def test_a_correction_the_shapes_accept_is_stored_and_the_robot_conforms(store):
+    correct(store, action="add", links=["l_forearm_cam_frame", "l_forearm_cam_optical_frame"], **{"class": "Camera"})
+    correct(store, action="reclassify", links=["l_forearm_cam_frame", "l_forearm_cam_optical_frame"],
+            **{"class": "MonocularCamera"})
+    assert components(store)["reviewed_l_forearm_cam_frame"]["class"] == "MonocularCamera"
+    graph = rdflib.Graph().parse(data=store.export("pr2", "nt"), format="nt")
+    assert violations(graph) == [] and len(store.corrections("pr2")) == 2
 
 
 def test_corrections_carry_provenance_into_exports(store):
@@ -131,10 +152,16 @@ def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shar
         assert status == 201 and json.loads(out)["correction"]["reviewer"] == "Ann"
         status, _, out = api("POST", "/robots/pr2/corrections", b"[1]", {**json_type, **auth})
         assert status == 400
+        for data, status in (({"action": "add", "links": ["l_forearm_cam_frame"], "class": "VisionSensor"}, 201),
+                             ({"action": "reclassify", "links": ["l_forearm_cam_frame"], "class": "Camera"}, 400)):
+            got, _, out = api("POST", "/robots/pr2/corrections", json.dumps(data).encode(), {**json_type, **auth})
+            assert got == status
+        assert "breaks the SHACL shapes" in json.loads(out)["error"] and "CameraShape" in json.loads(out)["error"]
         status, _, out = api("POST", "/robots/ghost/corrections", body, {**json_type, **auth})
         assert status == 404
         status, _, out = api("GET", "/robots/pr2/corrections")
         assert status == 200 and json.loads(out)["applied"][0]["summary"] == "base_laser_link: confirmed"
+        assert len(json.loads(out)["applied"]) == 2  # the refused one is not stored
 
         browser = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
         status, ctype, page = api("GET", "/robots/pr2", headers=browser)

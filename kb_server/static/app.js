@@ -93,7 +93,7 @@ function item(text) {
   return li;
 }
 
-// --- robot page: corrections ---------------------------------------------------------------
+// --- robot page: corrections of components and body parts ---------------------------------
 const robot = document.getElementById("robot");
 if (robot) {
   const name = robot.dataset.robot;
@@ -112,6 +112,17 @@ if (robot) {
   }
 
   robot.addEventListener("click", (event) => {
+    const part = event.target.closest("button[data-body]");
+    if (part) {
+      const row = part.closest("tr");
+      const body = { part: row.dataset.part, action: part.dataset.body };
+      const field = { reclassify: ["class", ".part-class"], side: ["side", ".part-side"],
+                      merge: ["with", ".part-with"], split: ["at", ".part-at"] }[body.action];
+      if (field) body[field[0]] = $(field[1], row).value;
+      if (body.action === "reject" && !confirm("Reject this body part (not a part of the body)?")) return;
+      correct(body);
+      return;
+    }
     const button = event.target.closest("button[data-action]");
     if (button) {
       const row = button.closest("tr");
@@ -122,9 +133,9 @@ if (robot) {
       correct(body);
       return;
     }
-    const outline = event.target.closest("g.component");
+    const outline = event.target.closest("g.component, g.body-part");
     if (outline) {
-      const row = document.getElementById("row-" + outline.dataset.component);
+      const row = document.getElementById("row-" + (outline.dataset.component || outline.dataset.part));
       if (row) {
         row.scrollIntoView({ block: "center" });
         row.classList.add("flash");

@@ -177,7 +177,7 @@ def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: 
     found = _join(found)
     parts = _parts(tree, [c for c in found if c.cls != NONE])
     parts = _sides(oracle, tree, parts, progress, log)
-    return parts, [_locate(tree, c, parts) for c in components]
+    return parts, [locate(tree, c, parts) for c in components]
 
 
 def _classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
@@ -302,7 +302,7 @@ def _anchor(tree: KinematicTree, part: BodyPart) -> list[str]:
     return [edges[j].child for j in part.joints] or list(part.links[:1])
 
 
-def _locate(tree: KinematicTree, comp: Component, parts: list[BodyPart]) -> Component:
+def locate(tree: KinematicTree, comp: Component, parts: list[BodyPart]) -> Component:
     """The body part carrying a component's mount (the nearest part up its chain), and that part's side."""
     owner = {link: p for p in parts for link in p.links}
     part = next((owner[a] for a in tree.chain_to_root(comp.root) if a in owner), None)
