@@ -21,12 +21,13 @@ from urdfkb.kb_server.index import WorkerCrashed
 from urdfkb.kb_server.jobs import JobManager, QueueFull
 from urdfkb.kb_server.results import ResultTooLarge
 from urdfkb.kb_server.security import Policy, Refused
-from urdfkb.kb_server.sparql import CORE_GRAPH, GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
+from urdfkb.kb_server.sparql import GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
 from urdfkb.kb_server.store import ReadOnlyGraph, RobotNameError, Store, check_robot_name
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
+from urdfkb.pipeline.namespaces import CORE_GRAPH
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args

@@ -20,29 +20,21 @@ from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 
 import rdflib
-from rdflib.namespace import RDF, RDFS, XSD
+from rdflib.namespace import PROV, RDF, RDFS, XSD
 
 from urdfkb.kb_server.text import check_text
 from urdfkb.pipeline.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
-from urdfkb.pipeline.population import ROBOT_BASE, escape
+from urdfkb.pipeline.namespaces import CORE, CORE_IRI, REVIEW, component_iri, corrections_iri, escape
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.tree import KinematicTree
 
-PROV = rdflib.Namespace("http://www.w3.org/ns/prov#")
-REVIEW = rdflib.Namespace("https://w3id.org/urdfkb/review#")
-CORE = rdflib.Namespace(CORE_IRI)
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
 MAX_REVIEWER = 100
 
 
 class CorrectionError(UrdfkbError, ValueError):
     """A correction that does not fit the robot (or is malformed); the message says why."""
-
-
-def corrections_iri(robot: str) -> str:
-    """The named graph (owlready2 ontology) holding robot `robot`'s corrections."""
-    return f"{ROBOT_BASE}{escape(robot)}/corrections#"
 
 
 @dataclass(frozen=True)
@@ -252,5 +244,5 @@ def from_graph(graph: rdflib.Graph) -> list[Correction]:
 def influences(robot_ns: str, robot: str, report: Report) -> list[tuple[str, str]]:
     """(component IRI, correction IRI) pairs for `prov:wasInfluencedBy` in the robot graph."""
     base = corrections_iri(robot)
-    return [(f"{robot_ns}comp_{escape(name)}", f"{base}correction_{c.id}")
+    return [(component_iri(robot_ns, name), f"{base}correction_{c.id}")
             for c, name in report.applied if c.action != "reject"]

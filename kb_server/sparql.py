@@ -22,7 +22,6 @@ import pyoxigraph as ox
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
 
-CORE_GRAPH = "https://w3id.org/urdfkb/core#"
 MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack
 
 SELECT_TYPES = {

@@ -24,17 +24,19 @@ from pathlib import Path
 
 import owlready2
 import rdflib
+from rdflib.namespace import PROV
 from platformdirs import user_data_dir
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
-from urdfkb.kb_server.sparql import CORE_GRAPH, Result, scan
+from urdfkb.kb_server.sparql import Result, scan
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph
 from urdfkb.pipeline.formats import BY_EXTENSION
-from urdfkb.pipeline.ontology import CORE_IRI, load_core
+from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI
+from urdfkb.pipeline.ontology import load_core
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import KinematicTree
 
@@ -183,7 +185,7 @@ class Store:
         onto = build_robot(self.world, tree, name, corrected)
         touched.add(onto.base_iri)
         self.world.graph.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
-        influenced_by = self.world._abbreviate(str(review.PROV.wasInfluencedBy))
+        influenced_by = self.world._abbreviate(str(PROV.wasInfluencedBy))
         for comp, corr in review.influences(onto.base_iri, name, report):
             onto._add_obj_triple_spo(self.world._abbreviate(comp), influenced_by, self.world._abbreviate(corr))
         robot_cls = self.world[CORE_IRI + "Robot"]

@@ -16,7 +16,7 @@ from urdfkb.kb_server import queries, tree_svg
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.population import escape
+from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 
@@ -107,9 +107,9 @@ def robot_page(store: Store, name: str) -> Response | str:
     corrected_comps = {}
     if source:
         corrected, report = review.apply(*source, store.corrections(name))
-        corrected_comps = {f"{entry.ontology_iri}comp_{escape(c.name)}": c for c in corrected.components}
+        corrected_comps = {component_iri(entry.ontology_iri, c.name): c for c in corrected.components}
         for corr, comp_name in report.applied:
-            influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
+            influenced.setdefault(component_iri(entry.ontology_iri, comp_name), []).append(corr.to_dict())
         stale = [{**c.to_dict(), "reason": why} for c, why in report.stale]
     else:
         stale = []
@@ -142,9 +142,9 @@ def _tree_from_store(store: Store, name: str) -> KinematicTree:
     from urdfkb.pipeline.tree import Edge, Origin
     entry = store.robot(name)
     iri = f"<{entry.robot_iri}>"
-    links = store.query(f"PREFIX core: <https://w3id.org/urdfkb/core#> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "
+    links = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "
                         f"?l core:urdfName ?n }}").as_dicts()
-    joints = store.query(f"PREFIX core: <https://w3id.org/urdfkb/core#> SELECT ?j ?p ?c WHERE {{ {iri} core:hasJoint ?jj . "
+    joints = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?j ?p ?c WHERE {{ {iri} core:hasJoint ?jj . "
                          f"?jj core:urdfName ?j ; core:hasParentLink/core:urdfName ?p ; "
                          f"core:hasChildLink/core:urdfName ?c }}").as_dicts()
     zero = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))

@@ -9,11 +9,12 @@ from typing import BinaryIO
 
 import owlready2
 import rdflib
-from rdflib.namespace import OWL
+from rdflib.namespace import OWL, SOSA
 
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.formats import BY_NAME
-from urdfkb.pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, Vocabulary, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI, CORE_ONTOLOGY_IRI
+from urdfkb.pipeline.ontology import Vocabulary, vocabulary
 
 
 @functools.cache
@@ -41,7 +42,7 @@ def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
     graph.remove((None, OWL.imports, None))
     graph.bind("core", CORE_IRI)
     graph.bind("robot", onto.base_iri)
-    graph.bind("sosa", "http://www.w3.org/ns/sosa/")
+    graph.bind("sosa", SOSA)
     return graph
 
 
