@@ -21,11 +21,11 @@ from urdfkb.kb_server.index import WorkerCrashed
 from urdfkb.kb_server.jobs import JobManager, QueueFull
 from urdfkb.kb_server.results import ResultTooLarge
 from urdfkb.kb_server.security import Policy, Refused
-from urdfkb.kb_server.sparql import GRAPH_TYPES, NotAcceptable, QueryError, QueryTimeout, Result, negotiate
+from urdfkb.kb_server.sparql import NotAcceptable, QueryError, QueryTimeout, Result, negotiate
 from urdfkb.kb_server.store import ReadOnlyGraph, RobotNameError, Store, check_robot_name
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.formats import BY_EXTENSION
+from urdfkb.pipeline.formats import BY_EXTENSION, GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
 from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.namespaces import CORE_GRAPH
 from urdfkb.pipeline.runner import Settings
@@ -33,7 +33,6 @@ from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
-FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
 MAX_WAIT = 30.0
 
 
@@ -143,9 +142,8 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
         if token:
             g.add((svc, SD.supportedLanguage, SD.SPARQL11Update))
         g.add((svc, SD.feature, SD.UnionDefaultGraph))
-        for fmt in ("SPARQL_Results_JSON", "SPARQL_Results_XML", "SPARQL_Results_CSV", "SPARQL_Results_TSV",
-                    "Turtle", "RDF_XML", "N-Triples"):
-            g.add((svc, SD.resultFormat, FORMATS[fmt]))
+        for fmt in (*RESULTS_FORMATS, *GRAPH_FORMATS):
+            g.add((svc, SD.resultFormat, rdflib.URIRef(fmt.oxigraph.iri)))
         dataset, default = rdflib.BNode(), rdflib.BNode()
         g.add((svc, SD.defaultDataset, dataset))
         g.add((dataset, RDF.type, SD.Dataset))
@@ -156,10 +154,10 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             g.add((dataset, SD.namedGraph, named))
             g.add((named, RDF.type, SD.NamedGraph))
             g.add((named, SD.name, rdflib.URIRef(iri)))
-        media = negotiate(request.headers.get("Accept"), list(GRAPH_TYPES))
+        media = negotiate(request.headers.get("Accept"), list(GRAPH_MEDIA))
         if media is None:
-            return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(GRAPH_TYPES)}", True)
-        body = g.serialize(format={"text/turtle": "turtle", "application/rdf+xml": "xml"}.get(media, "nt"), encoding="utf-8")
+            return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(GRAPH_MEDIA)}", True)
+        body = g.serialize(format=GRAPH_MEDIA[media].rdflib, encoding="utf-8")
         return Response(body, 200, content_type=media + ("" if media.endswith("xml") else "; charset=utf-8"))
 
     # --- populate and jobs ---------------------------------------------------------------------

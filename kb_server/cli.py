@@ -12,7 +12,7 @@ from pathlib import Path
 from urdfkb import __version__
 from urdfkb.kb_server.limits import CHANNEL_TIMEOUT, MAX_CONNECTIONS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import BY_NAME
+from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
 
 DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
 
@@ -262,7 +262,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", required=True, help="robot name")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="query parameter (repeatable)")
     p.add_argument("--store", help="the quadstore file (default: the server's default store)")
-    p.add_argument("--format", choices=("table", "json", "csv"), default="table", help="output format (default table)")
+    p.add_argument("--format", choices=("table", *RESULTS_BY_NAME), default="table",
+                   help="output format: an aligned table (the default) or SPARQL results as JSON, XML, CSV or TSV")
     p.set_defaults(func=cmd_query)
     return parser
 

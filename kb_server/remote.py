@@ -12,6 +12,8 @@ import urllib.request
 
 import rdflib
 
+from urdfkb.pipeline.formats import N_TRIPLES
+
 
 class RemoteError(RuntimeError):
     """The remote store could not be reached or refused the request."""
@@ -32,7 +34,7 @@ class RemoteStore:
         return f"{self.url}{sep}{urllib.parse.urlencode({'graph': graph_iri})}"
 
     def _send(self, method: str, graph_iri: str, body: bytes | None = None, ok_missing: bool = False) -> None:
-        headers = {"Content-Type": "application/n-triples"} if body is not None else {}
+        headers = {"Content-Type": N_TRIPLES.media_type} if body is not None else {}
         req = urllib.request.Request(self._graph_url(graph_iri), data=body, method=method, headers=headers)
         try:
             with urllib.request.urlopen(req, timeout=self.timeout):
@@ -47,7 +49,7 @@ class RemoteStore:
 
     def put_graph(self, graph_iri: str, graph: rdflib.Graph) -> None:
         """Replace named graph `graph_iri` with `graph`."""
-        self._send("PUT", graph_iri, graph.serialize(format="nt", encoding="utf-8"))
+        self._send("PUT", graph_iri, graph.serialize(format=N_TRIPLES.rdflib, encoding="utf-8"))
 
     def delete_graph(self, graph_iri: str) -> None:
         """Drop named graph `graph_iri` (no error if it is already absent)."""
