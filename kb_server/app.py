@@ -23,22 +23,21 @@ from urdfkb.kb_server.results import ResultTooLarge
 from urdfkb.kb_server.security import Policy, Refused
 from urdfkb.kb_server.sparql import NotAcceptable, QueryError, QueryTimeout, Result, negotiate
 from urdfkb.kb_server.store import ReadOnlyGraph, RobotNameError, Store, check_robot_name
+from urdfkb.limits import JOB_WAIT, MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, job_waiters
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.formats import BY_EXTENSION, GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
-from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.namespaces import CORE_GRAPH
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
-MAX_WAIT = 30.0
 
 
-def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = 10_000_000,
-               query_timeout: float = 10.0, policy: Policy | None = None, max_links: int = DEFAULT_MAX_LINKS,
-               max_waiters: int = 4, package_paths: Mapping[str, Path] | None = None,
+def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = MAX_BYTES,
+               query_timeout: float = QUERY_TIMEOUT, policy: Policy | None = None, max_links: int = MAX_LINKS,
+               max_waiters: int = job_waiters(THREADS), package_paths: Mapping[str, Path] | None = None,
                trust_xacro: bool = False) -> Flask:
     """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
 
@@ -228,12 +227,12 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
             return error(404, f"no job {job_id[:64]!r}: {jobs.retention}")
         if request.args.get("wait") not in (None, "", "0", "false"):
             try:
-                timeout = float(request.args.get("timeout", MAX_WAIT))
+                timeout = float(request.args.get("timeout", JOB_WAIT))
             except ValueError:
                 timeout = -1.0
             if not 0 <= timeout:  # also NaN
-                return error(400, f"timeout must be a number of seconds (at most {MAX_WAIT:g} are waited)")
-            timeout = min(timeout, MAX_WAIT)
+                return error(400, f"timeout must be a number of seconds (at most {JOB_WAIT:g} are waited)")
+            timeout = min(timeout, JOB_WAIT)
             if not waiters.acquire(blocking=False):
                 resp = error(429, f"{max_waiters} clients are already waiting on jobs: poll without wait=1, or retry")
                 resp.headers["Retry-After"] = "1"

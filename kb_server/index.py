@@ -141,7 +141,7 @@ class Index:
     """The master store plus `workers` query processes (0: evaluate in this process, no deadline);
     every answer is bounded by `limits`."""
 
-    def __init__(self, graphs: Mapping[str, bytes], workers: int = 2, limits: ResultLimits = ResultLimits()):
+    def __init__(self, graphs: Mapping[str, bytes], workers: int, limits: ResultLimits):
         self.master, self.limits = ox.Store(), limits
         for graph, data in graphs.items():
             put_graph(self.master, graph, data)
@@ -195,13 +195,13 @@ class Index:
             self._retire(worker)
         return value
 
-    def query(self, text: str, accept: str | None = None, timeout: float = 10.0,
+    def query(self, text: str, accept: str | None, timeout: float,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Evaluate a query on a free worker; QueryError, NotAcceptable, ResultTooLarge past the index's
         limits, or QueryTimeout past `timeout`."""
         return self._call("query", (text, accept, default_graphs, named_graphs, self.limits), timeout)
 
-    def update(self, text: str, timeout: float = 10.0) -> tuple[Changes, _Worker | None]:
+    def update(self, text: str, timeout: float) -> tuple[Changes, _Worker | None]:
         """Apply an update on one replica (the master without workers), which is held until
         `release`; returns ({graph: (before, after)} for the graphs it changed, the replica)."""
         return self._call("update", (text,), timeout, hold=True)

@@ -27,6 +27,7 @@ from rdflib.namespace import XSD
 
 from urdfkb.kb_server.sparql import Result
 from urdfkb.kb_server.store import Store
+from urdfkb.limits import QUERY_TIMEOUT
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import RESULTS_BY_NAME
 
@@ -120,7 +121,7 @@ def load_queries() -> dict[str, NamedQuery]:
             for f in sorted(root.iterdir(), key=lambda f: f.name) if f.name.endswith(".rq")}
 
 
-def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = 10.0,
+def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = QUERY_TIMEOUT,
               accept: str | None = None) -> Result:
     """Run query `name` for stored robot `robot`; UnknownQuery, UnknownRobot or ParamError on bad input."""
     query = load_queries().get(name)
@@ -153,7 +154,7 @@ def _local(iri: str) -> str:
 
 
 def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path=None, fmt: str = "table",
-                    timeout: float = 10.0) -> str:
+                    timeout: float = QUERY_TIMEOUT) -> str:
     """`urdfkb query NAME --robot NAME [--param k=v]`: a named query on a store file, as text.
 
     fmt: "table" (aligned columns, IRIs shortened to their local name) or a SPARQL results format's

@@ -12,6 +12,7 @@ import urllib.request
 
 import rdflib
 
+from urdfkb.limits import REMOTE_TIMEOUT
 from urdfkb.pipeline.formats import N_TRIPLES
 
 
@@ -22,7 +23,7 @@ class RemoteError(RuntimeError):
 class RemoteStore:
     """A Graph Store Protocol endpoint; `timeout` bounds each request (seconds)."""
 
-    def __init__(self, url: str, timeout: float = 30.0):
+    def __init__(self, url: str, timeout: float = REMOTE_TIMEOUT):
         parts = urllib.parse.urlsplit(url)
         if parts.scheme not in ("http", "https") or not parts.netloc:
             raise ValueError(f"remote store URL must be http(s)://host[:port]/path, not {url!r}")

@@ -30,6 +30,7 @@ from platformdirs import user_data_dir
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
+from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.kb_server.sparql import Result, scan
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
@@ -91,7 +92,7 @@ class Store:
     `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does),
     each answer within `limits`."""
 
-    def __init__(self, path: str | Path | None = None, workers: int = 2, limits: ResultLimits = ResultLimits()):
+    def __init__(self, path: str | Path | None = None, workers: int = QUERY_WORKERS, limits: ResultLimits = ResultLimits()):
         self.path = Path(path) if path else default_store_path()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
@@ -283,12 +284,12 @@ class Store:
 
     # --- SPARQL -------------------------------------------------------------------------------
 
-    def query(self, text: str, timeout: float = 10.0, accept: str | None = None,
+    def query(self, text: str, timeout: float = QUERY_TIMEOUT, accept: str | None = None,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Run a SPARQL query over everything stored (see Index.query); never waits for writers."""
         return self.index.query(text, accept, timeout, default_graphs, named_graphs)
 
-    def update(self, text: str, timeout: float = 10.0) -> None:
+    def update(self, text: str, timeout: float = QUERY_TIMEOUT) -> None:
         """Apply a SPARQL update atomically: Oxigraph evaluates it on one replica, the graphs it changed
         are written to the quadstore in one transaction, and the index then takes them from there.
 
