@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from urllib.parse import urljoin
 
@@ -21,7 +22,7 @@ import pyoxigraph as ox
 
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA
+from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
 
 MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack
 
@@ -165,6 +166,7 @@ def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: li
         raise QueryError(f"SPARQL syntax error: {e}") from None
     except (OSError, ValueError, TypeError) as e:
         raise QueryError(f"query failed: {e}") from None
+    offers: Mapping[str, RdfFormat | ResultsFormat]
     if isinstance(answer, ox.QueryTriples):
         offers, kind = GRAPH_MEDIA, "graph"
     else:

@@ -7,7 +7,7 @@ import tempfile
 from pathlib import Path
 
 
-def write_atomically(path: str | os.PathLike, *chunks: bytes, sync: bool = True, mode: int | None = None) -> None:
+def write_atomically(path: str | os.PathLike, *chunks: bytes | memoryview, sync: bool = True, mode: int | None = None) -> None:
     """Write `chunks` to `path` in one rename. `sync` flushes the data to disk before the rename (so a crash
     cannot leave an empty file under the new name); `mode` sets the permissions (else the temporary
     file's: 0600)."""
