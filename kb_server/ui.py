@@ -16,11 +16,12 @@ from urdfkb.kb_server import queries, tree_svg
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.formats import RESULTS_MEDIA
 from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 
-JSON_TYPES = ("application/json", "application/sparql-results+json")
+JSON_TYPES = tuple(media for media, f in RESULTS_MEDIA.items() if f.name == "json")  # what API clients ask for
 
 
 def wants_html() -> bool:
