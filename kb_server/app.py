@@ -2,11 +2,12 @@
 
 The routes are blueprints by resource: kb_server/routes/ holds `sparql` (the SPARQL 1.1 Protocol at
 /sparql), `jobs` (POST /populate, GET /jobs/<id>), `robots` and `queries`; kb_server/ui.py the pages, the
-corrections and re-populating. They read the store, the jobs and the settings from `app.extensions`
-(kb_server/services.py) and answer through kb_server/replies.py.
+corrections and re-populating. The store, the jobs and the settings are kept in `app.extensions`
+(kb_server/services.py), where the routes/ blueprints read them per request; ui.py's blueprint is made
+with the same ones. Refusals and SPARQL answers are built by kb_server/replies.py.
 
-Writes (SPARQL updates, DELETE /robots/<name>, and POST /populate and corrections when a token is
-configured) need `Authorization: Bearer <token>`; with no token configured, updates and deletes are
+Writes (SPARQL updates, DELETE /robots/<name>, and, when a token is configured, populating and
+corrections) need `Authorization: Bearer <token>`; with no token configured, updates and deletes are
 refused. Every request first passes the checks of kb_server.security (Host, cross-site writes).
 """
 from __future__ import annotations
