@@ -93,7 +93,7 @@ class RobotEntry:
 class Store:
     """The quadstore file at `path` (created with the core if new), safe to share between threads.
 
-    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does),
+    `workers` query processes answer SPARQL (0: in this process, without a deadline, as most tests do),
     each answer within `limits`."""
 
     def __init__(self, path: str | Path | None = None, workers: int = QUERY_WORKERS, limits: ResultLimits = ResultLimits()):
