@@ -28,14 +28,14 @@ from pathlib import Path
 
 import owlready2
 import rdflib
-from rdflib.namespace import PROV
 from platformdirs import user_data_dir
+from rdflib.namespace import PROV
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
-from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
+from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph

@@ -15,9 +15,9 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import queries, tree_svg
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.formats import RESULTS_MEDIA
 from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 
