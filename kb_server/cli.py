@@ -10,9 +10,9 @@ import time
 from pathlib import Path
 
 from urdfkb import __version__
-from urdfkb.kb_server.limits import CHANNEL_TIMEOUT, MAX_CONNECTIONS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
+from urdfkb.limits import CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import BY_NAME
+from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
 
 DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
 
@@ -208,8 +208,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
     p.add_argument("--structure-only", action="store_true", help="skip the model: links and joints only")
     p.add_argument("--trace", metavar="FILE", help="write a JSON-lines audit of every question: candidates, distribution, answer")
-    p.add_argument("--max-bytes", type=int, help="refuse URDFs larger than this (default 10 MB)")
-    p.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
+    p.add_argument("--max-bytes", type=int, help=f"refuse URDFs larger than this (default {MAX_BYTES / 1e6:g} MB)")
+    p.add_argument("--max-links", type=int, metavar="N", help=f"refuse URDFs with more links or joints than this (default {MAX_LINKS:,})")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     _add_xacro_options(p)
     _add_model_options(p)
@@ -247,7 +247,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--model-dir", metavar="DIR", help="let POST /populate choose model=FILE.gguf among the GGUF files of this directory (default: model= refused)")
     g.add_argument("--allow-llm-url", metavar="URL", action="append", default=[], help="let POST /populate use this OpenAI-compatible http(s) server as llm_url (repeatable; default: llm_url= refused)")
     g.add_argument("--insecure-no-token", action="store_true", help="serve on a non-loopback --host without --token: anyone who can reach the port can populate robots")
-    g.add_argument("--max-links", type=int, metavar="N", help="refuse URDFs with more links or joints than this (default 5,000)")
+    g.add_argument("--max-links", type=int, metavar="N", help=f"refuse URDFs with more links or joints than this (default {MAX_LINKS:,})")
     _add_package_path(g, "let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
                          "(repeatable; without it, uploads read no server file)")
     g.add_argument("--trust-xacro", action="store_true", help="expand uploaded xacro files without the operating-system "
@@ -267,7 +267,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", required=True, help="robot name")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE", help="query parameter (repeatable)")
     p.add_argument("--store", help="the quadstore file (default: the server's default store)")
-    p.add_argument("--format", choices=("table", "json", "csv"), default="table", help="output format (default table)")
+    p.add_argument("--format", choices=("table", *RESULTS_BY_NAME), default="table",
+                   help="output format: an aligned table (the default) or SPARQL results as JSON, XML, CSV or TSV")
     p.set_defaults(func=cmd_query)
     return parser
 

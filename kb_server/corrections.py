@@ -28,27 +28,21 @@ from datetime import datetime, timezone
 from typing import Any
 
 import rdflib
-from rdflib.namespace import RDF, RDFS, XSD
+from rdflib.namespace import PROV, RDF, RDFS, XSD
 
 from urdfkb.kb_server import body_corrections as body
 from urdfkb.kb_server.text import check_text
 from urdfkb.pipeline.components import Abstraction, BodyPart, Component, SubComponent
 from urdfkb.pipeline.errors import CorrectionError
-from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
-from urdfkb.pipeline.population import ROBOT_BASE, escape
+from urdfkb.pipeline.namespaces import CORE, CORE_IRI, REVIEW, body_part_local, component_iri, corrections_iri, escape
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.tree import KinematicTree
 
-PROV = rdflib.Namespace("http://www.w3.org/ns/prov#")
-REVIEW = rdflib.Namespace("https://w3id.org/urdfkb/review#")
-CORE = rdflib.Namespace(CORE_IRI)
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
 BODY_ACTIONS = ("reclassify", "side", "merge", "split", "reject")
 MAX_REVIEWER = 100
 
 
-def corrections_iri(robot: str) -> str:
-    """The named graph (owlready2 ontology) holding robot `robot`'s corrections."""
-    return f"{ROBOT_BASE}{escape(robot)}/corrections#"
 
 
 @dataclass(frozen=True)
@@ -395,5 +389,6 @@ def from_graph(graph: rdflib.Graph) -> list[AnyCorrection]:
 def influences(robot_ns: str, robot: str, report: Report) -> list[tuple[str, str]]:
     """(component or body part IRI, correction IRI) pairs for `prov:wasInfluencedBy` in the robot graph."""
     base = corrections_iri(robot)
-    return [(f"{robot_ns}{'body' if isinstance(c, BodyCorrection) else 'comp'}_{escape(name)}", f"{base}correction_{c.id}")
+    return [(robot_ns + body_part_local(name) if isinstance(c, BodyCorrection) else component_iri(robot_ns, name),
+             f"{base}correction_{c.id}")
             for c, name in report.applied if c.action != "reject"]

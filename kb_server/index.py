@@ -11,7 +11,8 @@ triples runs 54 s in one call). A worker past the deadline is killed and replace
 so a deadline is a deadline; a crash in Oxigraph costs one worker, not the server. Readers on
 different workers never wait for each other, nor for a populate or a write: a write is queued
 behind whatever its worker is answering, and each operation carries the sequence number of the
-last write it must see, so a query sent after a write returned sees it.
+last write it must see, so a query sent after a write returned sees it. An update is evaluated on
+one replica and undone there: the store writes what it would change and puts it back like any write.
 """
 from __future__ import annotations
 
@@ -141,7 +142,7 @@ class Index:
     """The master store plus `workers` query processes (0: evaluate in this process, no deadline);
     every answer is bounded by `limits`."""
 
-    def __init__(self, graphs: Mapping[str, bytes], workers: int = 2, limits: ResultLimits = ResultLimits()):
+    def __init__(self, graphs: Mapping[str, bytes], workers: int, limits: ResultLimits):
         self.master, self.limits = ox.Store(), limits
         for graph, data in graphs.items():
             put_graph(self.master, graph, data)
@@ -165,12 +166,9 @@ class Index:
         worker.kill()
         self._spawn()
 
-    def _call(self, op: str, args: tuple, timeout: float, hold: bool = False):
-        """Run `op` on a free worker within `timeout` (waiting for one included); the worker goes back
-        to the pool unless `hold` (then (value, worker) is returned), and is replaced if it overran or died."""
-        if not self._size:
-            value = (run_query if op == "query" else run_update)(self.master, *args)
-            return (value, None) if hold else value
+    def _call(self, op: str, args: tuple, timeout: float):
+        """Run `op` on a free worker within `timeout` (waiting for one included); the worker goes back to
+        the pool (an update's changes undone on it first), or is replaced if it overran or died."""
         deadline = time.monotonic() + timeout
         try:
             worker = self._idle.get(timeout=timeout)
@@ -187,37 +185,32 @@ class Index:
         except BaseException:
             self._retire(worker)
             raise
-        if hold:
-            return value, worker
-        if worker.alive():
-            self._idle.put(worker)
-        else:  # crashed after answering
+        if not worker.alive():  # crashed after answering: its replacement starts from the master
             self._retire(worker)
+            return value
+        if op == "update" and value:  # back to what the master holds, in order with the writes
+            with self._guard:
+                worker.put({g: before for g, (before, _) in value.items()})
+        self._idle.put(worker)
         return value
 
-    def query(self, text: str, accept: str | None = None, timeout: float = 10.0,
+    def query(self, text: str, accept: str | None, timeout: float,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Evaluate a query on a free worker; QueryError, NotAcceptable, ResultTooLarge past the index's
         limits, or QueryTimeout past `timeout`."""
-        return self._call("query", (text, accept, default_graphs, named_graphs, self.limits), timeout)
+        args = (text, accept, default_graphs, named_graphs, self.limits)
+        return self._call("query", args, timeout) if self._size else run_query(self.master, *args)
 
-    def update(self, text: str, timeout: float = 10.0) -> tuple[Changes, _Worker | None]:
-        """Apply an update on one replica (the master without workers), which is held until
-        `release`; returns ({graph: (before, after)} for the graphs it changed, the replica)."""
-        return self._call("update", (text,), timeout, hold=True)
-
-    def release(self, worker: _Worker | None, changes: Changes) -> None:
-        """Undo an `update`'s changes on the replica that evaluated it (the store then `put`s what
-        it actually stored), and free that replica."""
-        revert = {g: before for g, (before, _) in changes.items()}
-        if worker is None:
-            for g, data in revert.items():
-                put_graph(self.master, g, data)
-            return
-        if revert:
+    def update(self, text: str, timeout: float) -> Changes:
+        """Evaluate an update on one replica (the master without workers) and undo it there: returns
+        {graph: (before, after)} for the graphs it would change, for the store to write and `put` back."""
+        if not self._size:
             with self._guard:
-                worker.put(revert)
-        self._idle.put(worker)
+                changes = run_update(self.master, text)
+                for g, (before, _) in changes.items():
+                    put_graph(self.master, g, before)
+            return changes
+        return self._call("update", (text,), timeout)
 
     def put(self, graphs: Mapping[str, bytes | None]) -> None:
         """Replace graphs (None drops one) in the master and every worker, in order with other writes."""

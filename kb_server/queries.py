@@ -27,7 +27,9 @@ from rdflib.namespace import XSD
 
 from urdfkb.kb_server.sparql import Result
 from urdfkb.kb_server.store import Store
+from urdfkb.limits import QUERY_TIMEOUT
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.formats import RESULTS_BY_NAME
 
 _PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(.*))?$")
 _VAR = re.compile(r"\$(\w+)")
@@ -119,7 +121,7 @@ def load_queries() -> dict[str, NamedQuery]:
             for f in sorted(root.iterdir(), key=lambda f: f.name) if f.name.endswith(".rq")}
 
 
-def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = 10.0,
+def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], timeout: float = QUERY_TIMEOUT,
               accept: str | None = None) -> Result:
     """Run query `name` for stored robot `robot`; UnknownQuery, UnknownRobot or ParamError on bad input."""
     query = load_queries().get(name)
@@ -152,20 +154,18 @@ def _local(iri: str) -> str:
 
 
 def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path=None, fmt: str = "table",
-                    timeout: float = 10.0) -> str:
+                    timeout: float = QUERY_TIMEOUT) -> str:
     """`urdfkb query NAME --robot NAME [--param k=v]`: a named query on a store file, as text.
 
-    fmt: "table" (aligned columns, IRIs shortened to their local name), "json" (SPARQL results
-    JSON), "csv", "tsv" or "xml". Raises UnknownQuery, UnknownRobot, ParamError, QueryError or
+    fmt: "table" (aligned columns, IRIs shortened to their local name) or a SPARQL results format's
+    name ("json", "xml", "csv", "tsv": pipeline.formats). Raises UnknownQuery, UnknownRobot, ParamError, QueryError or
     QueryTimeout (all UrdfkbError) with a clear message.
     """
-    media = {"table": "application/sparql-results+json", "json": "application/sparql-results+json", "csv": "text/csv",
-             "tsv": "text/tab-separated-values", "xml": "application/sparql-results+xml"}
-    if fmt not in media:
-        raise ParamError(f"unknown format {fmt!r}; choose one of {', '.join(media)}")
+    if fmt != "table" and fmt not in RESULTS_BY_NAME:
+        raise ParamError(f"unknown format {fmt!r}; choose one of table, {', '.join(RESULTS_BY_NAME)}")
     store = Store(store_path, workers=1)  # one worker process: the timeout is enforced
     try:
-        result = run_named(store, name, robot, params, timeout, media[fmt])
+        result = run_named(store, name, robot, params, timeout, RESULTS_BY_NAME["json" if fmt == "table" else fmt].media_type)
     finally:
         store.close()
     return _table(result) if fmt == "table" else result.body.decode("utf-8")

@@ -12,6 +12,9 @@ import urllib.request
 
 import rdflib
 
+from urdfkb.limits import REMOTE_TIMEOUT
+from urdfkb.pipeline.formats import N_TRIPLES
+
 
 class RemoteError(RuntimeError):
     """The remote store could not be reached or refused the request."""
@@ -20,7 +23,7 @@ class RemoteError(RuntimeError):
 class RemoteStore:
     """A Graph Store Protocol endpoint; `timeout` bounds each request (seconds)."""
 
-    def __init__(self, url: str, timeout: float = 30.0):
+    def __init__(self, url: str, timeout: float = REMOTE_TIMEOUT):
         parts = urllib.parse.urlsplit(url)
         if parts.scheme not in ("http", "https") or not parts.netloc:
             raise ValueError(f"remote store URL must be http(s)://host[:port]/path, not {url!r}")
@@ -32,7 +35,7 @@ class RemoteStore:
         return f"{self.url}{sep}{urllib.parse.urlencode({'graph': graph_iri})}"
 
     def _send(self, method: str, graph_iri: str, body: bytes | None = None, ok_missing: bool = False) -> None:
-        headers = {"Content-Type": "application/n-triples"} if body is not None else {}
+        headers = {"Content-Type": N_TRIPLES.media_type} if body is not None else {}
         req = urllib.request.Request(self._graph_url(graph_iri), data=body, method=method, headers=headers)
         try:
             with urllib.request.urlopen(req, timeout=self.timeout):
@@ -47,7 +50,7 @@ class RemoteStore:
 
     def put_graph(self, graph_iri: str, graph: rdflib.Graph) -> None:
         """Replace named graph `graph_iri` with `graph`."""
-        self._send("PUT", graph_iri, graph.serialize(format="nt", encoding="utf-8"))
+        self._send("PUT", graph_iri, graph.serialize(format=N_TRIPLES.rdflib, encoding="utf-8"))
 
     def delete_graph(self, graph_iri: str) -> None:
         """Drop named graph `graph_iri` (no error if it is already absent)."""

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import pyoxigraph as ox
 
-from urdfkb.kb_server.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS
+from urdfkb.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.pipeline.errors import UrdfkbError
 
 _PAGING = "add a LIMIT, or page through the answer with LIMIT and OFFSET (and ORDER BY, for stable pages)"

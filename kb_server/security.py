@@ -161,7 +161,7 @@ class Policy:
             raise Refused(403, f"cross-origin {request.method} refused: the request's Origin is not this server's")
         if site in ("cross-site", "same-site"):
             raise Refused(403, f"cross-site {request.method} refused (Sec-Fetch-Site: {site})")
-        if request.endpoint == "sparql":
+        if request.blueprint == "sparql":
             return  # a query changes nothing; an update needs the token, i.e. an Authorization header
         if request.method == "POST" and request.mimetype in SIMPLE_TYPES and origin is None and site != "same-origin" \
                 and not any(h in request.headers for h in PREFLIGHTED_HEADERS):

@@ -11,14 +11,14 @@ from waitress.server import BaseWSGIServer
 
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
-from urdfkb.kb_server.limits import CHANNEL_TIMEOUT, MAX_CONNECTIONS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
+from urdfkb.limits import (CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER, MAX_LINKS, MAX_RESULT_BYTES,
+                           MAX_RESULT_ROWS, QUERY_TIMEOUT, THREADS, job_waiters)
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.ingest import DEFAULT_MAX_LINKS
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.xacro_input import load_description, parse_package_paths
 
@@ -27,11 +27,11 @@ FD_RESERVE = 256  # descriptors besides the connections': store files, worker pi
 
 
 def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
-                token: str | None = None, remote_store: str | None = None, query_timeout: float = 10.0,
-                max_body: int = 10_000_000, threads: int = 16, runner: Runner = pipeline_runner,
+                token: str | None = None, remote_store: str | None = None, query_timeout: float = QUERY_TIMEOUT,
+                max_body: int = MAX_BYTES, threads: int = THREADS, runner: Runner = pipeline_runner,
                 allowed_hosts: Sequence[str] = (), model_dir: str | Path | None = None,
                 llm_urls: Sequence[str] = (), insecure_no_token: bool = False,
-                max_links: int = DEFAULT_MAX_LINKS, max_header: int = 32_768,
+                max_links: int = MAX_LINKS, max_header: int = MAX_HEADER,
                 package_paths: dict[str, Path] | None = None, trust_xacro: bool = False,
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS,
@@ -55,7 +55,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
-                     max_links=max_links, max_waiters=max(1, threads // 4), package_paths=package_paths,
+                     max_links=max_links, max_waiters=job_waiters(threads), package_paths=package_paths,
                      trust_xacro=trust_xacro)
     # waitress buffers a whole request before the app sees it (refusing a body of max_request_body_size
     # bytes or more), so bodies over max_body are refused before they fill memory or a temporary file;
@@ -85,7 +85,7 @@ def open_files_for(connections: int) -> int:
 
 def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
           token: str | None = None, remote_store: str | None = None, populate: Sequence[str] = (),
-          query_timeout: float = 10.0, max_body: int = 10_000_000, threads: int = 16,
+          query_timeout: float = QUERY_TIMEOUT, max_body: int = MAX_BYTES, threads: int = THREADS,
           package_paths: Sequence[str] = (), **options) -> None:
     """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3.
 
@@ -97,7 +97,7 @@ def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: i
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     packages = parse_package_paths(package_paths)
     trees = [load_description(path, packages=packages, max_bytes=max_body,
-                              max_links=options.get("max_links", DEFAULT_MAX_LINKS)) for path in populate]
+                              max_links=options.get("max_links", MAX_LINKS)) for path in populate]
     for tree in trees:
         check_robot_name(tree.robot_name)
     server, store, jobs = make_server(store_path, host, port, token, remote_store, query_timeout, max_body, threads,

@@ -2,8 +2,8 @@
 
 The functions `run_query` and `run_update` evaluate one operation on a pyoxigraph Store; they run
 inside the index's worker processes (kb_server/index.py). Results are serialised by Oxigraph's
-own W3C writers (SPARQL results JSON/XML/CSV/TSV; Turtle, RDF/XML, N-Triples for graphs), within the
-row and byte limits of kb_server/results.py.
+own W3C writers (SPARQL results JSON/XML/CSV/TSV; Turtle, RDF/XML, N-Triples for graphs: the table of
+pipeline/formats.py), within the row and byte limits of kb_server/results.py.
 
 Before anything is evaluated, `scan` reads the operation's tokens (strings, IRIs and comments
 skipped) to refuse what would make the server fetch remote data (SERVICE, LOAD: pyoxigraph has an
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from urllib.parse import urljoin
 
@@ -21,24 +22,9 @@ import pyoxigraph as ox
 
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
 
-CORE_GRAPH = "https://w3id.org/urdfkb/core#"
 MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack
-
-SELECT_TYPES = {
-    "application/sparql-results+json": ox.QueryResultsFormat.JSON,
-    "application/json": ox.QueryResultsFormat.JSON,
-    "application/sparql-results+xml": ox.QueryResultsFormat.XML,
-    "application/xml": ox.QueryResultsFormat.XML,
-    "text/csv": ox.QueryResultsFormat.CSV,
-    "text/tab-separated-values": ox.QueryResultsFormat.TSV,
-}
-GRAPH_TYPES = {
-    "text/turtle": ox.RdfFormat.TURTLE,
-    "application/rdf+xml": ox.RdfFormat.RDF_XML,
-    "application/n-triples": ox.RdfFormat.N_TRIPLES,
-    "text/plain": ox.RdfFormat.N_TRIPLES,
-}
 
 
 class QueryError(UrdfkbError, ValueError):
@@ -180,15 +166,16 @@ def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: li
         raise QueryError(f"SPARQL syntax error: {e}") from None
     except (OSError, ValueError, TypeError) as e:
         raise QueryError(f"query failed: {e}") from None
+    offers: Mapping[str, RdfFormat | ResultsFormat]
     if isinstance(answer, ox.QueryTriples):
-        offers, kind = GRAPH_TYPES, "graph"
+        offers, kind = GRAPH_MEDIA, "graph"
     else:
-        offers, kind = SELECT_TYPES, "boolean" if isinstance(answer, ox.QueryBoolean) else "bindings"
+        offers, kind = RESULTS_MEDIA, "boolean" if isinstance(answer, ox.QueryBoolean) else "bindings"
     media = negotiate(accept, list(offers))
     if media is None:
         raise NotAcceptable(f"no media type the Accept header allows is offered; offered: {', '.join(offers)}")
     try:
-        return Result(kind, media, serialize(answer, offers[media], limits))
+        return Result(kind, media, serialize(answer, offers[media].oxigraph, limits))
     except (OSError, ValueError) as e:  # evaluation errors surface while serialising lazily evaluated results
         raise QueryError(f"query failed: {e}") from None
 

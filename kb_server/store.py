@@ -9,7 +9,10 @@ goes through `Store.lock`. Writes happen inside that lock in one SQLite transact
 SPARQL is answered by the Oxigraph index (kb_server/index.py), rebuilt from the quadstore when the
 store opens. Every write names the graphs it touched; after its transaction (committed or rolled
 back) `_sync_graphs` copies those graphs from the quadstore into the index, so the index always
-shows what is stored and readers (who never take the lock) see the old graph or the new one.
+shows what is stored and SPARQL readers (who never take the lock) see the old graph or the new one.
+The robot list (`robots`, `robot`) is a snapshot of table kb_robots taken after each write, read
+without the lock too; exports, sources and corrections read the world under it. Which lock comes
+before which: docs/concurrency.md.
 """
 from __future__ import annotations
 
@@ -17,6 +20,7 @@ import io
 import json
 import re
 import threading
+import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -25,16 +29,19 @@ from pathlib import Path
 import owlready2
 import rdflib
 from platformdirs import user_data_dir
+from rdflib.namespace import PROV
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
-from urdfkb.kb_server.sparql import CORE_GRAPH, Result, scan
+from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
+from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph
 from urdfkb.pipeline.formats import BY_EXTENSION
-from urdfkb.pipeline.ontology import CORE_IRI, load_core
+from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI
+from urdfkb.pipeline.ontology import load_core
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.shacl import violations
 from urdfkb.pipeline.tree import KinematicTree
@@ -87,15 +94,17 @@ class RobotEntry:
 class Store:
     """The quadstore file at `path` (created with the core if new), safe to share between threads.
 
-    `workers` query processes answer SPARQL (0: in this process, without a deadline, as the CLI does),
+    `workers` query processes answer SPARQL (0: in this process, without a deadline, as most tests do),
     each answer within `limits`."""
 
-    def __init__(self, path: str | Path | None = None, workers: int = 2, limits: ResultLimits = ResultLimits()):
+    def __init__(self, path: str | Path | None = None, workers: int = QUERY_WORKERS, limits: ResultLimits = ResultLimits()):
         self.path = Path(path) if path else default_store_path()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
+        self._writes = 0  # writes that touched a graph, counted once the index has their graphs
         self._open()
         with self.lock:
+            self._entries = self._read_entries()
             graphs = {CORE_GRAPH: self._graph_data(CORE_GRAPH)}
             for e in self.robots():
                 graphs[e.ontology_iri] = self._graph_data(e.ontology_iri)
@@ -130,6 +139,8 @@ class Store:
                 raise
             finally:
                 self._sync_graphs(touched)
+                self._entries = self._read_entries()
+                self._writes += bool(touched)
 
     def _sync_graphs(self, graphs: set[str]) -> None:
         """Copy `graphs` from the quadstore (as committed) into the SPARQL index."""
@@ -141,7 +152,7 @@ class Store:
             return _ntriples(self.core)
         row = self.world.graph.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row:
-            return _ntriples(self._ontology(self.robot(row[0])))
+            return _ntriples(self._ontology(graph))
         if (onto := self.world.ontologies.get(graph)) is not None:  # a robot's corrections
             return _ntriples(onto)
         row = self.world.graph.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
@@ -155,14 +166,17 @@ class Store:
     # --- robots -------------------------------------------------------------------------------
 
     def robots(self) -> list[RobotEntry]:
-        with self.lock:
-            rows = self.world.graph.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
-        return [RobotEntry(*r) for r in rows]
+        """The stored robots by name, as of the last write (without the lock: never waits for a write)."""
+        return list(self._entries.values())
 
     def robot(self, name: str) -> RobotEntry | None:
-        with self.lock:
-            row = self.world.graph.db.execute("SELECT * FROM kb_robots WHERE name=?", (name,)).fetchone()
-        return RobotEntry(*row) if row else None
+        """Robot `name` as of the last write (without the lock), or None."""
+        return self._entries.get(name)
+
+    def _read_entries(self) -> dict[str, RobotEntry]:
+        """(Under the lock) table kb_robots as committed, by name: the snapshot robots() and robot() read."""
+        rows = self.world.graph.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
+        return {row[0]: RobotEntry(*row) for row in rows}
 
     def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
                       provenance: dict[str, str] | None = None) -> RobotEntry:
@@ -184,7 +198,7 @@ class Store:
         onto = build_robot(self.world, tree, name, corrected)
         touched.add(onto.base_iri)
         self.world.graph.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
-        influenced_by = self.world._abbreviate(str(review.PROV.wasInfluencedBy))
+        influenced_by = self.world._abbreviate(str(PROV.wasInfluencedBy))
         for comp, corr in review.influences(onto.base_iri, name, report):
             onto._add_obj_triple_spo(self.world._abbreviate(comp), influenced_by, self.world._abbreviate(corr))
         robot_cls = self.world[CORE_IRI + "Robot"]
@@ -261,11 +275,11 @@ class Store:
         return entry
 
     def _unregister(self, entry: RobotEntry) -> None:
-        self._ontology(entry).destroy()
+        self._ontology(entry.ontology_iri).destroy()
         self.world.graph.db.execute("DELETE FROM kb_robots WHERE name=?", (entry.name,))
 
-    def _ontology(self, entry: RobotEntry) -> owlready2.Ontology:
-        return self.world.ontologies.get(entry.ontology_iri) or self.world.get_ontology(entry.ontology_iri)
+    def _ontology(self, iri: str) -> owlready2.Ontology:
+        return self.world.ontologies.get(iri) or self.world.get_ontology(iri)
 
     def _corrections_graph(self, name: str) -> rdflib.Graph | None:
         items = self._corrections(name)
@@ -275,7 +289,7 @@ class Store:
         """The robot, its corrections and the core as one self-contained in-memory graph (for mirrors)."""
         with self.lock:
             entry = self.robot(name)
-            return robot_graph(self._ontology(entry), self._corrections_graph(name)) if entry else None
+            return robot_graph(self._ontology(entry.ontology_iri), self._corrections_graph(name)) if entry else None
 
     def export(self, name: str, ext: str) -> bytes | None:
         """The robot as a file (`ext` a key of formats.BY_EXTENSION) that opens in Protégé offline."""
@@ -285,26 +299,36 @@ class Store:
             entry = self.robot(name)
             if entry is None:
                 return None
-            export_robot(self._ontology(entry), buf, fmt, self._corrections_graph(name))
+            export_robot(self._ontology(entry.ontology_iri), buf, fmt, self._corrections_graph(name))
         return buf.getvalue()
 
     # --- SPARQL -------------------------------------------------------------------------------
 
-    def query(self, text: str, timeout: float = 10.0, accept: str | None = None,
+    def query(self, text: str, timeout: float = QUERY_TIMEOUT, accept: str | None = None,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Run a SPARQL query over everything stored (see Index.query); never waits for writers."""
         return self.index.query(text, accept, timeout, default_graphs, named_graphs)
 
-    def update(self, text: str, timeout: float = 10.0) -> None:
+    def update(self, text: str, timeout: float = QUERY_TIMEOUT) -> None:
         """Apply a SPARQL update atomically: Oxigraph evaluates it on one replica, the graphs it changed
         are written to the quadstore in one transaction, and the index then takes them from there.
 
         The core and the corrections graphs are read-only: an update that would change one raises
         ReadOnlyGraph, except CLEAR/DROP ALL and NAMED, which mean "every writable graph" and leave them.
-        A robot graph an update empties is no longer a robot (it leaves /robots)."""
-        with self._writing() as touched:
-            changes, replica = self.index.update(text, timeout)
-            try:
+        A robot graph an update empties is no longer a robot (it leaves /robots).
+
+        The evaluation, and the wait for a free worker before it, hold no lock; the transaction then
+        checks that no write landed in between, and evaluates again if one did, so the update applies
+        to exactly the state it read (all within `timeout`)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            seen = self._writes
+            changes = self.index.update(text, max(deadline - time.monotonic(), 0.0))
+            with self._writing() as touched:
+                if self._writes != seen:
+                    if time.monotonic() >= deadline:
+                        raise QueryTimeout(f"the store kept changing under this update for its {timeout:g} s timeout")
+                    continue
                 accepted = set(changes)
                 protected = {CORE_GRAPH, *(review.corrections_iri(e.name) for e in self.robots())} & accepted
                 if protected:
@@ -316,8 +340,7 @@ class Store:
                 for graph in accepted:
                     self._persist(graph, changes[graph][1])
                 touched.update(accepted)
-            finally:
-                self.index.release(replica, changes)
+                return
 
     def _persist(self, graph: str, data: bytes | None) -> None:
         """Store one graph's new content: into the robot's ontology, or as a kb_graphs row."""
@@ -329,13 +352,12 @@ class Store:
             else:
                 db.execute("INSERT OR REPLACE INTO kb_graphs VALUES (?, ?)", (graph, data))
             return
-        entry = self.robot(row[0])
+        self._ontology(graph).destroy()
         if not data:
-            self._unregister(entry)
+            db.execute("DELETE FROM kb_robots WHERE name=?", row)
             if data is not None:  # cleared, not dropped: the empty graph stays
                 db.execute("INSERT OR REPLACE INTO kb_graphs VALUES (?, ?)", (graph, b""))
             return
-        self._ontology(entry).destroy()
         self.world.get_ontology(graph).load(fileobj=io.BytesIO(data), format="ntriples")
 
 

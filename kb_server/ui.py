@@ -17,12 +17,13 @@ from urdfkb.kb_server import body_view, palette, queries, tree_svg
 from urdfkb.kb_server.body_corrections import SIDE_CHOICES
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.formats import RESULTS_MEDIA
+from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
 from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.population import escape
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 
-JSON_TYPES = ("application/json", "application/sparql-results+json")
+JSON_TYPES = tuple(media for media, f in RESULTS_MEDIA.items() if f.name == "json")  # what API clients ask for
 
 
 def wants_html() -> bool:
@@ -117,10 +118,10 @@ def robot_page(store: Store, name: str) -> Response | str:
     if source:
         corrected, report = review.apply(*source, store.corrections(name))
         body = body_view.rows(tree, corrected, report)
-        corrected_comps = {f"{entry.ontology_iri}comp_{escape(c.name)}": c for c in corrected.components}
+        corrected_comps = {component_iri(entry.ontology_iri, c.name): c for c in corrected.components}
         for corr, comp_name in report.applied:
             if isinstance(corr, review.Correction):
-                influenced.setdefault(f"{entry.ontology_iri}comp_{escape(comp_name)}", []).append(corr.to_dict())
+                influenced.setdefault(component_iri(entry.ontology_iri, comp_name), []).append(corr.to_dict())
         stale = [{**c.to_dict(), "reason": why} for c, why in report.stale]
     else:
         stale = []
@@ -153,9 +154,9 @@ def _tree_from_store(store: Store, name: str) -> KinematicTree:
     from urdfkb.pipeline.tree import Edge, Origin
     entry = store.robot(name)
     iri = f"<{entry.robot_iri}>"
-    links = store.query(f"PREFIX core: <https://w3id.org/urdfkb/core#> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "
+    links = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "
                         f"?l core:urdfName ?n }}").as_dicts()
-    joints = store.query(f"PREFIX core: <https://w3id.org/urdfkb/core#> SELECT ?j ?p ?c WHERE {{ {iri} core:hasJoint ?jj . "
+    joints = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?j ?p ?c WHERE {{ {iri} core:hasJoint ?jj . "
                          f"?jj core:urdfName ?j ; core:hasParentLink/core:urdfName ?p ; "
                          f"core:hasChildLink/core:urdfName ?c }}").as_dicts()
     zero = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))

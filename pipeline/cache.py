@@ -5,11 +5,11 @@ import functools
 import hashlib
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import platformdirs
 
+from urdfkb.pipeline.atomic import write_atomically
 from urdfkb.pipeline.components import Abstraction
 
 
@@ -54,7 +54,4 @@ def store(digest: str, abstraction: Abstraction) -> None:
     """Write atomically, so a crash never leaves a half-written entry."""
     folder = results_dir()
     folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
-    with os.fdopen(fd, "w") as out:
-        json.dump(abstraction.to_dict(), out)
-    os.replace(tmp, folder / f"{digest}.json")
+    write_atomically(folder / f"{digest}.json", json.dumps(abstraction.to_dict()).encode())

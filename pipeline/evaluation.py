@@ -34,10 +34,10 @@ import yaml
 from rdflib import RDF, RDFS, URIRef
 
 from urdfkb.pipeline.components import END_EFFECTOR, KINDS, SIDES
+from urdfkb.pipeline.namespaces import CORE
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.tree import KinematicTree
 
-CORE = rdflib.Namespace("https://w3id.org/urdfkb/core#")
 ALL = "all"
 SCOPES = (ALL, *KINDS)
 METRICS = (

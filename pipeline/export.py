@@ -4,16 +4,17 @@ from __future__ import annotations
 import functools
 import io
 import os
-import tempfile
 from typing import BinaryIO
 
 import owlready2
 import rdflib
-from rdflib.namespace import OWL
+from rdflib.namespace import OWL, SOSA
 
+from urdfkb.pipeline.atomic import write_atomically
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.formats import BY_NAME
-from urdfkb.pipeline.ontology import CORE_IRI, CORE_ONTOLOGY_IRI, Vocabulary, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI, CORE_ONTOLOGY_IRI
+from urdfkb.pipeline.ontology import Vocabulary, vocabulary
 
 
 @functools.cache
@@ -41,7 +42,7 @@ def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
     graph.remove((None, OWL.imports, None))
     graph.bind("core", CORE_IRI)
     graph.bind("robot", onto.base_iri)
-    graph.bind("sosa", "http://www.w3.org/ns/sosa/")
+    graph.bind("sosa", SOSA)
     return graph
 
 
@@ -54,18 +55,4 @@ def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, f
     if hasattr(dest, "write"):
         dest.write(data)
         return
-    _write_atomically(os.fspath(dest), data)
-
-
-def _write_atomically(path: str, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".urdfkb-", suffix=".part")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    write_atomically(dest, data, mode=0o644)

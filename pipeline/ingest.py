@@ -20,12 +20,11 @@ import defusedxml.ElementTree as DET
 import yourdfpy
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
+from urdfkb.limits import MAX_BYTES, MAX_LINKS
 from urdfkb.pipeline import evidence
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
 
-DEFAULT_MAX_BYTES = 10_000_000
-DEFAULT_MAX_LINKS = 5_000  # the largest real robots have a few hundred links
 MAX_DEPTH = 100  # real URDFs nest under 10 levels
 
 
@@ -60,8 +59,8 @@ _SHAPES = {
 }
 
 
-def load_urdf(source: str | os.PathLike | bytes, *, max_bytes: int = DEFAULT_MAX_BYTES,
-              max_links: int = DEFAULT_MAX_LINKS) -> KinematicTree:
+def load_urdf(source: str | os.PathLike | bytes, *, max_bytes: int = MAX_BYTES,
+              max_links: int = MAX_LINKS) -> KinematicTree:
     """Read a URDF (bytes = the document, str/PathLike = a file path) into its kinematic tree.
 
     Raises URDFError for oversize, hostile, malformed or structurally invalid input, and for

@@ -19,10 +19,8 @@ import rdflib
 from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS
 
 from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.namespaces import CORE, CORE_IRI, CORE_ONTOLOGY_IRI
 
-CORE_IRI = "https://w3id.org/urdfkb/core#"
-CORE_ONTOLOGY_IRI = CORE_IRI[:-1]
-CORE = rdflib.Namespace(CORE_IRI)
 _LOADED_MARK = CORE_IRI + "ontologyVersion"
 FINGER_CHAIN_ROLES = ("link", "tip", "carrier")  # the values core:fingerChainRole may take
 

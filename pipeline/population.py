@@ -1,13 +1,10 @@
 """Populate one robot as its own OWL ontology: structure from the tree, components from an abstraction.
 
-Individual IRIs in `robot_iri(name)`: `robot`, `link_<l>`, `joint_<j>`, `comp_<c>`, `sub_<c>.<l>`, `body_<b>`, where
-each name is escaped: every byte outside ASCII letters, digits, '-', '_' and '~' is percent-encoded
-(so '.' is free as a separator), which makes any URDF name a valid IRI and keeps distinct names distinct.
+The ontology and its individuals are named by pipeline.namespaces (`robot_iri(name)`, `link_<l>`, `comp_<c>`...).
 """
 from __future__ import annotations
 
 import math
-import string
 from datetime import datetime, timezone
 
 import owlready2
@@ -15,10 +12,10 @@ import owlready2
 from urdfkb import __version__
 from urdfkb.pipeline.components import SIDES, Abstraction, BodyPart, Component
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, load_core, vocabulary
+from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, body_part_local, component_local, finger_chain_local, joint_local,
+                                        link_local, robot_iri, subcomponent_local)
+from urdfkb.pipeline.ontology import Vocabulary, load_core, vocabulary
 
-ROBOT_BASE = "https://w3id.org/urdfkb/robot/"
-_SAFE = frozenset((string.ascii_letters + string.digits + "-_~").encode())
 # Provenance keys the pipeline writes (oracle, runner) -> core annotation properties.
 PROVENANCE_ALIASES = {
     "model": "abstractionModel",
@@ -40,18 +37,6 @@ def stamp(tree) -> dict[str, str]:
     if tree.source_sha256:
         facts["urdfSha256"] = tree.source_sha256
     return facts
-
-
-def escape(name: str) -> str:
-    """Percent-encode the UTF-8 bytes of `name` outside [A-Za-z0-9_~-]; injective."""
-    return "".join(chr(b) if b in _SAFE else f"%{b:02X}" for b in name.encode("utf-8", "surrogatepass"))
-
-
-def robot_iri(robot_name: str) -> str:
-    """Namespace (ending in '#') of the robot's own ontology."""
-    if not robot_name:
-        raise OntologyError("robot name is empty")
-    return f"{ROBOT_BASE}{escape(robot_name)}#"
 
 
 def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abstraction | None = None,
@@ -76,7 +61,7 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
     load_core(world, vocab)
     onto = _fresh_ontology(world, robot_iri(robot_name))
     with onto:
-        robot = _new(world, onto, "Robot", "robot", robot_name)
+        robot = _new(world, onto, "Robot", ROBOT, robot_name)
         _set(world, "urdfName", robot, tree.robot_name)
         links, joints = _add_structure(world, onto, robot, tree, vocab)
         parts = _add_body(world, onto, robot, body, links, joints)
@@ -190,12 +175,12 @@ def _set(world, prop: str, subject, value) -> None:
 def _add_structure(world, onto, robot, tree, vocab: Vocabulary) -> tuple[dict, dict]:
     links = {}
     for name in tree.links:
-        link = links[name] = _new(world, onto, "Link", "link_" + escape(name), name)
+        link = links[name] = _new(world, onto, "Link", link_local(name), name)
         _set(world, "urdfName", link, name)
         _set(world, "hasLink", robot, link)
     joints = {}
     for edge in tree.edges:
-        joint = joints[edge.joint] = _new(world, onto, vocab.joint_class(edge.joint_type), "joint_" + escape(edge.joint),
+        joint = joints[edge.joint] = _new(world, onto, vocab.joint_class(edge.joint_type), joint_local(edge.joint),
                                           edge.joint)
         _set(world, "urdfName", joint, edge.joint)
         _set(world, "hasParentLink", joint, links[edge.parent])
@@ -225,7 +210,7 @@ def _add_body(world, onto, robot, body: tuple[BodyPart, ...], links: dict, joint
     """Body parts: `body_<b>` individuals under the robot (or their parent part), with their joints and links."""
     parts = {}
     for part in body:
-        ind = parts[part.name] = _new(world, onto, part.cls, "body_" + escape(part.name), part.name)
+        ind = parts[part.name] = _new(world, onto, part.cls, body_part_local(part.name), part.name)
         _set(world, "confidence", ind, _decimal(part.confidence))
         if part.root is not None:
             _set(world, "isMountedOn", ind, links[part.root])
@@ -241,8 +226,7 @@ def _add_body(world, onto, robot, body: tuple[BodyPart, ...], links: dict, joint
 
 
 def _add_component(world, onto, robot, comp: Component, links: dict, joints: dict, parts: dict):
-    local = escape(comp.name)
-    ind = _new(world, onto, comp.cls, "comp_" + local, comp.name)
+    ind = _new(world, onto, comp.cls, component_local(comp.name), comp.name)
     _set(world, "confidence", ind, _decimal(comp.confidence))
     _set(world, "isMountedOn", ind, links[comp.root])
     _set(world, "hasComponent", robot, ind)
@@ -253,7 +237,7 @@ def _add_component(world, onto, robot, comp: Component, links: dict, joints: dic
     if comp.side is not None:
         _set(world, "side", ind, comp.side)
     for sub in comp.subcomponents:
-        part = _new(world, onto, sub.cls, f"sub_{local}.{escape(sub.link)}", sub.link)
+        part = _new(world, onto, sub.cls, subcomponent_local(comp.name, sub.link), sub.link)
         _set(world, "hasLink", part, links[sub.link])
         _set(world, "confidence", part, _decimal(sub.confidence))
         _set(world, "hasComponent", ind, part)
@@ -265,7 +249,7 @@ def _add_fingers(world, onto, owner, comp: Component, joints: dict) -> None:
     chains = {}
     for finger in comp.fingers:
         chain = chains[finger.name] = _new(world, onto, finger.chain_class,
-                                           f"finger_{escape(comp.name)}.{escape(finger.name)}", finger.name)
+                                           finger_chain_local(comp.name, finger.name), finger.name)
         if finger.thumb:
             chain.is_a.append(world[CORE_IRI + "ThumbChain"])
         _set(world, "hasDriveJoint", chain, joints[finger.drive])

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import owlready2
 
 from urdfkb.pipeline import components
-from urdfkb.pipeline.ontology import CORE_IRI, load_core, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI
+from urdfkb.pipeline.ontology import load_core, vocabulary
 from urdfkb.pipeline.structure import ToolStructure
 
 log = logging.getLogger(__name__)

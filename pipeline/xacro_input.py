@@ -20,9 +20,10 @@ import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from urdfkb.limits import MAX_BYTES, MAX_LINKS
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.ingest import DEFAULT_MAX_BYTES, DEFAULT_MAX_LINKS, load_urdf
+from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.tree import KinematicTree
 
 WORKER = Path(__file__).with_name("xacro_worker.py")
@@ -71,7 +72,7 @@ def parse_package_paths(items: Iterable[str]) -> dict[str, Path]:
 
 def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
            args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-           max_bytes: int = DEFAULT_MAX_BYTES, timeout: float = TIMEOUT, confined: bool = False) -> bytes:
+           max_bytes: int = MAX_BYTES, timeout: float = TIMEOUT, confined: bool = False) -> bytes:
     """The URDF that xacro document `data` (called `name`) expands to.
 
     Includes, `$(find NAME)` and `package://NAME/` resolve inside `main_dir` (None for uploads:
@@ -122,7 +123,7 @@ def _tail(stderr: bytes) -> str:
 
 def load_description(source: str | os.PathLike | bytes, *, filename: str | None = None,
                      args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-                     max_bytes: int = DEFAULT_MAX_BYTES, max_links: int = DEFAULT_MAX_LINKS,
+                     max_bytes: int = MAX_BYTES, max_links: int = MAX_LINKS,
                      trust_folder: bool = True, confined: bool = False) -> KinematicTree:
     """A URDF or xacro file (path) or document (bytes) as a checked tree.
 

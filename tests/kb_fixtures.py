@@ -209,9 +209,9 @@ def both_engines(store, robot: str, name: str, args: dict) -> tuple[list[str], l
     import rdflib
 
     from urdfkb.kb_server.queries import load_queries
-    from urdfkb.pipeline.population import robot_iri
+    from urdfkb.pipeline.namespaces import ROBOT, robot_iri
 
-    text = load_queries()[name].bind(robot_iri(robot) + "robot", args)
+    text = load_queries()[name].bind(robot_iri(robot) + ROBOT, args)
     answer = store.query(text)
     # rdflib still tells "x" from "x"^^xsd:string (RDF 1.1 makes them one term): give it plain literals
     export = store.export(robot, "nt").replace(b"^^<http://www.w3.org/2001/XMLSchema#string>", b"")

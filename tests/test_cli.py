@@ -95,6 +95,13 @@ def test_console_script_help_lists_every_command():
         assert option in sub
 
 
+
+def test_query_offers_every_results_format_the_server_answers_in():
+    from urdfkb.kb_server.cli import build_parser
+    from urdfkb.pipeline.formats import RESULTS_FORMATS
+    for fmt in ("table", *(f.name for f in RESULTS_FORMATS)):
+        assert build_parser().parse_args(["query", "cameras", "--robot", "pr2", "--format", fmt]).format == fmt
+
 def test_a_failing_model_backend_is_a_clear_error_and_writes_nothing(tmp_path, capsys, monkeypatch):
     import socket
     monkeypatch.setenv("URDFKB_CACHE", str(tmp_path / "cache"))

@@ -6,8 +6,9 @@ from pathlib import Path
 import pytest
 import yourdfpy
 
+from urdfkb.limits import MAX_BYTES
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.ingest import DEFAULT_MAX_BYTES, load_urdf
+from urdfkb.pipeline.ingest import load_urdf
 
 GOOD = b"""<?xml version="1.0"?>
 <!-- xacro leftovers: <xacro:property name="x" value="1"/> ${x} -->
@@ -148,7 +149,7 @@ def test_link_count_limit_is_generous_for_real_robots():
 def test_too_many_links_are_refused_before_any_per_element_work():
     """50,000 links (5 MB, under the byte limit) would hold the store for minutes."""
     document = star(50_000)
-    assert len(document) < DEFAULT_MAX_BYTES
+    assert len(document) < MAX_BYTES
     error = refused(document, "too many links: 50000, over the limit of 5000")
     assert error.element == "robot"
     refused(star(101), "too many links: 101, over the limit of 100", max_links=100)

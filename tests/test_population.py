@@ -10,8 +10,9 @@ import rdflib
 from urdfkb.pipeline.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
-from urdfkb.pipeline.population import build_robot, escape, robot_iri
+from urdfkb.pipeline.namespaces import CORE_IRI, escape, robot_iri
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
 
 CORE = rdflib.Namespace(CORE_IRI)

@@ -120,3 +120,63 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     worker.start()
     worker.join(60)
     assert worker.exitcode == 0
+
+
+def test_an_update_applies_to_the_state_it_read(store, trees, monkeypatch):
+    """A populate that lands between an update's evaluation (which holds no lock) and its transaction
+    makes the update evaluate again: what it stores is computed from the robot as it is now."""
+    store.replace_robot("pr2", trees["pr2"], PR2)
+    real, evaluated = store.index.update, []
+
+    def update_then_populate(text, timeout):
+        changes = real(text, timeout)
+        evaluated.append(text)
+        if len(evaluated) == 1:
+            store.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
+        return changes
+
+    monkeypatch.setattr(store.index, "update", update_then_populate)
+    store.update("""PREFIX core: <https://w3id.org/urdfkb/core#>
+INSERT { GRAPH <urn:x:counts> { <urn:x:pr2> <urn:x:components> ?n } }
+WHERE { SELECT (COUNT(?c) AS ?n) WHERE { GRAPH ?g { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c } } }""")
+    assert len(evaluated) == 2
+    assert store.query("SELECT ?n WHERE { GRAPH <urn:x:counts> { ?r ?p ?n } }").as_dicts() == [{"n": "2"}]
+
+
+@pytest.mark.slow
+def test_an_update_waiting_for_a_worker_holds_up_no_other_store_operation(tmp_path, trees):
+    s = Store(tmp_path / "kb.sqlite3", workers=1)
+    s.replace_robot("pr2", trees["pr2"], PR2)
+    s.replace_robot("panda", trees["panda"], None)
+    cross = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"
+
+    def busy():
+        with pytest.raises(QueryTimeout):
+            s.query(cross, timeout=3)
+
+    query = threading.Thread(target=busy)
+    query.start()
+    time.sleep(0.5)  # the query holds the only worker until its deadline
+    update = threading.Thread(target=s.update, args=("INSERT DATA { <urn:x:a> <urn:x:b> <urn:x:c> }", 30))
+    update.start()
+    time.sleep(0.5)  # the update waits for the worker
+    started = time.monotonic()
+    assert s.lock.acquire(timeout=1)
+    s.lock.release()
+    assert s.delete_robot("panda").name == "panda"  # a write goes through meanwhile
+    assert time.monotonic() - started < 2 and query.is_alive() and update.is_alive()
+    query.join(30)
+    update.join(30)
+    assert s.query("ASK { <urn:x:a> <urn:x:b> <urn:x:c> }").document["boolean"] is True
+    assert [e.name for e in s.robots()] == ["pr2"]
+    s.close()
+
+
+def test_the_robot_list_never_waits_for_a_write(store, trees):
+    store.replace_robot("pr2", trees["pr2"], PR2)
+    seen = []
+    with store.lock:  # as a populate's transaction holds it
+        reader = threading.Thread(target=lambda: seen.extend([[e.name for e in store.robots()], store.robot("pr2").name]))
+        reader.start()
+        reader.join(5)
+    assert seen == [["pr2"], "pr2"]

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from urdfkb.pipeline.atomic import write_atomically
 from urdfkb.pipeline.cache import cache_root
 from urdfkb.pipeline.errors import BackendError
 
@@ -118,10 +119,7 @@ def model_sha256(path: str | os.PathLike) -> str:
         pass
     digest = _sha256(path)
     record.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=record.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as out:
-        out.write(digest + "\n")
-    os.replace(tmp, record)
+    write_atomically(record, (digest + "\n").encode())
     return digest
 
 

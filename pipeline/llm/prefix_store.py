@@ -14,11 +14,11 @@ import json
 import logging
 import os
 import struct
-import tempfile
 import time
 from pathlib import Path
 from typing import Sequence
 
+from urdfkb.pipeline.atomic import write_atomically
 from urdfkb.pipeline.cache import cache_root
 
 log = logging.getLogger(__name__)
@@ -119,15 +119,7 @@ class PrefixStore:
         target = self.path(tokens, split)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=self.directory, prefix=".", suffix=".tmp")
-            try:
-                with os.fdopen(fd, "wb") as out:
-                    out.write(header)
-                    out.write(payload)
-                os.replace(tmp, target)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
+            write_atomically(target, header, payload, sync=False)  # a torn file fails its checksum on load
         except OSError as exc:
             log.warning("urdfkb: cannot write cached prompt state to %s: %s", self.directory, exc)
             return

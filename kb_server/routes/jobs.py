@@ -1,0 +1,109 @@
+"""Populate jobs: POST /populate (a URDF or xacro upload) and GET /jobs/<id> (its state, optionally waited on)."""
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+from flask import Blueprint, jsonify, request
+
+from urdfkb.kb_server.replies import error
+from urdfkb.kb_server.security import Refused
+from urdfkb.kb_server.services import Services, services
+from urdfkb.kb_server.store import RobotNameError, check_robot_name
+from urdfkb.kb_server.ui import accepted
+from urdfkb.limits import JOB_WAIT
+from urdfkb.pipeline import sandbox
+from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.runner import Settings
+from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args
+
+bp = Blueprint("jobs", __name__)
+
+
+@bp.post("/populate")
+def populate():
+    kb = services()
+    if kb.token and not kb.authorized():
+        return error(403, "populating needs the server's token (Authorization: Bearer ...)")
+    if request.mimetype == "multipart/form-data":
+        upload = request.files.get("urdf") or next(iter(request.files.values()), None)
+        if upload is None:
+            return error(400, "multipart request without a file (send the URDF as field 'urdf')")
+        data, fields, filename = upload.read(), request.form.to_dict(), upload.filename
+    else:
+        data, fields, filename = request.get_data(), {}, None
+    xacro_args = request.args.getlist("xacro_arg") + request.form.getlist("xacro_arg")
+    fields = {**request.args.to_dict(), **fields}
+    fields.pop("xacro_arg", None)
+    xacro_args += fields.pop("xacro_args", "").split()
+    name = fields.pop("name", None)
+    filename = fields.pop("filename", None) or filename  # for a raw body: e.g. ?filename=arm.urdf.xacro
+    if not data:
+        return error(400, "empty body: send the URDF as the raw body or as multipart field 'urdf'")
+    try:
+        settings = kb.policy.check_settings(Settings.from_mapping(fields))
+    except ValueError as e:
+        return error(400, f"bad pipeline settings: {e}")
+    except Refused as e:
+        return error(e.status, str(e))
+    try:
+        if name is not None:
+            name = check_robot_name(name)
+        args = parse_args(xacro_args)
+        if is_xacro(filename, data):
+            return accepted(kb.jobs.submit(_xacro_loader(kb, data, filename, args), name, settings))
+        tree = load_description(data, filename=filename, args=args, max_bytes=kb.max_body, max_links=kb.max_links)
+        return accepted(kb.jobs.submit(tree, check_robot_name(name or tree.robot_name), settings))
+    except XacroError as e:
+        return error(400, f"cannot expand the xacro: {e}")
+    except URDFError as e:
+        return error(400, f"not a valid URDF: {e}")
+    except RobotNameError as e:
+        return error(400, f"{e}: pass ?name=...")
+    except Refused as e:
+        return error(e.status, str(e))
+
+
+def _xacro_loader(kb: Services, data: bytes, filename: str | None,
+                  args: Mapping[str, str]) -> Callable[[], KinematicTree]:
+    """The job's first step for a xacro upload: expansion, confined by pipeline.sandbox unless the
+    operator trusts xacro. Refused at once (403) where the machine offers no sandbox."""
+    confined = not kb.trust_xacro
+    if confined and (reason := sandbox.unavailable()):
+        raise Refused(403, f"xacro input is disabled on this server: xacro expressions are Python code, and "
+                         f"this machine cannot run them confined ({reason}); send the expanded URDF, or the "
+                         "operator can start the server with --trust-xacro")
+    packages, max_body, max_links = kb.package_paths, kb.max_body, kb.max_links
+
+    def load() -> KinematicTree:
+        try:
+            return load_description(data, filename=filename, args=args, packages=packages,
+                                    max_bytes=max_body, max_links=max_links, confined=confined)
+        except XacroError as e:
+            raise XacroError(f"cannot expand the xacro: {e}") from None
+    return load
+
+
+@bp.get("/jobs/<job_id>")
+def job_status(job_id: str):
+    kb = services()
+    job = kb.jobs.get(job_id)
+    if job is None:
+        return error(404, f"no job {job_id[:64]!r}: {kb.jobs.retention}")
+    if request.args.get("wait") not in (None, "", "0", "false"):
+        try:
+            timeout = float(request.args.get("timeout", JOB_WAIT))
+        except ValueError:
+            timeout = -1.0
+        if not 0 <= timeout:  # also NaN
+            return error(400, f"timeout must be a number of seconds (at most {JOB_WAIT:g} are waited)")
+        timeout = min(timeout, JOB_WAIT)
+        if not kb.waiters.acquire(blocking=False):
+            resp = error(429, f"{kb.max_waiters} clients are already waiting on jobs: poll without wait=1, or retry")
+            resp.headers["Retry-After"] = "1"
+            return resp
+        try:
+            job.wait(timeout)
+        finally:
+            kb.waiters.release()
+    return jsonify(job.to_dict())

@@ -1,0 +1,29 @@
+"""Every default size and time limit, in one place: the library's, the `urdfkb` command's and the server's.
+
+Options override them (README, Security); this module only names the defaults, so that the command
+line, the server and the library cannot drift apart.
+"""
+
+# Input
+MAX_BYTES = 10_000_000  # bytes of a URDF or xacro document, and of a request body: --max-bytes (populate), 413
+MAX_LINKS = 5_000  # links or joints of one robot (the largest real robots have a few hundred): --max-links
+
+# SPARQL
+QUERY_TIMEOUT = 10.0  # seconds a query or update may run (a worker past it is killed): 503
+QUERY_WORKERS = 2  # worker processes answering SPARQL, each with a replica of the index
+MAX_RESULT_ROWS = 100_000  # rows (or triples) of one query answer: --max-result-rows
+MAX_RESULT_BYTES = 32 * 1024 * 1024  # bytes of one serialised query answer: --max-result-bytes
+
+# HTTP
+THREADS = 16  # waitress threads answering requests
+MAX_HEADER = 32_768  # bytes of a request's headers: 431
+MAX_CONNECTIONS = 1_000  # open client connections; more wait in the listen backlog: --max-connections
+CHANNEL_TIMEOUT = 30  # seconds a connection may stay idle (nothing received or sent): --channel-timeout
+JOB_WAIT = 30.0  # seconds GET /jobs/<id>?wait=1 waits at most (also its default)
+REMOTE_TIMEOUT = 30.0  # seconds one request to the --remote-store endpoint may take
+
+
+def job_waiters(threads: int) -> int:
+    """Clients that may wait on a job at once: a quarter of the server threads (at least one), so waits
+    never hold every thread."""
+    return max(1, threads // 4)
