@@ -6,7 +6,7 @@ from urdfkb.kb_server import body_corrections as body
 from urdfkb.kb_server import palette, tree_svg
 from urdfkb.kb_server.corrections import BodyCorrection, Report
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.population import escape
+from urdfkb.pipeline.namespaces import body_part_local, component_local
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -15,13 +15,13 @@ def rows(tree: KinematicTree, corrected: Abstraction, report: Report) -> list[di
     that changed it, and what a reviewer may choose: its class, the parts it may merge with, where to split it."""
     located: dict[str | None, list[dict]] = {}
     for c in corrected.components:
-        located.setdefault(c.located_on, []).append({"name": c.name, "class": c.cls, "key": f"comp_{escape(c.name)}"})
+        located.setdefault(c.located_on, []).append({"name": c.name, "class": c.cls, "key": component_local(c.name)})
     reviews: dict[str, list[dict]] = {}
     for corr, name in report.applied:
         if isinstance(corr, BodyCorrection):
             reviews.setdefault(name, []).append(corr.to_dict())
     parts = list(corrected.body)
-    return [{"name": p.name, "key": f"body_{escape(p.name)}", "class": p.cls, "side": p.side, "mount": p.root,
+    return [{"name": p.name, "key": body_part_local(p.name), "class": p.cls, "side": p.side, "mount": p.root,
              "joints": p.joints, "links": p.links, "parent": p.parent, "swatch": palette.body_swatch(p.cls),
              "located": located.get(p.name, []), "reviews": reviews.get(p.name, []), "classes": body.classes(),
              "touching": [t.name for t in body.touching(parts, p)], "splits": body.split_points(tree, p)}
