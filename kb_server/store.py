@@ -256,7 +256,7 @@ class Store:
             review.check(tree, current, correction)
             self._write_corrections(name, existing + [correction])
             entry = self._build(name, tree, model, touched)
-            broken = violations(robot_graph(self._ontology(entry), self._corrections_graph(name)))
+            broken = violations(robot_graph(self._ontology(entry.ontology_iri), self._corrections_graph(name)))
             if broken:  # the transaction rolls back: nothing stored changes
                 raise review.CorrectionError("the robot this correction makes breaks the SHACL shapes, so it was not "
                                              f"stored: {'; '.join(broken)}")
