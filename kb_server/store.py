@@ -37,7 +37,7 @@ from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
 from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.errors import ShapeError, UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph
 from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI
@@ -193,7 +193,9 @@ class Store:
             return self._build(name, tree, model, touched)
 
     def _build(self, name: str, tree, model: Abstraction, touched: set[str]) -> RobotEntry:
-        """(Inside _writing) the robot graph from the model's answer and the stored corrections."""
+        """(Inside _writing) the robot graph from the model's answer and the stored corrections, checked
+        against the SHACL shapes as the command line checks what it writes: ShapeError (the transaction
+        rolls back) if it breaks them."""
         corrected, report = review.apply(tree, model, self._corrections(name))
         onto = build_robot(self.world, tree, name, corrected)
         touched.add(onto.base_iri)
@@ -201,6 +203,9 @@ class Store:
         influenced_by = self.world._abbreviate(str(PROV.wasInfluencedBy))
         for comp, corr in review.influences(onto.base_iri, name, report):
             onto._add_obj_triple_spo(self.world._abbreviate(comp), influenced_by, self.world._abbreviate(corr))
+        broken = violations(robot_graph(onto, self._corrections_graph(name)))
+        if broken:
+            raise ShapeError(f"robot {name!r} breaks the SHACL shapes, so it was not stored: {'; '.join(broken)}", broken)
         robot_cls = self.world[CORE_IRI + "Robot"]
         (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
         entry = RobotEntry(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -255,12 +260,11 @@ class Store:
             correction = review.resolve(current, correction)
             review.check(tree, current, correction)
             self._write_corrections(name, existing + [correction])
-            entry = self._build(name, tree, model, touched)
-            broken = violations(robot_graph(self._ontology(entry.ontology_iri), self._corrections_graph(name)))
-            if broken:  # the transaction rolls back: nothing stored changes
+            try:
+                return self._build(name, tree, model, touched)
+            except ShapeError as e:  # the transaction rolls back: nothing stored changes
                 raise review.CorrectionError("the robot this correction makes breaks the SHACL shapes, so it was not "
-                                             f"stored: {'; '.join(broken)}")
-            return entry
+                                             f"stored: {'; '.join(e.violations)}") from None
 
     def delete_robot(self, name: str) -> RobotEntry | None:
         """Remove robot `name`; returns what was removed, None if there was no such robot."""

@@ -23,3 +23,11 @@ class BackendError(UrdfkbError):
 
 class CorrectionError(UrdfkbError, ValueError):
     """A reviewer's correction that does not fit the robot (or is malformed); the message says why."""
+
+
+class ShapeError(UrdfkbError):
+    """A robot that breaks the SHACL shapes; `violations` lists them, one line each (pipeline.shacl)."""
+
+    def __init__(self, message: str, violations: list[str]):
+        self.violations = violations
+        super().__init__(message)

@@ -13,6 +13,7 @@ from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.errors import ShapeError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.shacl import violations
 
@@ -80,6 +81,18 @@ def test_a_correction_that_breaks_the_shapes_is_refused_and_changes_nothing(stor
         correct(store, action="reclassify", links=["l_forearm_cam_frame"], **{"class": "MonocularCamera"})
     assert store.export("pr2", "nt") == before and store.corrections("pr2") == stored
     assert components(store)["reviewed_l_forearm_cam_frame"]["class"] == "VisionSensor"
+
+
+def test_a_populate_that_breaks_the_shapes_is_refused_and_the_stored_robot_stays(store, pr2_tree):
+    """Every stored robot passes the shapes: a populate whose answer breaks them (a camera with no optical
+    frame) is refused as the command line refuses to write it, and the robot stored before is kept."""
+    before = store.export("pr2", "nt")
+    camera = next(c for c in PR2.components if c.cls.endswith("Camera"))
+    broken = replace(camera, subcomponents=tuple(replace(s, cls="SensorHousing") for s in camera.subcomponents))
+    bad = Abstraction(tuple(broken if c is camera else c for c in PR2.components), PR2.provenance, PR2.body)
+    with pytest.raises(ShapeError, match="breaks the SHACL shapes, so it was not stored: CameraShape"):
+        store.replace_robot("pr2", pr2_tree, bad)
+    assert store.export("pr2", "nt") == before
 
 
 def test_a_correction_the_shapes_accept_is_stored_and_the_robot_conforms(store):
