@@ -8,14 +8,18 @@
 - Two chains *oppose* when their tips move towards (or away from) each other along the line joining
   them as the tool closes, or, where the tips coincide, in opposite directions. The line is taken
   in the plane of the two motions: an offset across both (fingers of unequal length on a radial
-  gripper, a thumb beside the row of fingers) neither brings the tips together nor keeps them apart. Motions are taken
-  with every joint halfway through its range (a hand written closed shows no opposition), the drive
-  moving positively and each joint of the chain coupled to it by <mimic> moving with it; a drive
-  that itself follows another joint moves as that joint moves positively (a jaw mimicking the other
-  with multiplier -1 and the same axis turns the other way). A driven
+  gripper, a thumb beside the row of fingers) neither brings the tips together nor keeps them apart.
+  A chain closes by its *closing joint*: of the joints that move on their own (the drive, and any
+  other joint following no <mimic>), each moving positively with the joints coupled to it by
+  <mimic>, the one whose motion closes most directly on another chain's tip; a joint that only
+  spreads a finger sideways or turns a thumb about its own length does not (a drive that itself
+  follows another joint moves as that joint moves positively: a jaw mimicking the other with
+  multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
+  as written (open, on most hands), or, where zero lies outside some joint's range, every joint
+  halfway through its range. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, or that hangs on a planar or
   floating joint, is a *mechanism* (a motor, a lead screw), not a finger.
-- Two chains *move together* when their tips' directions of motion are within 60 degrees
+- Two chains *move together* when their tips' closing motions are within 60 degrees
   (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
 - The *mount* is the link the tool is bolted to: the fork's parent when the fork is rigidly fixed
@@ -65,6 +69,10 @@ class ToolStructure:
     fingers: tuple[FingerChain, ...]
     mechanisms: tuple[str, ...]  # first links of movable subtrees that are not fingers
 
+    def grasps(self) -> bool:
+        """Some of its fingers close against each other."""
+        return any(f.opposes for f in self.fingers)
+
     def describe(self) -> str:
         """The facts in a short phrase for the model's questions."""
         if not self.fingers:
@@ -101,22 +109,18 @@ def mount_of(tree: KinematicTree, fork: str) -> str:
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms."""
     fork = fork_of(tree, leaves)
-    moving: dict[str, tuple[tuple[str, ...], Edge, Motion | None]] = {}
-    pose = _configuration(tree)
+    chains: dict[str, tuple[tuple[str, ...], Edge, str]] = {}
     for child in _moving_children(tree, fork):
         links = (child, *tree.descendants(child))
         tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), _norm(tree.position_in(link, fork))))
-        drive = tree.parent_edge(child)
-        motion = _tip_motion(tree, fork, drive, tip, pose) if drive.joint_type in MOTIONS else None
-        moving[child] = (links, drive, motion)
-    opposes = {
-        a: tuple(b for b in moving if b != a and _opposed(moving[a][2], moving[b][2]))
-        for a in moving
-    }
-    finger_names = [a for a in moving if opposes[a]]
-    alongside = {a: tuple(b for b in finger_names if b != a and _alongside(moving[a][2], moving[b][2]))
-                 for a in finger_names}
-    joint_owner = {tree.parent_edge(link).joint: a for a in finger_names for link in moving[a][0]}
+        chains[child] = (links, tree.parent_edge(child), tip)
+    pose = _configuration(tree)
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose) for a, (_, drive, tip) in chains.items()}
+    closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
+    opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
+    finger_names = [a for a in chains if opposes[a]]
+    alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
+    joint_owner = {tree.parent_edge(link).joint: a for a in finger_names for link in chains[a][0]}
     fingers = tuple(
         FingerChain(
             name=a,
@@ -129,9 +133,25 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
             moves_with=alongside[a],
         )
         for a in finger_names
-        for links, drive, _ in [moving[a]]
+        for links, drive, _ in [chains[a]]
     )
-    return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in moving if a not in finger_names))
+    return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names))
+
+
+def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
+    """A chain's closing motion: of its joints' motions, the one that closes most directly on some
+    other chain's tip (an abduction or a turn about the finger's length rarely does), else its drive's."""
+    rated = [(max((_approach(m, o) for o in others), default=0.0), -i, m) for i, m in enumerate(own)]
+    return max(rated, key=lambda r: r[:2])[2] if rated else None
+
+
+def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float]) -> list[Motion]:
+    """The tip's motion under each joint between the drive and the tip that moves on its own (the drive
+    first, then every joint following no <mimic>, each with the joints coupled to it), where the tip
+    moves at all."""
+    path = tree.chain_to_root(tip)
+    below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.parent_edge(link)).independent]
+    return [m for e in [drive, *below] if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose))]
 
 
 def _moving_children(tree: KinematicTree, fork: str) -> list[str]:
@@ -168,12 +188,14 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
 
 
 def _configuration(tree: KinematicTree) -> dict[str, float]:
-    """Every joint halfway through its range (0 without limits), mimic joints following their joint."""
-    middle = {e.joint: (sum(e.limits) / 2 if e.limits else 0.0) for e in tree.edges if e.movable}
-    return {
-        e.joint: e.mimic_multiplier * middle.get(e.mimic, 0.0) if e.mimic is not None else middle.get(e.joint, 0.0)
-        for e in tree.edges if e.movable
-    }
+    """Every joint at zero where zero is within every joint's range (fingers as written, open on most
+    hands), else every joint halfway through its range (0 without limits); mimic joints following their
+    joint."""
+    movable = [e for e in tree.edges if e.movable]
+    at_zero = all(e.limits is None or e.limits[0] <= 0.0 <= e.limits[1] for e in movable)
+    chosen = {e.joint: (0.0 if at_zero or not e.limits else sum(e.limits) / 2) for e in movable}
+    return {e.joint: e.mimic_multiplier * chosen.get(e.mimic, 0.0) if e.mimic is not None else chosen[e.joint]
+            for e in movable}
 
 
 def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose: dict[str, float],
@@ -218,8 +240,14 @@ def _coupling(drive: Edge, edge: Edge) -> float:
 def _opposed(a: Motion | None, b: Motion | None) -> bool:
     """Tips that move towards (or away from) each other along the line joining them; tips that
     coincide, in opposite directions."""
+    return _approach(a, b) > 0
+
+
+def _approach(a: Motion | None, b: Motion | None) -> float:
+    """How directly two opposed tips close on each other: the smaller share of their motions along the
+    line joining them (1 for coinciding tips moving apart), 0 when they do not oppose."""
     if a is None or b is None:
-        return False
+        return 0.0
     (pa, va), (pb, vb) = a, b
     gap = (pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2])
     # an offset across both motions brings no tip nearer: the gap in their plane, or along them
@@ -232,9 +260,10 @@ def _opposed(a: Motion | None, b: Motion | None) -> bool:
         gap = (along * va[0], along * va[1], along * va[2])
     line = _unit(gap)
     if line is None or _norm(gap) < _TOUCHING:
-        return _dot(va, vb) < OPPOSED
+        return 1.0 if _dot(va, vb) < OPPOSED else 0.0
     along_a, along_b = _dot(va, line), _dot(vb, line)
-    return along_a * along_b < 0 and min(abs(along_a), abs(along_b)) >= APPROACH
+    closing = min(abs(along_a), abs(along_b))
+    return closing if along_a * along_b < 0 and closing >= APPROACH else 0.0
 
 
 def _alongside(a: Motion | None, b: Motion | None) -> bool:

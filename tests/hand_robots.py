@@ -1,5 +1,8 @@
 """Random but plausible arms ending in a gripper or a hand, with the truth of what was built.
 
+`build(seed, alone=True)` builds the gripper or hand on its own (no arm: the flange is the URDF's
+root), as hand and gripper descriptions are often published.
+
 Names are meaningless (a seeded random stem per link and joint), so whatever a test asserts comes
 from structure alone. An arm of 4-7 revolute joints ends in one of:
 - a *gripper*: two jaws, sliding (prismatic) or pivoting (revolute), the second jaw sometimes a
@@ -61,13 +64,14 @@ class Built:
     notes: list[str] = field(default_factory=list)
 
 
-def build(seed: int) -> Built:
-    """One random arm and end-effector; the same seed builds the same robot."""
+def build(seed: int, alone: bool = False) -> Built:
+    """One random arm and end-effector (or, `alone`, the end-effector only); the same seed builds the
+    same robot."""
     rng = random.Random(seed)
     w = Writer(rng)
     # the arm
     link = w.link()
-    for i in range(rng.randint(4, 7)):
+    for i in range(0 if alone else rng.randint(4, 7)):
         child = w.link()
         w.joint("revolute", link, child, (0.0, 0.0, rng.uniform(0.08, 0.3)),
                 (0.0, 0.0, 1.0) if i % 2 == 0 else (0.0, 1.0, 0.0), (-2.5, 2.5))
@@ -114,7 +118,8 @@ def build(seed: int) -> Built:
             links.append(child)
             parent = child
             xyz = (0.0, 0.0, 0.012) if abduct else (0.0, 0.0, rng.uniform(*lengths))
-        if tips or count == 1:  # a one-joint finger's own frame sits on its axis: its tip frame shows it move
+        if tips or count - (first_axis is not None) == 1:  # a lone flexing joint's own frame sits on its
+            # axis, and a joint turning the chain about its length moves nothing: its tip frame shows it move
             tip = w.link()
             w.joint("fixed", parent, tip, xyz if count else start)
             links.append(tip)

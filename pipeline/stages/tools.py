@@ -3,10 +3,12 @@
 The model's mount choices only group a tool's leaves; the tool itself is then settled from the tree:
 - a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent
   moving joints (a caster on a base), or whose mount carries an arm beside the tool (a cover half-way
-  up an arm), is no tool;
+  up an arm), is no tool; unless nothing moving carries it and its fingers close against each
+  other: a gripper or hand described on its own;
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
   ARM_JOINTS independent moving joints reaching at least ARM_REACH of the fork's distance from the
-  root: an arm, not a finger of four joints) is split at that fork;
+  root, and at least ARM_MIN_REACH from its own first joint: an arm, not a finger of four joints) is
+  split at that fork;
 - the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
   never above the arm's last moving link: links above that mount leave the tool;
 - the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
@@ -29,6 +31,7 @@ from urdfkb.pipeline.stages.verification import Log
 
 ARM_JOINTS = 4  # independent moving joints in series that make an arm, if long enough (ARM_REACH)
 ARM_REACH = 0.5  # share of the distance from the root that a chain of ARM_JOINTS must reach to be an arm
+ARM_MIN_REACH = 0.2  # m from its first joint, and at least this: farther than a wrist with its hand or any finger reaches
 
 
 def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str], bool],
@@ -50,8 +53,9 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
     settled = []
     for leaves, structure, links in done:
         mount = structure.mount
-        if _joints_above(tree, mount) < 2 or any(_carries_arm(tree, child)
-                                                 for child in tree.children(mount) if child not in links):
+        alone = _joints_above(tree, mount) == 0 and structure.grasps()
+        if (_joints_above(tree, mount) < 2 and not alone) or any(
+                _carries_arm(tree, child) for child in tree.children(mount) if child not in links):
             log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
             continue
         tool_leaves = [link for link in tree.links if link in links and tree.is_leaf(link)]
@@ -88,12 +92,15 @@ def _joints_above(tree: KinematicTree, link: str) -> int:
 def _carries_arm(tree: KinematicTree, top: str) -> bool:
     """`top` and what hangs below it make an arm: a serial chain of at least ARM_JOINTS independent
     moving joints that reaches at least ARM_REACH of the distance from the tree's root to `top`'s parent
-    (a finger of four joints, as on many hands, is short beside the arm that carries it)."""
+    (a finger of four joints, as on many hands, is short beside the arm that carries it), and at least
+    ARM_MIN_REACH from `top` (where nothing carries the hand, there is no arm to compare with)."""
     if _serial_joints(tree, top) < ARM_JOINTS:
         return False
     parent = tree.parent_edge(top).parent
-    reach = max(_norm(tree.position_in(link, parent)) for link in (top, *tree.descendants(top)))
-    return reach >= ARM_REACH * _norm(tree.position_in(parent, tree.root))
+    below = (top, *tree.descendants(top))
+    reach = max(_norm(tree.position_in(link, parent)) for link in below)
+    length = max(_norm(tree.position_in(link, top)) for link in below)
+    return reach >= ARM_REACH * _norm(tree.position_in(parent, tree.root)) and length >= ARM_MIN_REACH
 
 
 def _norm(v) -> float:
