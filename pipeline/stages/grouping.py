@@ -5,10 +5,13 @@ name (a URDF identifier, so the answer set is finite and checkable) the part tha
 device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). A beginning that is also a beginning of
 the mount's name ("chest" under "chest_link") names the body part the device sits on, not the device,
 and is not offered. Sub-chains near each other in the
-tree (same mount, or sharing links), with the same device name and pre-classes in the same sensor
-category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and an
-accelerometer on one palm are not) form one device. A sub-chain with no such neighbour is a device
-of its own whatever its name, so it is not asked.
+tree (sharing links, or on the same mount), with the same device name and pre-classes in the same
+sensor category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and
+an accelerometer on one palm are not) form one device. Two sub-chains that share only their mount,
+each with a body of its own (its first link with geometry, the housing), are near only if the two
+housings face the same way and lie within DEVICE_SPAN of each other: housings pointing apart or far apart are separate devices
+whatever their names share, while a stereo pair's two housings look the same way side by side. A sub-chain with no such neighbour is a device of its own whatever its
+name, so it is not asked.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
 at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
 the tool's provisional mount is the deepest mount the model named for any of its chains that carries
@@ -17,6 +20,7 @@ Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -28,6 +32,8 @@ from urdfkb.pipeline.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
+ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
+DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 
 
 @dataclass
@@ -62,8 +68,29 @@ def device_names(chain: SubChain) -> tuple[str, ...]:
     return tuple(p for p in name_prefixes(chain.leaf) if p not in place or p == chain.leaf)
 
 
-def _near(a: SubChain, b: SubChain) -> bool:
-    return a.root == b.root or bool(set(a.links) & set(b.links)) or a.root in b.links or b.root in a.links
+def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    if set(a.links) & set(b.links) or a.root in b.links or b.root in a.links:
+        return True
+    if a.root != b.root:
+        return False
+    housings = _housing(tree, a), _housing(tree, b)
+    return None in housings or _side_by_side(tree, a.root, *housings)
+
+
+def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
+    """The sub-chain's first link with geometry: its body, where it has one."""
+    return next((link for link in chain.links if link in tree.evidence and not tree.evidence[link].is_pure_frame), None)
+
+
+def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
+    """Links `a` and `b`, at the zero pose in their mount's frame, lie within DEVICE_SPAN and face the
+    same way (the same x and z axes)."""
+    def axes(link: str) -> list[tuple[float, ...]]:
+        origin = tree.position_in(link, mount)
+        return [tuple(p - o for p, o in zip(tree.position_in(link, mount, unit), origin))
+                for unit in ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0))]
+    near = math.dist(tree.position_in(a, mount), tree.position_in(b, mount)) <= DEVICE_SPAN
+    return near and all(sum(x * y for x, y in zip(u, v)) >= ALIKE for u, v in zip(axes(a), axes(b)))
 
 
 def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
@@ -78,7 +105,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        could = [[i != j and categories[a.leaf] == categories[b.leaf] and _near(a, b) for j, b in enumerate(chains)]
+        could = [[i != j and categories[a.leaf] == categories[b.leaf] and _near(tree, a, b)
+                  for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         device = _device_names(oracle, chains, [any(row) for row in could], progress)
         same = [[could[i][j] and device[i] == device[j] for j in range(len(chains))] for i in range(len(chains))]

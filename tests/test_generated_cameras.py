@@ -1,0 +1,34 @@
+"""Generated camera heads (tests/camera_robots.py): group merging keeps each housing's frames together
+and separate housings apart, even when the model calls every frame one device (all share a name stem).
+Structure only, over hundreds of seeds: merge is called as the pipeline calls it, every frame mounted
+on the head."""
+from __future__ import annotations
+
+import pytest
+from tests.camera_robots import build
+
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.grouping import merge
+
+SEEDS = range(200)
+
+
+@pytest.mark.slow  # many generated robots
+@pytest.mark.parametrize("seed", SEEDS)
+def test_each_housing_is_one_device_whatever_the_names_share(seed):
+    built = build(seed)
+    tree = load_urdf(built.urdf)
+    frames = [frame for device in built.devices for frame in device]
+    chains = [sub_chain(tree, frame, built.mount) for frame in frames]
+    oracle = Oracle(ScriptedBackend(lambda q: built.stem))  # every frame: the same device
+    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(d) for d in built.devices), built.description
+
+
+def test_the_generator_covers_lone_cameras_several_cameras_and_stereo_pairs():
+    builds = [build(seed) for seed in SEEDS]
+    assert {len(b.devices) for b in builds} >= {1, 2, 3, 4, 5}
+    assert any(len({b.housing[f] for f in d}) == 2 for b in builds for d in b.devices)
