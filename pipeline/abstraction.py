@@ -31,7 +31,7 @@ from urdfkb.pipeline.stages.body import body_pass
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge
 from urdfkb.pipeline.stages.identification import identify
-from urdfkb.pipeline.stages.sensor_check import coupled, drive_parts
+from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
 from urdfkb.pipeline.structure import ToolStructure
@@ -73,6 +73,7 @@ class Abstractor:
         self.oracle, self.tax = oracle, tax
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
+        self.shares: dict[str, float] = {}  # leaf → the share of identification's votes its answer had
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
         self.body: tuple[BodyPart, ...] = ()  # the last run's body parts
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
@@ -97,14 +98,16 @@ class Abstractor:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
         s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
         unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
-        self.claims.update(identify(self.oracle, self.tax, s.tree, unasked, self.progress))
+        for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress).items():
+            self.claims[leaf], self.shares[leaf] = kind, share
 
     def mimic_veto(self, s: PassState) -> None:
         for leaf in coupled(s.tree, s.leaves, self._claimed(s), self.log):
             self.claims[leaf] = NONE
 
     def sensor_check(self, s: PassState) -> None:
-        for leaf in drive_parts(self.oracle, s.tree, s.leaves, self._claimed(s), self.log, self.progress):
+        sensors = {leaf: self.shares[leaf] for leaf in self._claimed(s)}
+        for leaf in not_sensors(self.oracle, s.tree, s.leaves, sensors, self.log, self.progress):
             self.claims[leaf] = NONE
 
     def attachment(self, s: PassState, rigid: bool = False) -> None:

@@ -115,6 +115,22 @@ def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
 
 
 @pytest.mark.reasoner
+def test_a_leaf_both_questions_call_a_sensor_only_by_minority_is_no_sensor(toy):
+    def unsure(identified: float, checked: float):
+        def answer(q):
+            if q.key == "identify:front_scanner":
+                return {"sensor": identified, "end effector": (1 - identified) / 2, "none": (1 - identified) / 2}
+            if q.key == "check:front_scanner":
+                return {"sensor": checked, "emitter": (1 - checked) / 2, "reference frame": (1 - checked) / 2}
+            return perfect(q)
+        return answer
+    assert "Lidar" not in {c.cls for c in abstract(toy, unsure(0.4, 0.45))}
+    # a majority in either question keeps it
+    assert "Lidar" in {c.cls for c in abstract(toy, unsure(0.4, 0.6))}
+    assert "Lidar" in {c.cls for c in abstract(toy, unsure(0.6, 0.4))}
+
+
+@pytest.mark.reasoner
 def test_sampled_voting_reaches_the_same_devices(toy):
     assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
 

@@ -8,12 +8,13 @@ from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.stages.asking import Progress, ask
 
 def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str],
-             progress: Progress | None = None) -> dict[str, str]:
-    """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention)."""
+             progress: Progress | None = None) -> dict[str, tuple[str, float]]:
+    """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention), with
+    the share of the votes the answer had."""
     kinds = tax.subclasses(tax.component)
     choices = [
         kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type)
         for leaf in leaves
     ]
     verdicts = ask(oracle, [c.question for c in choices], "identification", progress)
-    return {leaf: c.meaning.get(v.answer, NONE) for leaf, c, v in zip(leaves, choices, verdicts)}
+    return {leaf: (c.meaning.get(v.answer, NONE), v.confidence) for leaf, c, v in zip(leaves, choices, verdicts)}

@@ -4,10 +4,13 @@
   (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools keep
   every finger chain.
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
-  drive part or reference frame?), unless the file declares a simulator sensor on it. Only "part of
-  a motor or drive" overrules identification: over the ten truth robots it went to motor screws and
-  an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' also took
-  laser scanners and optical frames, so they are traced but change nothing.
+  drive part or reference frame?), unless the file declares a simulator sensor on it. "Part of a
+  motor or drive" overrules identification: over the truth robots it went to motor screws, rotors
+  and an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' alone
+  also took laser scanners and optical frames, so they are traced but change nothing. And a leaf
+  that neither question calls a sensor with a majority of its votes (identification chose 'sensor'
+  only as the largest minority, and the check gives it under half) is not one: the model is unsure
+  twice over, framed two ways.
 """
 from __future__ import annotations
 
@@ -29,17 +32,26 @@ def coupled(tree: KinematicTree, leaves: list[str], sensors: set[str], log: Log)
     return found
 
 
-def drive_parts(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors: set[str], log: Log,
+MAJORITY = 0.5  # a share of the votes above which an answer is the model's majority view
+
+
+def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors: dict[str, float], log: Log,
                 progress: Progress | None = None) -> list[str]:
-    """The leaves among `sensors` with no declared simulator sensor that the check calls a part of a
-    motor or drive."""
+    """The leaves among `sensors` (leaf → share of identification's votes for 'sensor') with no declared
+    simulator sensor that the check calls a part of a motor or drive, or that neither question calls a
+    sensor with a majority."""
     checked = [leaf for leaf in leaves if leaf in sensors and not _declared(tree, leaf)]
     questions = [sensor_check(leaf, named(tree.evidence, leaf), tree.chain_to_root(leaf)[1:]) for leaf in checked]
     found = []
     for leaf, verdict in zip(checked, ask(oracle, questions, "sensor check", progress)):
+        checked_share = verdict.distribution.get("sensor", 0.0)
         if verdict.answer == DRIVE_PART:
             found.append(leaf)
             log(f"not a sensor: {leaf} is a part of a motor or drive ({verdict.confidence:.2f})")
+        elif sensors[leaf] <= MAJORITY and checked_share <= MAJORITY:
+            found.append(leaf)
+            log(f"not a sensor: {leaf} is a sensor for a minority of the votes twice "
+                f"(identification {sensors[leaf]:.2f}, check {checked_share:.2f})")
     return found
 
 
