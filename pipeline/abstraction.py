@@ -27,7 +27,7 @@ from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages import tools
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
-from urdfkb.pipeline.stages.body import body_pass
+from urdfkb.pipeline.stages import body as body_stage
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge
 from urdfkb.pipeline.stages.identification import identify
@@ -62,6 +62,7 @@ class PassState:
     fingers: list[tuple[FingerFact, ...]] | None = None  # each tool's finger chains
     parts: dict[str, Typed] = field(default_factory=dict)  # member link → sub-part class
     found: list[Component] = field(default_factory=list)  # the devices this pass found
+    candidates: list[body_stage.Chain] = field(default_factory=list)  # the body pass's candidate chains
     body: list[BodyPart] = field(default_factory=list)  # the body pass's parts
     done: bool = False  # nothing (more) to abstract: the remaining steps are skipped
 
@@ -220,11 +221,24 @@ class Abstractor:
         ]
         s.components += s.found
 
-    def body_parts(self, s: PassState) -> None:
-        """Body parts from the movable joints no device owns; each component gets its joints and the part it
-        is located on."""
-        body, s.components = body_pass(self.oracle, self.tax, s.robot, s.components, self.progress, self.log)
-        s.body = list(body)
+    def device_joints(self, s: PassState) -> None:
+        s.components = body_stage.with_joints(s.robot, s.components)
+
+    def body_candidates(self, s: PassState) -> None:
+        s.candidates = body_stage.candidates(s.robot, s.components)
+        s.done = not s.candidates
+
+    def body_classification(self, s: PassState) -> None:
+        body_stage.classify(self.oracle, self.tax, s.robot, s.candidates, s.components, self.progress, self.log)
+
+    def body_assembly(self, s: PassState) -> None:
+        s.body = body_stage.assemble(s.robot, s.candidates)
+
+    def sides(self, s: PassState) -> None:
+        s.body = body_stage.sides(self.oracle, s.robot, s.body, self.progress, self.log)
+
+    def location(self, s: PassState) -> None:
+        s.components = [body_stage.locate(s.robot, c, s.body) for c in s.components]
 
     # --- helpers ----------------------------------------------------------------------------------
 
@@ -320,7 +334,12 @@ END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
 ))
 
 BODY_PASS = Pass(BODY, (
-    Step("body parts", Abstractor.body_parts),
+    Step("device joints", Abstractor.device_joints),
+    Step("candidates", Abstractor.body_candidates),
+    Step("body classification", Abstractor.body_classification),
+    Step("assembly", Abstractor.body_assembly),
+    Step("sides", Abstractor.sides),
+    Step("location", Abstractor.location),
 ))
 
 # Run in this order; a device pass is named by the core:componentKind of the components it finds, and

@@ -5,10 +5,12 @@ from __future__ import annotations
 import pytest
 
 from tests.body_robots import Built, legged, wheeled
+from urdfkb.pipeline.abstraction import BODY_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.passes import PassManager
 from urdfkb.pipeline.stages import body
 
 needs_java = pytest.mark.skipif(not __import__("shutil").which("java"), reason="HermiT needs Java")
@@ -52,10 +54,17 @@ def _torso_rule(built: Built, flip_sides: bool = False):
     return rule
 
 
+def body_pass(oracle: Oracle, tree, components) -> tuple[list, list]:
+    """The declared body pass (pipeline.abstraction.BODY_PASS), step by step, on `components` as given."""
+    state = PassState(None, tree, tree, list(components))
+    PassManager(lambda _record: None).run(BODY_PASS, Abstractor(oracle, vocabulary()), state)
+    return state.body, state.components
+
+
 def _run(built: Built, flip_sides: bool = False):
     tree = load_urdf(built.urdf)
     oracle = Oracle(ScriptedBackend(_torso_rule(built, flip_sides)))
-    return body.body_pass(oracle, vocabulary(), tree, list(built.components))
+    return body_pass(oracle, tree, list(built.components))
 
 
 @pytest.mark.reasoner
@@ -90,4 +99,4 @@ def test_a_robot_without_body_joints_has_no_parts():
     tree = load_urdf(b'<robot name="r"><link name="a"/><link name="b"/>'
                      b'<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>')
     oracle = Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected")))
-    assert body.body_pass(oracle, vocabulary(), tree, []) == ([], [])
+    assert body_pass(oracle, tree, []) == ([], [])

@@ -160,29 +160,23 @@ def evidence(tree: KinematicTree, chain: Chain, carried: list[str], further: int
     return "\n".join(lines)
 
 
-# --- the pass ----------------------------------------------------------------------------------
+# --- the pass's steps (pipeline.abstraction.BODY_PASS runs them in this order) -----------------
 
-def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: list[Component],
-              progress: Progress | None = None, log: Log | None = None) -> tuple[list[BodyPart], list[Component]]:
-    """Body parts of the robot, and the components with their joints, body part and side."""
-    log = log or (lambda _msg: None)
-    owned = [device_joints(tree, c) for c in components]
-    components = [replace(c, joints=joints) if c.kind == END_EFFECTOR else c for c, joints in zip(components, owned)]
-    owned_joints = {j for joints in owned for j in joints}
-    owned_links = {link for c in components for link in c.links}
-    found = chains(tree, owned_joints, owned_links)
-    if not found:
-        return [], components
-    _classify(oracle, tax, tree, found, components, progress, log)
-    found = _join(found)
-    parts = _parts(tree, [c for c in found if c.cls != NONE])
-    parts = _sides(oracle, tree, parts, progress, log)
-    return parts, [locate(tree, c, parts) for c in components]
+def with_joints(tree: KinematicTree, components: list[Component]) -> list[Component]:
+    """The components, each end-effector with the movable joints of its fingers (`device_joints`)."""
+    return [replace(c, joints=device_joints(tree, c)) if c.kind == END_EFFECTOR else c for c in components]
 
 
-def _classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
-              components: list[Component], progress: Progress | None, log: Log) -> None:
-    """Structure first (the ontology's sufficient conditions, by the reasoner), the model for the rest."""
+def candidates(tree: KinematicTree, components: list[Component]) -> list[Chain]:
+    """The candidate chains among the joints and links no device owns."""
+    owned_joints = {j for c in components for j in device_joints(tree, c)}
+    return chains(tree, owned_joints, {link for c in components for link in c.links})
+
+
+def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
+             components: list[Component], progress: Progress | None, log: Log) -> None:
+    """Each candidate's class: structure first (the ontology's sufficient conditions, by the reasoner),
+    the model for the rest."""
     by_link = {link: ch for ch in found for link in ch.links}
     lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
     devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
@@ -235,6 +229,12 @@ def _join(found: list[Chain]) -> list[Chain]:
     return found
 
 
+def assemble(tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
+    """Body parts from the classified candidates: adjacent chains of one joining class as one part, the
+    base chains joined into one MobileBase around its chassis; candidates classified none drop out."""
+    return _parts(tree, [c for c in _join(found) if c.cls != NONE])
+
+
 def _parts(tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
     """Body parts: one per chain, the base chains joined into one MobileBase around its chassis."""
     base_chains = [c for c in found if c.cls == BASE]
@@ -263,8 +263,8 @@ def _common_ancestor(tree: KinematicTree, links: list[str]) -> str:
     return common
 
 
-def _sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: Progress | None,
-           log: Log) -> list[BodyPart]:
+def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: Progress | None,
+          log: Log) -> list[BodyPart]:
     """left/right by the sign of y in the root frame for classes with parts on both sides; per such class,
     the model names the left one of its widest pair, and where it disagrees with geometry and is sure,
     the names win for the whole class."""
