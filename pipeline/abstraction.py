@@ -69,9 +69,13 @@ class PassState:
 class Abstractor:
     """Runs the passes over one robot, keeping what identification learnt between them."""
 
-    def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None):
+    def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None,
+                 record: Callable[[dict], None] | None = None):
+        """`record` receives each step's timing record (default: the oracle's trace)."""
         self.oracle, self.tax = oracle, tax
         self.progress, self.log = progress, log or (lambda _msg: None)
+        self.record = record or self._trace
+        self.reasoner_seconds = 0.0  # HermiT's wall time over the run
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
         self.body: tuple[BodyPart, ...] = ()  # the last run's body parts
@@ -82,7 +86,7 @@ class Abstractor:
         """The robot's components (its body parts in `self.body`)."""
         components: list[Component] = []
         body: list[BodyPart] = []
-        tree, manager = robot, PassManager(self._trace)
+        tree, manager = robot, PassManager(self.record, self._counters)
         for declared in PASSES:
             state = PassState(self.tax.kinds.get(declared.name), robot, tree, list(components))
             manager.run(declared, self, state)
@@ -178,6 +182,7 @@ class Abstractor:
         """Each tool's class from the ontology's definitions over its structure, and its finger chains."""
         structures = s.structures or []
         s.inferred, seconds = reasoning.classify(structures)
+        self.reasoner_seconds += seconds
         self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
             {"leaves": g.leaves, "facts": st.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
             for g, st, i in zip(s.groups, structures, s.inferred)]})
@@ -220,7 +225,8 @@ class Abstractor:
     def body_parts(self, s: PassState) -> None:
         """Body parts from the movable joints no device owns; each component gets its joints and the part it
         is located on."""
-        body, s.components = body_pass(self.oracle, self.tax, s.robot, s.components, self.progress, self.log)
+        body, s.components = body_pass(self.oracle, self.tax, s.robot, s.components, self.progress, self.log,
+                                       self._reasoned)
         s.body = list(body)
 
     # --- helpers ----------------------------------------------------------------------------------
@@ -258,6 +264,16 @@ class Abstractor:
             self.declared += 1
             self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
         return ruled_out
+
+    def _counters(self) -> dict[str, float]:
+        """Running totals of the work a step does, for its timing record (pipeline.timings)."""
+        stats = self.oracle.stats
+        return {"model_seconds": self.oracle.seconds, "tokens": stats.prompt_tokens,
+                "restored_tokens": stats.restored_tokens, "decodes": stats.calls,
+                "reasoner_seconds": self.reasoner_seconds}
+
+    def _reasoned(self, seconds: float) -> None:
+        self.reasoner_seconds += seconds
 
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:

@@ -163,8 +163,10 @@ def evidence(tree: KinematicTree, chain: Chain, carried: list[str], further: int
 # --- the pass ----------------------------------------------------------------------------------
 
 def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: list[Component],
-              progress: Progress | None = None, log: Log | None = None) -> tuple[list[BodyPart], list[Component]]:
-    """Body parts of the robot, and the components with their joints, body part and side."""
+              progress: Progress | None = None, log: Log | None = None,
+              reasoned: Callable[[float], None] | None = None) -> tuple[list[BodyPart], list[Component]]:
+    """Body parts of the robot, and the components with their joints, body part and side; `reasoned`
+    receives the reasoner's wall time."""
     log = log or (lambda _msg: None)
     owned = [device_joints(tree, c) for c in components]
     components = [replace(c, joints=joints) if c.kind == END_EFFECTOR else c for c, joints in zip(components, owned)]
@@ -173,7 +175,7 @@ def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: 
     found = chains(tree, owned_joints, owned_links)
     if not found:
         return [], components
-    _classify(oracle, tax, tree, found, components, progress, log)
+    _classify(oracle, tax, tree, found, components, progress, log, reasoned or (lambda _seconds: None))
     found = _join(found)
     parts = _parts(tree, [c for c in found if c.cls != NONE])
     parts = _sides(oracle, tree, parts, progress, log)
@@ -181,7 +183,8 @@ def body_pass(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, components: 
 
 
 def _classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
-              components: list[Component], progress: Progress | None, log: Log) -> None:
+              components: list[Component], progress: Progress | None, log: Log,
+              reasoned: Callable[[float], None]) -> None:
     """Structure first (the ontology's sufficient conditions, by the reasoner), the model for the rest."""
     by_link = {link: ch for ch in found for link in ch.links}
     lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
@@ -192,6 +195,7 @@ def _classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     inferred, seconds = reasoning.classify_parts(facts)
+    reasoned(seconds)
     log(f"body reasoner: {seconds:.2f} s, " + ", ".join(f"{c.joints[0].joint}={cls}" for c, cls in zip(found, inferred)))
     open_ = [i for i, cls in enumerate(inferred) if cls is None]
     for i, cls in enumerate(inferred):
