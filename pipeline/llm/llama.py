@@ -62,7 +62,8 @@ class LlamaBackend(Backend):
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
                  n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 2,
-                 prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES):
+                 prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
+                 flash_attn: bool = False, kv_type: str = "f16"):
         import llama_cpp
         from llama_cpp import _internals
 
@@ -76,7 +77,7 @@ class LlamaBackend(Backend):
         try:
             self.llm = llama_cpp.Llama(str(path), n_ctx=n_ctx, n_threads=threads, n_threads_batch=threads,
                                        n_batch=n_batch, n_ubatch=n_batch, seed=seed, verbose=False)
-            self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads)
+            self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads, flash_attn, kv_type)
             self._ctx = _internals.LlamaContext(model=self.llm._model, verbose=False, params=self._params)
         except Exception as exc:
             raise BackendError(f"{self.name}: cannot load {path}: {exc}") from exc
@@ -90,13 +91,17 @@ class LlamaBackend(Backend):
         self._recent: list[int] = list(range(prefix_slots))  # slot ids, least recently used first
         self._store = self._prefix_store(path, prefix_cache, prefix_cache_bytes, threads)
 
-    def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int):
+    def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int, flash_attn: bool, kv_type: str):
+        """Flash attention and a quantized KV cache (`kv_type` "q8_0") change scores, and so answers: they
+        exist to be measured (benchmarks.llama_settings_bench), and are off by default."""
         params = self._lib.llama_context_default_params()
         params.n_ctx, params.n_batch, params.n_ubatch = n_ctx, n_batch, n_batch
         params.n_seq_max = min(n_seq_max, self._lib.llama_max_parallel_sequences())
         params.n_threads = params.n_threads_batch = threads
         params.kv_unified = True  # one cache where a cell can belong to several sequences
-        params.flash_attn_type = self._lib.LLAMA_FLASH_ATTN_TYPE_DISABLED  # same numerics as Llama()
+        params.flash_attn_type = (self._lib.LLAMA_FLASH_ATTN_TYPE_ENABLED if flash_attn
+                                  else self._lib.LLAMA_FLASH_ATTN_TYPE_DISABLED)  # disabled: same numerics as Llama()
+        params.type_k = params.type_v = {"f16": self._lib.GGML_TYPE_F16, "q8_0": self._lib.GGML_TYPE_Q8_0}[kv_type]
         params.no_perf = True
         return params
 
