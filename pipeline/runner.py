@@ -7,7 +7,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, TextIO
+from typing import Callable, Mapping, TextIO
 
 from urdfkb.pipeline import cache
 from urdfkb.pipeline.abstraction import Abstractor
@@ -113,10 +113,12 @@ def tree_digest(tree: KinematicTree) -> str:
 
 
 def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
-        trace: TextIO | None = None, timings: Timings | None = None) -> Abstraction:
+        trace: TextIO | None = None, timings: Timings | None = None,
+        backends: Callable[[Settings], Backend] | None = None) -> Abstraction:
     """Abstract a robot's sensors and end-effectors (nothing when structure_only).
 
-    `backend` overrides the one the settings name (tests inject a scripted one). Results are
+    `backend` overrides the one the settings name (tests inject a scripted one); `backends` gives the
+    one the settings name when it is needed (the server's warm model), kept open after the run. Results are
     cached by URDF digest, model (its file's digest too), vocabulary (ontology and shapes) and settings;
     the backend is closed after use. The provenance always carries population.stamp(tree) for this
     run; when the result cache answers, the counts and seconds are those of the run that computed it,
@@ -133,10 +135,10 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
         return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)}, hit.body)
-    owned = backend is None
+    owned = backend is None and backends is None
     if backend is None:
         loading = time.perf_counter()
-        backend = make_backend(settings)
+        backend = (backends or make_backend)(settings)
         if timings is not None:
             timings.record({"stage": "model load", "seconds": round(time.perf_counter() - loading, 4)})
     try:

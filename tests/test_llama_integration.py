@@ -418,3 +418,25 @@ def test_a_robots_answers_are_identical_cold_warm_and_after_another_robot(model_
     assert cold[:3] == plain[:3] and warm[:3] == plain[:3] and after[:3] == plain[:3]
     assert len({key.partition(":")[0] for key, _ in plain[0]}) >= (7 if steered else 2)  # stages asked
     assert warm[3] < cold[3] <= plain[3]  # the warm store spared evaluating prompt tokens
+
+
+def test_a_fresh_warm_backend_scores_as_a_new_one(model_path, tmp_path):
+    """The server keeps one model loaded between populates: after fresh() it answers bit-identically to a
+    newly loaded backend, and counts only its new work."""
+    from urdfkb.pipeline.llm.llama import LlamaBackend
+
+    questions = [question(link) for link in LINKS]
+    _fresh_scores(model_path, tmp_path, questions)  # the store holds the prefix from here on
+    new, new_stats, _ = _fresh_scores(model_path, tmp_path, questions)
+    b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=tmp_path)
+    try:
+        b.score([question("torso", system="Another system text entirely. Answer with one word.")] + questions[:2])
+        b.sample(questions[0], 3, 1.0)
+        b.fresh()
+        assert b.score(questions) == new and b.stats == new_stats
+        drawn = b.sample(questions[0], 5, 1.0)
+        b.fresh()
+        b.score(questions)
+        assert b.sample(questions[0], 5, 1.0) == drawn  # the draws start over too
+    finally:
+        b.close()

@@ -447,6 +447,13 @@ class LlamaBackend(Backend):
         self._lib.llama_memory_clear(self._ctx.memory, True)
         self._cells.clear()
         self._slots = [[] for _ in self._slots]
+        self._recent = list(range(len(self._slots)))
+
+    def fresh(self) -> None:
+        """As just loaded: an empty KV cache (zeroed), the slots' order, the sampling draws and the counters."""
+        super().fresh()
+        self.reset()
+        self._draws = 0
 
     # --- sampling ---------------------------------------------------------------------------
 
