@@ -82,16 +82,15 @@ class LlamaBackend(Backend):
         self._draws = 0
         threads = n_threads or os.cpu_count() or 1
         try:
-            self.llm = llama_cpp.Llama(str(path), n_ctx=n_ctx, n_threads=threads, n_threads_batch=threads,
-                                       n_batch=n_batch, n_ubatch=n_batch, seed=seed, verbose=False)
+            self._model = _load_model(llama_cpp, _internals, path)
             self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads, flash_attn, kv_type)
-            self._ctx = _internals.LlamaContext(model=self.llm._model, verbose=False, params=self._params)
+            self._ctx = _internals.LlamaContext(model=self._model, verbose=False, params=self._params)
         except Exception as exc:
             raise BackendError(f"{self.name}: cannot load {path}: {exc}") from exc
         self.n_ctx, self.n_batch = n_ctx, n_batch
         self.n_seq_max = llama_cpp.llama_n_seq_max(self._ctx.ctx)
         self._batch = _internals.LlamaBatch(n_tokens=n_batch, embd=0, n_seq_max=self.n_seq_max, verbose=False)
-        self.n_vocab = self.llm.n_vocab()
+        self.n_vocab = self._model.n_vocab()
         self._formatter = self._chat_formatter()
         self.eot = self._end_of_turn()
         self._cells = KVCells(self._lib.llama_n_ctx(self._ctx.ctx))  # what llama.cpp's KV cells hold
@@ -120,7 +119,7 @@ class LlamaBackend(Backend):
         the stored bytes: the model file, the llama.cpp build and the context parameters."""
         if where is False or (where is True and not enabled_by_env()):
             return None
-        if self._lib.llama_model_n_swa(self.llm._model.model) > 0:
+        if self._lib.llama_model_n_swa(self._model.model) > 0:
             return None  # a sliding window frees cells the mirror (kv_cells) does not follow
         lib = Path(self._lib.llama_cpp._lib._name)
         identity = {
@@ -135,10 +134,10 @@ class LlamaBackend(Backend):
     def _chat_formatter(self):
         from llama_cpp.llama_chat_format import Jinja2ChatFormatter
 
-        template = self.llm.metadata.get("tokenizer.chat_template")
+        template = self._model.metadata().get("tokenizer.chat_template")
         if not template:
             raise BackendError(f"{self.name}: the GGUF has no chat template")
-        model = self.llm._model
+        model = self._model
         bos, eos = model.token_bos(), model.token_eos()
         return Jinja2ChatFormatter(template, eos_token=model.token_get_text(eos) if eos >= 0 else "",
                                    bos_token=model.token_get_text(bos) if bos >= 0 else "")
@@ -151,9 +150,9 @@ class LlamaBackend(Backend):
 
     def _tokens(self, text: str) -> list[int]:
         """Tokens of rendered text (special tokens parsed), with the model's BOS if it wants one."""
-        tokens = self.llm.tokenize(text.encode("utf-8"), add_bos=False, special=True)
-        bos = self.llm.token_bos()
-        if self.llm._model.add_bos_token() and bos >= 0 and tokens[:1] != [bos]:
+        tokens = self._model.tokenize(text.encode("utf-8"), add_bos=False, special=True)
+        bos = self._model.token_bos()
+        if self._model.add_bos_token() and bos >= 0 and tokens[:1] != [bos]:
             tokens = [bos] + tokens
         return tokens
 
@@ -161,12 +160,12 @@ class LlamaBackend(Backend):
         """The token the template puts after an assistant answer (if end-of-generation), else EOT/EOS."""
         text = self._render("s", "u", SENTINEL)
         after = text[text.index(SENTINEL) + len(SENTINEL):]
-        vocab = self.llm._model.vocab
-        first = self.llm.tokenize(after.encode("utf-8"), add_bos=False, special=True)[:1]
+        vocab = self._model.vocab
+        first = self._model.tokenize(after.encode("utf-8"), add_bos=False, special=True)[:1]
         if first and self._lib.llama_vocab_is_eog(vocab, first[0]):
             return first[0]
         eot = self._lib.llama_vocab_eot(vocab)
-        return eot if eot >= 0 else self.llm.token_eos()
+        return eot if eot >= 0 else self._model.token_eos()
 
     def prompt_tokens(self, question: Question) -> list[int]:
         """The full prompt: system, user and generation prompt, in the model's chat template."""
@@ -174,7 +173,7 @@ class LlamaBackend(Backend):
 
     def option_tokens(self, option: str) -> list[int]:
         """An option's continuation (its text tokens) without the end-of-turn token."""
-        return self.llm.tokenize(option.encode("utf-8"), add_bos=False, special=False)
+        return self._model.tokenize(option.encode("utf-8"), add_bos=False, special=False)
 
     def prefix_tokens(self, system: str) -> list[int]:
         """The rendered prompt up to where the user text starts: what questions with this system text share."""
@@ -506,7 +505,7 @@ class LlamaBackend(Backend):
         """Free the scoring context, the batch and the model."""
         self._batch.close()
         self._ctx.close()
-        self.llm.close()
+        self._model.close()
 
 
 @dataclass(frozen=True)
@@ -564,6 +563,26 @@ class _RowLogprobs:
             self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum(dtype=np.float64))))
         logits, logz = self.rows[row]
         return float(logits[token]) - logz
+
+
+_BACKEND_READY = False
+
+
+def _load_model(llama_cpp, internals, path: Path):
+    """The model alone, with the parameters llama_cpp.Llama would give it (CPU, memory-mapped). Llama itself
+    would also build a context of its own, with a KV cache and compute buffers, that scoring never uses."""
+    global _BACKEND_READY
+    if not _BACKEND_READY:
+        from llama_cpp._logger import set_verbose
+
+        set_verbose(False)  # llama.cpp's log: errors only, as Llama(verbose=False) sets it
+        llama_cpp.llama_backend_init()
+        _BACKEND_READY = True
+    params = llama_cpp.llama_model_default_params()
+    params.n_gpu_layers, params.split_mode, params.main_gpu = 0, llama_cpp.LLAMA_SPLIT_MODE_LAYER, 0
+    params.vocab_only = False
+    params.load_mode = llama_cpp.LLAMA_LOAD_MODE_MMAP
+    return internals.LlamaModel(path_model=str(path), params=params, verbose=False)
 
 
 def _file_identity(path: Path) -> list:
