@@ -71,6 +71,11 @@ class LlamaBackend(Backend):
                  n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 2,
                  prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
                  flash_attn: bool = False, kv_type: str = "f16"):
+        # llama.cpp's threads meet at an OpenMP barrier after every operation of a decode; by default
+        # libgomp spins there, and on cores shared with other processes a spinning thread burns the time
+        # slice its partner needs (PR2's first questions: 0.56x the time waiting passively, scores
+        # bit-identical: benchmarks.llama_settings_bench). libgomp reads this when it loads, with llama_cpp.
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
         import llama_cpp
         from llama_cpp import _internals
 
