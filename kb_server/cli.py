@@ -76,19 +76,19 @@ def _limits(args: argparse.Namespace) -> dict:
     return {k: v for k in ("max_bytes", "max_links") if (v := getattr(args, k, None)) is not None}
 
 
-def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace_path: str | None, limits: dict,
+def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace, timings, limits: dict,
               xacro_args: list[str] = (), package_paths: list[str] = ()):
     """Ingest (expanding xacro) and abstract one robot; returns (tree, robot name, abstraction, seconds)."""
     from urdfkb.pipeline.runner import run
     from urdfkb.pipeline.xacro_input import load_description, parse_args, parse_package_paths
-    tree = load_description(urdf, args=parse_args(xacro_args), packages=parse_package_paths(package_paths), **limits)
+    with timings.stage("ingest"):
+        tree = load_description(urdf, args=parse_args(xacro_args), packages=parse_package_paths(package_paths), **limits)
     bars = StageBars(quiet)
     started = time.monotonic()
-    with open(trace_path, "w") if trace_path else contextlib.nullcontext() as trace:
-        try:
-            abstraction = run(tree, settings, progress=bars, trace=trace)
-        finally:
-            bars.close()
+    try:
+        abstraction = run(tree, settings, progress=bars, trace=trace, timings=timings)
+    finally:
+        bars.close()
     return tree, name or tree.robot_name, abstraction, time.monotonic() - started
 
 
@@ -99,21 +99,34 @@ def _robot_ontology(tree, name: str, abstraction):
 
 
 def cmd_populate(args: argparse.Namespace) -> int:
-    from urdfkb.pipeline.export import export_robot, robot_graph
+    from urdfkb.pipeline.export import export_graph, robot_graph
     from urdfkb.pipeline.shacl import validate
+    from urdfkb.pipeline.timings import Timings
     settings = _settings(args, args.structure_only)
-    tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, args.trace, _limits(args),
-                                                 args.xacro_arg, args.package_path)
-    onto = _robot_ontology(tree, name, abstraction)
-    conforms, report = validate(robot_graph(onto))
-    if not conforms:
-        raise UrdfkbError(f"the populated robot breaks the SHACL shapes; nothing written:\n{report}")
-    out = args.output or f"{Path(Path(args.urdf).name.removesuffix('.xacro')).stem}.{BY_NAME[args.format].extension}"
-    export_robot(onto, out, args.format)
+    started = time.perf_counter()
+    with open(args.trace, "w") if args.trace else contextlib.nullcontext() as trace:
+        timings = Timings(trace)
+        if args.startup_seconds:
+            timings.record({"stage": "startup", "seconds": round(args.startup_seconds, 4)})
+        tree, name, abstraction, seconds = _abstract(args.urdf, args.name, settings, args.quiet, trace, timings,
+                                                     _limits(args), args.xacro_arg, args.package_path)
+        with timings.stage("population"):
+            onto = _robot_ontology(tree, name, abstraction)
+            graph = robot_graph(onto)
+        with timings.stage("SHACL"):
+            conforms, report = validate(graph)
+        if not conforms:
+            raise UrdfkbError(f"the populated robot breaks the SHACL shapes; nothing written:\n{report}")
+        out = args.output or f"{Path(Path(args.urdf).name.removesuffix('.xacro')).stem}.{BY_NAME[args.format].extension}"
+        with timings.stage("export"):
+            export_graph(graph, out, args.format)
+        timings.record({"stage": "total", "seconds": round(args.startup_seconds + time.perf_counter() - started, 4)})
     what = "structure only" if settings.structure_only else f"{len(abstraction.components)} components"
     print(f"{name}: {len(tree.links)} links, {len(tree.edges)} joints, {what} in {seconds:.1f} s -> {Path(out).resolve()}")
     for c in abstraction.components:
         print(f"  {c.kind:12} {c.cls:20} on {c.root:30} {c.confidence:.2f}  {', '.join(c.links)}")
+    if args.timings:
+        print(timings.table())
     return 0
 
 
@@ -208,6 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
     p.add_argument("--structure-only", action="store_true", help="skip the model: links and joints only")
     p.add_argument("--trace", metavar="FILE", help="write a JSON-lines audit of every question: candidates, distribution, answer")
+    p.add_argument("--timings", action="store_true", help="print where the time went: start-up, model load, each pass's steps "
+                   "(seconds, model seconds, tokens, decodes, reasoner), population, SHACL, export (also in --trace)")
     p.add_argument("--max-bytes", type=int, help=f"refuse URDFs larger than this (default {MAX_BYTES / 1e6:g} MB)")
     p.add_argument("--max-links", type=int, metavar="N", help=f"refuse URDFs with more links or joints than this (default {MAX_LINKS:,})")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
@@ -274,7 +289,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from urdfkb.pipeline.timings import process_age
+    startup = process_age() if argv is None else 0.0  # the interpreter's start and imports, run as a program
     args = build_parser().parse_args(argv)
+    args.startup_seconds = startup
     try:
         return args.func(args)
     except UrdfkbError as exc:

@@ -8,10 +8,16 @@ the reason is in `errors`; re-populating the robot, or restarting the server (mi
 store as it was. Jobs for the same robot run one after the other (a lock per robot name).
 At most `max_queued` jobs wait for a worker (QueueFull beyond), and finished jobs are forgotten
 after `keep_seconds` or when more than `keep` have finished since.
+
+Pipelines run on one model thread (ModelWorker), one at a time in the order they were queued, and
+that thread keeps the last embedded model loaded: a second populate with the same model skips the
+load, and two jobs never hold two models. Between runs the model forgets everything the previous run
+left (its KV cache, its counters), so a job's answers are those of a freshly loaded model.
 """
 from __future__ import annotations
 
 import logging
+import queue
 import threading
 import time
 import uuid
@@ -24,7 +30,8 @@ from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.runner import Progress, Settings, run
+from urdfkb.pipeline.llm.base import Backend
+from urdfkb.pipeline.runner import Progress, Settings, make_backend, run
 from urdfkb.pipeline.tree import KinematicTree
 
 log = logging.getLogger(__name__)
@@ -41,9 +48,73 @@ class QueueFull(Exception):
         self.retry_after = retry_after
 
 
-def pipeline_runner(tree: KinematicTree, settings: Settings, progress: Progress) -> Abstraction:
-    """The production runner: pipeline.runner.run with the backend the settings name."""
-    return run(tree, settings, progress=progress)
+class ModelWorker:
+    """One thread that runs pipelines in the order they are queued, keeping one embedded model warm.
+
+    Calling it (the Runner signature) queues the run and waits for its result, so a job's thread
+    blocks while the runs queued before it finish. The warm model is the llama.cpp backend the last
+    run used; a run with another model file closes it before loading its own. A run on a model
+    server (`llm_url`) or answered from the result cache loads nothing. `make` builds a backend from
+    settings (runner.make_backend; tests pass another).
+    """
+
+    def __init__(self, make: Callable[[Settings], Backend] = make_backend):
+        self._make = make
+        self._queue: queue.Queue = queue.Queue()
+        self._thread: threading.Thread | None = None
+        self._start = threading.Lock()
+        self._backend: Backend | None = None
+        self._model: str | None = None  # the model file the warm backend runs ("" for the default)
+        self.loads = 0  # models loaded so far
+
+    def __call__(self, tree: KinematicTree, settings: Settings, progress: Progress) -> Abstraction:
+        return self._submit(lambda: self._run(tree, settings, progress))
+
+    def release(self) -> None:
+        """Close the warm model once the runs queued before this call are done."""
+        self._submit(self._close)
+
+    def _submit(self, task: Callable[[], object]):
+        """Run `task` on the model thread after everything queued before it; its result or exception."""
+        done: Future = Future()
+        self._queue.put((task, done))
+        with self._start:
+            if self._thread is None or not self._thread.is_alive():
+                self._thread = threading.Thread(target=self._serve, name="urdfkb-model", daemon=True)
+                self._thread.start()
+        return done.result()
+
+    def _serve(self) -> None:
+        while True:
+            task, done = self._queue.get()
+            try:
+                done.set_result(task())
+            except BaseException as e:  # raised in the thread that queued the task
+                done.set_exception(e)
+
+    def _run(self, tree: KinematicTree, settings: Settings, progress: Progress) -> Abstraction:
+        if settings.structure_only or settings.llm_url:
+            return run(tree, settings, progress=progress)  # no embedded model
+        return run(tree, settings, progress=progress, backends=self._warm)
+
+    def _warm(self, settings: Settings) -> Backend:
+        """The backend for `settings`' model file, loaded unless it is the warm one, as a fresh one answers."""
+        model = settings.model or ""
+        if self._backend is not None and self._model != model:
+            self._close()
+        if self._backend is None:
+            self._backend, self._model = self._make(settings), model
+            self.loads += 1
+        self._backend.fresh()
+        return self._backend
+
+    def _close(self) -> None:
+        if self._backend is not None:
+            backend, self._backend, self._model = self._backend, None, None
+            backend.close()
+
+
+pipeline_runner = ModelWorker()  # the production runner: one model thread for the whole process
 
 
 @dataclass
@@ -146,6 +217,8 @@ class JobManager:
 
     def shutdown(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
+        if isinstance(self.runner, ModelWorker):
+            self.runner.release()
 
     def _robot_lock(self, robot: str) -> threading.Lock:
         with self._guard:

@@ -70,9 +70,13 @@ class PassState:
 class Abstractor:
     """Runs the passes over one robot, keeping what identification learnt between them."""
 
-    def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None):
+    def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None,
+                 record: Callable[[dict], None] | None = None):
+        """`record` receives each step's timing record (default: the oracle's trace)."""
         self.oracle, self.tax = oracle, tax
         self.progress, self.log = progress, log or (lambda _msg: None)
+        self.record = record or self._trace
+        self.reasoner_seconds = 0.0  # HermiT's wall time over the run
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
         self.shares: dict[str, float] = {}  # leaf → the share of identification's votes its answer had
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
@@ -84,7 +88,7 @@ class Abstractor:
         """The robot's components (its body parts in `self.body`)."""
         components: list[Component] = []
         body: list[BodyPart] = []
-        tree, manager = robot, PassManager(self._trace)
+        tree, manager = robot, PassManager(self.record, self._counters)
         for declared in PASSES:
             state = PassState(self.tax.kinds.get(declared.name), robot, tree, list(components))
             manager.run(declared, self, state)
@@ -182,6 +186,7 @@ class Abstractor:
         """Each tool's class from the ontology's definitions over its structure, and its finger chains."""
         structures = s.structures or []
         s.inferred, seconds = reasoning.classify(structures)
+        self.reasoner_seconds += seconds
         self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
             {"leaves": g.leaves, "facts": st.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
             for g, st, i in zip(s.groups, structures, s.inferred)]})
@@ -229,7 +234,8 @@ class Abstractor:
         s.done = not s.candidates
 
     def body_classification(self, s: PassState) -> None:
-        body_stage.classify(self.oracle, self.tax, s.robot, s.candidates, s.components, self.progress, self.log)
+        body_stage.classify(self.oracle, self.tax, s.robot, s.candidates, s.components, self.progress, self.log,
+                            self._reasoned)
 
     def body_assembly(self, s: PassState) -> None:
         s.body = body_stage.assemble(s.robot, s.candidates)
@@ -275,6 +281,16 @@ class Abstractor:
             self.declared += 1
             self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
         return ruled_out
+
+    def _counters(self) -> dict[str, float]:
+        """Running totals of the work a step does, for its timing record (pipeline.timings)."""
+        stats = self.oracle.stats
+        return {"model_seconds": self.oracle.seconds, "tokens": stats.prompt_tokens,
+                "restored_tokens": stats.restored_tokens, "decodes": stats.calls,
+                "reasoner_seconds": self.reasoner_seconds}
+
+    def _reasoned(self, seconds: float) -> None:
+        self.reasoner_seconds += seconds
 
     def _trace(self, record: dict) -> None:
         if self.oracle.trace is not None:

@@ -51,7 +51,14 @@ def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, f
     """Write `robot_graph(onto, extra)` to a path (atomically: temp file then rename) or a binary stream."""
     if fmt not in BY_NAME:
         raise OntologyError(f"unknown export format {fmt!r}; choose one of {', '.join(BY_NAME)}")
-    data = robot_graph(onto, extra).serialize(format=BY_NAME[fmt].rdflib, encoding="utf-8")
+    export_graph(robot_graph(onto, extra), dest, fmt)
+
+
+def export_graph(graph: rdflib.Graph, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml") -> None:
+    """Write a graph `robot_graph` built (and SHACL checked, say) as export_robot would."""
+    if fmt not in BY_NAME:
+        raise OntologyError(f"unknown export format {fmt!r}; choose one of {', '.join(BY_NAME)}")
+    data = graph.serialize(format=BY_NAME[fmt].rdflib, encoding="utf-8")
     if hasattr(dest, "write"):
         dest.write(data)
         return

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import dataclass
 from typing import Sequence, TextIO
 
@@ -84,6 +85,7 @@ class Oracle:
             raise ValueError(f"need retries >= 0, temperature >= 0 (got {retries}, {temperature})")
         self.backend, self.vote, self.votes = backend, vote, votes
         self.temperature, self.retries, self.trace = temperature, retries, trace
+        self.seconds = 0.0  # wall time inside the backend's calls (model work)
 
     @property
     def stats(self) -> Stats:
@@ -108,12 +110,15 @@ class Oracle:
         return verdicts
 
     def _call(self, what: str, fn, *args):
+        started = time.perf_counter()
         try:
             return fn(*args)
         except BackendError:
             raise
         except Exception as exc:  # any backend failure becomes a BackendError
             raise BackendError(f"backend {self.backend.name} failed in {what}: {type(exc).__name__}: {exc}") from exc
+        finally:
+            self.seconds += time.perf_counter() - started
 
     def _exact(self, questions: list[Question]) -> list[Verdict]:
         rows = self._call("score", self.backend.score, questions)

@@ -3,7 +3,8 @@
 A pass is a name and a list of named steps; a step is a function of the pass's context (what lasts
 across passes) and its state (what this pass has built so far). The manager runs a pass's steps in
 order, ends the pass early when a step sets `state.done` (nothing left to abstract), and writes each
-step's wall time to the trace as `{"key": "timing", "pass": ..., "step": ..., "seconds": ...}`.
+step's wall time to the trace as `{"key": "timing", "pass": ..., "step": ..., "seconds": ...}`, with
+what the `counters` counted during the step (model seconds, tokens, ...: pipeline.timings).
 Timings go to the trace only, never into a prompt or the ontology. pipeline.abstraction declares the
 passes; adding one is adding a list of steps there.
 """
@@ -36,16 +37,19 @@ class Pass:
 
 
 class PassManager:
-    """Runs passes step by step; `record` receives each step's timing (the trace writer)."""
+    """Runs passes step by step; `record` receives each step's timing (the trace writer), with the
+    change of each of `counters`' running totals over the step."""
 
-    def __init__(self, record: Callable[[dict], None]):
+    def __init__(self, record: Callable[[dict], None], counters: Callable[[], dict[str, float]] | None = None):
         self.record = record
+        self.counters = counters or dict
 
     def run(self, declared: Pass, context: Any, state: State) -> None:
         for step in declared.steps:
-            started = time.perf_counter()
+            before, started = self.counters(), time.perf_counter()
             step.run(context, state)
-            self.record({"key": "timing", "pass": declared.name, "step": step.name,
-                         "seconds": round(time.perf_counter() - started, 4)})
+            seconds, after = time.perf_counter() - started, self.counters()
+            self.record({"key": "timing", "pass": declared.name, "step": step.name, "seconds": round(seconds, 4),
+                         **{name: round(after[name] - value, 4) for name, value in before.items()}})
             if state.done:
                 return

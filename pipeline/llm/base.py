@@ -49,5 +49,9 @@ class Backend(ABC):
     def sample(self, question: Question, n: int, temperature: float) -> list[str]:
         """n completions, constrained to the options where the backend can; raw text otherwise."""
 
+    def fresh(self) -> None:
+        """Forget what earlier calls left (caches, counters): from here on, answer as a new backend would."""
+        self.stats = Stats()
+
     def close(self) -> None:
         """Release the model; the default has nothing to release."""

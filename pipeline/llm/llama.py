@@ -2,18 +2,25 @@
 from __future__ import annotations
 
 import ctypes
+import hashlib
+import json
+import logging
 import math
 import os
 import random
+import struct
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
+from urdfkb.pipeline.llm.kv_cells import KVCells
 from urdfkb.pipeline.llm.prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
+
+log = logging.getLogger(__name__)
 
 SENTINEL = "\x00URDFKB\x00"
 # context parameters that change a stored prefix state's bytes or its numerics
@@ -62,7 +69,13 @@ class LlamaBackend(Backend):
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
                  n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 2,
-                 prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES):
+                 prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
+                 flash_attn: bool = False, kv_type: str = "f16"):
+        # llama.cpp's threads meet at an OpenMP barrier after every operation of a decode; by default
+        # libgomp spins there, and on cores shared with other processes a spinning thread burns the time
+        # slice its partner needs (PR2's first questions: 0.56x the time waiting passively, scores
+        # bit-identical: benchmarks.llama_settings_bench). libgomp reads this when it loads, with llama_cpp.
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
         import llama_cpp
         from llama_cpp import _internals
 
@@ -74,29 +87,34 @@ class LlamaBackend(Backend):
         self._draws = 0
         threads = n_threads or os.cpu_count() or 1
         try:
-            self.llm = llama_cpp.Llama(str(path), n_ctx=n_ctx, n_threads=threads, n_threads_batch=threads,
-                                       n_batch=n_batch, n_ubatch=n_batch, seed=seed, verbose=False)
-            self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads)
-            self._ctx = _internals.LlamaContext(model=self.llm._model, verbose=False, params=self._params)
+            self._model = _load_model(llama_cpp, _internals, path)
+            self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads, flash_attn, kv_type)
+            self._ctx = _internals.LlamaContext(model=self._model, verbose=False, params=self._params)
         except Exception as exc:
             raise BackendError(f"{self.name}: cannot load {path}: {exc}") from exc
         self.n_ctx, self.n_batch = n_ctx, n_batch
         self.n_seq_max = llama_cpp.llama_n_seq_max(self._ctx.ctx)
         self._batch = _internals.LlamaBatch(n_tokens=n_batch, embd=0, n_seq_max=self.n_seq_max, verbose=False)
-        self.n_vocab = self.llm.n_vocab()
+        self.n_vocab = self._model.n_vocab()
         self._formatter = self._chat_formatter()
         self.eot = self._end_of_turn()
+        self._cells = KVCells(self._lib.llama_n_ctx(self._ctx.ctx))  # what llama.cpp's KV cells hold
+        self._entries: list[tuple[int, tuple[int, ...]]] = []  # the filled batch's (position, sequences)
         self._slots: list[list[int]] = [[] for _ in range(prefix_slots)]  # tokens held by prefix sequence i
         self._recent: list[int] = list(range(prefix_slots))  # slot ids, least recently used first
         self._store = self._prefix_store(path, prefix_cache, prefix_cache_bytes, threads)
 
-    def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int):
+    def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int, flash_attn: bool, kv_type: str):
+        """Flash attention and a quantized KV cache (`kv_type` "q8_0") change scores, and so answers: they
+        exist to be measured (benchmarks.llama_settings_bench), and are off by default."""
         params = self._lib.llama_context_default_params()
         params.n_ctx, params.n_batch, params.n_ubatch = n_ctx, n_batch, n_batch
         params.n_seq_max = min(n_seq_max, self._lib.llama_max_parallel_sequences())
         params.n_threads = params.n_threads_batch = threads
         params.kv_unified = True  # one cache where a cell can belong to several sequences
-        params.flash_attn_type = self._lib.LLAMA_FLASH_ATTN_TYPE_DISABLED  # same numerics as Llama()
+        params.flash_attn_type = (self._lib.LLAMA_FLASH_ATTN_TYPE_ENABLED if flash_attn
+                                  else self._lib.LLAMA_FLASH_ATTN_TYPE_DISABLED)  # disabled: same numerics as Llama()
+        params.type_k = params.type_v = {"f16": self._lib.GGML_TYPE_F16, "q8_0": self._lib.GGML_TYPE_Q8_0}[kv_type]
         params.no_perf = True
         return params
 
@@ -106,6 +124,8 @@ class LlamaBackend(Backend):
         the stored bytes: the model file, the llama.cpp build and the context parameters."""
         if where is False or (where is True and not enabled_by_env()):
             return None
+        if self._lib.llama_model_n_swa(self._model.model) > 0:
+            return None  # a sliding window frees cells the mirror (kv_cells) does not follow
         lib = Path(self._lib.llama_cpp._lib._name)
         identity = {
             "model": _file_identity(model),
@@ -119,10 +139,10 @@ class LlamaBackend(Backend):
     def _chat_formatter(self):
         from llama_cpp.llama_chat_format import Jinja2ChatFormatter
 
-        template = self.llm.metadata.get("tokenizer.chat_template")
+        template = self._model.metadata().get("tokenizer.chat_template")
         if not template:
             raise BackendError(f"{self.name}: the GGUF has no chat template")
-        model = self.llm._model
+        model = self._model
         bos, eos = model.token_bos(), model.token_eos()
         return Jinja2ChatFormatter(template, eos_token=model.token_get_text(eos) if eos >= 0 else "",
                                    bos_token=model.token_get_text(bos) if bos >= 0 else "")
@@ -135,9 +155,9 @@ class LlamaBackend(Backend):
 
     def _tokens(self, text: str) -> list[int]:
         """Tokens of rendered text (special tokens parsed), with the model's BOS if it wants one."""
-        tokens = self.llm.tokenize(text.encode("utf-8"), add_bos=False, special=True)
-        bos = self.llm.token_bos()
-        if self.llm._model.add_bos_token() and bos >= 0 and tokens[:1] != [bos]:
+        tokens = self._model.tokenize(text.encode("utf-8"), add_bos=False, special=True)
+        bos = self._model.token_bos()
+        if self._model.add_bos_token() and bos >= 0 and tokens[:1] != [bos]:
             tokens = [bos] + tokens
         return tokens
 
@@ -145,12 +165,12 @@ class LlamaBackend(Backend):
         """The token the template puts after an assistant answer (if end-of-generation), else EOT/EOS."""
         text = self._render("s", "u", SENTINEL)
         after = text[text.index(SENTINEL) + len(SENTINEL):]
-        vocab = self.llm._model.vocab
-        first = self.llm.tokenize(after.encode("utf-8"), add_bos=False, special=True)[:1]
+        vocab = self._model.vocab
+        first = self._model.tokenize(after.encode("utf-8"), add_bos=False, special=True)[:1]
         if first and self._lib.llama_vocab_is_eog(vocab, first[0]):
             return first[0]
         eot = self._lib.llama_vocab_eot(vocab)
-        return eot if eot >= 0 else self.llm.token_eos()
+        return eot if eot >= 0 else self._model.token_eos()
 
     def prompt_tokens(self, question: Question) -> list[int]:
         """The full prompt: system, user and generation prompt, in the model's chat template."""
@@ -158,7 +178,7 @@ class LlamaBackend(Backend):
 
     def option_tokens(self, option: str) -> list[int]:
         """An option's continuation (its text tokens) without the end-of-turn token."""
-        return self.llm.tokenize(option.encode("utf-8"), add_bos=False, special=False)
+        return self._model.tokenize(option.encode("utf-8"), add_bos=False, special=False)
 
     def prefix_tokens(self, system: str) -> list[int]:
         """The rendered prompt up to where the user text starts: what questions with this system text share."""
@@ -230,30 +250,28 @@ class LlamaBackend(Backend):
         """A slot whose sequence holds `prefix` (at the start), decoding only what no slot already has.
 
         Extends or reuses the slot with the longest common prefix; otherwise copies that common part
-        into the least recently used slot. The rest is restored from the on-disk store when it holds
-        it (after evaluating whatever comes before the stored part), else evaluated and then stored.
-        Evicts other slots while `room` more cells would not fit.
+        into the least recently used slot. The rest is restored from the on-disk store when a state
+        stored for exactly this layout is there (see _plan), else evaluated and then stored. Evicts
+        other slots while `room` more cells would not fit.
         """
         best, keep = self._best_slot(prefix)
         slot = best
         if keep < len(prefix) and keep < len(self._slots[best]):  # diverges: keep `best`, use another slot
             slot = next((i for i in self._recent if i != best), best)
             if slot == best:
-                self._lib.llama_memory_seq_rm(self._ctx.memory, best, keep, -1)
+                self._seq_rm(best, keep, -1)
             else:
                 self._clear_slot(slot)
-                self._lib.llama_memory_seq_cp(self._ctx.memory, best, slot, 0, keep)
+                self._seq_cp(best, slot, 0, keep)
             self._slots[slot] = prefix[:keep]
         self._use(slot)
-        split = self._stored_split(prefix, keep)
-        self._make_room(len(prefix) - min(keep, len(prefix) if split is None else split) + room)
-        if split is not None:
-            self._evaluate(slot, prefix[:max(split, keep)])
-            if self._restore(slot, prefix, split):
-                return slot
+        self._make_room(len(prefix) - min(keep, len(prefix)) + room)
+        plan = self._plan(slot, prefix) if keep < len(prefix) and self._store is not None else None
+        if plan is not None and self._restore(slot, prefix, plan):
+            return slot
         self._evaluate(slot, prefix)
-        if keep < len(prefix) and self._store is not None:
-            self._save(slot, prefix, keep)
+        if plan is not None:
+            self._save(slot, prefix, plan)
         return slot
 
     def _best_slot(self, prefix: list[int]) -> tuple[int, int]:
@@ -277,59 +295,93 @@ class LlamaBackend(Backend):
         for start in range(len(self._slots[slot]), len(tokens), self.n_batch):
             piece = tokens[start: start + self.n_batch]
             self._fill([(t, start + k, (slot,), False) for k, t in enumerate(piece)])
-            self._decode()
+            visible = self._cells.layout(slot)
+            self._decode(lambda cells: _contents(visible, piece, start, cells))
             self._slots[slot] = tokens[: start + len(piece)]
 
     # --- the on-disk store of prefix states ---------------------------------------------------
-    # A stored state covers positions split.. of a prefix, the part that was evaluated after copying
-    # the first `split` tokens from another resident prefix. Restoring it the same way (copy, then
-    # the stored cells) puts the same bytes in the same cells as evaluating did, when the cache is in
-    # the same state, as in a rerun: the scores are then bit-identical.
+    # A stored state holds the cells a prefix's evaluation filled (positions keep.., after the `keep`
+    # tokens the slot already held), under a key naming everything those cells' bytes depend on: the
+    # tokens, the cells they went to and the cells (with their contents) they attended over. It is
+    # restored only where llama.cpp will put it in exactly those cells, next to exactly those
+    # contents, so restoring gives the bytes evaluating would give, where evaluating would put them,
+    # and every later score is bit-identical to a run without the store.
 
-    def _stored_split(self, prefix: list[int], keep: int) -> int | None:
-        """The stored split to restore from: the largest one the slot's `keep` tokens cover, else
-        the smallest (the tokens before it are evaluated first); None without a stored state."""
-        if self._store is None or keep >= len(prefix):
+    def _plan(self, slot: int, prefix: list[int]) -> "_Plan | None":
+        """What evaluating the rest of `prefix` into `slot` would do to the cache, and the key of its
+        state; None where a restore would not land in the same cells (llama.cpp places a restored state
+        as one ubatch, an evaluation in n_batch pieces: they differ only when a piece starts back at 0)
+        or would not keep the order of positions (cells that wrap around the cache's end)."""
+        keep = len(self._slots[slot])
+        before = self._cells.layout(slot)
+        if [p for p, _, _ in before] != list(range(keep)):
             return None
-        splits = self._store.splits(prefix)
-        return max((s for s in splits if s <= keep), default=min(splits, default=None))
+        sizes = [min(self.n_batch, len(prefix) - start) for start in range(keep, len(prefix), self.n_batch)]
+        pieces = self._cells.chunks(sizes)
+        cells = [c for piece in pieces for c in piece]
+        # a state holds its cells in index order and a restore fills the cells it finds in that order
+        if cells != sorted(cells) or self._cells.find(len(cells)) != cells:
+            return None
+        contents, visible, start = [], list(before), keep
+        for piece in pieces:
+            made = _contents(visible, prefix[start: start + len(piece)], start, piece)
+            contents += made
+            visible += [(start + k, c, made[k]) for k, c in enumerate(piece)]
+            start += len(piece)
+        key = hashlib.sha256(json.dumps([[p, c, d.hex() if d else None] for p, c, d in before], separators=(",", ":"))
+                             .encode() + bytes(json.dumps(cells), "ascii")).hexdigest()
+        return _Plan(keep, cells, contents, key)
 
-    def _restore(self, slot: int, prefix: list[int], split: int) -> bool:
-        """Complete the slot (holding prefix[:split] or more) from the stored state of positions
-        split..; False, with the slot unchanged, when the file is absent or unusable."""
-        if (payload := self._store.load(prefix, split)) is None:
+    def _restore(self, slot: int, prefix: list[int], plan: "_Plan") -> bool:
+        """Complete the slot (holding exactly prefix[:plan.keep]) from the stored state; False, with the
+        cache unchanged, when there is none or it does not hold those positions."""
+        if (payload := self._store.load(prefix, plan.keep, plan.key)) is None:
             return False
-        scratch, start = len(self._slots), len(self._slots[slot])  # the first option sequence is free here
+        if (held := _state_positions(payload)) != list(range(plan.keep, len(prefix))):
+            self._store.discard(prefix, plan.keep, plan.key, f"holds positions {held[:1]}..{held[-1:]}")
+            return False
+        scratch = len(self._slots)  # the first option sequence is free here
         buf = (ctypes.c_uint8 * len(payload)).from_buffer(payload)
         loaded = self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), scratch)
-        held = (self._lib.llama_memory_seq_pos_min(self._ctx.memory, scratch),
-                self._lib.llama_memory_seq_pos_max(self._ctx.memory, scratch))
-        if loaded and held == (split, len(prefix) - 1):
-            self._lib.llama_memory_seq_cp(self._ctx.memory, scratch, slot, start, -1)
-        self._lib.llama_memory_seq_rm(self._ctx.memory, scratch, -1, -1)
-        if not loaded or held != (split, len(prefix) - 1):
-            self._store.discard(prefix, split, f"llama.cpp restored {loaded} bytes, positions {held}")
-            return False
+        if not loaded:  # llama.cpp may have placed cells and freed them again: the mirror cannot follow
+            self._store.discard(prefix, plan.keep, plan.key, "llama.cpp refused it")
+            self.reset()
+            log.warning("urdfkb: the KV cache was cleared after a failed restore: later scores may differ "
+                        "from a run without the prompt-state cache")
+            raise BackendError(f"{self.name}: a stored prompt state could not be restored; run again")
+        self._cells.restore(scratch, range(plan.keep, len(prefix)), plan.contents)
+        self._seq_cp(scratch, slot, plan.keep, -1)
+        self._seq_rm(scratch)
         self._slots[slot] = list(prefix)
-        self.stats.restored_tokens += len(prefix) - start
+        self.stats.restored_tokens += len(prefix) - plan.keep
         return True
 
-    def _save(self, slot: int, prefix: list[int], split: int) -> None:
-        """Store the state of the slot's positions split.. (the slot holds exactly `prefix`)."""
+    def _save(self, slot: int, prefix: list[int], plan: "_Plan") -> None:
+        """Store the state of the slot's positions plan.keep.. (the slot holds exactly `prefix`)."""
         scratch = len(self._slots)
-        self._lib.llama_memory_seq_cp(self._ctx.memory, slot, scratch, split, -1)
+        self._seq_cp(slot, scratch, plan.keep, -1)
         try:
             size = self._lib.llama_state_seq_get_size(self._ctx.ctx, scratch)
             buf = (ctypes.c_uint8 * size)()
             written = self._lib.llama_state_seq_get_data(self._ctx.ctx, buf, size, scratch)
         finally:
-            self._lib.llama_memory_seq_rm(self._ctx.memory, scratch, -1, -1)
+            self._seq_rm(scratch)
         if written:
-            self._store.save(prefix, split, memoryview(buf)[:written])
+            self._store.save(prefix, plan.keep, plan.key, memoryview(buf)[:written])
 
     def _clear_slot(self, slot: int) -> None:
-        self._lib.llama_memory_seq_rm(self._ctx.memory, slot, -1, -1)
+        self._seq_rm(slot)
         self._slots[slot] = []
+
+    # --- the KV cache, with its mirror ---------------------------------------------------------
+
+    def _seq_rm(self, seq: int, p0: int = -1, p1: int = -1) -> None:
+        self._lib.llama_memory_seq_rm(self._ctx.memory, seq, p0, p1)
+        self._cells.seq_rm(seq, p0, p1)
+
+    def _seq_cp(self, src: int, dst: int, p0: int = -1, p1: int = -1) -> None:
+        self._lib.llama_memory_seq_cp(self._ctx.memory, src, dst, p0, p1)
+        self._cells.seq_cp(src, dst, p0, p1)
 
     def _decode_jobs(self, jobs: list[_Job], slot: int, n_prefix: int) -> list[list[float]]:
         """Whole-option log-probabilities of every job, from one decode."""
@@ -347,7 +399,7 @@ class LlamaBackend(Backend):
             seqs = tuple(range(seq, seq + len(job.options)))
             seq += len(job.options)
             for s in seqs:
-                self._lib.llama_memory_seq_cp(self._ctx.memory, slot, s, 0, n_prefix)
+                self._seq_cp(slot, s, 0, n_prefix)
             for k, t in enumerate(job.suffix):
                 entries.append((t, n_prefix + k, seqs, k == len(job.suffix) - 1))
             first_row = len(entries) - 1
@@ -363,7 +415,7 @@ class LlamaBackend(Backend):
             return _RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab), wanted
         finally:
             for s in range(first_seq, seq):
-                self._lib.llama_memory_seq_rm(self._ctx.memory, s, -1, -1)
+                self._seq_rm(s)
 
     def _option_logprob(self, logprobs: "_RowLogprobs", rows: list[int], option: list[int]) -> float:
         """Sum of log P(token | before) over the option's tokens and the end-of-turn token."""
@@ -378,20 +430,34 @@ class LlamaBackend(Backend):
             for k, s in enumerate(seqs):
                 b.seq_id[i][k] = s
         b.n_tokens = len(entries)
+        self._entries = [(pos, seqs) for _, pos, seqs, _ in entries]
 
-    def _decode(self) -> None:
+    def _decode(self, contents: "Callable[[list[int]], list[bytes]] | None" = None) -> None:
+        """Decode the filled batch (one ubatch: it never exceeds n_batch = n_ubatch); the mirror places it
+        where llama.cpp does, its cells' contents named by `contents(cells)` (none for option rows,
+        which are removed again right after)."""
         n = self._batch.batch.n_tokens
+        cells = self._cells.find(n)
         code = self._lib.llama_decode(self._ctx.ctx, self._batch.batch)
         self.stats.calls += 1
         if code != 0:
             self.reset()
             raise BackendError(f"{self.name}: llama_decode returned {code} for {n} tokens")
+        self._cells.apply(cells, self._entries, contents(cells) if contents else [None] * n)
         self.stats.prompt_tokens += n
 
     def reset(self) -> None:
         """Forget every cached token (the next question re-evaluates its system prefix)."""
         self._lib.llama_memory_clear(self._ctx.memory, True)
+        self._cells.clear()
         self._slots = [[] for _ in self._slots]
+        self._recent = list(range(len(self._slots)))
+
+    def fresh(self) -> None:
+        """As just loaded: an empty KV cache (zeroed), the slots' order, the sampling draws and the counters."""
+        super().fresh()
+        self.reset()
+        self._draws = 0
 
     # --- sampling ---------------------------------------------------------------------------
 
@@ -444,7 +510,46 @@ class LlamaBackend(Backend):
         """Free the scoring context, the batch and the model."""
         self._batch.close()
         self._ctx.close()
-        self.llm.close()
+        self._model.close()
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """How evaluating a prefix's rest would fill the cache: after `keep` resident tokens, into `cells`,
+    with `contents`; `key` names that layout for the prefix store."""
+
+    keep: int
+    cells: list[int]
+    contents: list[bytes]
+    key: str
+
+
+def _contents(visible: list[tuple[int, int, bytes | None]], tokens: Sequence[int], start: int,
+              cells: Sequence[int]) -> list[bytes]:
+    """The content digests of cells a prefix piece is decoded into: its tokens at positions start..,
+    the cells they go to, and (position, cell, content) of every cell they attend over."""
+    digest = hashlib.sha256(json.dumps([[[p, c, d.hex() if d else None] for p, c, d in visible],
+                                        list(tokens), start, list(cells)], separators=(",", ":")).encode()).digest()
+    return [hashlib.sha256(digest + k.to_bytes(4, "little")).digest() for k in range(len(tokens))]
+
+
+def _state_positions(payload: memoryview | bytes) -> list[int]:
+    """The positions a llama_state_seq_get_data payload holds (one stream, one sequence per cell, no cell
+    extras: what this backend writes), read from its header; [] if it is not such a payload."""
+    try:
+        magic, _, n_stream, count = struct.unpack_from("<IiII", payload, 0)  # llama-context.cpp io_magic
+        if magic != 0xAF143CD8 or n_stream != 1:
+            return []
+        entry = struct.Struct("<iIi")  # position, n_seq_id (1), sequence id
+        found = []
+        for i in range(count):
+            pos, n_seq, _ = entry.unpack_from(payload, 16 + i * entry.size)
+            if n_seq != 1:
+                return []
+            found.append(pos)
+        return found
+    except struct.error:
+        return []
 
 
 class _RowLogprobs:
@@ -463,6 +568,26 @@ class _RowLogprobs:
             self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum(dtype=np.float64))))
         logits, logz = self.rows[row]
         return float(logits[token]) - logz
+
+
+_BACKEND_READY = False
+
+
+def _load_model(llama_cpp, internals, path: Path):
+    """The model alone, with the parameters llama_cpp.Llama would give it (CPU, memory-mapped). Llama itself
+    would also build a context of its own, with a KV cache and compute buffers, that scoring never uses."""
+    global _BACKEND_READY
+    if not _BACKEND_READY:
+        from llama_cpp._logger import set_verbose
+
+        set_verbose(False)  # llama.cpp's log: errors only, as Llama(verbose=False) sets it
+        llama_cpp.llama_backend_init()
+        _BACKEND_READY = True
+    params = llama_cpp.llama_model_default_params()
+    params.n_gpu_layers, params.split_mode, params.main_gpu = 0, llama_cpp.LLAMA_SPLIT_MODE_LAYER, 0
+    params.vocab_only = False
+    params.load_mode = llama_cpp.LLAMA_LOAD_MODE_MMAP
+    return internals.LlamaModel(path_model=str(path), params=params, verbose=False)
 
 
 def _file_identity(path: Path) -> list:

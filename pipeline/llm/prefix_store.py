@@ -1,11 +1,13 @@
-"""A persistent on-disk cache of the KV states of static prompt prefixes, one file per prefix.
+"""A persistent on-disk cache of the KV states of static prompt prefixes, one file per prefix and layout.
 
 A file is valid only for the identity it was written under (model file, llama.cpp build, context
-parameters), the exact prefix tokens and the split (the leading tokens whose state is not in the
-file, shared with another resident prefix when it was written): all go into its name, and its
-header repeats that key with the payload's length and sha256. Anything that does not check out is logged and ignored (the
-caller evaluates the prefix instead); writes are atomic; the directory is kept under a size bound
-by deleting the least recently used files.
+parameters), the exact prefix tokens, the split (the leading tokens whose state is not in the
+file: those the slot already held when the rest was evaluated) and the layout (a digest of the KV
+cells the state went to and of the cells, with their contents, it was computed next to: see
+pipeline.llm.llama): all go into its name, and its header repeats that key with the payload's
+length and sha256. Anything that does not check out is logged and ignored (the caller evaluates the
+prefix instead); writes are atomic; the directory is kept under a size bound by deleting the least
+recently used files.
 """
 from __future__ import annotations
 
@@ -24,14 +26,13 @@ from urdfkb.pipeline.cache import cache_root
 log = logging.getLogger(__name__)
 
 MAGIC = b"URDFKB-KV\x00"
-FORMAT = 1
+FORMAT = 2  # 2: keyed by layout too
 _HEADER = struct.Struct("<I Q 32s 32s")  # format, payload length, sha256(payload), key digest
 SUFFIX = ".kv"
 SUBDIR = "prefixes"
 DEFAULT_MAX_BYTES = 256 << 20
-# "on" / "1" / "true" / "yes" enables the store. Off by default: states restored into other KV cells
-# than they were evaluated in move scores (PR2 after TIAGo: 11 of 192 answers changed), so results
-# would depend on which robots ran before.
+# "off" / "0" / "false" / "no" disables the store; it is on otherwise. A state is restored only into the
+# KV cells evaluating it would have filled, next to the same contents, so it changes no score.
 ENV_SWITCH = "URDFKB_PREFIX_CACHE"
 
 
@@ -41,12 +42,13 @@ def default_dir() -> Path:
 
 
 def enabled_by_env() -> bool:
-    return os.environ.get(ENV_SWITCH, "off").strip().lower() in ("1", "on", "true", "yes")
+    return os.environ.get(ENV_SWITCH, "on").strip().lower() not in ("0", "off", "false", "no")
 
 
 class PrefixStore:
-    """KV-state payloads (opaque bytes) keyed by an identity, a token sequence and a split: a file
-    holds the state of positions split..len(tokens)-1, computed after tokens[:split]."""
+    """KV-state payloads (opaque bytes) keyed by an identity, a token sequence, a split and a layout: a
+    file holds the state of positions split..len(tokens)-1, computed after tokens[:split] in the
+    cells `layout` names."""
 
     def __init__(self, directory: Path, identity: dict, max_bytes: int = DEFAULT_MAX_BYTES):
         self.directory = Path(directory)
@@ -57,24 +59,15 @@ class PrefixStore:
     def _stem(self, tokens: Sequence[int]) -> str:
         return hashlib.sha256(json.dumps([FORMAT, self.identity, list(tokens)]).encode()).hexdigest()
 
-    def _key(self, tokens: Sequence[int], split: int) -> bytes:
-        return hashlib.sha256(f"{self._stem(tokens)}-{split}".encode()).digest()
+    def _key(self, tokens: Sequence[int], split: int, layout: str) -> bytes:
+        return hashlib.sha256(f"{self._stem(tokens)}-{split}-{layout}".encode()).digest()
 
-    def path(self, tokens: Sequence[int], split: int = 0) -> Path:
-        return self.directory / f"{self._stem(tokens)}-{split}{SUFFIX}"
+    def path(self, tokens: Sequence[int], split: int, layout: str) -> Path:
+        return self.directory / f"{self._key(tokens, split, layout).hex()}{SUFFIX}"
 
-    def splits(self, tokens: Sequence[int]) -> list[int]:
-        """The splits stored for `tokens`, ascending."""
-        found = []
-        for path in self.directory.glob(f"{self._stem(tokens)}-*{SUFFIX}"):
-            number = path.name[:-len(SUFFIX)].rpartition("-")[2]
-            if number.isdigit() and int(number) < len(tokens):
-                found.append(int(number))
-        return sorted(found)
-
-    def load(self, tokens: Sequence[int], split: int = 0) -> memoryview | None:
+    def load(self, tokens: Sequence[int], split: int, layout: str) -> memoryview | None:
         """The stored payload, or None when absent, unreadable, corrupt or mismatched."""
-        path, key = self.path(tokens, split), self._key(tokens, split)
+        path, key = self.path(tokens, split, layout), self._key(tokens, split, layout)
         try:
             blob = bytearray(path.read_bytes())
         except FileNotFoundError:
@@ -97,9 +90,9 @@ class PrefixStore:
         self.hits += 1
         return payload
 
-    def discard(self, tokens: Sequence[int], split: int, reason: str) -> None:
+    def discard(self, tokens: Sequence[int], split: int, layout: str, reason: str) -> None:
         """Drop a file the backend could not restore."""
-        self._reject(self.path(tokens, split), reason)
+        self._reject(self.path(tokens, split, layout), reason)
 
     def _reject(self, path: Path, reason: str) -> None:
         self.rejected += 1
@@ -110,13 +103,14 @@ class PrefixStore:
             pass
         return None
 
-    def save(self, tokens: Sequence[int], split: int, payload: bytes | memoryview) -> None:
+    def save(self, tokens: Sequence[int], split: int, layout: str, payload: bytes | memoryview) -> None:
         """Store atomically (temporary file, then rename), then evict beyond the size bound.
 
         A failure to write is logged, never raised: the cache only saves time.
         """
-        header = MAGIC + _HEADER.pack(FORMAT, len(payload), hashlib.sha256(payload).digest(), self._key(tokens, split))
-        target = self.path(tokens, split)
+        key = self._key(tokens, split, layout)
+        header = MAGIC + _HEADER.pack(FORMAT, len(payload), hashlib.sha256(payload).digest(), key)
+        target = self.path(tokens, split, layout)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             write_atomically(target, header, payload, sync=False)  # a torn file fails its checksum on load

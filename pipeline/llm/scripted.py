@@ -24,7 +24,12 @@ class ScriptedBackend(Backend):
         self.rule = rule
         self.name = name
         self.stats = Stats()
+        self.seed = seed
         self._rng = random.Random(seed)
+
+    def fresh(self) -> None:
+        super().fresh()
+        self._rng = random.Random(self.seed)
 
     def _distribution(self, question: Question) -> dict[str, float]:
         self.stats.calls += 1

@@ -174,9 +174,10 @@ def candidates(tree: KinematicTree, components: list[Component]) -> list[Chain]:
 
 
 def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
-             components: list[Component], progress: Progress | None, log: Log) -> None:
+             components: list[Component], progress: Progress | None, log: Log,
+             reasoned: Callable[[float], None] = lambda _seconds: None) -> None:
     """Each candidate's class: structure first (the ontology's sufficient conditions, by the reasoner),
-    the model for the rest."""
+    the model for the rest; `reasoned` receives the reasoner's wall time."""
     by_link = {link: ch for ch in found for link in ch.links}
     lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
     devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
@@ -186,6 +187,7 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     inferred, seconds = reasoning.classify_parts(facts)
+    reasoned(seconds)
     log(f"body reasoner: {seconds:.2f} s, " + ", ".join(f"{c.joints[0].joint}={cls}" for c, cls in zip(found, inferred)))
     open_ = [i for i, cls in enumerate(inferred) if cls is None]
     for i, cls in enumerate(inferred):
