@@ -1,19 +1,25 @@
 """One robot end to end and cold, `urdfkb populate --no-cache`: this checkout, or it against another revision.
 
-Usage: python -m benchmarks.populate_bench [--urdf PR2.urdf] [--against REV] [--runs 2]
+Usage: python -m benchmarks.populate_bench [--urdf PR2.urdf] [--against REV] [--runs 2] [--timings]
 
-Every run is a fresh process (cold model load, result cache off, prefix-state cache off). With
---against, the revision's files (`git archive`) are laid out as an importable `urdfkb` the way
-pyproject.toml's package-dir maps them, and the two versions run alternately, so both see the same
-machine load. Prints each run's wall time, prompt tokens and decodes, then the medians and, with
---against, the ratio of this checkout's median to the revision's.
+Every run is a fresh process in its own empty cache root (cold model load from the shared model
+folder, result cache off, prompt-state cache empty: this checkout's default is on, an older
+revision's default, off, is left alone). With --against, the revision's files (`git archive`) are
+laid out as an importable `urdfkb` the way pyproject.toml's package-dir maps them, and the two
+versions run alternately, so both see the same machine load. Prints each run's wall time, peak RSS,
+prompt tokens and decodes, then the medians and, with --against, the ratio of this checkout's median
+to the revision's, and how the answers compare: over the questions both versions ask, how many
+answers differ and the largest probability difference (0 when every score is bit-identical).
+--timings prints this checkout's last `--timings` breakdown.
 """
 from __future__ import annotations
 
 import argparse
 import io
+import json
 import os
 import re
+import shutil
 import statistics
 import subprocess
 import sys
@@ -41,21 +47,55 @@ def importable(rev: str, root: Path) -> Path:
     return path
 
 
-def populate(urdf: Path, out: Path, pythonpath: Path | None) -> dict:
-    """One cold `urdfkb populate --no-cache` process: wall time, tokens and decodes."""
-    env = {**os.environ, "URDFKB_PREFIX_CACHE": "off"}
+def populate(urdf: Path, out: Path, pythonpath: Path | None, timings: bool = False) -> dict:
+    """One cold `urdfkb populate --no-cache` process: wall time, peak RSS, tokens, decodes, its answers."""
+    from urdfkb.pipeline.llm.fetch import models_dir
+
+    root = out.parent / "cache"
+    shutil.rmtree(root, ignore_errors=True)
+    env = {**os.environ, "URDFKB_CACHE": str(root), "URDFKB_MODEL_CACHE": str(models_dir())}
+    env.pop("URDFKB_PREFIX_CACHE", None)  # each version's default
+    env.pop("URDFKB_RESULT_CACHE", None)
     if pythonpath is not None:
         env["PYTHONPATH"] = str(pythonpath)
+    trace = out.with_suffix(".jsonl")
     cmd = [sys.executable, "-m", "urdfkb", "populate", str(urdf), "--no-cache", "--quiet", "--format", "turtle",
-           "-o", str(out)]
+           "-o", str(out), "--trace", str(trace)] + (["--timings"] if timings else [])
     start = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)  # not the checkout
+    code, stdout, stderr, max_rss_mb = run_measured(cmd, env, out.parent)  # not in the checkout
     seconds = time.perf_counter() - start
-    if proc.returncode != 0:
-        sys.exit(f"urdfkb failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    if code != 0:
+        sys.exit(f"urdfkb failed ({code}):\n{stderr[-2000:]}")
     text = out.read_text()
     number = lambda prop: int(re.search(rf"core:{prop}\s+\"?(\d+)", text).group(1))  # noqa: E731
-    return {"seconds": seconds, "tokens": number("tokensEvaluated"), "decodes": number("llmCalls")}
+    answers = {}
+    for line in trace.read_text().splitlines():
+        record = json.loads(line)
+        if "distribution" in record:
+            answers[record["key"]] = (record["answer"], record["distribution"])
+    table = stdout[stdout.find("time breakdown"):] if timings and "time breakdown" in stdout else ""
+    return {"seconds": seconds, "tokens": number("tokensEvaluated"), "decodes": number("llmCalls"),
+            "max_rss_mb": max_rss_mb, "answers": answers, "timings": table}
+
+
+def compare(a: dict, b: dict) -> str:
+    """How two runs' answers compare over the questions both asked."""
+    common = [k for k in a if k in b]
+    differ = [k for k in common if a[k][0] != b[k][0]]
+    drift = max((abs(p - b[k][1].get(o, 0.0)) for k in common for o, p in a[k][1].items()), default=0.0)
+    return (f"{len(common)} common questions ({len(a)} and {len(b)} asked), {len(differ)} answers differ"
+            f"{' ' + str(differ[:4]) if differ else ''}, max |d p| {drift:.3g}")
+
+
+def run_measured(cmd: list[str], env: dict, cwd: Path) -> tuple[int, str, str, float]:
+    """Run a command: its exit code, stdout, stderr and peak resident set size in MB (from wait4)."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=err, text=True, env=env, cwd=cwd)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        return proc.returncode, out.read(), err.read(), usage.ru_maxrss / 1024
 
 
 def main() -> None:
@@ -63,6 +103,7 @@ def main() -> None:
     parser.add_argument("--urdf", type=Path, default=SHARED / "urdf" / "pr2.urdf")
     parser.add_argument("--against", metavar="REV", help="a git revision to run alternately with this checkout")
     parser.add_argument("--runs", type=int, default=2, help="runs of each version (default 2)")
+    parser.add_argument("--timings", action="store_true", help="print this checkout's last --timings breakdown")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="urdfkb-bench-") as tmp:
         versions = {"this checkout": None}
@@ -72,15 +113,22 @@ def main() -> None:
         results: dict[str, list[dict]] = {name: [] for name in versions}
         for run in range(1, args.runs + 1):
             for name, pythonpath in versions.items():
-                r = populate(args.urdf, Path(tmp) / "out.ttl", pythonpath)
+                r = populate(args.urdf, Path(tmp) / "out.ttl", pythonpath, args.timings and pythonpath is None)
                 results[name].append(r)
-                print(f"{name:>16} run {run}: {r['seconds']:6.1f} s  {r['tokens']:,} tokens  {r['decodes']} decodes",
+                print(f"{name:>16} run {run}: {r['seconds']:6.1f} s  peak RSS {r['max_rss_mb']:,.0f} MB  "
+                      f"{r['tokens']:,} tokens  {r['decodes']} decodes  (load average {os.getloadavg()[0]:.1f})",
                       flush=True)
     medians = {name: statistics.median(r["seconds"] for r in rs) for name, rs in results.items()}
     for name, seconds in medians.items():
         print(f"{name:>16} median {seconds:6.1f} s")
+        print(f"{'':>16} runs against its first: " + "; ".join(compare(results[name][0]["answers"], r["answers"])
+                                                                for r in results[name][1:]))
     if args.against:
         print(f"ratio (this checkout / {args.against}): {medians['this checkout'] / medians[args.against]:.2f}")
+        print(f"answers, this checkout against {args.against}: "
+              f"{compare(results[args.against][0]['answers'], results['this checkout'][0]['answers'])}")
+    if args.timings and results["this checkout"][-1]["timings"]:
+        print(results["this checkout"][-1]["timings"])
 
 
 if __name__ == "__main__":
