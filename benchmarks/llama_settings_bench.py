@@ -28,7 +28,10 @@ SETTINGS: dict[str, tuple[dict, dict]] = {
     "threads=4": ({"n_threads": 4}, {}),
     "omp-passive": ({}, {"OMP_WAIT_POLICY": "PASSIVE"}),
     "omp-active": ({}, {"OMP_WAIT_POLICY": "ACTIVE"}),
+    "spin=300000": ({}, {"GOMP_SPINCOUNT": "300000"}),  # libgomp's own default where OMP_WAIT_POLICY is unset
+    "spin=30000": ({}, {"GOMP_SPINCOUNT": "30000"}),
     "spin=10000": ({}, {"GOMP_SPINCOUNT": "10000"}),
+    "spin=3000": ({}, {"GOMP_SPINCOUNT": "3000"}),
     "threads=1,omp-passive": ({"n_threads": 1}, {"OMP_WAIT_POLICY": "PASSIVE"}),
     "threads=3,omp-passive": ({"n_threads": 3}, {"OMP_WAIT_POLICY": "PASSIVE"}),
     "flash-attn": ({"flash_attn": True}, {}),

@@ -51,12 +51,13 @@ class Timings:
     def table(self) -> str:
         """The breakdown as text: stages, each pass's steps with their model work, subtotals, shares."""
         steps = [r for r in self.records if "step" in r]
-        head = f"{'':34}{'seconds':>9}{'model s':>9}{'tokens':>8}{'restored':>9}{'decodes':>8}{'reasoner s':>11}"
+        width = max([len(f"  {r['pass']}: {r['step']}") for r in steps] + [24]) + 1
+        head = f"{'':{width}}{'seconds':>9}{'model s':>9}{'tokens':>8}{'restored':>9}{'decodes':>8}{'reasoner s':>11}"
         lines = ["time breakdown (wall seconds; model s: inside the model backend)", head]
 
         def row(label: str, seconds: float, counts: dict | None = None) -> str:
             counts = counts or {}
-            return (f"{label:34}{seconds:9.1f}" + "".join(
+            return (f"{label:{width}}{seconds:9.1f}" + "".join(
                 format(counts[c], spec) if c in counts else " " * int(spec.rstrip(",f").split(".")[0])
                 for c, spec in _FORMATS.items())).rstrip()
 

@@ -164,3 +164,31 @@ def test_http_has_no_logits():
         OpenAIBackend("http://127.0.0.1:9", "m").score([q()])
     with pytest.raises(BackendError, match="log-probabilities"):
         Oracle(OpenAIBackend("http://127.0.0.1:9", "m"), vote="exact")
+
+
+def test_openmp_threads_wait_passively_only_where_other_processes_keep_the_cores_busy(monkeypatch):
+    """llama.cpp's threads spin at their barriers (libgomp's default) on idle cores, and sleep there when
+    other processes keep at least half a core busy; a policy already set is left alone."""
+    import os as _os
+
+    from urdfkb.pipeline.llm import llama
+
+    def choose(busy_elsewhere: float, own: float = 0.5, preset: dict | None = None) -> str | None:
+        for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT"):
+            monkeypatch.delenv(name, raising=False)
+        for name, value in (preset or {}).items():
+            monkeypatch.setenv(name, value)
+        cores, ticks = _os.cpu_count() or 1, 100
+        readings = iter([(0, 0), (cores * ticks, cores * ticks - int((busy_elsewhere + own) * ticks))])
+        times = iter([_os.times_result((0, 0, 0, 0, 0)), _os.times_result((own * ticks / _os.sysconf("SC_CLK_TCK"), 0, 0, 0, 0))])
+        monkeypatch.setattr(llama, "_cpu_ticks", lambda: next(readings))
+        monkeypatch.setattr(llama.os, "times", lambda: next(times))
+        monkeypatch.setattr(llama.time, "sleep", lambda seconds: None)
+        llama._choose_openmp_waiting()
+        return _os.environ.get("OMP_WAIT_POLICY")
+
+    assert choose(busy_elsewhere=0.0) is None
+    assert choose(busy_elsewhere=0.3) is None
+    assert choose(busy_elsewhere=1.0) == "PASSIVE"
+    assert choose(busy_elsewhere=1.0, preset={"OMP_WAIT_POLICY": "ACTIVE"}) == "ACTIVE"
+    assert choose(busy_elsewhere=1.0, preset={"GOMP_SPINCOUNT": "10000"}) is None

@@ -9,6 +9,7 @@ import math
 import os
 import random
 import struct
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -71,11 +72,7 @@ class LlamaBackend(Backend):
                  n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 2,
                  prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
                  flash_attn: bool = False, kv_type: str = "f16"):
-        # llama.cpp's threads meet at an OpenMP barrier after every operation of a decode; by default
-        # libgomp spins there, and on cores shared with other processes a spinning thread burns the time
-        # slice its partner needs (PR2's first questions: 0.56x the time waiting passively, scores
-        # bit-identical: benchmarks.llama_settings_bench). libgomp reads this when it loads, with llama_cpp.
-        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+        _choose_openmp_waiting()
         import llama_cpp
         from llama_cpp import _internals
 
@@ -571,6 +568,40 @@ class _RowLogprobs:
 
 
 _BACKEND_READY = False
+BUSY_ELSEWHERE = 0.5  # cores other processes keep busy from which llama.cpp's threads wait passively
+
+
+def _choose_openmp_waiting(window: float = 0.25) -> None:
+    """Set OMP_WAIT_POLICY=PASSIVE when other processes keep at least BUSY_ELSEWHERE of a core busy.
+
+    llama.cpp's threads meet at an OpenMP barrier after every operation of a decode (about 1,100 per
+    decode of Qwen2.5-1.5B), where libgomp spins before it sleeps. On cores shared with busy processes
+    a spinning thread burns the slice its partner needs, and waiting passively was 0.49-0.71x the
+    time; with the cores to itself, waking a sleeping thread costs more than the spin, and a passive PR2
+    populate took 1.11x (benchmarks.llama_settings_bench, README). Scores are bit-identical either way.
+    The busy share is sampled from /proc/stat over `window` seconds, less this process's own time;
+    libgomp reads the policy once, when llama_cpp loads it, so a process keeps its first choice. An
+    OMP_WAIT_POLICY or GOMP_SPINCOUNT already set is left alone."""
+    if "OMP_WAIT_POLICY" in os.environ or "GOMP_SPINCOUNT" in os.environ:
+        return
+    try:
+        before, mine = _cpu_ticks(), os.times()
+        time.sleep(window)
+        after, mine_after = _cpu_ticks(), os.times()
+    except (OSError, ValueError, IndexError):
+        return
+    total, idle = after[0] - before[0], after[1] - before[1]
+    own = (mine_after.user + mine_after.system - mine.user - mine.system) * os.sysconf("SC_CLK_TCK")
+    cores = os.cpu_count() or 1
+    if total > 0 and (total - idle - own) / total * cores >= BUSY_ELSEWHERE:
+        os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+
+
+def _cpu_ticks() -> tuple[int, int]:
+    """All CPUs' ticks since boot, and their idle (and I/O wait) ticks, from /proc/stat."""
+    with open("/proc/stat") as f:
+        fields = [int(x) for x in f.readline().split()[1:9]]
+    return sum(fields), fields[3] + fields[4]
 
 
 def _load_model(llama_cpp, internals, path: Path):
