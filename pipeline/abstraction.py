@@ -12,7 +12,7 @@ pipeline.passes runs the steps and times them.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Callable
 
@@ -77,6 +77,7 @@ class Abstractor:
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.record = record or self._trace
         self.reasoner_seconds = 0.0  # HermiT's wall time over the run
+        self.body_reasoned: body_stage.Reasoned | None = None  # body candidates classified in the tools' run
         self.claims: dict[str, str] = {}  # leaf → kind answer (a Component subclass or NONE)
         self.shares: dict[str, float] = {}  # leaf → the share of identification's votes its answer had
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
@@ -88,6 +89,7 @@ class Abstractor:
         """The robot's components (its body parts in `self.body`)."""
         components: list[Component] = []
         body: list[BodyPart] = []
+        self.body_reasoned = None
         tree, manager = robot, PassManager(self.record, self._counters)
         for declared in PASSES:
             state = PassState(self.tax.kinds.get(declared.name), robot, tree, list(components))
@@ -183,9 +185,21 @@ class Abstractor:
         s.structures = [structure for _, structure in settled]
 
     def reasoner(self, s: PassState) -> None:
-        """Each tool's class from the ontology's definitions over its structure, and its finger chains."""
+        """Each tool's class from the ontology's definitions over its structure, and its finger chains.
+
+        The body pass's candidates are known here already (the tools' links and mounts are settled; only
+        their classes are not), so where a tool has finger chains (HermiT runs anyway) the one run also
+        classifies those, each tool standing as its own individual among the devices; the body pass
+        takes those classes where its facts come out the same (every tool on a candidate settled by
+        this run), else runs the reasoner itself. A JVM with HermiT costs 2.5-4 s."""
         structures = s.structures or []
-        s.inferred, seconds = reasoning.classify(structures)
+        parts = self._body_facts(s) if any(t.fingers for t in structures) else []
+        if parts:
+            s.inferred, classes, seconds = reasoning.classify_together(structures, parts)
+            self.body_reasoned = ([replace(f, devices=tuple(self._settled(d, s.inferred) for d in f.devices))
+                                   for f in parts], classes)
+        else:
+            s.inferred, seconds = reasoning.classify(structures)
         self.reasoner_seconds += seconds
         self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
             {"leaves": g.leaves, "facts": st.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
@@ -235,7 +249,7 @@ class Abstractor:
 
     def body_classification(self, s: PassState) -> None:
         body_stage.classify(self.oracle, self.tax, s.robot, s.candidates, s.components, self.progress, self.log,
-                            self._reasoned)
+                            self._reasoned, self.body_reasoned)
 
     def body_assembly(self, s: PassState) -> None:
         s.body = body_stage.assemble(s.robot, s.candidates)
@@ -252,6 +266,26 @@ class Abstractor:
         if s.kind is None:
             raise ValueError("a step of the device passes ran in a pass that finds no component kind")
         return s.kind
+
+    def _body_facts(self, s: PassState) -> list[reasoning.PartFacts]:
+        """The body pass's candidates' facts, with this pass's tools as assembly will make them but for
+        their classes: tool i's class is reasoning.TOOL_REF + i."""
+        kind = self._kind(s)
+        tools = [Component(f"{kind.name}_{i}_{g.leaves[0]}", kind.name, f"{reasoning.TOOL_REF}{i}", 0.0,
+                           group_root(s.tree, g), tuple(SubComponent(link, "", 0.0) for link in g.members))
+                 for i, g in enumerate(s.groups)]
+        components = body_stage.with_joints(s.robot, s.components + tools)
+        found = body_stage.candidates(s.robot, components)
+        return body_stage.findings(s.robot, found, components).facts if found else []
+
+    @staticmethod
+    def _settled(device: str, inferred: list[reasoning.Inference]) -> str:
+        """A device as the body pass will see it: a tool the run settled by its inferred class; a tool left
+        open by a name no class has (the model decides it later, so those facts never match)."""
+        if not device.startswith(reasoning.TOOL_REF):
+            return device
+        inference = inferred[int(device[len(reasoning.TOOL_REF):])]
+        return inference.cls if inference.settled else f"{device} (open)"
 
     def _claimed(self, s: PassState) -> set[str]:
         """The pass's leaves identified as its kind."""

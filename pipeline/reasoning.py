@@ -7,8 +7,10 @@ The code closes what it knows (the tool has no chain but these, each opposes and
 but those: an at-most cardinality equal to the count of asserted, all-different chains, which
 HermiT classifies faster than the same closure with nominals), so the qualified cardinalities in the definitions of `ParallelGripper`,
 `MultiFingerGripper`, `AnthropomorphicHand` and `ThumbChain` apply. One reasoner run covers every
-tool of a robot pass. A tool without finger chains is left to the model: the URDF does not say
+tool of a robot pass, and with them the body pass's candidate parts (classify_together): a JVM
+costs 1-4 s. A tool without finger chains is left to the model: the URDF does not say
 whether a rigid tool holds by suction, a magnet, or fingers written as fixed links.
+Candidate body parts (PartFacts) are classified by the BodyPart classes' sufficient conditions.
 """
 from __future__ import annotations
 
@@ -49,38 +51,54 @@ def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
     """One Inference per tool, and the reasoner's wall time in seconds (0 when nothing needed it)."""
     if not any(t.fingers for t in tools):
         return [Inference(_tool_class(), ()) for _ in tools], 0.0
+    inferred, _, seconds = classify_together(tools, [])
+    return inferred, seconds
+
+
+def classify_together(tools: list[ToolStructure], parts: list["PartFacts"]) -> tuple[list[Inference], list[str | None], float]:
+    """Tools and candidate body parts in one reasoner run (one JVM): each tool's Inference, each part's
+    class (see classify_parts) and the wall time. A part's device named TOOL_REF + i is the i-th tool's
+    own individual, whatever class the run infers for it."""
     world = owlready2.World()
     try:
         core = load_core(world)
-        onto = world.get_ontology("urn:urdfkb:tools#")
-        individuals = []
+        onto = world.get_ontology("urn:urdfkb:reasoning#")
         with onto:
-            chains_all = []
-            for i, tool in enumerate(tools):
-                individual = core.EndEffector(f"tool{i}")
-                chains = {f.name: core[vocabulary().finger_chain_class(f.motion)](f"tool{i}_{j}")
-                          for j, f in enumerate(tool.fingers)}
-                for finger in tool.fingers:
-                    chain = chains[finger.name]
-                    chain.opposes = [chains[o] for o in finger.opposes]
-                    chain.movesWith = [chains[o] for o in finger.moves_with]
-                    chain.is_a.append(core.opposes.max(len(finger.opposes), core.FingerChain))
-                    chain.is_a.append(core.movesWith.max(len(finger.moves_with), core.FingerChain))
-                    if finger.mimics:
-                        chain.isMimicOf = [chains[finger.mimics]]
-                if chains:
-                    individual.hasFingerChain = list(chains.values())
-                    individual.is_a.append(core.hasFingerChain.max(len(chains), core.FingerChain))
-                chains_all.extend(chains.values())
-                individuals.append((individual, chains))
-            if len(chains_all) > 1:
-                owlready2.AllDifferent(chains_all)
-        ran, seconds = _hermit(world, "end-effector kinds are")
+            tool_individuals = _assert_tools(core, tools)
+            part_individuals = _assert_parts(core, parts, [individual for individual, _ in tool_individuals])
+        what = " and ".join(w for w, there in (("end-effector kinds", tools), ("body parts", parts)) if there)
+        ran, seconds = _hermit(world, f"{what} are")
         if not ran:
-            return [Inference(_tool_class(), ()) for _ in tools], seconds
-        return [_inference(individual, chains) for individual, chains in individuals], seconds
+            return [Inference(_tool_class(), ()) for _ in tools], [None] * len(parts), seconds
+        return ([_inference(individual, chains) for individual, chains in tool_individuals],
+                [_part_class(part) for part in part_individuals], seconds)
     finally:
         world.close()
+
+
+def _assert_tools(core, tools: list[ToolStructure]) -> list[tuple[object, dict]]:
+    """Each tool as an EndEffector individual with its finger chains, closed as the definitions need."""
+    individuals, chains_all = [], []
+    for i, tool in enumerate(tools):
+        individual = core.EndEffector(f"tool{i}")
+        chains = {f.name: core[vocabulary().finger_chain_class(f.motion)](f"tool{i}_{j}")
+                  for j, f in enumerate(tool.fingers)}
+        for finger in tool.fingers:
+            chain = chains[finger.name]
+            chain.opposes = [chains[o] for o in finger.opposes]
+            chain.movesWith = [chains[o] for o in finger.moves_with]
+            chain.is_a.append(core.opposes.max(len(finger.opposes), core.FingerChain))
+            chain.is_a.append(core.movesWith.max(len(finger.moves_with), core.FingerChain))
+            if finger.mimics:
+                chain.isMimicOf = [chains[finger.mimics]]
+        if chains:
+            individual.hasFingerChain = list(chains.values())
+            individual.is_a.append(core.hasFingerChain.max(len(chains), core.FingerChain))
+        chains_all.extend(chains.values())
+        individuals.append((individual, chains))
+    if len(chains_all) > 1:
+        owlready2.AllDifferent(chains_all)
+    return individuals
 
 
 def _hermit(world: owlready2.World, left: str) -> tuple[bool, float]:
@@ -123,31 +141,32 @@ def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
     they settle none, or settle two), and the reasoner's wall time (0 when nothing needed it)."""
     if not parts:
         return [], 0.0
+    _, inferred, seconds = classify_together([], parts)
+    return inferred, seconds
+
+
+TOOL_REF = "tool:"  # a device of a body part that is the tool of that index in the same reasoner run
+
+
+def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
+    """Each candidate as a BodyPart individual with the facts the code asserts of it."""
     tax, tool = vocabulary(), _tool_class()
-    body = tax.subclasses("BodyPart")
-    world = owlready2.World()
-    try:
-        core = load_core(world)
-        onto = world.get_ontology("urn:urdfkb:body#")
-        with onto:
-            individuals = [core.BodyPart(f"part{i}") for i in range(len(parts))]
-            for i, (facts, part) in enumerate(zip(parts, individuals)):
-                part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
-                part.carriesDevice = [core[cls](f"part{i}_device{j}") for j, cls in enumerate(facts.devices)]
-                part.carriesPart = [individuals[k] for k in facts.carries]
-                part.reachesGround = facts.reaches_ground
-                # what the conditions count is asserted as counts: no closure, no cardinality reasoning
-                part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
-                part.deviceCount = len(facts.devices)
-                part.endEffectorCount = sum(tax.is_a(cls, tool) for cls in facts.devices)
-        ran, seconds = _hermit(world, "body parts are")
-        if not ran:
-            return [None] * len(parts), seconds
-        inferred = []
-        for part in individuals:
-            classes = {c.iri[len(CORE_IRI):] for c in part.is_a if isinstance(c, owlready2.ThingClass)}
-            settled = [c for c in body if c in classes]
-            inferred.append(settled[0] if len(settled) == 1 else None)
-        return inferred, seconds
-    finally:
-        world.close()
+    individuals = [core.BodyPart(f"part{i}") for i in range(len(parts))]
+    for i, (facts, part) in enumerate(zip(parts, individuals)):
+        part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
+        part.carriesDevice = [tools[int(cls[len(TOOL_REF):])] if cls.startswith(TOOL_REF) else core[cls](f"part{i}_device{j}")
+                              for j, cls in enumerate(facts.devices)]
+        part.carriesPart = [individuals[k] for k in facts.carries]
+        part.reachesGround = facts.reaches_ground
+        # what the conditions count is asserted as counts: no closure, no cardinality reasoning
+        part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
+        part.deviceCount = len(facts.devices)
+        part.endEffectorCount = sum(cls.startswith(TOOL_REF) or tax.is_a(cls, tool) for cls in facts.devices)
+    return individuals
+
+
+def _part_class(part) -> str | None:
+    body = vocabulary().subclasses("BodyPart")
+    classes = {c.iri[len(CORE_IRI):] for c in part.is_a if isinstance(c, owlready2.ThingClass)}
+    settled = [c for c in body if c in classes]
+    return settled[0] if len(settled) == 1 else None

@@ -57,3 +57,24 @@ def test_the_trace_times_every_step_of_every_pass():
     Abstractor(Oracle(ScriptedBackend(perfect), trace=out), vocabulary()).run(load_urdf(TOY))
     timed = [(r["pass"], r["step"]) for r in map(json.loads, out.getvalue().splitlines()) if r["key"] == "timing"]
     assert timed == [(p.name, s.name) for p in PASSES for s in p.steps]
+
+
+@pytest.mark.reasoner
+def test_one_reasoner_run_settles_the_tools_and_the_body_candidates(monkeypatch):
+    """The end-effector pass's reasoner run also classifies the body pass's candidates (the toy's gripper is
+    settled by its structure), and the body pass takes those classes: the same as a run of its own."""
+    from urdfkb.pipeline import reasoning
+    from urdfkb.pipeline.stages import body
+
+    runs = []
+    hermit = reasoning._hermit
+    monkeypatch.setattr(reasoning, "_hermit", lambda world, left: runs.append(left) or hermit(world, left))
+    robot = load_urdf(TOY)
+    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
+    components = body.with_joints(robot, list(abstractor.run(robot)))
+    assert runs == ["end-effector kinds and body parts are"]
+    facts, classes = abstractor.body_reasoned
+    assert facts == body.findings(robot, body.candidates(robot, components), components).facts
+    assert any(classes)
+    monkeypatch.setattr(reasoning, "_hermit", hermit)
+    assert reasoning.classify_parts(facts)[0] == classes

@@ -173,11 +173,22 @@ def candidates(tree: KinematicTree, components: list[Component]) -> list[Chain]:
     return chains(tree, owned_joints, {link for c in components for link in c.links})
 
 
-def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
-             components: list[Component], progress: Progress | None, log: Log,
-             reasoned: Callable[[float], None] = lambda _seconds: None) -> None:
-    """Each candidate's class: structure first (the ontology's sufficient conditions, by the reasoner),
-    the model for the rest; `reasoned` receives the reasoner's wall time."""
+Reasoned = tuple[list[reasoning.PartFacts], list[str | None]]  # candidates' facts, and the class of each
+
+
+@dataclass
+class Findings:
+    """What structure says of each candidate: the devices it carries, the candidates hanging from it,
+    whether it reaches the ground, and the facts the code asserts of it for the reasoner."""
+
+    devices: list[list[Component]]
+    carries: list[list[int]]
+    grounded: list[bool]
+    facts: list[reasoning.PartFacts]
+
+
+def findings(tree: KinematicTree, found: list[Chain], components: list[Component]) -> Findings:
+    """Each candidate's devices (the components whose mount it holds), followers and ground contact."""
     by_link = {link: ch for ch in found for link in ch.links}
     lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
     devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
@@ -186,7 +197,22 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
     facts = [reasoning.PartFacts(tuple(e.joint_type for e in chain.joints), tuple(c.cls for c in held),
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
-    inferred, seconds = reasoning.classify_parts(facts)
+    return Findings(devices, carries, grounded, facts)
+
+
+def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
+             components: list[Component], progress: Progress | None, log: Log,
+             reasoned: Callable[[float], None] = lambda _seconds: None, known: Reasoned | None = None) -> None:
+    """Each candidate's class: structure first (the ontology's sufficient conditions, by the reasoner),
+    the model for the rest; `reasoned` receives the reasoner's wall time. `known` is what an earlier
+    reasoner run inferred for candidates' facts, taken where the facts are still these."""
+    seen = findings(tree, found, components)
+    devices, carries, grounded = seen.devices, seen.carries, seen.grounded
+    if known is not None and known[0] == seen.facts:
+        inferred, seconds = list(known[1]), 0.0
+        log("body reasoner: inferred in the end-effector pass's run")
+    else:
+        inferred, seconds = reasoning.classify_parts(seen.facts)
     reasoned(seconds)
     log(f"body reasoner: {seconds:.2f} s, " + ", ".join(f"{c.joints[0].joint}={cls}" for c, cls in zip(found, inferred)))
     open_ = [i for i, cls in enumerate(inferred) if cls is None]
