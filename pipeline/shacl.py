@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pyshacl
 import rdflib
-from rdflib.namespace import RDF, SH
+from rdflib.namespace import RDF, RDFS, SH
 
 from urdfkb.pipeline.ontology import Vocabulary, vocabulary
 
@@ -35,10 +35,19 @@ def violations(data: rdflib.Graph, vocab: Vocabulary | None = None) -> list[str]
 
 
 def _run(data: rdflib.Graph, vocab: Vocabulary) -> tuple[bool, rdflib.Graph, str]:
+    """pyshacl over `data`, mixing the core in only where `data` lacks it: a graph pipeline.export built
+    holds the core's axioms already, and mixing copies the whole data graph first (0.23 of the 0.37 s a
+    toy robot's check took)."""
+    ontology = None if _holds_core(data, vocab) else vocab.graph
     conforms, results, text = pyshacl.validate(
-        data, shacl_graph=vocab.shapes, ont_graph=vocab.graph, inference="none", abort_on_first=False,
+        data, shacl_graph=vocab.shapes, ont_graph=ontology, inference="none", abort_on_first=False,
     )
     return bool(conforms), results, text
+
+
+def _holds_core(data: rdflib.Graph, vocab: Vocabulary) -> bool:
+    """Every rdfs:subClassOf axiom of the core is in `data` (what class targets follow)."""
+    return all(t in data for t in vocab.graph.triples((None, RDFS.subClassOf, None)))
 
 
 def _local(node: rdflib.term.Node | None) -> str:
