@@ -1,5 +1,5 @@
 # urdfkb: `make run` sets everything up and serves the sample robot; `make test` runs the suite,
-# `make test-fast` all of it but the slow lanes (FAST; markers in pyproject.toml).
+# `make test-fast` all of it but the slow lanes (FAST; markers in pyproject.toml), one worker per core.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -33,8 +33,9 @@ run: model
 test: install
 	$(BIN)/python -m pytest -q -ra
 
+# one pytest worker per core (pytest-xdist): the fast lane's tests are independent
 test-fast: install
-	$(BIN)/python -m pytest -q -ra -m "$(FAST)"
+	$(BIN)/python -m pytest -q -ra -n auto -m "$(FAST)"
 
 $(VENV)/.typecheck: pyproject.toml | $(VENV)/.installed
 	$(BIN)/python -m pip install -q -e '.[typecheck]'
