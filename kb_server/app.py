@@ -1,10 +1,10 @@
 """The HTTP API's app factory: one Flask app over a store and a job manager.
 
-The routes are blueprints by resource: kb_server/routes/ holds `sparql` (the SPARQL 1.1 Protocol at
-/sparql), `jobs` (POST /populate, GET /jobs/<id>), `robots` and `queries`; kb_server/ui.py the pages, the
-corrections and re-populating. The store, the jobs and the settings are kept in `app.extensions`
-(kb_server/services.py), where the routes/ blueprints read them per request; ui.py's blueprint is made
-with the same ones. Refusals and SPARQL answers are built by kb_server/replies.py.
+The routes are blueprints by resource in kb_server/routes/: `sparql` (the SPARQL 1.1 Protocol at
+/sparql), `jobs` (POST /populate, POST /robots/<name>/populate, GET /jobs/<id>), `robots`,
+`corrections`, `queries` and `pages` (the index page); kb_server/ui.py renders the pages. The store,
+the jobs and the settings are kept in `app.extensions` (kb_server/services.py), where every blueprint
+reads them per request. Refusals and SPARQL answers are built by kb_server/replies.py.
 
 Writes (SPARQL updates, DELETE /robots/<name>, and, when a token is configured, populating and
 corrections) need `Authorization: Bearer <token>`; with no token configured, updates and deletes are
@@ -19,9 +19,8 @@ from pathlib import Path
 from flask import Flask
 from werkzeug.exceptions import HTTPException
 
-from urdfkb.kb_server import ui
 from urdfkb.kb_server.jobs import JobManager, QueueFull
-from urdfkb.kb_server.replies import error, http_error, queue_full, refusal
+from urdfkb.kb_server.replies import http_error, queue_full, refusal
 from urdfkb.kb_server.routes import BLUEPRINTS
 from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.services import EXTENSION, Services
@@ -48,7 +47,6 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     kb.policy.install(app, refusal)
     app.register_error_handler(QueueFull, queue_full)
     app.register_error_handler(HTTPException, http_error)
-    app.register_blueprint(ui.blueprint(store, jobs, kb.may_write, error))
     for blueprint in BLUEPRINTS:
         app.register_blueprint(blueprint)
     return app

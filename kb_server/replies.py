@@ -57,3 +57,11 @@ def http_error(e: HTTPException) -> Response:
     status = e.code or 500
     messages = {413: f"request body larger than the {services().max_body} byte limit"}
     return refusal(status, messages.get(status, e.description or e.name))
+
+
+def accepted(job) -> Response:
+    """202 for a queued populate job, pointing at its status (a full queue raises QueueFull: 429 in the app)."""
+    resp = jsonify(job.to_dict())
+    resp.status_code = 202
+    resp.headers["Location"] = f"/jobs/{job.id}"
+    return resp

@@ -1,26 +1,21 @@
-"""The browser pages of `urdfkb serve` (Jinja2 templates, plain JavaScript, every asset served locally).
+"""The browser pages of `urdfkb serve`, rendered (Jinja2 templates, plain JavaScript, every asset served locally).
 
-`/` lists the robots and uploads a URDF or xacro file; `/robots/<name>` (for clients asking for
-HTML) draws the tree with the body parts and components, and lists both with review controls;
-`/sparql` (HTML, no query) is a query editor. `GET/POST /robots/<name>/corrections` list and add
-reviewers' corrections (of components and of body parts).
+The routes serve them (kb_server/routes/): `/` (routes/pages.py) lists the robots and uploads a URDF or
+xacro file; `/robots/<name>` for clients asking for HTML (routes/robots.py) draws the tree with the body
+parts and components, and lists both with review controls; `/sparql` with no query (routes/sparql.py)
+is a query editor.
 """
 from __future__ import annotations
 
-from collections import Counter
-from typing import Callable
-
-from flask import Blueprint, Response, jsonify, render_template, request
+from flask import Response, render_template, request
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import body_view, palette, queries, tree_svg
 from urdfkb.kb_server.body_corrections import SIDE_CHOICES
-from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.formats import RESULTS_MEDIA
 from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
 from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 
 JSON_TYPES = tuple(media for media, f in RESULTS_MEDIA.items() if f.name == "json")  # what API clients ask for
@@ -30,78 +25,6 @@ def wants_html() -> bool:
     """True when the client prefers HTML over JSON (browsers), False for API clients and */*."""
     accept = request.accept_mimetypes
     return "text/html" in accept.values() and accept.best_match((*JSON_TYPES, "text/html")) == "text/html"
-
-
-def blueprint(store: Store, jobs: JobManager, may_write: Callable[[], bool],
-              error: Callable[[int, str], Response]) -> Blueprint:
-    """The index page, the corrections routes and re-populating a stored robot; `may_write()` says
-    whether this request may correct or populate, `error(status, message)` builds the app's refusals."""
-    bp = Blueprint("ui", __name__)
-
-    @bp.get("/")
-    def index():
-        robots = []
-        for entry in store.robots():
-            comps = queries.components(store, entry.name)
-            low = queries.run_named(store, "low_confidence", entry.name, {})
-            kinds = Counter(review.kind_of(c["class"]) or "other" for c in comps)
-            robots.append({"name": entry.name, "updated": entry.updated, "kinds": kinds, "low": len(low.bindings())})
-        return render_template("index.html", robots=robots)
-
-    @bp.app_context_processor
-    def colours() -> dict:
-        """Every page's legend entries and dot colours (kb_server.palette)."""
-        return {"kinds": palette.kinds(), "palette_css": palette.css()}
-
-    @bp.get("/robots/<name>/corrections")
-    def list_corrections(name: str):
-        source = store.source(name)
-        if source is None:
-            return error(404, f"no robot {name!r}" if store.robot(name) is None else
-                          f"robot {name!r} was stored before corrections existed: populate it again")
-        _, report = review.apply(*source, store.corrections(name))
-        return jsonify(report.to_dict())
-
-    @bp.post("/robots/<name>/corrections")
-    def add_correction(name: str):
-        if not may_write():
-            return error(403, "corrections need the server's token (Authorization: Bearer ...)")
-        data = request.get_json(silent=True)
-        if not isinstance(data, dict):
-            return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?} "
-                              "or, for a body part, {part, action, class?, side?, with?, at?, reviewer?}")
-        try:
-            correction = review.new(data)
-            entry = store.add_correction(name, correction)
-        except review.CorrectionError as e:
-            return error(400, str(e))
-        except LookupError as e:
-            return error(404 if store.robot(name) is None else 409, e.args[0])
-        stored = next(a for a in (entry.corrections or {})["applied"] if a["id"] == correction.id)
-        resp = jsonify({"correction": stored, "corrections": entry.corrections})
-        resp.status_code = 201
-        return resp
-
-    @bp.post("/robots/<name>/populate")
-    def repopulate(name: str):
-        """Populate a stored robot again from its stored URDF tree (same mode as last time)."""
-        if not may_write():
-            return error(403, "populating needs the server's token (Authorization: Bearer ...)")
-        source = store.source(name)
-        if source is None:
-            return error(404, f"no stored URDF for robot {name!r}")
-        tree, model = source
-        return accepted(jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only")))
-
-    return bp
-
-
-def accepted(job) -> Response:
-    """202 for a queued populate job, pointing at its status (a full queue raises QueueFull: 429 in the app)."""
-    resp = jsonify(job.to_dict())
-    resp.status_code = 202
-    resp.headers["Location"] = f"/jobs/{job.id}"
-    return resp
 
 
 def robot_page(store: Store, name: str) -> Response | str:

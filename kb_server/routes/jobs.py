@@ -1,15 +1,15 @@
-"""Populate jobs: POST /populate (a URDF or xacro upload) and GET /jobs/<id> (its state, optionally waited on)."""
+"""Populate jobs: POST /populate (a URDF or xacro upload), POST /robots/<name>/populate (a stored robot again)
+and GET /jobs/<id> (its state, optionally waited on)."""
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
 from flask import Blueprint, jsonify, request
 
-from urdfkb.kb_server.replies import error
+from urdfkb.kb_server.replies import accepted, error
 from urdfkb.kb_server.security import Refused
 from urdfkb.kb_server.services import Services, services
 from urdfkb.kb_server.store import RobotNameError, check_robot_name
-from urdfkb.kb_server.ui import accepted
 from urdfkb.limits import JOB_WAIT
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
@@ -62,6 +62,19 @@ def populate():
         return error(400, f"{e}: pass ?name=...")
     except Refused as e:
         return error(e.status, str(e))
+
+
+@bp.post("/robots/<name>/populate")
+def repopulate(name: str):
+    """Populate a stored robot again from its stored URDF tree (same mode as last time)."""
+    kb = services()
+    if not kb.may_write():
+        return error(403, "populating needs the server's token (Authorization: Bearer ...)")
+    source = kb.store.source(name)
+    if source is None:
+        return error(404, f"no stored URDF for robot {name!r}")
+    tree, model = source
+    return accepted(kb.jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only")))
 
 
 def _xacro_loader(kb: Services, data: bytes, filename: str | None,
