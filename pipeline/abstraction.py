@@ -231,7 +231,7 @@ class Abstractor:
                 kind=kind.name,
                 cls=t.cls,
                 confidence=round(t.confidence, 4),
-                root=group_root(s.tree, g),
+                root=self._mount(s.tree, g),
                 subcomponents=tuple(SubComponent(link, s.parts[link].cls, round(s.parts[link].confidence, 4))
                                     for link in g.members),
                 fingers=s.fingers[i] if s.fingers else (),
@@ -267,12 +267,20 @@ class Abstractor:
             raise ValueError("a step of the device passes ran in a pass that finds no component kind")
         return s.kind
 
+    @staticmethod
+    def _mount(tree: KinematicTree, group: Group) -> str:
+        """The one link carrying a verified group (verification splits a group with several)."""
+        root = group_root(tree, group)
+        if root is None:
+            raise ValueError(f"the group of {group.leaves} has several mounts after verification")
+        return root
+
     def _body_facts(self, s: PassState) -> list[reasoning.PartFacts]:
         """The body pass's candidates' facts, with this pass's tools as assembly will make them but for
         their classes: tool i's class is reasoning.TOOL_REF + i."""
         kind = self._kind(s)
         tools = [Component(f"{kind.name}_{i}_{g.leaves[0]}", kind.name, f"{reasoning.TOOL_REF}{i}", 0.0,
-                           group_root(s.tree, g), tuple(SubComponent(link, "", 0.0) for link in g.members))
+                           self._mount(s.tree, g), tuple(SubComponent(link, "", 0.0) for link in g.members))
                  for i, g in enumerate(s.groups)]
         components = body_stage.with_joints(s.robot, s.components + tools)
         found = body_stage.candidates(s.robot, components)

@@ -32,6 +32,7 @@ from typing import Iterable, Mapping
 import rdflib
 import yaml
 from rdflib import RDF, RDFS, URIRef
+from rdflib.term import Node
 
 from urdfkb.pipeline.components import END_EFFECTOR, KINDS, SIDES
 from urdfkb.pipeline.namespaces import CORE
@@ -141,7 +142,8 @@ def _truth_component(d: dict) -> TruthComponent:
 
 def _truth_body(data: dict, path) -> TruthBody:
     ignore = frozenset(data.get("ignore_joints") or ())
-    parts, owner = [], {}
+    parts: list[TruthBodyPart] = []
+    owner: dict[str, str] = {}  # joint → the part listing it
     for d in data.get("parts") or []:
         where = f"{path}: body part {d.get('id')!r}"
         part = TruthBodyPart(str(d["id"]), frozenset(d["classes"]), frozenset(d.get("roots") or ()),
@@ -172,7 +174,8 @@ def load_truth(path: str | Path) -> Truth:
     ids = [c.id for c in comps]
     if len(set(ids)) != len(ids):
         raise ValueError(f"{path}: duplicate component ids")
-    alts, replaced = [], set()
+    alts: list[Alternative] = []
+    replaced: set[str] = set()
     for a in data.get("alternatives") or []:
         rep = tuple(a["replace"])
         if not set(rep) <= set(ids) or replaced & set(rep):
@@ -190,18 +193,18 @@ class _Taxonomy:
 
     def __init__(self, graph: rdflib.Graph):
         self.graph = graph
-        self._cache: dict[URIRef, frozenset[URIRef]] = {}
+        self._cache: dict[Node, frozenset[Node | None]] = {}
 
-    def ancestors(self, cls: URIRef) -> frozenset[URIRef]:
+    def ancestors(self, cls: Node) -> frozenset[Node | None]:
         """Strict superclasses of ``cls``."""
         if cls not in self._cache:
             self._cache[cls] = frozenset(self.graph.transitive_objects(cls, RDFS.subClassOf)) - {cls}
         return self._cache[cls]
 
-    def is_under(self, cls: URIRef, root: URIRef) -> bool:
+    def is_under(self, cls: Node, root: URIRef) -> bool:
         return cls == root or root in self.ancestors(cls)
 
-    def most_specific(self, classes: Iterable[URIRef]) -> str | None:
+    def most_specific(self, classes: Iterable[Node]) -> str | None:
         """Local name of the single most specific core class, None if none or several."""
         core = {c for c in classes if isinstance(c, URIRef) and c.startswith(str(CORE))}
         lowest = [c for c in core if not any(c in self.ancestors(o) for o in core if o != c)]
@@ -240,7 +243,7 @@ def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[Pr
     out = []
     robots = set(graph.subjects(RDF.type, CORE.Robot))
     tops = {c for r in robots for c in graph.objects(r, CORE.hasComponent)}
-    for comp in sorted(tops):
+    for comp in sorted(tops):  # type: ignore[type-var]  # rdflib types objects as Node; these are Identifiers (str)
         types = set(graph.objects(comp, RDF.type))
         kinds = {k for k, root in roots.items() if any(tax.is_under(t, CORE[root]) for t in types)}
         if not kinds:
@@ -354,7 +357,7 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
     pairs = _match(preds, truths, tax)
     pred_leaves = set().union(*(p.leaves for p in preds))
     truth_leaves = set().union(*(t.leaves for t in truths))
-    out = dict(zip(("leaf_precision", "leaf_recall", "leaf_f1"),
+    out: dict[str, float | None] = dict(zip(("leaf_precision", "leaf_recall", "leaf_f1"),
                    _prf(len(pred_leaves & truth_leaves), len(pred_leaves), len(truth_leaves))))
     out.update(zip(("component_precision", "component_recall", "component_f1"),
                    _prf(len(pairs), len(preds), len(truths))))
@@ -389,7 +392,7 @@ def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str], tree: Kinema
     truths, chosen = _partition(truth, preds, tax)
     truths = [TruthComponent(t.id, t.kind, t.classes, t.roots, t.leaves - truth.ignore, t.subparts)
               for t in truths]
-    result = {ALL: _scope(preds, truths, tax)}
+    result: dict[str, object] = {ALL: _scope(preds, truths, tax)}
     for kind in KINDS:
         result[kind] = _scope([p for p in preds if p.kind == kind], [t for t in truths if t.kind == kind], tax)
     if tree is not None and truth.body is not None:
@@ -429,7 +432,7 @@ def end_effector_joints(truth: Truth, tree: KinematicTree) -> frozenset[str]:
     list alternatives such as the wrist roll link or the wrist flex link above it, and the joint
     between them is an arm joint, not the gripper's); a leaf with none of its roots above it
     adds nothing. Canonical components only: the alternatives re-partition the same leaves."""
-    out = set()
+    out: set[str] = set()
     for comp in truth.components:
         if comp.kind != END_EFFECTOR:
             continue
@@ -439,7 +442,7 @@ def end_effector_joints(truth: Truth, tree: KinematicTree) -> frozenset[str]:
             chain = tree.chain_to_root(leaf)
             above = [chain.index(r) for r in comp.roots if r in chain]
             if above:
-                out.update(tree.parent_edge(link).joint for link in chain[:min(above)])
+                out.update(tree.edge_to(link).joint for link in chain[:min(above)])
     return frozenset(out)
 
 
@@ -505,7 +508,7 @@ def score_body(body: TruthBody, preds: list[PredictedBodyPart], scored: frozense
             pairs.append((best, t))
     matched = {p.node for p, _ in pairs}
     counted = [p for p in preds if own[p.node] or p.node in matched]
-    out = dict(zip(("part_precision", "part_recall", "part_f1"), _prf(len(pairs), len(counted), len(parts))))
+    out: dict[str, float | None] = dict(zip(("part_precision", "part_recall", "part_f1"), _prf(len(pairs), len(counted), len(parts))))
     typed = sum(credit(p, t) for p, t in pairs)
     out.update(zip(("typed_precision", "typed_recall", "typed_f1"), _prf(typed, len(counted), len(parts))))
     out["side_accuracy"] = _share([p.side == t.side for p, t in pairs if t.side], any(t.side for t in parts))
@@ -536,7 +539,7 @@ def mean_scores(per_robot: Mapping[str, dict]) -> dict:
     def mean(values: list) -> float | None:
         defined = [v for v in values if v is not None]
         return fmean(defined) if defined else None
-    out = {s: {**{m: mean([r[s][m] for r in runs]) for m in METRICS},
+    out: dict[str, object] = {s: {**{m: mean([r[s][m] for r in runs]) for m in METRICS},
                **{c: sum(r[s][c] for r in runs) for c in COUNTS}} for s in SCOPES}
     out[BODY] = {**{m: mean([r[BODY][m] for r in runs]) for m in BODY_METRICS},
                  **{c: sum(r[BODY][c] for r in runs) for c in BODY_COUNTS}}

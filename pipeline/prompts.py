@@ -11,13 +11,14 @@ rdfs:comment and skos:example, so the taxonomy, not this file, says what each cl
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Sequence, TypeVar
 
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.ontology import Kind, Vocabulary
 
 NONE = "none"  # identification: the leaf is part of no component
 MAX_CHAIN = 4  # ancestors shown as context for a link
+_Default = TypeVar("_Default", str, None)
 
 _PREAMBLE = (
     "You read the URDF of a robot: a tree of links (rigid bodies or coordinate frames) joined by joints. "
@@ -32,6 +33,10 @@ class Choice:
 
     question: Question
     meaning: dict[str, str]
+
+    def meant(self, answer: str | None, default: _Default) -> str | _Default:
+        """What an answer means: `default` for an abstention (None) or an answer outside the options."""
+        return default if answer is None else self.meaning.get(answer, default)
 
 
 def _definitions(tax: Vocabulary, classes: Sequence[str]) -> str:

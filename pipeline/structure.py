@@ -113,22 +113,22 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     for child in _moving_children(tree, fork):
         links = (child, *tree.descendants(child))
         tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), _norm(tree.position_in(link, fork))))
-        chains[child] = (links, tree.parent_edge(child), tip)
+        chains[child] = (links, tree.edge_to(child), tip)
     pose = _configuration(tree)
     motions = {a: _joint_motions(tree, fork, drive, tip, pose) for a, (_, drive, tip) in chains.items()}
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
     finger_names = [a for a in chains if opposes[a]]
     alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
-    joint_owner = {tree.parent_edge(link).joint: a for a in finger_names for link in chains[a][0]}
+    joint_owner = {tree.edge_to(link).joint: a for a in finger_names for link in chains[a][0]}
     fingers = tuple(
         FingerChain(
             name=a,
             links=links,
             drive=drive.joint,
             motion=MOTIONS[drive.joint_type],
-            joint_types=tuple(e.joint_type for link in links if (e := tree.parent_edge(link)).movable),
-            mimics=joint_owner.get(drive.mimic) if joint_owner.get(drive.mimic) != a else None,
+            joint_types=tuple(e.joint_type for link in links if (e := tree.edge_to(link)).movable),
+            mimics=None if drive.mimic is None or joint_owner.get(drive.mimic) == a else joint_owner.get(drive.mimic),
             opposes=opposes[a],
             moves_with=alongside[a],
         )
@@ -150,7 +150,7 @@ def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: 
     first, then every joint following no <mimic>, each with the joints coupled to it), where the tip
     moves at all."""
     path = tree.chain_to_root(tip)
-    below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.parent_edge(link)).independent]
+    below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.edge_to(link)).independent]
     return [m for e in [drive, *below] if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose))]
 
 
@@ -159,7 +159,7 @@ def _moving_children(tree: KinematicTree, fork: str) -> list[str]:
     found, stack = [], list(reversed(tree.children(fork)))
     while stack:
         link = stack.pop()
-        if tree.parent_edge(link).movable:
+        if tree.edge_to(link).movable:
             found.append(link)
         else:
             stack.extend(reversed(tree.children(link)))
@@ -173,7 +173,7 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
     path = tree.chain_to_root(tip)
     velocity = (0.0, 0.0, 0.0)
     for link in path[:path.index(drive.child) + 1]:
-        edge = tree.parent_edge(link)
+        edge = tree.edge_to(link)
         if (rate := _coupling(drive, edge)) and (axis := _unit(_in_frame(tree, link, fork, edge.axis, pose, True))):
             if edge.joint_type == "prismatic":
                 part = axis
@@ -202,7 +202,7 @@ def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose
               direction: bool = False) -> Vector:
     """A point (or direction) of `link`'s frame in `ancestor`'s frame, with the joints at `pose`."""
     while link != ancestor:
-        edge = tree.parent_edge(link)
+        edge = tree.edge_to(link)
         q = pose.get(edge.joint, 0.0)
         if edge.joint_type in ("revolute", "continuous") and q:
             value = _turn(value, _unit(edge.axis) or (1.0, 0.0, 0.0), q)

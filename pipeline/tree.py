@@ -211,6 +211,13 @@ class KinematicTree:
         """The joint from the parent to this link, or None for the root."""
         return self._parent_edge.get(self._known(link))
 
+    def edge_to(self, link: str) -> Edge:
+        """The joint from the parent to this link; raises ValueError for the root, which has none."""
+        edge = self.parent_edge(link)
+        if edge is None:
+            raise ValueError(f"the root link '{link}' has no parent joint")
+        return edge
+
     def children(self, link: str) -> tuple[str, ...]:
         """Direct children in document order of their joints."""
         return self._children[self._known(link)]

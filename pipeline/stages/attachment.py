@@ -43,7 +43,7 @@ def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bo
     chain = tree.chain_to_root(leaf)
     for below, ancestor in zip(chain, chain[1:1 + MAX_CANDIDATES]):
         candidates.append(ancestor)
-        moved = tree.parent_edge(below).joint_type != "fixed"
+        moved = tree.edge_to(below).joint_type != "fixed"
         if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)) or (rigid and moved):
             break
     return candidates

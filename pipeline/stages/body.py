@@ -62,7 +62,7 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
         for current in tree.chain_to_root(link):
             if current == comp.root:
                 break
-            edge = tree.parent_edge(current)
+            edge = tree.edge_to(current)
             if edge.movable:
                 found[edge.joint] = None
     return tuple(j for j in (e.joint for e in tree.edges) if j in found)
@@ -125,7 +125,7 @@ def _moved(tree: KinematicTree, link: str, body: set[str], owned_links: set[str]
         current = stack.pop()
         if current not in owned_links:
             out.append(current)
-        stack += [c for c in reversed(tree.children(current)) if tree.parent_edge(c).joint not in body]
+        stack += [c for c in reversed(tree.children(current)) if tree.edge_to(c).joint not in body]
     return out
 
 
@@ -223,7 +223,7 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
                                            grounded[i]), f"body:{found[i].joints[0].joint}") for i in open_]
     for i, question, verdict in zip(open_, questions, ask(oracle, [q.question for q in questions],
                                                           "body classification", progress)):
-        found[i].cls = question.meaning.get(verdict.answer, NONE)
+        found[i].cls = question.meant(verdict.answer, NONE)
         found[i].confidence = verdict.confidence
 
 

@@ -47,7 +47,7 @@ def descend(oracle: Oracle, tax: Vocabulary, start: str, subjects: list[Subject]
         verdicts = ask(oracle, [c.question for c in choices], stage, progress)
         still = []
         for i, c, v in zip(active, choices, verdicts):
-            cls = c.meaning.get(v.answer)
+            cls = c.meant(v.answer, None)
             if cls is None or cls == typed[i].cls:
                 continue  # abstention or the model stopped at the current concept: converged
             typed[i] = _through_lone(tax, Typed(cls, typed[i].confidence * v.confidence), subjects[i].exclude)

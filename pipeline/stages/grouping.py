@@ -73,8 +73,8 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
         return True
     if a.root != b.root:
         return False
-    housings = _housing(tree, a), _housing(tree, b)
-    return None in housings or _side_by_side(tree, a.root, *housings)
+    housing_a, housing_b = _housing(tree, a), _housing(tree, b)
+    return housing_a is None or housing_b is None or _side_by_side(tree, a.root, housing_a, housing_b)
 
 
 def _housing(tree: KinematicTree, chain: SubChain) -> str | None:

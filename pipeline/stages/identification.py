@@ -13,8 +13,8 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
     the share of the votes the answer had."""
     kinds = tax.subclasses(tax.component)
     choices = [
-        kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type)
+        kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.edge_to(leaf).joint_type)
         for leaf in leaves
     ]
     verdicts = ask(oracle, [c.question for c in choices], "identification", progress)
-    return {leaf: (c.meaning.get(v.answer, NONE), v.confidence) for leaf, c, v in zip(leaves, choices, verdicts)}
+    return {leaf: (c.meant(v.answer, NONE), v.confidence) for leaf, c, v in zip(leaves, choices, verdicts)}

@@ -26,9 +26,9 @@ def coupled(tree: KinematicTree, leaves: list[str], sensors: set[str], log: Log)
     """The leaves among `sensors` that move on a <mimic> joint."""
     found = []
     for leaf in leaves:
-        if leaf in sensors and tree.parent_edge(leaf).mimic is not None:
+        if leaf in sensors and tree.edge_to(leaf).mimic is not None:
             found.append(leaf)
-            log(f"not a sensor: {leaf} moves on mimic joint {tree.parent_edge(leaf).joint}")
+            log(f"not a sensor: {leaf} moves on mimic joint {tree.edge_to(leaf).joint}")
     return found
 
 

@@ -35,7 +35,10 @@ def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Ki
     ]
     frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
     for link, device in required.items():
-        part, holder = tax.required_part(device), tax.label(tax.requiring_class(device))
+        part, requiring = tax.required_part(device), tax.requiring_class(device)
+        if part is None or requiring is None:
+            raise ValueError(f"{device} requires no sub-part, yet {link} is typed as its required one")
+        holder = tax.label(requiring)
         frames.setdefault(part, []).append((link, Subject(
             f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
             f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}",

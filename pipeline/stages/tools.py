@@ -85,7 +85,7 @@ def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
 
 def _joints_above(tree: KinematicTree, link: str) -> int:
     """Independent moving joints (no <mimic>) between the tree's root and `link`, its own included."""
-    edges = (tree.parent_edge(x) for x in tree.chain_to_root(link)[:-1])
+    edges = (tree.edge_to(x) for x in tree.chain_to_root(link)[:-1])
     return sum(e.independent for e in edges)
 
 
@@ -96,7 +96,7 @@ def _carries_arm(tree: KinematicTree, top: str) -> bool:
     ARM_MIN_REACH from `top` (where nothing carries the hand, there is no arm to compare with)."""
     if _serial_joints(tree, top) < ARM_JOINTS:
         return False
-    parent = tree.parent_edge(top).parent
+    parent = tree.edge_to(top).parent
     below = (top, *tree.descendants(top))
     reach = max(_norm(tree.position_in(link, parent)) for link in below)
     length = max(_norm(tree.position_in(link, top)) for link in below)
@@ -110,7 +110,7 @@ def _norm(v) -> float:
 def _serial_joints(tree: KinematicTree, top: str) -> int:
     """Most independent moving joints (no <mimic>) on one path from `top` (its own joint included) down."""
     def count(link: str) -> int:
-        own = int(tree.parent_edge(link).independent)
+        own = int(tree.edge_to(link).independent)
         return own + max((count(c) for c in tree.children(link)), default=0)
     return count(top)
 
