@@ -237,6 +237,7 @@ def _ray_detail(sensor: ET.Element) -> str:
     samples = _child_text(sensor, "ray/scan/horizontal/samples") or _child_text(sensor, "rayCount")
     low = _child_text(sensor, "ray/scan/horizontal/min_angle")
     high = _child_text(sensor, "ray/scan/horizontal/max_angle")
+    span: float | None
     if low is not None and high is not None:
         span = math.degrees(float(high) - float(low))
     else:

@@ -228,7 +228,7 @@ def _attribute_problem(element: ET.Element, spec: _Spec) -> str | None:
     if spec.any_of and all(get(a) is None for a in spec.any_of):
         return f"needs one of {' or '.join(spec.any_of)}"
     for attr, count in [(a, 1) for a in spec.numbers] + [(a, 3) for a in spec.vectors]:
-        if get(attr) is not None and not _numbers(get(attr), count):
+        if (value := get(attr)) is not None and not _numbers(value, count):
             return f"attribute {attr}='{get(attr)}' is not {'a number' if count == 1 else '3 numbers'}"
     return None
 
@@ -296,9 +296,8 @@ def _tree_from(model: yourdfpy.URDF, robot: ET.Element, sha256: str) -> Kinemati
 
 def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:
     axis, limit, mimic = (element.find(tag) for tag in ("axis", "limit", "mimic"))
-    lower_upper = None
-    if limit is not None and limit.get("lower") is not None and limit.get("upper") is not None:
-        lower_upper = (float(limit.get("lower")), float(limit.get("upper")))
+    lower, upper = (None, None) if limit is None else (limit.get("lower"), limit.get("upper"))
+    lower_upper = (float(lower), float(upper)) if lower is not None and upper is not None else None
     return Edge(
         joint.name, joint.type, joint.parent, joint.child, _origin(element.find("origin")),
         axis=_vector(axis.get("xyz")) if axis is not None and axis.get("xyz") is not None else (1.0, 0.0, 0.0),
@@ -313,16 +312,17 @@ def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:
 
 
 def _number(element: ET.Element | None, attribute: str) -> float | None:
-    return float(element.get(attribute)) if element is not None and element.get(attribute) is not None else None
+    value = element.get(attribute) if element is not None else None
+    return float(value) if value is not None else None
 
 
 def _transmitted_joints(robot: ET.Element) -> set[str]:
     """Joints a <transmission> drives: its <joint name=...> (ROS) or <gap_joint name=...> (PR2-era gripper)."""
     return {
-        element.get("name")
+        name
         for transmission in robot.iter("transmission")
         for element in transmission.iter()
-        if element.tag in ("joint", "gap_joint") and element.get("name")
+        if element.tag in ("joint", "gap_joint") and (name := element.get("name"))
     }
 
 

@@ -121,7 +121,7 @@ class Vocabulary:
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         for name in self._order:
             node = CORE[name]
-            parents = sorted((_local(p) for p in graph.objects(node, RDFS.subClassOf) if _local(p)),
+            parents = sorted(filter(None, map(_local, graph.objects(node, RDFS.subClassOf))),
                              key=self._order.__getitem__)
             self._parents[name] = tuple(parents)
             for p in parents:
@@ -181,12 +181,13 @@ class Vocabulary:
             for prop in self.shapes.objects(shape, SH.property):
                 part = self.shapes.value(self.shapes.value(prop, SH.qualifiedValueShape), SH["class"])
                 least = self.shapes.value(prop, SH.qualifiedMinCount)
-                if self.shapes.value(prop, SH.path) != CORE.hasComponent or _local(part) is None or not least:
+                if (self.shapes.value(prop, SH.path) != CORE.hasComponent or (local := _local(part)) is None
+                        or not least):
                     continue
                 for target in targets:
                     if target in required:
                         raise OntologyError(f"the shapes require two kinds of part of a {target}")
-                    required[target] = _local(part)
+                    required[target] = local
         return required
 
     def _check(self, name: str) -> str:
@@ -314,8 +315,8 @@ def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool
             continue
         filler = graph.value(restriction, OWL.allValuesFrom)
         part = graph.value(filler, OWL.complementOf) if complement else filler
-        if part is not None and _local(part):
-            out.add(_local(part))
+        if part is not None and (local := _local(part)):
+            out.add(local)
     return out
 
 

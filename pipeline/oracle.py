@@ -128,7 +128,7 @@ class Oracle:
 
     def _check_row(self, question: Question, row: object) -> list[float]:
         try:
-            values = [float(x) for x in row]  # type: ignore[union-attr]
+            values = [float(x) for x in row]  # type: ignore[attr-defined]  # any object: TypeError is caught
         except (TypeError, ValueError):
             values = []
         usable = len(values) == len(question.options) and not any(math.isnan(v) or v == math.inf for v in values)

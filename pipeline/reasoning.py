@@ -78,7 +78,8 @@ def classify_together(tools: list[ToolStructure], parts: list["PartFacts"]) -> t
 
 def _assert_tools(core, tools: list[ToolStructure]) -> list[tuple[object, dict]]:
     """Each tool as an EndEffector individual with its finger chains, closed as the definitions need."""
-    individuals, chains_all = [], []
+    individuals: list[tuple[object, dict]] = []
+    chains_all: list[object] = []
     for i, tool in enumerate(tools):
         individual = core.EndEffector(f"tool{i}")
         chains = {f.name: core[vocabulary().finger_chain_class(f.motion)](f"tool{i}_{j}")

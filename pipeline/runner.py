@@ -7,7 +7,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping, TextIO
+from typing import Any, Callable, Mapping, TextIO
 
 from urdfkb.pipeline import cache
 from urdfkb.pipeline.abstraction import Abstractor
@@ -41,9 +41,9 @@ class Settings:
         unknown = set(data) - set(fields)
         if unknown:
             raise ValueError(f"unknown setting(s): {', '.join(sorted(unknown))}; valid: {', '.join(fields)}")
-        values = {}
+        values: dict[str, Any] = {}
         for name, raw in data.items():
-            values[name] = _coerce(name, fields[name].type, raw)
+            values[name] = _coerce(name, str(fields[name].type), raw)  # annotations are strings here
         settings = cls(**values)
         settings.check()
         return settings
@@ -66,7 +66,7 @@ def _coerce(name: str, kind: str, raw: object) -> object:
         raise ValueError(f"setting {name} must be true or false, not {raw!r}")
     if "int" in kind:
         try:
-            return int(raw)  # type: ignore[arg-type]
+            return int(raw)  # type: ignore[call-overload]  # any object: TypeError is caught
         except (TypeError, ValueError):
             raise ValueError(f"setting {name} must be an integer, not {raw!r}") from None
     return None if raw in (None, "") else str(raw)
@@ -112,6 +112,13 @@ def tree_digest(tree: KinematicTree) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
+def _verification_log(trace: TextIO) -> Callable[[str], None]:
+    """The verification step's notes, written to the trace as JSON lines."""
+    def log(msg: str) -> None:
+        trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")
+    return log
+
+
 def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
         trace: TextIO | None = None, timings: Timings | None = None,
         backends: Callable[[Settings], Backend] | None = None) -> Abstraction:
@@ -144,7 +151,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     try:
         oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
         started = time.monotonic()
-        log = (lambda msg: trace.write(json.dumps({"key": "verification", "note": msg}) + "\n")) if trace else None
+        log = _verification_log(trace) if trace else None
         abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None)
         components, body = abstractor.run(tree), abstractor.body
         stats = oracle.stats

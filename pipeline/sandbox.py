@@ -154,6 +154,8 @@ def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, 
     """subprocess.run with outputs capped at `max_output` bytes each; the child is killed on timeout."""
     with subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                           **popen) as proc:
+        if proc.stdin is None:
+            raise RuntimeError("the child has no stdin pipe")
         outputs: dict[str, bytes] = {}
 
         def drain(name: str, stream) -> None:

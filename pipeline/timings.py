@@ -69,8 +69,8 @@ class Timings:
             mine = [r for r in steps if r["pass"] == name]
             for r in mine:
                 lines.append(row(f"  {name}: {r['step']}", r["seconds"], {c: r[c] for c in COUNTERS if c in r}))
-            total = {c: sum(r.get(c, 0) for r in mine) for c in COUNTERS if any(c in r for r in mine)}
-            lines.append(row(f"{name} pass", sum(r["seconds"] for r in mine), total))
+            sums = {c: sum(r.get(c, 0) for r in mine) for c in COUNTERS if any(c in r for r in mine)}
+            lines.append(row(f"{name} pass", sum(r["seconds"] for r in mine), sums))
         for stage in ("population", "SHACL", "export"):
             if any(r.get("stage") == stage for r in self.records):
                 lines.append(row(stage, self.seconds(stage)))

@@ -249,8 +249,8 @@ def expand(req: Request) -> str:
 
 def describe(e: BaseException) -> str:
     where = getattr(e, "_urdfkb_where", None)
-    if isinstance(getattr(e, "exc", None), Refused):  # xacro wraps what its substitutions raise
-        e = e.exc
+    if isinstance(wrapped := getattr(e, "exc", None), Refused):  # xacro wraps what its substitutions raise
+        e = wrapped
     if isinstance(e, Refused):
         message = str(e)
     elif isinstance(e, RecursionError):

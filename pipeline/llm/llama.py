@@ -226,7 +226,8 @@ class LlamaBackend(Backend):
     def _chunks(self, jobs: list, free_cells: int):
         """Greedy groups of jobs that fit one decode: tokens, sequences and free cache cells."""
         first_seq = len(self._slots)
-        chunk, tokens, seqs = [], 0, first_seq
+        chunk: list = []
+        tokens, seqs = 0, first_seq
         for item in jobs:
             job = item[1]
             fits = (tokens + job.size <= min(self.n_batch, free_cells)
@@ -329,19 +330,26 @@ class LlamaBackend(Backend):
                              .encode() + bytes(json.dumps(cells), "ascii")).hexdigest()
         return _Plan(keep, cells, contents, key)
 
+    @property
+    def _stored(self) -> PrefixStore:
+        """The prompt-state store, for the steps that run only with one (a plan is made only then)."""
+        if self._store is None:
+            raise RuntimeError(f"{self.name}: no prompt-state store")
+        return self._store
+
     def _restore(self, slot: int, prefix: list[int], plan: "_Plan") -> bool:
         """Complete the slot (holding exactly prefix[:plan.keep]) from the stored state; False, with the
         cache unchanged, when there is none or it does not hold those positions."""
-        if (payload := self._store.load(prefix, plan.keep, plan.key)) is None:
+        if (payload := self._stored.load(prefix, plan.keep, plan.key)) is None:
             return False
         if (held := _state_positions(payload)) != list(range(plan.keep, len(prefix))):
-            self._store.discard(prefix, plan.keep, plan.key, f"holds positions {held[:1]}..{held[-1:]}")
+            self._stored.discard(prefix, plan.keep, plan.key, f"holds positions {held[:1]}..{held[-1:]}")
             return False
         scratch = len(self._slots)  # the first option sequence is free here
         buf = (ctypes.c_uint8 * len(payload)).from_buffer(payload)
         loaded = self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), scratch)
         if not loaded:  # llama.cpp may have placed cells and freed them again: the mirror cannot follow
-            self._store.discard(prefix, plan.keep, plan.key, "llama.cpp refused it")
+            self._stored.discard(prefix, plan.keep, plan.key, "llama.cpp refused it")
             self.reset()
             log.warning("urdfkb: the KV cache was cleared after a failed restore: later scores may differ "
                         "from a run without the prompt-state cache")
@@ -364,7 +372,7 @@ class LlamaBackend(Backend):
         finally:
             self._seq_rm(scratch)
         if written:
-            self._store.save(prefix, plan.keep, plan.key, memoryview(buf)[:written])
+            self._stored.save(prefix, plan.keep, plan.key, memoryview(buf)[:written])
 
     def _clear_slot(self, slot: int) -> None:
         self._seq_rm(slot)

@@ -73,16 +73,20 @@ class PrefixStore:
         except FileNotFoundError:
             return None
         except OSError as exc:
-            return self._reject(path, f"unreadable ({exc})")
+            self._reject(path, f"unreadable ({exc})")
+            return None
         head = len(MAGIC) + _HEADER.size
         if len(blob) < head or blob[:len(MAGIC)] != MAGIC:
-            return self._reject(path, "not a prefix-state file")
+            self._reject(path, "not a prefix-state file")
+            return None
         fmt, size, digest, stored_key = _HEADER.unpack_from(blob, len(MAGIC))
         payload = memoryview(blob)[head:]
         if fmt != FORMAT or stored_key != key:
-            return self._reject(path, "written for another format or key")
+            self._reject(path, "written for another format or key")
+            return None
         if len(payload) != size or hashlib.sha256(payload).digest() != digest:
-            return self._reject(path, f"corrupt ({len(payload)} of {size} bytes, or checksum mismatch)")
+            self._reject(path, f"corrupt ({len(payload)} of {size} bytes, or checksum mismatch)")
+            return None
         try:
             os.utime(path)  # least recently used goes first
         except OSError:
