@@ -8,11 +8,15 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Sequence
 
 from urdfkb import __version__
 from urdfkb.limits import CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
+
+if TYPE_CHECKING:
+    from tqdm import tqdm
 
 DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
 
@@ -21,7 +25,8 @@ class StageBars:
     """One tqdm bar per stage round on stderr; silent when quiet."""
 
     def __init__(self, quiet: bool):
-        self.quiet, self.bar = quiet, None
+        self.quiet = quiet
+        self.bar: tqdm | None = None
 
     def __call__(self, stage: str, done: int, total: int) -> None:
         if self.quiet:
@@ -77,7 +82,7 @@ def _limits(args: argparse.Namespace) -> dict:
 
 
 def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace, timings, limits: dict,
-              xacro_args: list[str] = (), package_paths: list[str] = ()):
+              xacro_args: Sequence[str] = (), package_paths: Sequence[str] = ()):
     """Ingest (expanding xacro) and abstract one robot; returns (tree, robot name, abstraction, seconds)."""
     from urdfkb.pipeline.runner import run
     from urdfkb.pipeline.xacro_input import load_description, parse_args, parse_package_paths
@@ -152,7 +157,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.traces:
         Path(args.traces).mkdir(parents=True, exist_ok=True)
     settings = _settings(args)
-    per_robot, extra = {}, {k: {} for k in ("model", "vote", "llm calls", "tokens", "declared", "seconds")}
+    per_robot: dict[str, dict] = {}
+    extra: dict[str, dict[str, object]] = {
+        k: {} for k in ("model", "vote", "llm calls", "tokens", "declared", "seconds")}
     for path in files:
         robot = path.stem
         print(f"== {robot}", file=sys.stderr)

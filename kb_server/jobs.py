@@ -179,11 +179,12 @@ class JobManager:
 
     def _expire(self) -> None:
         """Forget finished jobs older than keep_seconds, and all but the newest `keep` finished (under _guard)."""
-        finished = sorted((j for j in self._jobs.values() if j.finished is not None), key=lambda j: j.finished)
+        ended = {j.id: j.finished for j in self._jobs.values() if j.finished is not None}
+        finished = sorted(ended, key=ended.__getitem__)
         cutoff = time.time() - self.keep_seconds
-        for i, job in enumerate(finished):
-            if job.finished < cutoff or i < len(finished) - self.keep:
-                del self._jobs[job.id]
+        for i, job_id in enumerate(finished):
+            if ended[job_id] < cutoff or i < len(finished) - self.keep:
+                del self._jobs[job_id]
 
     def delete_robot(self, robot: str):
         """Delete a robot (after any job on it) and its remote graph.
@@ -205,13 +206,15 @@ class JobManager:
         return self._pool.submit(self._mirror_all) if self.remote else None
 
     def _mirror_all(self) -> None:
+        if (remote := self.remote) is None:
+            raise RuntimeError("mirroring without a remote store")
         for entry in self.store.robots():
             with self._robot_lock(entry.name):
                 graph = self.store.graph(entry.name)
                 if graph is None:  # deleted meanwhile
                     continue
                 try:
-                    self.remote.put_graph(entry.ontology_iri, graph)
+                    remote.put_graph(entry.ontology_iri, graph)
                 except RemoteError as e:
                     log.warning("mirroring %s failed: %s", entry.name, e)
 
@@ -231,14 +234,16 @@ class JobManager:
         try:
             job.state, job.started = "running", time.time()
             tree = source if isinstance(source, KinematicTree) else self._load(job, source)
-            with self._robot_lock(job.robot):
+            if (robot := job.robot) is None:
+                raise RuntimeError(f"job {job.id} has no robot name after loading its source")
+            with self._robot_lock(robot):
                 job.stage = "pipeline"
                 abstraction = self.runner(tree, settings, progress)
                 progress("store", 0, 1)
-                entry = self.store.replace_robot(job.robot, tree, abstraction)
+                entry = self.store.replace_robot(robot, tree, abstraction)
                 job.ontology, job.corrections = entry.ontology_iri, entry.corrections
                 progress("store", 1, 1)
-                job.state = self._mirror(job)
+                job.state = self._mirror(job, robot, entry.ontology_iri)
         except UrdfkbError as e:
             job.state = "failed"
             job.errors.append(str(e))
@@ -262,12 +267,15 @@ class JobManager:
                 raise RobotNameError(f"{e}: pass ?name=...") from None
         return tree
 
-    def _mirror(self, job: Job) -> str:
+    def _mirror(self, job: Job, robot: str, ontology: str) -> str:
+        """Copy the robot's graph (its ontology `ontology`) to the remote store, under the robot's lock."""
         if not self.remote:
             return "succeeded"
         job.stage = "mirror"
+        if (graph := self.store.graph(robot)) is None:
+            raise RuntimeError(f"{robot} left the store while its job held its lock")
         try:
-            self.remote.put_graph(job.ontology, self.store.graph(job.robot))
+            self.remote.put_graph(ontology, graph)
         except RemoteError as e:
             job.errors.append(f"stored locally, but mirroring to the remote store failed: {e}")
             return "mirror_failed"

@@ -6,7 +6,7 @@ import resource
 from collections.abc import Sequence
 from pathlib import Path
 
-from waitress import create_server
+from waitress import create_server  # type: ignore[attr-defined]  # missing from the waitress stubs
 from waitress.server import BaseWSGIServer
 
 from urdfkb.kb_server.app import create_app
@@ -108,7 +108,8 @@ def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: i
         log.warning("--trust-xacro: uploaded xacro files run unconfined, as this server's user")
     elif reason := sandbox.unavailable():
         log.warning("xacro uploads will be refused: %s (see README, Security)", reason)
-    log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, server.effective_port)
+    port = server.effective_port  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
+    log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, port)
     try:
         server.run()
     except KeyboardInterrupt:

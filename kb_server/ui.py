@@ -76,6 +76,8 @@ def _tree_from_store(store: Store, name: str) -> KinematicTree:
     """The tree of a robot stored before its source was kept, read back from its graph."""
     from urdfkb.pipeline.tree import Edge, Origin
     entry = store.robot(name)
+    if entry is None:
+        raise LookupError(f"robot {name!r} is not stored")
     iri = f"<{entry.robot_iri}>"
     links = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "
                         f"?l core:urdfName ?n }}").as_dicts()
