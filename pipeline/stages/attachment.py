@@ -5,8 +5,9 @@ up to and including the first one that also carries a leaf identified as another
 component: anything higher would make that link a member of the device with a child outside it,
 which verification must reject. (The mount of a device abstracted in an earlier pass may lie
 inside: a sensor on a gripper's palm.) A sensor is rigidly fixed to its mount, so for sensors the
-candidates also end at the first ancestor reached through a joint that moves: a link beyond it
-moves relative to the sensor and cannot be what it is fixed to.
+candidates also end below the first joint that moves: the link above that joint moves relative to
+the sensor and cannot be what it is fixed to. (Only a leaf whose own joint moves, which no sensor
+frame should, keeps its parent as the one candidate.)
 """
 from __future__ import annotations
 
@@ -38,12 +39,15 @@ def sub_chain(tree: KinematicTree, leaf: str, root: str) -> SubChain:
 
 
 def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool], rigid: bool = False) -> list[str]:
-    """Ancestors that could be the mount, nearest first; `rigid`: the device is fixed to its mount."""
+    """Ancestors that could be the mount, nearest first; `rigid`: the device is fixed to its mount, so none
+    lies above a joint that moves."""
     candidates = []
     chain = tree.chain_to_root(leaf)
     for below, ancestor in zip(chain, chain[1:1 + MAX_CANDIDATES]):
-        candidates.append(ancestor)
         moved = tree.edge_to(below).joint_type != "fixed"
+        if rigid and moved and candidates:
+            break  # `below` moves relative to `ancestor`, and so would the sensor fixed to `below`
+        candidates.append(ancestor)
         if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)) or (rigid and moved):
             break
     return candidates
