@@ -224,20 +224,7 @@ class Abstractor:
                                 self.progress)
 
     def assembly(self, s: PassState) -> None:
-        kind = self._kind(s)
-        s.found = [
-            Component(
-                name=f"{kind.name}_{i}_{g.leaves[0]}",
-                kind=kind.name,
-                cls=t.cls,
-                confidence=round(t.confidence, 4),
-                root=self._mount(s.tree, g),
-                subcomponents=tuple(SubComponent(link, s.parts[link].cls, round(s.parts[link].confidence, 4))
-                                    for link in g.members),
-                fingers=s.fingers[i] if s.fingers else (),
-            )
-            for i, (g, t) in enumerate(zip(s.groups, s.post))
-        ]
+        s.found = [self._device(s, i, g, t, s.parts) for i, (g, t) in enumerate(zip(s.groups, s.post))]
         s.components += s.found
 
     def device_joints(self, s: PassState) -> None:
@@ -278,13 +265,24 @@ class Abstractor:
     def _body_facts(self, s: PassState) -> list[reasoning.PartFacts]:
         """The body pass's candidates' facts, with this pass's tools as assembly will make them but for
         their classes: tool i's class is reasoning.TOOL_REF + i."""
-        kind = self._kind(s)
-        tools = [Component(f"{kind.name}_{i}_{g.leaves[0]}", kind.name, f"{reasoning.TOOL_REF}{i}", 0.0,
-                           self._mount(s.tree, g), tuple(SubComponent(link, "", 0.0) for link in g.members))
-                 for i, g in enumerate(s.groups)]
+        tools = [self._device(s, i, g, Typed(f"{reasoning.TOOL_REF}{i}", 0.0)) for i, g in enumerate(s.groups)]
         components = body_stage.with_joints(s.robot, s.components + tools)
         found = body_stage.candidates(s.robot, components)
         return body_stage.findings(s.robot, found, components).facts if found else []
+
+    def _device(self, s: PassState, i: int, g: Group, t: Typed, parts: dict[str, Typed] | None = None) -> Component:
+        """The pass's i-th device, group `g` classified `t`; each link typed by `parts` (None: left untyped)."""
+        kind = self._kind(s)
+        links = [parts[link] if parts is not None else Typed("", 0.0) for link in g.members]
+        return Component(
+            name=f"{kind.name}_{i}_{g.leaves[0]}",
+            kind=kind.name,
+            cls=t.cls,
+            confidence=round(t.confidence, 4),
+            root=self._mount(s.tree, g),
+            subcomponents=tuple(SubComponent(link, p.cls, round(p.confidence, 4)) for link, p in zip(g.members, links)),
+            fingers=s.fingers[i] if s.fingers else (),
+        )
 
     @staticmethod
     def _settled(device: str, inferred: list[reasoning.Inference]) -> str:
