@@ -41,7 +41,7 @@ def sub_chain(tree: KinematicTree, leaf: str, root: str) -> SubChain:
 def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool], rigid: bool = False) -> list[str]:
     """Ancestors that could be the mount, nearest first; `rigid`: the device is fixed to its mount, so none
     lies above a joint that moves."""
-    candidates = []
+    candidates: list[str] = []
     chain = tree.chain_to_root(leaf)
     for below, ancestor in zip(chain, chain[1:1 + MAX_CANDIDATES]):
         moved = tree.edge_to(below).joint_type != "fixed"
