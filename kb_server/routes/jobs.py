@@ -23,7 +23,7 @@ bp = Blueprint("jobs", __name__)
 @bp.post("/populate")
 def populate():
     kb = services()
-    if kb.token and not kb.authorized():
+    if not kb.may_write():
         return error(403, "populating needs the server's token (Authorization: Bearer ...)")
     if request.mimetype == "multipart/form-data":
         upload = request.files.get("urdf") or next(iter(request.files.values()), None)
