@@ -1,10 +1,14 @@
 """One robot end to end and cold, `urdfkb populate --no-cache`: this checkout, or it against another revision.
 
 Usage: python -m benchmarks.populate_bench [--urdf PR2.urdf] [--against REV] [--runs 2] [--timings]
+                                          [--warm-with OTHER.urdf ...]
 
 Every run is a fresh process in its own empty cache root (cold model load from the shared model
-folder, result cache off, prompt-state cache empty: this checkout's default is on, an older
-revision's default, off, is left alone). With --against, the revision's files (`git archive`) are
+folder, result cache off, prompt-state store empty: this checkout's default is on, an older
+revision's default, off, is left alone). With --warm-with, each version first populates the other
+robots, in a process of its own, and every timed run of that version starts from a copy of the
+prompt-state store they left: the store as a user's earlier robots leave it, without any state of
+the timed robot's own. With --against, the revision's files (`git archive`) are
 laid out as an importable `urdfkb` the way pyproject.toml's package-dir maps them, and the two
 versions run alternately, so both see the same machine load. Prints each run's wall time, peak RSS,
 prompt tokens and decodes, then the medians and, with --against, the ratio of this checkout's median
@@ -47,12 +51,16 @@ def importable(rev: str, root: Path) -> Path:
     return path
 
 
-def populate(urdf: Path, out: Path, pythonpath: Path | None, timings: bool = False) -> dict:
-    """One cold `urdfkb populate --no-cache` process: wall time, peak RSS, tokens, decodes, its answers."""
+def populate(urdf: Path, out: Path, pythonpath: Path | None, timings: bool = False, store: Path | None = None) -> dict:
+    """One cold `urdfkb populate --no-cache` process: wall time, peak RSS, tokens, decodes, its answers.
+    Its cache root (out's folder/cache) starts empty, or with a copy of the prompt-state store `store`."""
     from urdfkb.pipeline.llm.fetch import models_dir
+    from urdfkb.pipeline.llm.prefix_store import SUBDIR
 
     root = out.parent / "cache"
     shutil.rmtree(root, ignore_errors=True)
+    if store is not None:
+        shutil.copytree(store, root / SUBDIR)
     env = {**os.environ, "URDFKB_CACHE": str(root), "URDFKB_MODEL_CACHE": str(models_dir())}
     env.pop("URDFKB_PREFIX_CACHE", None)  # each version's default
     env.pop("URDFKB_RESULT_CACHE", None)
@@ -68,14 +76,29 @@ def populate(urdf: Path, out: Path, pythonpath: Path | None, timings: bool = Fal
         sys.exit(f"urdfkb failed ({code}):\n{stderr[-2000:]}")
     text = out.read_text()
     number = lambda prop: int(re.search(rf"core:{prop}\s+\"?(\d+)", text).group(1))  # noqa: E731
-    answers = {}
+    answers, restored = {}, 0
     for line in trace.read_text().splitlines():
         record = json.loads(line)
         if "distribution" in record:
             answers[record["key"]] = (record["answer"], record["distribution"])
+        restored += record.get("restored_tokens", 0)  # a step's timing record
     table = stdout[stdout.find("time breakdown"):] if timings and "time breakdown" in stdout else ""
-    return {"seconds": seconds, "tokens": number("tokensEvaluated"), "decodes": number("llmCalls"),
+    return {"seconds": seconds, "tokens": number("tokensEvaluated"), "decodes": number("llmCalls"), "restored": restored,
             "max_rss_mb": max_rss_mb, "answers": answers, "timings": table}
+
+
+def warm(urdfs: list[Path], folder: Path, pythonpath: Path | None) -> Path | None:
+    """Populate `urdfs` one after another with one cache root in `folder`; the prompt-state store they left."""
+    from urdfkb.pipeline.llm.prefix_store import SUBDIR
+
+    store = folder / "store"
+    for urdf in urdfs:
+        r = populate(urdf, folder / "out.ttl", pythonpath, store=store if store.exists() else None)
+        shutil.rmtree(store, ignore_errors=True)
+        if (folder / "cache" / SUBDIR).exists():
+            shutil.copytree(folder / "cache" / SUBDIR, store)
+        print(f"{'warming':>16}: {urdf.stem} {r['seconds']:6.1f} s", flush=True)
+    return store if store.exists() else None
 
 
 def compare(a: dict, b: dict) -> str:
@@ -104,20 +127,24 @@ def main() -> None:
     parser.add_argument("--against", metavar="REV", help="a git revision to run alternately with this checkout")
     parser.add_argument("--runs", type=int, default=2, help="runs of each version (default 2)")
     parser.add_argument("--timings", action="store_true", help="print this checkout's last --timings breakdown")
+    parser.add_argument("--warm-with", type=Path, nargs="+", default=[], metavar="URDF",
+                        help="robots each version populates first; its timed runs start from the prompt states they left")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="urdfkb-bench-") as tmp:
         versions = {"this checkout": None}
         if args.against:
             (Path(tmp) / "rev").mkdir()
             versions = {args.against: importable(args.against, Path(tmp) / "rev"), **versions}
+        stores = {name: warm(args.warm_with, Path(tmp) / f"warm-{i}", pythonpath) if args.warm_with else None
+                  for i, (name, pythonpath) in enumerate(versions.items())}
         results: dict[str, list[dict]] = {name: [] for name in versions}
         for run in range(1, args.runs + 1):
             for name, pythonpath in versions.items():
-                r = populate(args.urdf, Path(tmp) / "out.ttl", pythonpath, args.timings and pythonpath is None)
+                r = populate(args.urdf, Path(tmp) / "out.ttl", pythonpath, args.timings and pythonpath is None, stores[name])
                 results[name].append(r)
                 print(f"{name:>16} run {run}: {r['seconds']:6.1f} s  peak RSS {r['max_rss_mb']:,.0f} MB  "
-                      f"{r['tokens']:,} tokens  {r['decodes']} decodes  (load average {os.getloadavg()[0]:.1f})",
-                      flush=True)
+                      f"{r['tokens']:,} tokens ({r['restored']:,} restored)  {r['decodes']} decodes  "
+                      f"(load average {os.getloadavg()[0]:.1f})", flush=True)
     medians = {name: statistics.median(r["seconds"] for r in rs) for name, rs in results.items()}
     for name, seconds in medians.items():
         print(f"{name:>16} median {seconds:6.1f} s")

@@ -140,40 +140,52 @@ def test_oracle_on_llama(backend):
     assert sampled[0].answer in OPTIONS
 
 
-def test_alternating_system_texts_stay_cached(model_path):
-    """As many system prefixes as slots stay resident: returning to one evaluates only the question again."""
+def test_a_score_does_not_depend_on_what_was_asked_before(model_path):
+    """Every system text starts from an emptied cache: alternating system texts, each question gets the
+    bit-identical scores a new backend gives it, and returning to a system text evaluates it again
+    (without a store) rather than reading cells an earlier layout left."""
     from urdfkb.pipeline.llm.llama import LlamaBackend
 
     other = "Classify robot parts. Answer sensor, gripper, wheel or structure."
     third = SYSTEM + " Be careful."  # shares most of SYSTEM's tokens
     qa, qb, qc = question("base_laser"), question("base_laser", system=other), question("base_laser", system=third)
-    backend = LlamaBackend(model_path, n_ctx=2048, prefix_slots=3, prefix_cache=False)
-    single = LlamaBackend(model_path, n_ctx=2048, prefix_slots=1, prefix_cache=False)  # one slot: every switch re-evaluates
+    backend = LlamaBackend(model_path, n_ctx=2048, prefix_cache=False)
     try:
-        first = [backend.score([q])[0] for q in (qa, qb, qc)]
-        before = backend.stats.prompt_tokens
-        again = [backend.score([q])[0] for q in (qa, qb, qc)]
-        suffixes = sum(len(backend.prompt_tokens(q)) - len(backend.prefix_tokens(q.system)) for q in (qa, qb, qc))
-        assert backend.stats.prompt_tokens - before <= suffixes + 3 * (len(OPTIONS) * 2 + 2)
-        assert np.allclose(first, again, atol=LOGPROB_TOL)  # other cache cells: layout noise only
-        fresh = [single.score([q])[0] for q in (qa, qb, qc, qa)]
-        assert np.allclose(fresh[:3], first, atol=LOGPROB_TOL) and np.allclose(fresh[3], fresh[0], atol=LOGPROB_TOL)
+        alone, tokens = [], []
+        for q in (qa, qb, qc):
+            backend.fresh()
+            alone.append(backend.score([q])[0])
+            tokens.append(backend.stats.prompt_tokens)
+        backend.fresh()
+        mixed = [backend.score([q])[0] for q in (qa, qb, qc, qa)]
+        assert mixed == alone + alone[:1]
+        assert backend.stats.prompt_tokens == sum(tokens) + tokens[0]
     finally:
         backend.close()
-        single.close()
 
 
-def test_long_prefix_evicts_other_slots(model_path):
+def test_questions_share_their_user_texts_leading_tokens(model_path):
+    """Questions whose user texts begin alike evaluate those tokens once in their decode, and answer as
+    they do alone (up to layout noise: see LOGPROB_TOL)."""
     from urdfkb.pipeline.llm.llama import LlamaBackend
 
-    small = LlamaBackend(model_path, n_ctx=1024, prefix_slots=3, prefix_cache=False)
+    siblings = [Question(SYSTEM, f"Parent chain: base_link > torso > head_plate. Link: {link}. Which kind?", OPTIONS,
+                         key=link) for link in LINKS]
+    backend = LlamaBackend(model_path, n_ctx=2048, prefix_cache=False)
     try:
-        systems = [f"Rule {i}: " + "classify robot links carefully. " * 40 for i in range(3)]
-        rows = [small.score([question("base_laser", system=s)])[0] for s in systems * 2]
-        assert all(len(r) == 4 and max(r) > -60 for r in rows)
-        assert small._resident() <= 1024
+        together = backend.score(siblings)
+        tokens = backend.stats.prompt_tokens
+        alone, each = [], []
+        for q in siblings:
+            backend.fresh()
+            alone.append(backend.score([q])[0])
+            each.append(backend.stats.prompt_tokens)
+        n_prefix, n = len(backend.prefix_tokens(SYSTEM)), len(siblings)
+        # one prefix for all, and every sibling after the first spares at least the shared sentence
+        assert tokens <= sum(each) - (n - 1) * (n_prefix + 10)
+        assert np.allclose([softmax(r) for r in together], [softmax(r) for r in alone], atol=PROB_TOL)
     finally:
-        small.close()
+        backend.close()
 
 
 def _fresh_scores(model_path, store, questions, **kwargs):
@@ -263,8 +275,8 @@ def test_env_switch_disables_the_default_store(model_path, tmp_path, monkeypatch
 
 
 def test_rerun_from_the_store_is_bit_identical(model_path, tmp_path):
-    """System texts sharing leading tokens, alternating over fewer slots (evictions): a rerun restores
-    each prefix's own part into the cells evaluation used, so every score is identical."""
+    """System texts sharing leading tokens, alternating: each switch restores the prefix (once stored) into
+    the cells evaluation used, so every score is identical with the store cold, warm, or off."""
     other = "Classify robot parts. Answer sensor, gripper, wheel or structure."
     systems = (SYSTEM, other, SYSTEM + " Be careful.", other)
     questions = [[question(link, system=s) for link in LINKS[:2]] for s in systems]
@@ -272,7 +284,7 @@ def test_rerun_from_the_store_is_bit_identical(model_path, tmp_path):
     def run(store):
         from urdfkb.pipeline.llm.llama import LlamaBackend
 
-        b = LlamaBackend(model_path, n_ctx=2048, prefix_slots=2, prefix_cache=store)
+        b = LlamaBackend(model_path, n_ctx=2048, prefix_cache=store)
         try:
             return [b.score(qs) for qs in questions], b.stats
         finally:
@@ -286,79 +298,6 @@ def test_rerun_from_the_store_is_bit_identical(model_path, tmp_path):
     assert 0 < cold_stats.restored_tokens < warm_stats.restored_tokens
     for stats in (cold_stats, warm_stats):
         assert stats.prompt_tokens + stats.restored_tokens == plain_stats.prompt_tokens
-
-
-def test_the_mirror_of_the_kv_cells_follows_llama_cpp(model_path, tmp_path, monkeypatch):
-    """At every placement llama.cpp makes (decodes, restores), its own dump of its cells (LLAMA_KV_CACHE_DEBUG)
-    equals the backend's mirror: cells, positions, used count and head, through evictions and restores."""
-    import ctypes
-
-    import llama_cpp
-    from llama_cpp import _logger
-
-    from urdfkb.pipeline.llm import kv_cells
-    from urdfkb.pipeline.llm.llama import LlamaBackend
-
-    monkeypatch.setenv("LLAMA_KV_CACHE_DEBUG", "3")  # read when a context builds its cache
-    logged: list[str] = []
-    callback = llama_cpp.llama_log_callback(lambda level, text, data: logged.append(text.decode("utf-8", "replace")))
-    mirrored: list[tuple] = []
-    placing = {"seqs": 0}
-    find = kv_cells.KVCells.find
-
-    def recording_find(self, n, taken=()):
-        if not taken and placing["seqs"]:  # a real placement, not a plan
-            mirrored.extend([(self.used, self.head, self.dump().rstrip("\n"), self.dump_positions().rstrip("\n"))]
-                            * placing["seqs"])  # llama.cpp dumps once per sequence of the ubatch
-        return find(self, n, taken)
-
-    preamble = "You read robot link names and answer with one word. " * 3
-    systems = [preamble + f"Task {i}: " + "decide the kind. " * (i + 1) for i in range(4)]
-    questions = [question(f"part_{j}_link", system=systems[j % 4]) for j in range(12)]
-    llama_cpp.llama_log_set(callback, ctypes.c_void_p(0))
-    monkeypatch.setattr(kv_cells.KVCells, "find", recording_find)
-    try:
-        for run in range(2):  # the first fills the store (and restores evicted prefixes), the second restores
-            logged.clear()
-            mirrored.clear()
-            b = LlamaBackend(model_path, n_ctx=1024, prefix_slots=2, prefix_cache=tmp_path)
-            decode, restore = b._decode, kv_cells.KVCells.restore
-
-            def placing_decode(contents=None, b=b, decode=decode):
-                placing["seqs"] = len({s for _, seqs in b._entries for s in seqs})
-                try:
-                    return decode(contents)
-                finally:
-                    placing["seqs"] = 0
-
-            def placing_restore(self, seq, positions, contents, restore=restore):
-                placing["seqs"] = 1
-                try:
-                    return restore(self, seq, positions, contents)
-                finally:
-                    placing["seqs"] = 0
-
-            b._decode = placing_decode
-            monkeypatch.setattr(kv_cells.KVCells, "restore", placing_restore)
-            try:
-                for k in range(0, len(questions), 3):
-                    b.score(questions[k:k + 3])
-                for q in questions[::5]:
-                    b.score([q])
-                assert b.stats.restored_tokens > 0
-            finally:
-                b.close()
-                monkeypatch.setattr(kv_cells.KVCells, "restore", restore)
-            dumped = []
-            for part in "".join(logged).split("find_slot: stream[0], ")[1:]:
-                header, _, rest = part.partition("\n")
-                fields = dict(f.strip().split(" = ") for f in header.split(","))
-                maps = rest.split("\n\n")
-                dumped.append((int(fields["used"]), int(fields["head"]), maps[0].strip("\n"), maps[1].strip("\n")))
-            assert len(dumped) == len(mirrored) > 20
-            assert dumped == mirrored
-    finally:
-        llama_cpp.llama_log_set(_logger.llama_log_callback, ctypes.c_void_p(0))
 
 
 @pytest.mark.parametrize("steered", [False, True], ids=["model answers", "every stage"])

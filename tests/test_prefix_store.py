@@ -9,35 +9,33 @@ from urdfkb.pipeline.llm.prefix_store import PrefixStore
 
 IDENTITY = {"model": ["/models/m.gguf", 1000, 1], "context": {"n_ctx": 4096}}
 TOKENS = [1, 2, 3, 4, 5]
-LAYOUT = "cells"  # the digest of the KV layout a state was computed in (pipeline.llm.llama)
 
 
 def test_round_trip(tmp_path):
     store = PrefixStore(tmp_path, IDENTITY)
-    assert store.load(TOKENS, 0, LAYOUT) is None
-    store.save(TOKENS, 0, LAYOUT, b"state bytes")
-    assert bytes(store.load(TOKENS, 0, LAYOUT)) == b"state bytes"
+    assert store.load(TOKENS) is None
+    store.save(TOKENS, b"state bytes")
+    assert bytes(store.load(TOKENS)) == b"state bytes"
     assert store.hits == 1 and store.writes == 1
-    assert [p.name for p in tmp_path.iterdir()] == [store.path(TOKENS, 0, LAYOUT).name]  # no temporary file left
+    assert [p.name for p in tmp_path.iterdir()] == [store.path(TOKENS).name]  # no temporary file left
 
 
-def test_key_covers_tokens_split_layout_and_identity(tmp_path):
+def test_key_covers_tokens_and_identity(tmp_path):
     store = PrefixStore(tmp_path, IDENTITY)
-    store.save(TOKENS, 0, LAYOUT, b"x")
-    store.save(TOKENS, 3, LAYOUT, b"tail")
-    assert store.load(TOKENS, 0, "other cells") is None
-    assert bytes(store.load(TOKENS, 3, LAYOUT)) == b"tail" and store.load(TOKENS, 2, LAYOUT) is None
-    assert store.load(TOKENS[:-1], 0, LAYOUT) is None and store.load(TOKENS + [6], 0, LAYOUT) is None
+    store.save(TOKENS, b"x")
+    store.save(TOKENS[:3], b"head")
+    assert bytes(store.load(TOKENS[:3])) == b"head" and bytes(store.load(TOKENS)) == b"x"
+    assert store.load(TOKENS[:-1]) is None and store.load(TOKENS + [6]) is None
     other_model = PrefixStore(tmp_path, {**IDENTITY, "model": ["/models/m.gguf", 1000, 2]})
-    assert other_model.load(TOKENS, 0, LAYOUT) is None
-    assert PrefixStore(tmp_path, dict(reversed(IDENTITY.items()))).load(TOKENS, 0, LAYOUT) is not None  # order-free
+    assert other_model.load(TOKENS) is None
+    assert PrefixStore(tmp_path, dict(reversed(IDENTITY.items()))).load(TOKENS) is not None  # order-free
 
 
 @pytest.mark.parametrize("damage", ["flip", "truncate", "empty", "magic"])
 def test_corrupt_file_is_ignored_logged_and_removed(tmp_path, caplog, damage):
     store = PrefixStore(tmp_path, IDENTITY)
-    store.save(TOKENS, 0, LAYOUT, b"0123456789" * 10)
-    path = store.path(TOKENS, 0, LAYOUT)
+    store.save(TOKENS, b"0123456789" * 10)
+    path = store.path(TOKENS)
     blob = bytearray(path.read_bytes())
     if damage == "flip":
         blob[-3] ^= 0xFF
@@ -49,7 +47,7 @@ def test_corrupt_file_is_ignored_logged_and_removed(tmp_path, caplog, damage):
         blob[:4] = b"GGUF"
     path.write_bytes(bytes(blob))
     with caplog.at_level(logging.WARNING, logger=prefix_store.__name__):
-        assert store.load(TOKENS, 0, LAYOUT) is None
+        assert store.load(TOKENS) is None
     assert "ignoring cached prompt state" in caplog.text and str(path) in caplog.text
     assert not path.exists() and store.rejected == 1
 
@@ -57,29 +55,29 @@ def test_corrupt_file_is_ignored_logged_and_removed(tmp_path, caplog, damage):
 def test_file_under_another_key_is_rejected(tmp_path, caplog):
     """A file copied or renamed onto another prefix's name is caught by the key in its header."""
     store = PrefixStore(tmp_path, IDENTITY)
-    store.save(TOKENS, 0, LAYOUT, b"state of TOKENS")
-    os.replace(store.path(TOKENS, 0, LAYOUT), store.path(TOKENS, 2, LAYOUT))
+    store.save(TOKENS, b"state of TOKENS")
+    os.replace(store.path(TOKENS), store.path(TOKENS[:2]))
     with caplog.at_level(logging.WARNING, logger=prefix_store.__name__):
-        assert store.load(TOKENS, 2, LAYOUT) is None
+        assert store.load(TOKENS[:2]) is None
     assert "another format or key" in caplog.text
 
 
 def test_size_bound_evicts_least_recently_used(tmp_path):
     for i in range(3):
-        PrefixStore(tmp_path, IDENTITY).save([i], 0, LAYOUT, bytes(1000))
+        PrefixStore(tmp_path, IDENTITY).save([i], bytes(1000))
     store = PrefixStore(tmp_path, IDENTITY, max_bytes=2500)
     for i in range(3):
-        os.utime(store.path([i], 0, LAYOUT), ns=(i * 10**9, i * 10**9))  # distinct ages: 0 oldest
-    assert store.load([0], 0, LAYOUT) is not None  # a hit makes 0 the most recently used
-    store.save([3], 0, LAYOUT, bytes(1000))
-    assert [store.path([i], 0, LAYOUT).exists() for i in range(4)] == [True, False, False, True]
+        os.utime(store.path([i]), ns=(i * 10**9, i * 10**9))  # distinct ages: 0 oldest
+    assert store.load([0]) is not None  # a hit makes 0 the most recently used
+    store.save([3], bytes(1000))
+    assert [store.path([i]).exists() for i in range(4)] == [True, False, False, True]
     assert sum(p.stat().st_size for p in tmp_path.iterdir()) <= 2500
 
 
 def test_entry_larger_than_the_bound_is_still_kept(tmp_path):
     store = PrefixStore(tmp_path, IDENTITY, max_bytes=10)
-    store.save(TOKENS, 0, LAYOUT, bytes(100))
-    assert store.load(TOKENS, 0, LAYOUT) is not None
+    store.save(TOKENS, bytes(100))
+    assert store.load(TOKENS) is not None
 
 
 def test_stale_temporary_files_are_swept(tmp_path):
@@ -87,7 +85,7 @@ def test_stale_temporary_files_are_swept(tmp_path):
     stale.write_bytes(b"half")
     fresh.write_bytes(b"half")
     os.utime(stale, (0, 0))
-    PrefixStore(tmp_path, IDENTITY).save(TOKENS, 0, LAYOUT, b"x")
+    PrefixStore(tmp_path, IDENTITY).save(TOKENS, b"x")
     assert not stale.exists() and fresh.exists()  # a writer may still own the fresh one
 
 
@@ -96,9 +94,9 @@ def test_unwritable_directory_only_logs(tmp_path, caplog):
     blocker.write_text("not a directory")
     store = PrefixStore(blocker / "sub", IDENTITY)
     with caplog.at_level(logging.WARNING, logger=prefix_store.__name__):
-        store.save(TOKENS, 0, LAYOUT, b"x")
+        store.save(TOKENS, b"x")
     assert "cannot write cached prompt state" in caplog.text and store.writes == 0
-    assert store.load(TOKENS, 0, LAYOUT) is None
+    assert store.load(TOKENS) is None
 
 
 def test_default_dir_and_switch(monkeypatch, tmp_path):

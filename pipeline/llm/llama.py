@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import json
 import logging
 import math
 import os
@@ -12,18 +10,18 @@ import struct
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
-from urdfkb.pipeline.llm.kv_cells import KVCells
 from urdfkb.pipeline.llm.prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
 
 log = logging.getLogger(__name__)
 
 SENTINEL = "\x00URDFKB\x00"
+PREFIX = 0  # the KV sequence holding the system prefix; options are sequences 1..
 # context parameters that change a stored prefix state's bytes or its numerics
 _STATE_PARAMS = ("n_ctx", "n_batch", "n_ubatch", "n_seq_max", "n_threads", "n_threads_batch", "kv_unified",
                  "flash_attn_type", "type_k", "type_v", "swa_full", "offload_kqv")
@@ -57,20 +55,20 @@ class LlamaBackend(Backend):
     """llama-cpp-python in process; scores every option of many questions in few decodes.
 
     Prompts are rendered with the GGUF's own chat template. The system part (everything before the
-    user text) stays in the KV cache, one sequence per slot for the `prefix_slots` most recently
-    used system texts, and is reused by every question with the same system text; each option is
-    a sequence sharing that prefix and its question's suffix. Every resident prefix widens the span
-    of KV cells each batch token attends over (masked or not), and the pipeline seldom returns to an
-    earlier system text, so few slots are kept (README, Accuracy and speed). Two is the default:
-    with one, the changed cell layout tipped TurtleBot3's near tie on base_scan the wrong way.
+    user text) is evaluated once into sequence 0 of the KV cache and shared by every question with
+    that system text; each option is a sequence sharing that prefix, and the questions of one decode
+    share their user texts' common leading tokens. A new system text empties the cache first and
+    starts again at cell 0, so a prefix always lands in the same cells next to nothing else: its state
+    is a function of its tokens alone, which the on-disk store (prefix_store) keeps and restores
+    exactly, and every score is a function of its question and its batch, not of what was asked before.
     Not thread-safe: use one backend per thread.
     """
 
     exposes_logits = True
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
-                 n_batch: int = 512, n_seq_max: int = 64, prefix_slots: int = 2,
-                 prefix_cache: bool | str | Path = True, prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
+                 n_batch: int = 512, n_seq_max: int = 64, prefix_cache: bool | str | Path = True,
+                 prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
                  flash_attn: bool = False, kv_type: str = "f16"):
         _choose_openmp_waiting()
         import llama_cpp
@@ -95,10 +93,7 @@ class LlamaBackend(Backend):
         self.n_vocab = self._model.n_vocab()
         self._formatter = self._chat_formatter()
         self.eot = self._end_of_turn()
-        self._cells = KVCells(self._lib.llama_n_ctx(self._ctx.ctx))  # what llama.cpp's KV cells hold
-        self._entries: list[tuple[int, tuple[int, ...]]] = []  # the filled batch's (position, sequences)
-        self._slots: list[list[int]] = [[] for _ in range(prefix_slots)]  # tokens held by prefix sequence i
-        self._recent: list[int] = list(range(prefix_slots))  # slot ids, least recently used first
+        self._prefix: list[int] = []  # the tokens sequence PREFIX holds, in cells 0..len-1
         self._store = self._prefix_store(path, prefix_cache, prefix_cache_bytes, threads)
 
     def _context_params(self, n_ctx: int, n_batch: int, n_seq_max: int, threads: int, flash_attn: bool, kv_type: str):
@@ -122,7 +117,7 @@ class LlamaBackend(Backend):
         if where is False or (where is True and not enabled_by_env()):
             return None
         if self._lib.llama_model_n_swa(self._model.model) > 0:
-            return None  # a sliding window frees cells the mirror (kv_cells) does not follow
+            return None  # a sliding-window cache prunes cells as it evaluates: untested here, so not stored
         lib = Path(self._lib.llama_cpp._lib._name)
         identity = {
             "model": _file_identity(model),
@@ -207,16 +202,15 @@ class LlamaBackend(Backend):
         # at least the last prompt token (decoded per question to predict the first answer token)
         shared = min(min(_common_prefix(prefix, p), len(p) - 1) for p in prompts)
         jobs = [self._job(q, p, shared) for q, p in zip(questions, prompts)]
-        slot = self._load_prefix(prefix[:shared], max(j.size for j in jobs))
-        free = self.n_ctx - self._resident()
-        for chunk in self._chunks(list(zip(indices, jobs)), free):
-            for i, scores in zip([i for i, _ in chunk], self._decode_jobs([j for _, j in chunk], slot, shared)):
+        self._load_prefix(prefix[:shared])
+        for chunk in self._chunks(list(zip(indices, jobs)), self.n_ctx - shared):
+            for i, scores in zip([i for i, _ in chunk], self._decode_jobs([j for _, j in chunk], shared)):
                 out[i] = scores
 
     def _job(self, question: Question, prompt: list[int], shared: int) -> _Job:
         options = [self.option_tokens(o) for o in question.options]
         job = _Job(prompt[shared:], options)
-        if (len(options) > self.n_seq_max - len(self._slots) or job.size > self.n_batch
+        if (len(options) > self.n_seq_max - 1 or job.size > self.n_batch
                 or len(prompt) + max(map(len, options)) > self.n_ctx):
             raise BackendError(f"{self.name}: question {question.key!r} does not fit one decode "
                                f"({job.size} tokens, {len(options)} options; n_batch {self.n_batch}, "
@@ -224,194 +218,120 @@ class LlamaBackend(Backend):
         return job
 
     def _chunks(self, jobs: list, free_cells: int):
-        """Greedy groups of jobs that fit one decode: tokens, sequences and free cache cells."""
-        first_seq = len(self._slots)
+        """Greedy groups of jobs that fit one decode: tokens, sequences and free cache cells (counting
+        each job's tokens in full, though jobs sharing leading suffix tokens take fewer)."""
         chunk: list = []
-        tokens, seqs = 0, first_seq
+        tokens, seqs = 0, 1
         for item in jobs:
             job = item[1]
             fits = (tokens + job.size <= min(self.n_batch, free_cells)
                     and seqs + len(job.options) <= self.n_seq_max)
             if chunk and not fits:
                 yield chunk
-                chunk, tokens, seqs = [], 0, first_seq
+                chunk, tokens, seqs = [], 0, 1
             chunk.append(item)
             tokens, seqs = tokens + job.size, seqs + len(job.options)
         if chunk:
             yield chunk
 
-    def _resident(self) -> int:
-        """Cache cells the prefix slots may hold (an upper bound: slots can share cells)."""
-        return sum(map(len, self._slots))
+    def _load_prefix(self, prefix: list[int]) -> None:
+        """Make sequence PREFIX hold exactly `prefix`, in cells 0..len-1 of an otherwise empty cache.
 
-    def _load_prefix(self, prefix: list[int], room: int) -> int:
-        """A slot whose sequence holds `prefix` (at the start), decoding only what no slot already has.
-
-        Extends or reuses the slot with the longest common prefix; otherwise copies that common part
-        into the least recently used slot. The rest is restored from the on-disk store when a state
-        stored for exactly this layout is there (see _plan), else evaluated and then stored. Evicts
-        other slots while `room` more cells would not fit.
+        Kept if it already does; otherwise the cache is emptied and the prefix restored from the
+        on-disk store, or evaluated (and stored). Starting from an empty cache every time costs the
+        tokens a new system text shares with the last one (the common preamble), and buys states
+        that are the same wherever they are needed: in this run, the next, or another robot's.
         """
-        best, keep = self._best_slot(prefix)
-        slot = best
-        if keep < len(prefix) and keep < len(self._slots[best]):  # diverges: keep `best`, use another slot
-            slot = next((i for i in self._recent if i != best), best)
-            if slot == best:
-                self._seq_rm(best, keep, -1)
-            else:
-                self._clear_slot(slot)
-                self._seq_cp(best, slot, 0, keep)
-            self._slots[slot] = prefix[:keep]
-        self._use(slot)
-        self._make_room(len(prefix) - min(keep, len(prefix)) + room)
-        plan = self._plan(slot, prefix) if keep < len(prefix) and self._store is not None else None
-        if plan is not None and self._restore(slot, prefix, plan):
-            return slot
-        self._evaluate(slot, prefix)
-        if plan is not None:
-            self._save(slot, prefix, plan)
-        return slot
-
-    def _best_slot(self, prefix: list[int]) -> tuple[int, int]:
-        """The slot sharing the longest common prefix with `prefix`, and that length."""
-        best = max(range(len(self._slots)), key=lambda i: _common_prefix(self._slots[i], prefix))
-        return best, _common_prefix(self._slots[best], prefix)
-
-    def _use(self, slot: int) -> None:
-        self._recent.remove(slot)
-        self._recent.append(slot)
-
-    def _make_room(self, cells: int) -> None:
-        """Clear least recently used slots (never the most recent) until `cells` more fit."""
-        for other in list(self._recent[:-1]):
-            if self._resident() + cells <= self.n_ctx:
-                break
-            self._clear_slot(other)
-
-    def _evaluate(self, slot: int, tokens: list[int]) -> None:
-        """Decode what the slot lacks of `tokens` (it holds a prefix of them) into its sequence."""
-        for start in range(len(self._slots[slot]), len(tokens), self.n_batch):
-            piece = tokens[start: start + self.n_batch]
-            self._fill([(t, start + k, (slot,), False) for k, t in enumerate(piece)])
-            visible = self._cells.layout(slot)
-            self._decode(lambda cells: _contents(visible, piece, start, cells))
-            self._slots[slot] = tokens[: start + len(piece)]
+        if self._prefix == prefix:
+            return
+        self.reset()
+        if self._store is not None and self._restore(prefix):
+            return
+        for start in range(0, len(prefix), self.n_batch):
+            piece = prefix[start: start + self.n_batch]
+            self._fill([(t, start + k, (PREFIX,), False) for k, t in enumerate(piece)])
+            self._decode()
+        self._prefix = list(prefix)
+        if self._store is not None:
+            self._save(prefix)
 
     # --- the on-disk store of prefix states ---------------------------------------------------
-    # A stored state holds the cells a prefix's evaluation filled (positions keep.., after the `keep`
-    # tokens the slot already held), under a key naming everything those cells' bytes depend on: the
-    # tokens, the cells they went to and the cells (with their contents) they attended over. It is
-    # restored only where llama.cpp will put it in exactly those cells, next to exactly those
-    # contents, so restoring gives the bytes evaluating would give, where evaluating would put them,
-    # and every later score is bit-identical to a run without the store.
-
-    def _plan(self, slot: int, prefix: list[int]) -> "_Plan | None":
-        """What evaluating the rest of `prefix` into `slot` would do to the cache, and the key of its
-        state; None where a restore would not land in the same cells (llama.cpp places a restored state
-        as one ubatch, an evaluation in n_batch pieces: they differ only when a piece starts back at 0)
-        or would not keep the order of positions (cells that wrap around the cache's end)."""
-        keep = len(self._slots[slot])
-        before = self._cells.layout(slot)
-        if [p for p, _, _ in before] != list(range(keep)):
-            return None
-        sizes = [min(self.n_batch, len(prefix) - start) for start in range(keep, len(prefix), self.n_batch)]
-        pieces = self._cells.chunks(sizes)
-        cells = [c for piece in pieces for c in piece]
-        # a state holds its cells in index order and a restore fills the cells it finds in that order
-        if cells != sorted(cells) or self._cells.find(len(cells)) != cells:
-            return None
-        contents, visible, start = [], list(before), keep
-        for piece in pieces:
-            made = _contents(visible, prefix[start: start + len(piece)], start, piece)
-            contents += made
-            visible += [(start + k, c, made[k]) for k, c in enumerate(piece)]
-            start += len(piece)
-        key = hashlib.sha256(json.dumps([[p, c, d.hex() if d else None] for p, c, d in before], separators=(",", ":"))
-                             .encode() + bytes(json.dumps(cells), "ascii")).hexdigest()
-        return _Plan(keep, cells, contents, key)
+    # llama.cpp's CPU kernels are exact functions of the cells a token attends over: the same values in
+    # the same cells give bit-identical scores, other cells other roundings. A prefix is evaluated into
+    # an emptied cache, in n_batch pieces from cell 0; a restore into the emptied cache places its cells
+    # as one ubatch from cell 0. Both fill cells 0..len-1 with the same bytes, so a restore leaves the
+    # cache as evaluating would, and every later score is bit-identical to a run without the store.
 
     @property
     def _stored(self) -> PrefixStore:
-        """The prompt-state store, for the steps that run only with one (a plan is made only then)."""
+        """The prompt-state store, for the steps that run only with one."""
         if self._store is None:
             raise RuntimeError(f"{self.name}: no prompt-state store")
         return self._store
 
-    def _restore(self, slot: int, prefix: list[int], plan: "_Plan") -> bool:
-        """Complete the slot (holding exactly prefix[:plan.keep]) from the stored state; False, with the
-        cache unchanged, when there is none or it does not hold those positions."""
-        if (payload := self._stored.load(prefix, plan.keep, plan.key)) is None:
+    def _restore(self, prefix: list[int]) -> bool:
+        """Fill the emptied cache's sequence PREFIX with the stored state of `prefix`; False, with the
+        cache empty again, when there is none or it cannot be used."""
+        if (payload := self._stored.load(prefix)) is None:
             return False
-        if (held := _state_positions(payload)) != list(range(plan.keep, len(prefix))):
-            self._stored.discard(prefix, plan.keep, plan.key, f"holds positions {held[:1]}..{held[-1:]}")
+        if (held := _state_positions(payload)) != list(range(len(prefix))):
+            self._stored.discard(prefix, f"holds positions {held[:1]}..{held[-1:]}")
             return False
-        scratch = len(self._slots)  # the first option sequence is free here
         buf = (ctypes.c_uint8 * len(payload)).from_buffer(payload)
-        loaded = self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), scratch)
-        if not loaded:  # llama.cpp may have placed cells and freed them again: the mirror cannot follow
-            self._stored.discard(prefix, plan.keep, plan.key, "llama.cpp refused it")
-            self.reset()
-            log.warning("urdfkb: the KV cache was cleared after a failed restore: later scores may differ "
-                        "from a run without the prompt-state cache")
-            raise BackendError(f"{self.name}: a stored prompt state could not be restored; run again")
-        self._cells.restore(scratch, range(plan.keep, len(prefix)), plan.contents)
-        self._seq_cp(scratch, slot, plan.keep, -1)
-        self._seq_rm(scratch)
-        self._slots[slot] = list(prefix)
-        self.stats.restored_tokens += len(prefix) - plan.keep
+        if not self._lib.llama_state_seq_set_data(self._ctx.ctx, buf, len(payload), PREFIX):
+            self._stored.discard(prefix, "llama.cpp refused it")
+            self.reset()  # llama.cpp may have placed cells and freed them again: start from empty
+            return False
+        self._prefix = list(prefix)
+        self.stats.restored_tokens += len(prefix)
         return True
 
-    def _save(self, slot: int, prefix: list[int], plan: "_Plan") -> None:
-        """Store the state of the slot's positions plan.keep.. (the slot holds exactly `prefix`)."""
-        scratch = len(self._slots)
-        self._seq_cp(slot, scratch, plan.keep, -1)
-        try:
-            size = self._lib.llama_state_seq_get_size(self._ctx.ctx, scratch)
-            buf = (ctypes.c_uint8 * size)()
-            written = self._lib.llama_state_seq_get_data(self._ctx.ctx, buf, size, scratch)
-        finally:
-            self._seq_rm(scratch)
+    def _save(self, prefix: list[int]) -> None:
+        """Store the state of sequence PREFIX (it holds exactly `prefix`, and the cache nothing else)."""
+        size = self._lib.llama_state_seq_get_size(self._ctx.ctx, PREFIX)
+        buf = (ctypes.c_uint8 * size)()
+        written = self._lib.llama_state_seq_get_data(self._ctx.ctx, buf, size, PREFIX)
         if written:
-            self._stored.save(prefix, plan.keep, plan.key, memoryview(buf)[:written])
+            self._stored.save(prefix, memoryview(buf)[:written])
 
-    def _clear_slot(self, slot: int) -> None:
-        self._seq_rm(slot)
-        self._slots[slot] = []
+    # --- decoding ------------------------------------------------------------------------------
 
-    # --- the KV cache, with its mirror ---------------------------------------------------------
-
-    def _seq_rm(self, seq: int, p0: int = -1, p1: int = -1) -> None:
-        self._lib.llama_memory_seq_rm(self._ctx.memory, seq, p0, p1)
-        self._cells.seq_rm(seq, p0, p1)
-
-    def _seq_cp(self, src: int, dst: int, p0: int = -1, p1: int = -1) -> None:
-        self._lib.llama_memory_seq_cp(self._ctx.memory, src, dst, p0, p1)
-        self._cells.seq_cp(src, dst, p0, p1)
-
-    def _decode_jobs(self, jobs: list[_Job], slot: int, n_prefix: int) -> list[list[float]]:
+    def _decode_jobs(self, jobs: list[_Job], n_prefix: int) -> list[list[float]]:
         """Whole-option log-probabilities of every job, from one decode."""
-        logprobs, wanted = self._decode_rows(jobs, slot, n_prefix)
+        logprobs, wanted = self._decode_rows(jobs, n_prefix)
         return [[self._option_logprob(logprobs, r, o) for r, o in zip(rows, job.options)]
                 for rows, job in zip(wanted, jobs)]
 
-    def _decode_rows(self, jobs: list[_Job], slot: int, n_prefix: int) -> tuple["_RowLogprobs", list[list[list[int]]]]:
-        """One decode for all options of all jobs (option sequences copy the prefix from the slot; the
-        options of a job are laid out as a token trie); returns the row reader and, per job and
-        option, the batch rows predicting each of its tokens."""
-        entries, wanted = [], []
-        first_seq = seq = len(self._slots)
+    def _decode_rows(self, jobs: list[_Job], n_prefix: int) -> tuple["_RowLogprobs", list[list[list[int]]]]:
+        """One decode for all options of all jobs; returns the row reader and, per job and option, the
+        batch rows predicting each of its tokens.
+
+        Every option is a sequence copying the prefix from sequence PREFIX. The jobs' suffixes are laid
+        out as one token trie (a suffix token is evaluated once for all jobs that share the tokens up to
+        it, as siblings' texts often begin alike), and each job's options as a trie after its suffix.
+        """
+        seqs_of, suffix_seqs = [], {}
+        seq = PREFIX + 1
         for job in jobs:
             seqs = tuple(range(seq, seq + len(job.options)))
             seq += len(job.options)
-            for s in seqs:
-                self._seq_cp(slot, s, 0, n_prefix)
-            for k, t in enumerate(job.suffix):
-                entries.append((t, n_prefix + k, seqs, k == len(job.suffix) - 1))
-            first_row = len(entries) - 1
+            seqs_of.append(seqs)
+            for k in range(1, len(job.suffix) + 1):
+                suffix_seqs.setdefault(tuple(job.suffix[:k]), []).extend(seqs)
+        for s in range(PREFIX + 1, seq):
+            self._seq_cp(PREFIX, s)
+        ends = {tuple(job.suffix) for job in jobs}
+        entries, row_of_suffix = [], {}
+        for node, members in suffix_seqs.items():  # a node always after its parent
+            row_of_suffix[node] = len(entries)
+            entries.append((node[-1], n_prefix + len(node) - 1, tuple(members), node in ends))
+        wanted = []
+        for job, seqs in zip(jobs, seqs_of):
             base, row_of = n_prefix + len(job.suffix), {}
             for prefix, members in job.trie().items():
                 row_of[prefix] = len(entries)
                 entries.append((prefix[-1], base + len(prefix) - 1, tuple(seqs[i] for i in members), True))
+            first_row = row_of_suffix[tuple(job.suffix)]
             wanted.append([[first_row] + [row_of[tuple(option[:k])] for k in range(1, len(option) + 1)]
                            for option in job.options])
         try:
@@ -419,13 +339,19 @@ class LlamaBackend(Backend):
             self._decode()
             return _RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab), wanted
         finally:
-            for s in range(first_seq, seq):
+            for s in range(PREFIX + 1, seq):
                 self._seq_rm(s)
 
     def _option_logprob(self, logprobs: "_RowLogprobs", rows: list[int], option: list[int]) -> float:
         """Sum of log P(token | before) over the option's tokens and the end-of-turn token."""
         targets = option + [self.eot]
         return float(sum(logprobs(row, t) for row, t in zip(rows, targets)))
+
+    def _seq_rm(self, seq: int) -> None:
+        self._lib.llama_memory_seq_rm(self._ctx.memory, seq, -1, -1)
+
+    def _seq_cp(self, src: int, dst: int) -> None:
+        self._lib.llama_memory_seq_cp(self._ctx.memory, src, dst, -1, -1)
 
     def _fill(self, entries: list[tuple[int, int, tuple[int, ...], bool]]) -> None:
         """Write (token, position, sequence ids, wants logits) entries into the batch."""
@@ -435,31 +361,24 @@ class LlamaBackend(Backend):
             for k, s in enumerate(seqs):
                 b.seq_id[i][k] = s
         b.n_tokens = len(entries)
-        self._entries = [(pos, seqs) for _, pos, seqs, _ in entries]
 
-    def _decode(self, contents: "Callable[[list[int]], list[bytes]] | None" = None) -> None:
-        """Decode the filled batch (one ubatch: it never exceeds n_batch = n_ubatch); the mirror places it
-        where llama.cpp does, its cells' contents named by `contents(cells)` (none for option rows,
-        which are removed again right after)."""
+    def _decode(self) -> None:
+        """Decode the filled batch (one ubatch: it never exceeds n_batch = n_ubatch)."""
         n = self._batch.batch.n_tokens
-        cells = self._cells.find(n)
         code = self._lib.llama_decode(self._ctx.ctx, self._batch.batch)
         self.stats.calls += 1
         if code != 0:
             self.reset()
             raise BackendError(f"{self.name}: llama_decode returned {code} for {n} tokens")
-        self._cells.apply(cells, self._entries, contents(cells) if contents else [None] * n)
         self.stats.prompt_tokens += n
 
     def reset(self) -> None:
-        """Forget every cached token (the next question re-evaluates its system prefix)."""
+        """Forget every cached token (the next question evaluates or restores its system prefix)."""
         self._lib.llama_memory_clear(self._ctx.memory, True)
-        self._cells.clear()
-        self._slots = [[] for _ in self._slots]
-        self._recent = list(range(len(self._slots)))
+        self._prefix = []
 
     def fresh(self) -> None:
-        """As just loaded: an empty KV cache (zeroed), the slots' order, the sampling draws and the counters."""
+        """As just loaded: an empty KV cache (zeroed), the sampling draws and the counters."""
         super().fresh()
         self.reset()
         self._draws = 0
@@ -478,8 +397,8 @@ class LlamaBackend(Backend):
             prefix, prompt = self.prefix_tokens(question.system), self.prompt_tokens(question)
             shared = min(_common_prefix(prefix, prompt), len(prompt) - 1)
             job = self._job(question, prompt, shared)
-            slot = self._load_prefix(prefix[:shared], job.size)
-            logprobs, (rows,) = self._decode_rows([job], slot, shared)
+            self._load_prefix(prefix[:shared])
+            logprobs, (rows,) = self._decode_rows([job], shared)
             targets = [option + [self.eot] for option in job.options]
             return [question.options[self._draw(targets, rows, logprobs, temperature)] for _ in range(n)]
         except BackendError:
@@ -516,26 +435,6 @@ class LlamaBackend(Backend):
         self._batch.close()
         self._ctx.close()
         self._model.close()
-
-
-@dataclass(frozen=True)
-class _Plan:
-    """How evaluating a prefix's rest would fill the cache: after `keep` resident tokens, into `cells`,
-    with `contents`; `key` names that layout for the prefix store."""
-
-    keep: int
-    cells: list[int]
-    contents: list[bytes]
-    key: str
-
-
-def _contents(visible: list[tuple[int, int, bytes | None]], tokens: Sequence[int], start: int,
-              cells: Sequence[int]) -> list[bytes]:
-    """The content digests of cells a prefix piece is decoded into: its tokens at positions start..,
-    the cells they go to, and (position, cell, content) of every cell they attend over."""
-    digest = hashlib.sha256(json.dumps([[[p, c, d.hex() if d else None] for p, c, d in visible],
-                                        list(tokens), start, list(cells)], separators=(",", ":")).encode()).digest()
-    return [hashlib.sha256(digest + k.to_bytes(4, "little")).digest() for k in range(len(tokens))]
 
 
 def _state_positions(payload: memoryview | bytes) -> list[int]:

@@ -1,11 +1,9 @@
-"""A persistent on-disk cache of the KV states of static prompt prefixes, one file per prefix and layout.
+"""A persistent on-disk cache of the KV states of static prompt prefixes, one file per prefix.
 
-A file is valid only for the identity it was written under (model file, llama.cpp build, context
-parameters), the exact prefix tokens, the split (the leading tokens whose state is not in the
-file: those the slot already held when the rest was evaluated) and the layout (a digest of the KV
-cells the state went to and of the cells, with their contents, it was computed next to: see
-pipeline.llm.llama): all go into its name, and its header repeats that key with the payload's
-length and sha256. Anything that does not check out is logged and ignored (the caller evaluates the
+The backend evaluates every prefix into an emptied KV cache (pipeline.llm.llama), so a state is a
+function of its tokens and of the identity it was computed under (model file, llama.cpp build,
+context parameters) alone: both go into its file's name, and its header repeats that key with the
+payload's length and sha256. Anything that does not check out is logged and ignored (the caller evaluates the
 prefix instead); writes are atomic; the directory is kept under a size bound by deleting the least
 recently used files.
 """
@@ -26,13 +24,13 @@ from urdfkb.pipeline.cache import cache_root
 log = logging.getLogger(__name__)
 
 MAGIC = b"URDFKB-KV\x00"
-FORMAT = 2  # 2: keyed by layout too
+FORMAT = 3  # 3: keyed by tokens alone (every state is computed in an emptied cache)
 _HEADER = struct.Struct("<I Q 32s 32s")  # format, payload length, sha256(payload), key digest
 SUFFIX = ".kv"
 SUBDIR = "prefixes"
-DEFAULT_MAX_BYTES = 256 << 20
-# "off" / "0" / "false" / "no" disables the store; it is on otherwise. A state is restored only into the
-# KV cells evaluating it would have filled, next to the same contents, so it changes no score.
+DEFAULT_MAX_BYTES = 512 << 20  # the sixteen truth robots leave 27 states, 150 MB (Qwen2.5-1.5B: 28 KB a token)
+# "off" / "0" / "false" / "no" disables the store; it is on otherwise. A state is restored into the
+# emptied cache it was computed in, the cells evaluating it would fill, so it changes no score.
 ENV_SWITCH = "URDFKB_PREFIX_CACHE"
 
 
@@ -46,9 +44,8 @@ def enabled_by_env() -> bool:
 
 
 class PrefixStore:
-    """KV-state payloads (opaque bytes) keyed by an identity, a token sequence, a split and a layout: a
-    file holds the state of positions split..len(tokens)-1, computed after tokens[:split] in the
-    cells `layout` names."""
+    """KV-state payloads (opaque bytes) keyed by an identity and a token sequence: a file holds the
+    state of positions 0..len(tokens)-1, computed from an empty cache."""
 
     def __init__(self, directory: Path, identity: dict, max_bytes: int = DEFAULT_MAX_BYTES):
         self.directory = Path(directory)
@@ -56,18 +53,15 @@ class PrefixStore:
         self.max_bytes = max_bytes
         self.hits = self.writes = self.rejected = 0
 
-    def _stem(self, tokens: Sequence[int]) -> str:
-        return hashlib.sha256(json.dumps([FORMAT, self.identity, list(tokens)]).encode()).hexdigest()
+    def _key(self, tokens: Sequence[int]) -> bytes:
+        return hashlib.sha256(json.dumps([FORMAT, self.identity, list(tokens)]).encode()).digest()
 
-    def _key(self, tokens: Sequence[int], split: int, layout: str) -> bytes:
-        return hashlib.sha256(f"{self._stem(tokens)}-{split}-{layout}".encode()).digest()
+    def path(self, tokens: Sequence[int]) -> Path:
+        return self.directory / f"{self._key(tokens).hex()}{SUFFIX}"
 
-    def path(self, tokens: Sequence[int], split: int, layout: str) -> Path:
-        return self.directory / f"{self._key(tokens, split, layout).hex()}{SUFFIX}"
-
-    def load(self, tokens: Sequence[int], split: int, layout: str) -> memoryview | None:
+    def load(self, tokens: Sequence[int]) -> memoryview | None:
         """The stored payload, or None when absent, unreadable, corrupt or mismatched."""
-        path, key = self.path(tokens, split, layout), self._key(tokens, split, layout)
+        path, key = self.path(tokens), self._key(tokens)
         try:
             blob = bytearray(path.read_bytes())
         except FileNotFoundError:
@@ -94,9 +88,9 @@ class PrefixStore:
         self.hits += 1
         return payload
 
-    def discard(self, tokens: Sequence[int], split: int, layout: str, reason: str) -> None:
+    def discard(self, tokens: Sequence[int], reason: str) -> None:
         """Drop a file the backend could not restore."""
-        self._reject(self.path(tokens, split, layout), reason)
+        self._reject(self.path(tokens), reason)
 
     def _reject(self, path: Path, reason: str) -> None:
         self.rejected += 1
@@ -107,14 +101,14 @@ class PrefixStore:
             pass
         return None
 
-    def save(self, tokens: Sequence[int], split: int, layout: str, payload: bytes | memoryview) -> None:
+    def save(self, tokens: Sequence[int], payload: bytes | memoryview) -> None:
         """Store atomically (temporary file, then rename), then evict beyond the size bound.
 
         A failure to write is logged, never raised: the cache only saves time.
         """
-        key = self._key(tokens, split, layout)
+        key = self._key(tokens)
         header = MAGIC + _HEADER.pack(FORMAT, len(payload), hashlib.sha256(payload).digest(), key)
-        target = self.path(tokens, split, layout)
+        target = self.path(tokens)
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             write_atomically(target, header, payload, sync=False)  # a torn file fails its checksum on load
