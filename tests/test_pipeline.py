@@ -115,7 +115,7 @@ def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
 
 
 @pytest.mark.reasoner
-def test_a_leaf_both_questions_call_a_sensor_only_by_minority_is_no_sensor(toy):
+def test_a_leaf_both_questions_call_a_sensor_only_by_a_clear_minority_is_no_sensor(toy):
     def unsure(identified: float, checked: float):
         def answer(q):
             if q.key == "identify:front_scanner":
@@ -124,7 +124,9 @@ def test_a_leaf_both_questions_call_a_sensor_only_by_minority_is_no_sensor(toy):
                 return {"sensor": checked, "emitter": (1 - checked) / 2, "reference frame": (1 - checked) / 2}
             return perfect(q)
         return answer
-    assert "Lidar" not in {c.cls for c in abstract(toy, unsure(0.4, 0.45))}
+    assert "Lidar" not in {c.cls for c in abstract(toy, unsure(0.35, 0.4))}
+    # a near tie on both keeps it: layout noise alone could carry it over half
+    assert "Lidar" in {c.cls for c in abstract(toy, unsure(0.45, 0.48))}
     # a majority in either question keeps it
     assert "Lidar" in {c.cls for c in abstract(toy, unsure(0.4, 0.6))}
     assert "Lidar" in {c.cls for c in abstract(toy, unsure(0.6, 0.4))}
