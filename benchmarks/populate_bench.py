@@ -92,6 +92,7 @@ def warm(urdfs: list[Path], folder: Path, pythonpath: Path | None) -> Path | Non
     from urdfkb.pipeline.llm.prefix_store import SUBDIR
 
     store = folder / "store"
+    folder.mkdir(parents=True, exist_ok=True)
     for urdf in urdfs:
         r = populate(urdf, folder / "out.ttl", pythonpath, store=store if store.exists() else None)
         shutil.rmtree(store, ignore_errors=True)
