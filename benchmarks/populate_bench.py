@@ -132,7 +132,7 @@ def main() -> None:
                         help="robots each version populates first; its timed runs start from the prompt states they left")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="urdfkb-bench-") as tmp:
-        versions = {"this checkout": None}
+        versions: dict[str, Path | None] = {"this checkout": None}
         if args.against:
             (Path(tmp) / "rev").mkdir()
             versions = {args.against: importable(args.against, Path(tmp) / "rev"), **versions}

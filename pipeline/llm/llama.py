@@ -310,7 +310,8 @@ class LlamaBackend(Backend):
         out as one token trie (a suffix token is evaluated once for all jobs that share the tokens up to
         it, as siblings' texts often begin alike), and each job's options as a trie after its suffix.
         """
-        seqs_of, suffix_seqs = [], {}
+        seqs_of: list[tuple[int, ...]] = []
+        suffix_seqs: dict[tuple[int, ...], list[int]] = {}  # a suffix trie node -> the sequences through it
         seq = PREFIX + 1
         for job in jobs:
             seqs = tuple(range(seq, seq + len(job.options)))
@@ -321,7 +322,8 @@ class LlamaBackend(Backend):
         for s in range(PREFIX + 1, seq):
             self._seq_cp(PREFIX, s)
         ends = {tuple(job.suffix) for job in jobs}
-        entries, row_of_suffix = [], {}
+        entries: list[tuple[int, int, tuple[int, ...], bool]] = []
+        row_of_suffix: dict[tuple[int, ...], int] = {}
         for node, members in suffix_seqs.items():  # a node always after its parent
             row_of_suffix[node] = len(entries)
             entries.append((node[-1], n_prefix + len(node) - 1, tuple(members), node in ends))
