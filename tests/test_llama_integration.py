@@ -50,14 +50,15 @@ def reference(model_path, backend):
 
     def score(q):
         prompt, row = backend.prompt_tokens(q), []
-        for option in q.options:
-            tokens = backend.option_tokens(option)
+        options = [backend.option_tokens(option) for option in q.options]
+        for tokens in options:
             llm.reset()
             llm._ctx.kv_cache_clear()
             llm.eval(prompt + tokens)
             logits = np.asarray(llm.scores[len(prompt) - 1: len(prompt) + len(tokens)], dtype=np.float64)
             logz = logits.max(1) + np.log(np.exp(logits - logits.max(1, keepdims=True)).sum(1))
-            targets = tokens + [backend.eot]
+            continued = any(len(o) > len(tokens) and o[:len(tokens)] == tokens for o in options)
+            targets = tokens + [backend.eot] * continued  # the end is scored only where it is a choice
             row.append(float(sum(logits[k, t] - logz[k] for k, t in enumerate(targets))))
         return row
 
@@ -80,11 +81,23 @@ def test_first_option_matches_reference_exactly(backend, reference):
 
 
 def test_scores_match_naive_reference(backend, reference):
-    questions = [question(link) for link in LINKS] + [question("r_wrist", options=("end effector part", "sensor"))]
+    questions = [question(link) for link in LINKS] + [question("r_wrist", options=("end effector part", "sensor")),
+                                                      question("r_wrist", options=("wrist", "wrist link", "sensor"))]
     for q, row in zip(questions, backend.score(questions)):
         ref = reference(q)
         assert np.abs(np.subtract(row, ref)).max() < LOGPROB_TOL, (q.key, row, ref)
         assert np.abs(np.subtract(softmax(row), softmax(ref))).max() < PROB_TOL, (q.key, row, ref)
+
+
+def test_option_rows_are_the_options_inner_prefixes():
+    """A row per non-empty proper prefix of an option; the end-of-turn is scored only after an option
+    that another one continues (7 continues 7, 8), so [5] and [7, 8, 9] need no row of their own end."""
+    from urdfkb.pipeline.llm.llama import _Job
+
+    job = _Job(suffix=[1, 2], options=[[5], [7], [7, 8], [7, 8, 9], [6, 3]])
+    assert job.trie() == {(7,): [1, 2, 3], (7, 8): [2, 3], (6,): [4]}
+    assert [list(job.steps(o)) for o in job.options] == [[0], [0, 1], [0, 1, 2], [0, 1, 2], [0, 1]]
+    assert job.size == 2 + 3
 
 
 def test_no_attention_across_sequences(backend):
