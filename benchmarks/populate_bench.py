@@ -99,6 +99,9 @@ def warm(urdfs: list[Path], folder: Path, pythonpath: Path | None) -> Path | Non
         if (folder / "cache" / SUBDIR).exists():
             shutil.copytree(folder / "cache" / SUBDIR, store)
         print(f"{'warming':>16}: {urdf.stem} {r['seconds']:6.1f} s", flush=True)
+        if not store.exists():
+            print(f"{'warming':>16}: this version keeps no prompt states; the other robots are skipped", flush=True)
+            break
     return store if store.exists() else None
 
 
