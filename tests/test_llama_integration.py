@@ -80,6 +80,15 @@ def test_first_option_matches_reference_exactly(backend, reference):
     assert backend.score([q])[0][0] == pytest.approx(reference(q)[0], abs=1e-4)
 
 
+def test_option_and_its_continuation_match_reference_exactly(backend, reference):
+    """"wrist" is a proper prefix of "wrist link" in tokens, so its end-of-turn is scored; alone first
+    in its decode, its row layout is the reference's."""
+    wrist, wrist_link = backend.option_tokens("wrist"), backend.option_tokens("wrist link")
+    assert len(wrist_link) > len(wrist) and wrist_link[:len(wrist)] == wrist
+    q = question("r_wrist", options=("wrist", "wrist link"))
+    assert backend.score([q])[0][0] == pytest.approx(reference(q)[0], abs=1e-4)
+
+
 def test_scores_match_naive_reference(backend, reference):
     questions = [question(link) for link in LINKS] + [question("r_wrist", options=("end effector part", "sensor")),
                                                       question("r_wrist", options=("wrist", "wrist link", "sensor"))]
@@ -87,17 +96,6 @@ def test_scores_match_naive_reference(backend, reference):
         ref = reference(q)
         assert np.abs(np.subtract(row, ref)).max() < LOGPROB_TOL, (q.key, row, ref)
         assert np.abs(np.subtract(softmax(row), softmax(ref))).max() < PROB_TOL, (q.key, row, ref)
-
-
-def test_option_rows_are_the_options_inner_prefixes():
-    """A row per non-empty proper prefix of an option; the end-of-turn is scored only after an option
-    that another one continues (7 continues 7, 8), so [5] and [7, 8, 9] need no row of their own end."""
-    from urdfkb.pipeline.llm.llama import _Job
-
-    job = _Job(suffix=[1, 2], options=[[5], [7], [7, 8], [7, 8, 9], [6, 3]])
-    assert job.trie() == {(7,): [1, 2, 3], (7, 8): [2, 3], (6,): [4]}
-    assert [list(job.steps(o)) for o in job.options] == [[0], [0, 1], [0, 1, 2], [0, 1, 2], [0, 1]]
-    assert job.size == 2 + 3
 
 
 def test_no_attention_across_sequences(backend):

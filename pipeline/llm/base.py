@@ -43,7 +43,7 @@ class Backend(ABC):
 
     @abstractmethod
     def score(self, questions: Sequence[Question]) -> list[list[float]]:
-        """Per question, the log-probability of each whole option (all its tokens, then end-of-turn), same order as options."""
+        """Per question, the log-probability of each whole option (all its tokens, and end-of-turn where another option continues it), same order as options."""
 
     @abstractmethod
     def sample(self, question: Question, n: int, temperature: float) -> list[str]:
