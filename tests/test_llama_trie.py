@@ -21,12 +21,10 @@ def test_option_rows_are_the_options_inner_prefixes():
 
 def draw(options, table, temperature, draws=1, seed=0):
     """Run LlamaBackend._draw on a stand-in backend: `table` maps an option-token prefix (the row's
-    context) to {next token: probability}."""
+    context, which stands for the row itself) to {next token: probability}."""
     job = _Job(suffix=[1], options=options)
-    row_of = {prefix: i for i, prefix in enumerate(table)}
-    rows = [[(k, row_of[tuple(o[:k])]) for k in job.steps(o)] for o in options]
-    prefixes = list(table)
-    logprobs = lambda row, token: math.log(table[prefixes[row]].get(token, 1e-12))  # noqa: E731
+    rows = [[(k, tuple(o[:k])) for k in job.steps(o)] for o in options]
+    logprobs = lambda row, token: math.log(table[row].get(token, 1e-12))  # noqa: E731
     fake = SimpleNamespace(_draws=0, seed=seed, stats=SimpleNamespace(generated_tokens=0))
     targets = [o + [EOT] for o in options]
     return [LlamaBackend._draw(fake, targets, rows, logprobs, temperature) for _ in range(draws)]
