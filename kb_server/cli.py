@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 from urdfkb import __version__
-from urdfkb.limits import CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS
+from urdfkb.limits import (CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS,
+                           QUERY_MEMORY)
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
 
@@ -204,7 +205,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
           model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
           package_paths=args.package_path, trust_xacro=args.trust_xacro, max_result_rows=args.max_result_rows,
           max_result_bytes=args.max_result_bytes, max_connections=args.max_connections,
-          channel_timeout=args.channel_timeout, **_limits(args))
+          channel_timeout=args.channel_timeout, query_memory=args.query_memory * 2**20, **_limits(args))
     return 0
 
 
@@ -278,6 +279,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"refuse (413) query answers with more rows or triples (default {MAX_RESULT_ROWS:,})")
     g.add_argument("--max-result-bytes", type=int, default=MAX_RESULT_BYTES, metavar="N",
                    help=f"refuse (413) query answers longer than this serialised (default {MAX_RESULT_BYTES:,})")
+    g.add_argument("--query-memory", type=int, default=QUERY_MEMORY // 2**20, metavar="MIB",
+                   help="address space one SPARQL worker may use; a query needing more is stopped with 503 "
+                        f"(default {QUERY_MEMORY // 2**20:,} MiB)")
     g.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS, metavar="N",
                    help=f"open client connections at most; more wait to be accepted (default {MAX_CONNECTIONS:,})")
     g.add_argument("--channel-timeout", type=int, default=CHANNEL_TIMEOUT, metavar="S",

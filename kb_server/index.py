@@ -4,6 +4,12 @@ The owlready2 quadstore stays the store of record; this index is derived from it
 start) and kept in step by the store's writes. A master pyoxigraph Store lives in this process;
 each of `workers` worker processes holds a replica and answers one operation at a time.
 
+Each worker is confined before it reads anything: a seccomp filter refuses it every socket (pyoxigraph
+has an HTTP client that SERVICE and LOAD would use: the lexical checks of kb_server/sparql.py refuse
+those, and this makes any gap in them harmless), and an address-space limit (ResultLimits.memory) makes
+a query that needs more memory end its worker at once (QueryOutOfMemory, 503) instead of taking the
+machine's memory from other clients.
+
 Why processes: pyoxigraph 0.5 cannot cancel a running query (Oxigraph's Rust API can, its Python
 binding does not expose it) and evaluates outside the GIL with no hook, so a query past its
 deadline would keep a core busy for as long as it likes (measured: a 100k-item IN filter over 3,000
@@ -17,13 +23,17 @@ one replica and undone there: the store writes what it would change and puts it 
 from __future__ import annotations
 
 import ctypes
+import errno
+import logging
 import multiprocessing as mp
 import os
 import queue
+import resource
 import signal
 import threading
 import time
 from collections.abc import Mapping
+from typing import NoReturn
 from multiprocessing.connection import wait
 
 import pyoxigraph as ox
@@ -40,6 +50,11 @@ class WorkerCrashed(UrdfkbError, RuntimeError):
     """A worker process died while evaluating an operation (a bug in the engine); it was replaced."""
 
 
+class QueryOutOfMemory(UrdfkbError, MemoryError):
+    """The operation needed more memory than a query worker may use; its worker was replaced."""
+
+
+NO_NETWORK = ("socket", "socketpair", "io_uring_setup")  # refused to workers (EACCES): nothing to connect with
 _ANSWERED = (QueryError, NotAcceptable, ResultTooLarge)  # errors a worker sends back by name, staying up
 _ERRORS = {e.__name__: e for e in _ANSWERED}
 
@@ -53,13 +68,31 @@ def _die_with_parent() -> None:
         pass
 
 
-def _serve(inbox, requests, replies, parent: int) -> None:
+def _confine(memory: int) -> None:
+    """No sockets (so no network, whatever the engine is asked) and at most `memory` bytes of address space.
+    Without libseccomp the worker runs unconfined and says so: the lexical checks still refuse SERVICE and LOAD."""
+    resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
+    try:
+        import pyseccomp as seccomp
+        rules = seccomp.SyscallFilter(defaction=seccomp.ALLOW)
+        for call in NO_NETWORK:
+            try:
+                rules.add_rule(seccomp.ERRNO(errno.EACCES), call)
+            except (OSError, ValueError, RuntimeError):  # not a syscall of this architecture
+                pass
+        rules.load()
+    except (ImportError, OSError, TypeError, RuntimeError) as e:  # pyseccomp raises on import without libseccomp
+        logging.getLogger(__name__).warning("SPARQL workers are not network-confined (libseccomp: %s)", e)
+
+
+def _serve(inbox, requests, replies, parent: int, memory: int) -> None:
     """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
     (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`.
     `parent` is the server's pid, passed in: a worker that starts after its server was killed sees
     another parent from its first instruction on (and would wait forever on the half message)."""
-    store, applied = ox.Store(), 0
     _die_with_parent()
+    _confine(memory)
+    store, applied = ox.Store(), 0
     if os.getppid() != parent:  # the server went before the kernel was told
         return
 
@@ -91,17 +124,19 @@ def _serve(inbox, requests, replies, parent: int) -> None:
             replies.send(("ok", (run_query if op == "query" else run_update)(store, *args)))
         except _ANSWERED as e:
             replies.send((type(e).__name__, str(e)))
+        except MemoryError:  # in Python code; the engine's own allocations abort the process (SIGABRT)
+            return
 
 
 class _Worker:
     """A worker process: graph replacements go through a queue (never blocking the writer), each
     operation through a pipe, carrying the sequence number of the last replacement it must see."""
 
-    def __init__(self, ctx, graphs: Mapping[str, bytes]):
-        self.inbox, self.seq = ctx.Queue(), 0
+    def __init__(self, ctx, graphs: Mapping[str, bytes], memory: int):
+        self.inbox, self.seq, self.memory = ctx.Queue(), 0, memory
         self.requests, requests = ctx.Pipe(duplex=False)[::-1]
         self.replies, replies = ctx.Pipe(duplex=False)
-        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies, os.getpid()), daemon=True,
+        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies, os.getpid(), memory), daemon=True,
                                 name="urdfkb-sparql")
         self.proc.start()
         requests.close()
@@ -116,15 +151,24 @@ class _Worker:
     def call(self, op: str, args: tuple, deadline: float):
         self.requests.send((self.seq, op, args))
         ready = wait([self.replies, self.proc.sentinel], timeout=max(deadline - time.monotonic(), 0))
-        if self.replies in ready:
-            status, value = self.replies.recv()
-        elif ready:
-            raise WorkerCrashed("the query engine's worker process crashed on this operation (it was replaced)")
-        else:
+        if not ready:
             raise QueryTimeout("operation stopped after its timeout")
+        try:
+            status, value = self.replies.recv() if self.replies in ready else self._died()
+        except EOFError:  # the worker died; its end of the pipe closed with it
+            status, value = self._died()
         if status != "ok":
             raise _ERRORS[status](value)
         return value
+
+    def _died(self) -> NoReturn:
+        """Raise what the worker's death says: out of its memory (the engine's allocation failed and aborted,
+        or Python's raised MemoryError and the loop returned), else a crash."""
+        self.proc.join(1)
+        if self.proc.exitcode in (-signal.SIGABRT, 0):
+            raise QueryOutOfMemory(f"the operation needed more than the {self.memory // 2**20:,} MiB a query "
+                                   "worker may use (--query-memory): narrow it, or add a LIMIT")
+        raise WorkerCrashed("the query engine's worker process crashed on this operation (it was replaced)")
 
     def alive(self) -> bool:
         return self.proc.is_alive()
@@ -156,7 +200,7 @@ class Index:
 
     def _spawn(self) -> None:
         with self._guard:
-            worker = _Worker(self._ctx, graph_dumps(self.master))
+            worker = _Worker(self._ctx, graph_dumps(self.master), self.limits.memory)
             self._workers.append(worker)
         self._idle.put(worker)
 

@@ -7,17 +7,18 @@ from collections.abc import Callable
 from flask import Response, jsonify, request
 from werkzeug.exceptions import HTTPException
 
-from urdfkb.kb_server.index import WorkerCrashed
+from urdfkb.kb_server.index import QueryOutOfMemory, WorkerCrashed
 from urdfkb.kb_server.jobs import QueueFull
 from urdfkb.kb_server.results import ResultTooLarge
 from urdfkb.kb_server.services import services
 from urdfkb.kb_server.sparql import NotAcceptable, QueryError, QueryTimeout, Result
 from urdfkb.kb_server.store import ReadOnlyGraph
+from urdfkb.pipeline.errors import ShapeError
 
 SPARQL_PATH = "/sparql"  # the protocol's refusals are plain text, as SPARQL clients expect
 SPARQL_ERRORS: tuple[tuple[type[Exception], int], ...] = (
-    (QueryError, 400), (ReadOnlyGraph, 403), (NotAcceptable, 406), (ResultTooLarge, 413), (QueryTimeout, 503),
-    (WorkerCrashed, 500))
+    (QueryError, 400), (ShapeError, 400), (ReadOnlyGraph, 403), (NotAcceptable, 406), (ResultTooLarge, 413), (QueryTimeout, 503),
+    (QueryOutOfMemory, 503), (WorkerCrashed, 500))
 
 
 def error(status: int, message: str, plain: bool = False) -> Response:

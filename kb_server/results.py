@@ -11,9 +11,10 @@ from dataclasses import dataclass
 
 import pyoxigraph as ox
 
-from urdfkb.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS
+from urdfkb.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY
 from urdfkb.pipeline.errors import UrdfkbError
 
+MIN_QUERY_MEMORY = 256 * 2**20
 _PAGING = "add a LIMIT, or page through the answer with LIMIT and OFFSET (and ORDER BY, for stable pages)"
 
 # Per results format: the bytes that open a row, whether they may sit in "quoted" strings, whether those use
@@ -32,14 +33,19 @@ class ResultTooLarge(UrdfkbError, RuntimeError):
 
 @dataclass(frozen=True)
 class ResultLimits:
-    """The largest answer a query may have: `rows` solutions (or triples) and `bytes` serialised bytes."""
+    """What one query may cost: `rows` solutions (or triples) and `bytes` serialised bytes in its answer, and
+    `memory` bytes of address space for the worker process evaluating it (kb_server/index.py)."""
 
     rows: int = MAX_RESULT_ROWS
     bytes: int = MAX_RESULT_BYTES
+    memory: int = QUERY_MEMORY
 
     def __post_init__(self):
         if self.rows < 1 or self.bytes < 1:
             raise UrdfkbError(f"result limits must be positive (max-result-rows {self.rows}, max-result-bytes {self.bytes})")
+        if self.memory < MIN_QUERY_MEMORY:
+            raise UrdfkbError(f"--query-memory must be at least {MIN_QUERY_MEMORY // 2**20} MiB (a worker's Python and "
+                              f"its copy of the store), not {self.memory // 2**20} MiB")
 
     def too_many(self, what: str = "rows") -> ResultTooLarge:
         return ResultTooLarge(f"the answer has more than {self.rows:,} {what}, the server's limit "

@@ -16,7 +16,7 @@ from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
 from urdfkb.limits import (CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER, MAX_LINKS, MAX_RESULT_BYTES,
-                           MAX_RESULT_ROWS, QUERY_TIMEOUT, THREADS, job_waiters)
+                           MAX_RESULT_ROWS, QUERY_MEMORY, QUERY_TIMEOUT, THREADS, job_waiters)
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
@@ -35,13 +35,14 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 package_paths: dict[str, Path] | None = None, trust_xacro: bool = False,
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS,
-                channel_timeout: int = CHANNEL_TIMEOUT) -> tuple[BaseWSGIServer, Store, JobManager]:
+                channel_timeout: int = CHANNEL_TIMEOUT, query_memory: int = QUERY_MEMORY) -> tuple[BaseWSGIServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
     `model_dir` and `llm_urls` open what kb_server.security refuses by default. Request
     headers over `max_header` bytes are refused (431), query answers past `max_result_rows` or
-    `max_result_bytes` (413). At most `max_connections` clients are connected at once (slow ones
+    `max_result_bytes` (413); a query worker needing more than `query_memory` bytes is
+    stopped (503). At most `max_connections` clients are connected at once (slow ones
     hold no thread: waitress hands a request over once it has all of it), and a connection idle for
     `channel_timeout` seconds is closed. With a remote store, every robot already stored is
     mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or
@@ -51,7 +52,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
         raise UrdfkbError("--max-connections and --channel-timeout must be at least 1")
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
     connections = open_files_for(max_connections)
-    store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes))
+    store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes, query_memory))
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from urllib.parse import urljoin
 
@@ -69,18 +69,35 @@ class Result:
 
 
 # --- lexical checks -----------------------------------------------------------------------
-
-_TOKENS = re.compile(r"""
-    (?P<skip>\s+|\#[^\n]*)
-  | (?P<string>'''(?:[^'\\]|\\.|'(?!''))*'''|\"\"\"(?:[^"\\]|\\.|"(?!""))*\"\"\"|'(?:[^'\\\n]|\\.)*'|"(?:[^"\\\n]|\\.)*")
-  | (?P<iri><[^<>"{}|^`\\\x00-\x20]*>)
-  | (?P<var>[?$][\w\u00b7-\U000effff]*)
-  | (?P<pname>[A-Za-z][\w.\-]*:[^\s(){}\[\],;]*|:[^\s(){}\[\],;]*|_:[^\s(){}\[\],;]*)
-  | (?P<word>[A-Za-z_]\w*)
-  | (?P<open>[({\[])
-  | (?P<close>[)}\]])
-  | (?P<other>.)
-""", re.VERBOSE | re.DOTALL)
+# The terminals of the SPARQL 1.1 grammar (its section 19.8) as Oxigraph's parser reads them: white space is
+# exactly space, tab, CR and LF, a comment runs from # to the next CR or LF, a short string ends at neither.
+# `scan` must see every token the engine sees, so that no keyword hides in what it took for a comment, a
+# string or an IRI. Keywords are matched as the engine's PEG parser matches them, by prefix: it reads
+# `SERVICESILENT<x>` as SERVICE SILENT <x> and `SERVICE:x` as SERVICE :x (measured on pyoxigraph 0.5).
+_BASE = ("A-Za-z\u00c0-\u00d6\u00d8-\u00f6\u00f8-\u02ff\u0370-\u037d\u037f-\u1fff\u200c-\u200d"
+         "\u2070-\u218f\u2c00-\u2fef\u3001-\ud7ff\uf900-\ufdcf\ufdf0-\ufffd\U00010000-\U000effff")
+_CHARS_U = _BASE + "_"
+_CHARS = _CHARS_U + "\\-0-9\u00b7\u0300-\u036f\u203f-\u2040"
+_PLX = r"%[0-9A-Fa-f]{2}|\\[_~.\-!$&'()*+,;=/?#@%]"
+_PREFIX = f"[{_BASE}](?:[{_CHARS}.]*[{_CHARS}])?"
+_LOCAL = f"(?:[{_CHARS_U}:0-9]|{_PLX})(?:(?:[{_CHARS}.:]|{_PLX})*(?:[{_CHARS}:]|{_PLX}))?"
+_LONG1 = r"'''(?:'{0,2}(?:[^'\\]|\\.))*'''"
+_LONG2 = r'"""(?:"{0,2}(?:[^"\\]|\\.))*"""'
+_SHORT1 = r"'(?:[^'\\\r\n]|\\.)*'"
+_SHORT2 = r'"(?:[^"\\\r\n]|\\.)*"'
+_TOKENS = re.compile("|".join(f"(?P<{kind}>{pattern})" for kind, pattern in [
+    ("skip", r"[ \t\r\n]+|#[^\r\n]*"),
+    ("string", "|".join((_LONG1, _LONG2, _SHORT1, _SHORT2))),
+    ("iri", r'<[^<>"{}|^`\\\x00-\x20]*>'),
+    ("var", f"[?$][{_CHARS_U}0-9][{_CHARS_U}0-9\u00b7\u0300-\u036f\u203f-\u2040]*"),
+    ("pname", f"(?:{_PREFIX})?:(?:{_LOCAL})?|_:[{_CHARS_U}0-9](?:[{_CHARS}.]*[{_CHARS}])?"),
+    ("word", "[A-Za-z]+"),
+    ("open", r"[({\[]"),
+    ("close", r"[)}\]]"),
+    ("other", "."),
+]), re.DOTALL)
+_FETCHING = {"SERVICE": "SERVICE (federated query) is not supported: the server does not fetch remote data",
+             "LOAD": "LOAD is not supported: the server does not fetch remote data"}
 
 
 @dataclass
@@ -92,22 +109,44 @@ class Scan:
     from_named: list[str] = field(default_factory=list)
 
 
-def scan(text: str, update: bool = False) -> Scan:
-    """Tokenise `text`; QueryError for SERVICE, LOAD, or nesting deeper than MAX_DEPTH."""
-    out, depth, base, prefixes = Scan(), 0, "", {}
-    prev: list[tuple[str, str]] = []  # the last few significant tokens at depth 0
+def tokens(text: str) -> Iterator[tuple[str, str]]:
+    """(kind, text) of every significant token; the dataset keywords FROM and NAMED are split off what
+    they are glued to (`FROMNAMED<x>`, `FROM:x`), as the engine splits them."""
     for m in _TOKENS.finditer(text):
-        kind, tok = m.lastgroup, m.group()
+        kind, tok = m.lastgroup or "", m.group()
         if kind == "skip":
             continue
+        while kind in ("word", "pname") and tok[:4].upper() == "FROM" and len(tok) > 4:
+            yield "word", "FROM"
+            tok = tok[4:]
+            if tok[:5].upper() == "NAMED" and len(tok) > 5:
+                yield "word", "NAMED"
+                tok = tok[5:]
+            kind = "pname" if ":" in tok else "word"
+        yield kind, tok
+
+
+def scan(text: str, update: bool = False) -> Scan:
+    """Read `text` as the engine does; QueryError for SERVICE (and LOAD in an update), however glued to
+    what follows, or for nesting deeper than MAX_DEPTH."""
+    out, depth, base, prefixes = Scan(), 0, "", {}
+    refused = ("SERVICE", "LOAD") if update else ("SERVICE",)
+    prev: list[tuple[str, str]] = []  # the last few significant tokens at depth 0
+    for kind, tok in tokens(text):
         if kind == "open":
             depth += 1
             if depth > MAX_DEPTH:
                 raise QueryError(f"query nests more than {MAX_DEPTH} levels of (), {{}} or []")
         elif kind == "close":
             depth = max(depth - 1, 0)
-        elif kind == "word":
-            out.keywords.add(tok.upper())
+        elif kind in ("word", "pname"):
+            upper = tok.upper()
+            for keyword in refused:
+                if upper.startswith(keyword):
+                    raise QueryError(_FETCHING[keyword] + (f" (the engine reads {tok!r} as {keyword} ...)"
+                                                           if upper != keyword else ""))
+            if kind == "word":
+                out.keywords.add(upper)
         if depth or kind == "open":
             continue
         prev = (prev + [(kind, tok)])[-3:]
@@ -122,10 +161,6 @@ def scan(text: str, update: bool = False) -> Scan:
                 out.from_named.append(iri)
             elif len(words) >= 2 and words[-2] == "FROM":
                 out.from_graphs.append(iri)
-    if "SERVICE" in out.keywords:
-        raise QueryError("SERVICE (federated query) is not supported: the server does not fetch remote data")
-    if update and "LOAD" in out.keywords:
-        raise QueryError("LOAD is not supported: the server does not fetch remote data")
     return out
 
 

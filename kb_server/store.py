@@ -38,7 +38,7 @@ from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
 from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError, UrdfkbError
-from urdfkb.pipeline.export import export_robot, robot_graph
+from urdfkb.pipeline.export import export_robot, robot_graph, robot_graph_of
 from urdfkb.pipeline.formats import BY_EXTENSION
 from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI
 from urdfkb.pipeline.ontology import load_core
@@ -342,9 +342,22 @@ class Store:
                                             "(the core ontology; reviewers' corrections go through /robots/<name>/corrections)")
                     accepted -= protected
                 for graph in accepted:
+                    self._check_shapes(graph, changes[graph][1])
+                for graph in accepted:
                     self._persist(graph, changes[graph][1])
                 touched.update(accepted)
                 return
+
+    def _check_shapes(self, graph: str, data: bytes | None) -> None:
+        """The SHACL gate every write passes, for an update's new content of a robot graph: ShapeError
+        (nothing is written) if it breaks the shapes. An update that empties a robot graph removes the robot."""
+        row = self.world.graph.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
+        if row is None or not data:
+            return
+        broken = violations(robot_graph_of(data, graph, self._corrections_graph(row[0])))
+        if broken:
+            raise ShapeError(f"this update would make robot {row[0]!r} break the SHACL shapes, so nothing was "
+                             f"written: {'; '.join(broken)}", broken)
 
     def _persist(self, graph: str, data: bytes | None) -> None:
         """Store one graph's new content: into the robot's ontology, or as a kb_graphs row."""

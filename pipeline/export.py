@@ -30,8 +30,14 @@ def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
     default) and `extra` (e.g. reviewers' corrections), as one rdflib graph."""
     buf = io.BytesIO()
     onto.save(buf, format="ntriples")
+    return robot_graph_of(buf.getvalue(), onto.base_iri, extra, vocab)
+
+
+def robot_graph_of(ntriples: bytes, base_iri: str, extra: rdflib.Graph | None = None,
+                   vocab: Vocabulary | None = None) -> rdflib.Graph:
+    """`robot_graph` of a robot graph given as N-Triples (its ontology IRI `base_iri`)."""
     graph = rdflib.Graph()
-    graph.parse(data=buf.getvalue(), format="nt")
+    graph.parse(data=ntriples, format="nt")
     for triple in _core_triples(vocab or vocabulary()):
         graph.add(triple)
     if extra is not None:
@@ -41,7 +47,7 @@ def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
                 graph.bind(prefix, ns)
     graph.remove((None, OWL.imports, None))
     graph.bind("core", CORE_IRI)
-    graph.bind("robot", onto.base_iri)
+    graph.bind("robot", base_iri)
     graph.bind("sosa", SOSA)
     return graph
 

@@ -1,12 +1,16 @@
 """The dataset SPARQL Update sees (robots are named graphs, the core is read-only) and hostile queries."""
+import http.server
 import json
+import multiprocessing
 import socket
 import threading
 import urllib.parse
 
+import pyoxigraph as ox
 import pytest
 
 from tests.kb_fixtures import PR2, client, make_app
+from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 
@@ -143,3 +147,146 @@ def test_a_query_past_its_deadline_never_stalls_others(kb_workers):
     t.join(30)
     assert answers == [True] * 20 and result["slow"] == 503
     assert ask(api, "ASK { ?s ?p ?o }") is True  # the killed worker was replaced
+
+
+# --- the engine's reading, and workers that cannot reach the network -----------------------------------
+
+class _Remote:
+    """A local HTTP server standing for any address the engine could be made to fetch; `hits` are its requests."""
+
+    def __init__(self):
+        self.hits: list[str] = []
+        hits = self.hits
+
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_GET(self):
+                hits.append(self.path)
+                self.send_response(500)
+                self.end_headers()
+                self.wfile.write(b"internal secret")
+
+            do_POST = do_GET
+
+            def log_message(self, *args):
+                pass
+
+        self.server = http.server.HTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.server.server_port}/"
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def close(self):
+        self.server.shutdown()
+        self.server.server_close()
+
+
+@pytest.fixture
+def remote():
+    r = _Remote()
+    yield r
+    r.close()
+
+
+def _fetching_queries(url: str) -> list[str]:
+    """SERVICE written every way Oxigraph's parser reads it: after a comment ended by CR (the grammar's other
+    line end), lower case, glued to SILENT or to its IRI, as the prefix of a prefixed name (`SERVICE:x` is
+    SERVICE :x), after a triple with no dot."""
+    p = f"PREFIX : <{url}> PREFIX X: <{url}> "
+    return [f"SELECT * WHERE {{ #x\rSERVICE <{url}a> {{ ?s ?p ?o }} }}",
+            f"SELECT * WHERE {{ #x\r\tservice <{url}b> {{ ?s ?p ?o }} }}",
+            f"SELECT * WHERE {{ SERVICESILENT<{url}c> {{ ?s ?p ?o }} }}",
+            f"SELECT * WHERE {{ SERVICE<{url}d>{{ ?s ?p ?o }} }}",
+            p + "SELECT * WHERE { SERVICE:e { ?s ?p ?o } }",
+            p + "SELECT * WHERE { SERVICEX:f { ?s ?p ?o } }",
+            p + "SELECT * WHERE { BIND(1 AS ?x) SERVICE :g { ?s ?p ?o } }"]
+
+
+def test_every_way_the_engine_reads_service_is_refused(kb, remote):
+    """Each query makes a bare Oxigraph store fetch (so the engine really reads SERVICE there); the server
+    refuses each with 400 and fetches nothing, as a plain cross-site GET could send them."""
+    api, _ = kb
+    for q in _fetching_queries(remote.url):
+        before = len(remote.hits)
+        try:
+            list(ox.Store().query(q))
+        except OSError:  # the remote's 500 (SILENT ignores it)
+            pass
+        assert len(remote.hits) == before + 1, q  # the engine fetched
+        status, ctype, body = api("GET", "/sparql?" + urllib.parse.urlencode({"query": q}))
+        assert status == 400 and b"SERVICE" in body and b"secret" not in body, (q, body)
+        assert len(remote.hits) == before + 1, q  # the server did not
+
+
+def test_load_written_as_the_engine_reads_it_is_refused(kb, remote):
+    api, _ = kb
+    for text in (f"#x\rLOAD <{remote.url}a>", f"LOADSILENT<{remote.url}b>", f"PREFIX : <{remote.url}> LOAD:c",
+                 f"PREFIX : <{remote.url}> INSERT {{ ?s ?p ?o }} WHERE {{ #\rSERVICE:d {{ ?s ?p ?o }} }}"):
+        status, _, body = update(api, text)
+        assert status == 400, (text, body)
+    assert remote.hits == []
+
+
+def test_nesting_hidden_behind_a_cr_comment_is_counted(kb_workers):
+    api, _ = kb_workers
+    q = "SELECT * WHERE { #x\r" + "{" * 60_000 + "}" * 60_000 + " }"
+    status, _, body = api("POST", "/sparql", q.encode(), {"Content-Type": "application/sparql-query"})
+    assert status == 400 and b"nests more than" in body
+
+
+def _service_in_a_confined_worker(url: str, answer) -> None:
+    from urdfkb.kb_server.index import _confine
+    _confine(2**30)
+    try:
+        list(ox.Store().query(f"SELECT * WHERE {{ SERVICE <{url}z> {{ ?s ?p ?o }} }}"))
+        answer.send("fetched")
+    except OSError as e:
+        answer.send(str(e))
+
+
+def test_a_query_worker_can_open_no_connection_whatever_it_is_asked(remote):
+    """The second line: were a SERVICE ever to pass the lexical checks, the worker has no socket to send it on."""
+    ctx = multiprocessing.get_context("spawn")
+    answer, child_end = ctx.Pipe(duplex=False)
+    worker = ctx.Process(target=_service_in_a_confined_worker, args=(remote.url, child_end))
+    worker.start()
+    assert answer.poll(60)
+    assert "Permission denied" in answer.recv()
+    worker.join(10)
+    assert remote.hits == []
+
+
+@pytest.mark.slow
+def test_a_query_past_its_memory_is_stopped_and_others_are_answered(shared, tmp_path):
+    """Two cross-product ORDER BYs (gigabytes each, unbounded) end with 503 naming --query-memory, and another
+    client's ASK is answered meanwhile by the third worker."""
+    store = Store(tmp_path / "kb.sqlite3", workers=3, limits=ResultLimits(memory=512 * 2**20))
+    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+    app, jobs = make_app(store, token=TOKEN, query_timeout=10.0)
+    api = client(app)
+    heavy = "SELECT * WHERE { ?a ?b ?c . ?d ?e ?f } ORDER BY ?c ?f"
+    statuses: list[tuple[int, bytes]] = []
+
+    def run_heavy():
+        status, _, body = api("POST", "/sparql", heavy.encode(), {"Content-Type": "application/sparql-query"})
+        statuses.append((status, body))
+
+    threads = [threading.Thread(target=run_heavy) for _ in range(2)]
+    for t in threads:
+        t.start()
+    assert ask(api, "ASK {}") is True
+    for t in threads:
+        t.join(30)
+    assert [s for s, _ in statuses] == [503, 503] and all(b"--query-memory" in b for _, b in statuses), statuses
+    assert ask(api, f"ASK {{ GRAPH <{PR2_GRAPH}> {{ ?s ?p ?o }} }}") is True  # the workers were replaced
+    jobs.shutdown()
+    store.close()
+
+
+def test_an_update_that_breaks_the_shapes_is_refused_and_writes_nothing(kb):
+    api, store = kb
+    before = store.export("pr2", "nt")
+    link = "<https://w3id.org/urdfkb/robot/pr2#stray>"
+    status, _, body = update(api, f"INSERT DATA {{ GRAPH <{PR2_GRAPH}> {{ {link} a <{CORE}Link> }} }}")
+    assert status == 400 and b"LinkShape" in body, body
+    assert store.export("pr2", "nt") == before
+    name = f'{link} <{CORE}urdfName> "stray"'
+    assert update(api, f"INSERT DATA {{ GRAPH <{PR2_GRAPH}> {{ {link} a <{CORE}Link> . {name} }} }}")[0] == 204

@@ -116,7 +116,7 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     gone.start()
     gone.join(60)
     inbox = ctx.Queue()  # held here until the worker has read it
-    worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid), daemon=True)
+    worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid, 2**30), daemon=True)
     worker.start()
     worker.join(60)
     assert worker.exitcode == 0

@@ -10,7 +10,8 @@ MAX_LINKS = 5_000  # links or joints of one robot (the largest real robots have 
 
 # SPARQL
 QUERY_TIMEOUT = 10.0  # seconds a query or update may run (a worker past it is killed): 503
-QUERY_WORKERS = 2  # worker processes answering SPARQL, each with a replica of the index
+QUERY_WORKERS = 3  # worker processes answering SPARQL, each with a replica of the index
+QUERY_MEMORY = 1024 * 2**20  # bytes of address space one query worker may use (a query needing more: 503): --query-memory
 MAX_RESULT_ROWS = 100_000  # rows (or triples) of one query answer: --max-result-rows
 MAX_RESULT_BYTES = 32 * 1024 * 1024  # bytes of one serialised query answer: --max-result-bytes
 
