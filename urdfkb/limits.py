@@ -21,6 +21,7 @@ MAX_CONNECTIONS = 1_000  # open client connections; more wait in the listen back
 CHANNEL_TIMEOUT = 30  # seconds a connection may stay idle (nothing received or sent): --channel-timeout
 JOB_WAIT = 30.0  # seconds GET /jobs/<id>?wait=1 waits at most (also its default)
 REMOTE_TIMEOUT = 30.0  # seconds one request to the --remote-store endpoint may take
+MAX_ERROR = 4_096  # characters of an error kept with a job or written to the log; the rest is cut, its length said
 
 
 def job_waiters(threads: int) -> int:
