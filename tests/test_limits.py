@@ -249,6 +249,17 @@ def test_a_reviewer_with_a_lone_surrogate_is_a_400_naming_the_field(api):
     assert api.get("/robots/pr2/corrections").get_json()["applied"] == []
 
 
+def test_deeply_nested_json_is_a_400_not_a_500(api):
+    """100,000 nested arrays made json.loads raise RecursionError."""
+    r = api.post("/robots/pr2/corrections", data="[" * 100_000 + "]" * 100_000, content_type="application/json")
+    assert r.status_code == 400 and "nested deeper than 32 levels" in r.get_json()["error"]
+    r = api.post("/robots/pr2/corrections", data='{"action": "confirm", "links": ["base_laser_link"], '
+                 '"reviewer": "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[["}', content_type="application/json")
+    assert r.status_code == 201  # brackets inside a string do not nest
+    r = api.post("/robots/pr2/corrections", data='{"action": ', content_type="application/json")
+    assert r.status_code == 400 and r.get_json()["error"].startswith("the body is not JSON")
+
+
 @pytest.mark.parametrize("field, value", [("class", {"name": "Lidar"}), ("class", ["Lidar"]), ("mount", 7),
                                           ("reviewer", 42), ("reviewer", ["Ann"])])
 def test_a_field_of_the_wrong_json_type_is_a_400_naming_it(api, field, value):
