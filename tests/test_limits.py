@@ -249,6 +249,15 @@ def test_a_reviewer_with_a_lone_surrogate_is_a_400_naming_the_field(api):
     assert api.get("/robots/pr2/corrections").get_json()["applied"] == []
 
 
+@pytest.mark.parametrize("reviewer", ["Ann \u202eeiv\u202c", "\u2066Bob\u2069", "A\u200db"])
+def test_a_reviewer_with_a_bidi_or_zero_width_character_is_refused(api, reviewer):
+    """U+202E (right-to-left override) and U+2066 (an isolate) make a name display as another; ZWJ is
+    refused with them (Unicode category Cf)."""
+    r = correct(api, reviewer=reviewer)
+    assert r.status_code == 400 and "reviewer" in r.get_json()["error"] and "format characters" in r.get_json()["error"]
+    assert api.get("/robots/pr2/corrections").get_json()["applied"] == []
+
+
 def test_deeply_nested_json_is_a_400_not_a_500(api):
     """100,000 nested arrays made json.loads raise RecursionError."""
     r = api.post("/robots/pr2/corrections", data="[" * 100_000 + "]" * 100_000, content_type="application/json")
