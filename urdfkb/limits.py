@@ -20,6 +20,8 @@ THREADS = 16  # waitress threads answering requests
 MAX_HEADER = 32_768  # bytes of a request's headers: 431
 MAX_CONNECTIONS = 1_000  # open client connections; more wait in the listen backlog: --max-connections
 CHANNEL_TIMEOUT = 30  # seconds a connection may stay idle (nothing received or sent): --channel-timeout
+HEADER_TIMEOUT = 10.0  # seconds from a request's first byte to the end of its headers: --header-timeout
+BODY_TIMEOUT = 60.0  # seconds from the end of a request's headers to the end of its body (10 MB: 170 kB/s): --body-timeout
 JOB_WAIT = 30.0  # seconds GET /jobs/<id>?wait=1 waits at most (also its default)
 REMOTE_TIMEOUT = 30.0  # seconds one request to the --remote-store endpoint may take
 MAX_ERROR = 4_096  # characters of an error kept with a job or written to the log; the rest is cut, its length said
