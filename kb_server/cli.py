@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 from urdfkb import __version__
-from urdfkb.limits import (CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS,
-                           QUERY_MEMORY)
+from urdfkb.limits import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
+                           MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY)
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
 
@@ -205,7 +205,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
           model_dir=args.model_dir, llm_urls=args.allow_llm_url, insecure_no_token=args.insecure_no_token,
           package_paths=args.package_path, trust_xacro=args.trust_xacro, max_result_rows=args.max_result_rows,
           max_result_bytes=args.max_result_bytes, max_connections=args.max_connections,
-          channel_timeout=args.channel_timeout, query_memory=args.query_memory * 2**20, **_limits(args))
+          channel_timeout=args.channel_timeout, header_timeout=args.header_timeout, body_timeout=args.body_timeout,
+          query_memory=args.query_memory * 2**20, **_limits(args))
     return 0
 
 
@@ -283,9 +284,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="address space one SPARQL worker may use; a query needing more is stopped with 503 "
                         f"(default {QUERY_MEMORY // 2**20:,} MiB)")
     g.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS, metavar="N",
-                   help=f"open client connections at most; more wait to be accepted (default {MAX_CONNECTIONS:,})")
+                   help=f"open client connections at most; a new one then closes the connection waiting longest "
+                        f"for its request (default {MAX_CONNECTIONS:,})")
     g.add_argument("--channel-timeout", type=int, default=CHANNEL_TIMEOUT, metavar="S",
                    help=f"close a connection idle this many seconds (default {CHANNEL_TIMEOUT})")
+    g.add_argument("--header-timeout", type=float, default=HEADER_TIMEOUT, metavar="S",
+                   help=f"close a connection whose request headers are not all in S seconds after its first byte "
+                        f"(default {HEADER_TIMEOUT:g})")
+    g.add_argument("--body-timeout", type=float, default=BODY_TIMEOUT, metavar="S",
+                   help=f"close a connection whose request body is not all in S seconds after its headers "
+                        f"(default {BODY_TIMEOUT:g})")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("query", help="run one of the bundled HRI queries against the store")

@@ -20,6 +20,7 @@ import logging
 import queue
 import threading
 import time
+import traceback
 import uuid
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -28,6 +29,7 @@ from typing import Callable
 
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
+from urdfkb.kb_server.text import cut
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.llm.base import Backend
@@ -143,6 +145,10 @@ class Job:
     def wait(self, timeout: float | None) -> bool:
         return self.finished_event.wait(timeout)
 
+    def error(self, message: str) -> None:
+        """Keep `message` with the job, cut to MAX_ERROR characters (kept for GET /jobs/<id>, logged)."""
+        self.errors.append(cut(message))
+
 
 class JobManager:
     """Runs populate jobs on a small thread pool; remembers unfinished jobs and recently finished ones."""
@@ -216,7 +222,7 @@ class JobManager:
                 try:
                     remote.put_graph(entry.ontology_iri, graph)
                 except RemoteError as e:
-                    log.warning("mirroring %s failed: %s", entry.name, e)
+                    log.warning("mirroring %s failed: %s", entry.name, cut(str(e)))
 
     def shutdown(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
@@ -246,11 +252,11 @@ class JobManager:
                 job.state = self._mirror(job, robot, entry.ontology_iri)
         except UrdfkbError as e:
             job.state = "failed"
-            job.errors.append(str(e))
+            job.error(str(e))
         except Exception as e:  # anything else is a bug: keep serving, report it in the job
-            log.exception("populate job %s for %s failed", job.id, job.robot)
+            log.error("populate job %s for %s failed:\n%s", job.id, job.robot, _traceback(e))
             job.state = "failed"
-            job.errors.append(f"internal error: {type(e).__name__}: {e}")
+            job.error(f"internal error: {type(e).__name__}: {e}")
         finally:
             job.finished = time.time()
             job.finished_event.set()
@@ -277,6 +283,11 @@ class JobManager:
         try:
             self.remote.put_graph(ontology, graph)
         except RemoteError as e:
-            job.errors.append(f"stored locally, but mirroring to the remote store failed: {e}")
+            job.error(f"stored locally, but mirroring to the remote store failed: {e}")
             return "mirror_failed"
         return "succeeded"
+
+
+def _traceback(e: Exception) -> str:
+    """A bug's traceback for the log, its message cut (MAX_ERROR) as the job's error is."""
+    return "".join(traceback.format_tb(e.__traceback__)) + cut(f"{type(e).__name__}: {e}")

@@ -6,17 +6,16 @@ import resource
 from collections.abc import Sequence
 from pathlib import Path
 
-from waitress import create_server  # type: ignore[attr-defined]  # missing from the waitress stubs
-from waitress.server import BaseWSGIServer
-
 from urdfkb.kb_server.app import create_app
+from urdfkb.kb_server.http_deadlines import DeadlineServer
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
-from urdfkb.limits import (CHANNEL_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER, MAX_LINKS, MAX_RESULT_BYTES,
-                           MAX_RESULT_ROWS, QUERY_MEMORY, QUERY_TIMEOUT, THREADS, job_waiters)
+from urdfkb.limits import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER,
+                           MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY, QUERY_TIMEOUT, THREADS,
+                           job_waiters)
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
@@ -34,8 +33,9 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 max_links: int = MAX_LINKS, max_header: int = MAX_HEADER,
                 package_paths: dict[str, Path] | None = None, trust_xacro: bool = False,
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
-                max_connections: int = MAX_CONNECTIONS,
-                channel_timeout: int = CHANNEL_TIMEOUT, query_memory: int = QUERY_MEMORY) -> tuple[BaseWSGIServer, Store, JobManager]:
+                max_connections: int = MAX_CONNECTIONS, channel_timeout: int = CHANNEL_TIMEOUT,
+                header_timeout: float = HEADER_TIMEOUT, body_timeout: float = BODY_TIMEOUT,
+                query_memory: int = QUERY_MEMORY) -> tuple[DeadlineServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
@@ -43,13 +43,16 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
     headers over `max_header` bytes are refused (431), query answers past `max_result_rows` or
     `max_result_bytes` (413); a query worker needing more than `query_memory` bytes is
     stopped (503). At most `max_connections` clients are connected at once (slow ones
-    hold no thread: waitress hands a request over once it has all of it), and a connection idle for
-    `channel_timeout` seconds is closed. With a remote store, every robot already stored is
+    hold no thread: waitress hands a request over once it has all of it); at the limit a new one
+    closes the connection waiting longest for a complete request (kb_server.http_deadlines). A
+    connection is closed when idle for `channel_timeout` seconds, or when a request's headers take
+    longer than `header_timeout` seconds from its first byte, or its body `body_timeout` seconds
+    more. With a remote store, every robot already stored is
     mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or
     refused where it is unavailable, unless `trust_xacro`."""
     check_bind(host, token, insecure_no_token)
-    if max_connections < 1 or channel_timeout < 1:
-        raise UrdfkbError("--max-connections and --channel-timeout must be at least 1")
+    if min(max_connections, channel_timeout, header_timeout, body_timeout) < 1:
+        raise UrdfkbError("--max-connections, --channel-timeout, --header-timeout and --body-timeout must be at least 1")
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
     connections = open_files_for(max_connections)
     store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes, query_memory))
@@ -61,9 +64,10 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
     # waitress buffers a whole request before the app sees it (refusing a body of max_request_body_size
     # bytes or more), so bodies over max_body are refused before they fill memory or a temporary file;
     # poll(), unlike select(), takes descriptors past 1023.
-    server = create_server(app, host=host, port=port, threads=threads, max_request_header_size=max_header,
-                           max_request_body_size=max_body + 1, connection_limit=connections,
-                           channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True)
+    server = DeadlineServer(app, header_timeout, body_timeout, host=host, port=port, threads=threads,
+                            max_request_header_size=max_header, max_request_body_size=max_body + 1,
+                            connection_limit=connections, channel_timeout=channel_timeout, cleanup_interval=1,
+                            asyncore_use_poll=True)
     policy.port = int(server.effective_port)
     return server, store, jobs
 

@@ -11,6 +11,7 @@ import io
 import math
 import os
 import re
+import unicodedata
 import xml.etree.ElementTree as ET
 from collections import Counter
 from dataclasses import dataclass
@@ -169,10 +170,20 @@ def _validate(robot: ET.Element) -> None:
 
 
 def _require_name(element: ET.Element, where: str) -> str:
+    """The element's name; URDFError if it has none, or one holding a Unicode format character (category
+    Cf: a bidi override such as U+202E, which makes a name display as another, or a zero-width one)."""
     name = element.get("name")
     if not name:
         raise URDFError(f"<{element.tag}> has no name", where)
+    if (bad := format_character(name)) is not None:
+        raise URDFError(f"<{element.tag}> name {name!r} holds the format character U+{ord(bad):04X} "
+                        "(bidi and zero-width characters are refused in names)", where)
     return name
+
+
+def format_character(text: str) -> str | None:
+    """The first Unicode format character (category Cf: bidi controls, zero-width ones) in `text`, if any."""
+    return next((c for c in text if unicodedata.category(c) == "Cf"), None)
 
 
 def _check_version(robot: ET.Element) -> None:

@@ -180,6 +180,26 @@ def test_bearer_token(store):
         jobs.shutdown()
 
 
+def test_a_redirect_is_never_followed_with_the_token():
+    """A server answering 302 to another origin: the client raised nothing and sent its token there."""
+    seen = []
+
+    def elsewhere(environ, start_response):
+        seen.append(environ.get("HTTP_AUTHORIZATION"))
+        start_response("200 OK", [("Content-Type", "application/json")])
+        return [b"[]"]
+
+    with live(elsewhere) as other:
+        def redirecting(environ, start_response):
+            start_response("302 Found", [("Location", f"{other}/robots")])
+            return [b""]
+
+        with live(redirecting) as base:
+            with pytest.raises(QueryFailed, match=f"HTTP 302: redirected to '{other}/robots'") as e:
+                KnowledgeBase(base, token="s3cret").robots()
+    assert e.value.status == 302 and seen == []
+
+
 def test_class_words():
     assert [class_words(c) for c in ("MonocularCamera", "RGBDCamera", "IMU", "MobileBase")] == [
         "monocular camera", "RGBD camera", "IMU", "mobile base"]

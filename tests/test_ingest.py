@@ -1,4 +1,5 @@
 """load_urdf: hostile, oversize and structurally invalid input is refused with a URDFError."""
+import re
 import socket
 import urllib.request
 from pathlib import Path
@@ -251,6 +252,16 @@ def test_no_links():
 
 def test_link_without_name():
     error = refused(robot('<link name="a"/><link/>'), "<link> has no name")
+    assert error.element == "link #2"
+
+
+@pytest.mark.parametrize("char", ["\u202e", "\u2066", "\u200d"])
+def test_a_link_name_with_a_bidi_or_zero_width_character_is_refused(char):
+    """A right-to-left override (U+202E) or an isolate (U+2066) makes a name display as another."""
+    name = f"gripper{char}tfel"
+    error = refused(robot(f'<link name="a"/><link name="{name}"/>'),
+                    re.escape(f"<link> name {name!r} holds the format character U+{ord(char):04X}"))
+    assert "\\u" in str(error) and char not in str(error)  # the name is shown escaped
     assert error.element == "link #2"
 
 

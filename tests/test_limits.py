@@ -123,7 +123,7 @@ def test_limits_must_be_positive(tmp_path):
     for bad in (dict(rows=0), dict(bytes=-1)):
         with pytest.raises(UrdfkbError, match="must be positive"):
             ResultLimits(**bad)
-    for bad in (dict(max_connections=0), dict(channel_timeout=0)):
+    for bad in (dict(max_connections=0), dict(channel_timeout=0), dict(header_timeout=0.5), dict(body_timeout=0)):
         with pytest.raises(UrdfkbError, match="at least 1"):
             make_server(tmp_path / "kb.sqlite3", port=0, **bad)
 
@@ -164,6 +164,64 @@ def test_slow_clients_do_not_starve_the_others(server):
             trickler.join(2)
         for s in slow:
             s.close()
+
+
+def closed(s: socket.socket) -> bool:
+    """Whether the server has closed `s` (a FIN or a reset), waiting at most 0.1 s for it."""
+    s.settimeout(0.1)
+    try:
+        return s.recv(1) == b""
+    except socket.timeout:
+        return False
+    except OSError:
+        return True
+
+
+@pytest.mark.slow
+def test_trickling_clients_are_cut_off_at_the_deadline_and_never_keep_another_out(tmp_path):
+    """40 clients trickling headers or a body (a byte every 0.2 s: never idle) against a limit of 20
+    connections: another client is answered at once, before any deadline (the oldest trickler makes room),
+    and every trickler is closed soon after its deadline. They held their connections for good, and
+    the others waited in the backlog."""
+    srv, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, runner=fake_runner(), max_connections=20,
+                                   header_timeout=3, body_timeout=3)
+    port, slow, stop = srv.effective_port, [], threading.Event()
+    heads = (b"GET /robots HTTP/1.1\r\nX-Slow: ",
+             f"POST /populate HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Type: {XML}\r\n"
+             "Content-Length: 100000\r\n\r\n".encode())
+
+    def trickle():
+        while not stop.wait(0.2):
+            for s in slow:
+                try:
+                    s.send(b"a")
+                except OSError:
+                    pass
+
+    trickler = threading.Thread(target=trickle, daemon=True)
+    try:
+        with running(srv):
+            for i in range(40):
+                s = socket.create_connection(("127.0.0.1", port), timeout=2)
+                s.sendall(heads[i % 2])
+                slow.append(s)
+            trickler.start()
+            time.sleep(0.5)
+            started = time.monotonic()
+            status, _, body = http("GET", f"http://127.0.0.1:{port}/robots", timeout=2)
+            assert status == 200 and json.loads(body) == [] and time.monotonic() - started < 1
+            deadline = time.monotonic() + 10
+            while (left := [s for s in slow if not closed(s)]) and time.monotonic() < deadline:
+                pass
+            assert not left, f"{len(left)} trickling connections still open"
+    finally:
+        stop.set()
+        if trickler.is_alive():
+            trickler.join(2)
+        for s in slow:
+            s.close()
+        jobs.shutdown()
+        store.close()
 
 
 def test_a_body_over_the_size_limit_is_refused_before_it_is_buffered(server):
@@ -247,6 +305,26 @@ def test_a_reviewer_with_a_lone_surrogate_is_a_400_naming_the_field(api):
     r = correct(api, reviewer="\ud800")  # json.dumps writes it as the escape "\ud800"
     assert r.status_code == 400 and "reviewer" in r.get_json()["error"] and "U+D800" in r.get_json()["error"]
     assert api.get("/robots/pr2/corrections").get_json()["applied"] == []
+
+
+@pytest.mark.parametrize("reviewer", ["Ann \u202eeiv\u202c", "\u2066Bob\u2069", "A\u200db"])
+def test_a_reviewer_with_a_bidi_or_zero_width_character_is_refused(api, reviewer):
+    """U+202E (right-to-left override) and U+2066 (an isolate) make a name display as another; ZWJ is
+    refused with them (Unicode category Cf)."""
+    r = correct(api, reviewer=reviewer)
+    assert r.status_code == 400 and "reviewer" in r.get_json()["error"] and "format characters" in r.get_json()["error"]
+    assert api.get("/robots/pr2/corrections").get_json()["applied"] == []
+
+
+def test_deeply_nested_json_is_a_400_not_a_500(api):
+    """100,000 nested arrays made json.loads raise RecursionError."""
+    r = api.post("/robots/pr2/corrections", data="[" * 100_000 + "]" * 100_000, content_type="application/json")
+    assert r.status_code == 400 and "nested deeper than 32 levels" in r.get_json()["error"]
+    r = api.post("/robots/pr2/corrections", data='{"action": "confirm", "links": ["base_laser_link"], '
+                 '"reviewer": "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[["}', content_type="application/json")
+    assert r.status_code == 201  # brackets inside a string do not nest
+    r = api.post("/robots/pr2/corrections", data='{"action": ', content_type="application/json")
+    assert r.status_code == 400 and r.get_json()["error"].startswith("the body is not JSON")
 
 
 @pytest.mark.parametrize("field, value", [("class", {"name": "Lidar"}), ("class", ["Lidar"]), ("mount", 7),

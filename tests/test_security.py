@@ -3,6 +3,8 @@
 Most cases use Flask's test client (Host `localhost`); a live waitress server where the socket
 matters (header size, bound port, threads held by waiting clients)."""
 import json
+import logging
+import re
 import subprocess
 import sys
 import threading
@@ -426,3 +428,19 @@ def test_bad_security_options_stop_the_server_with_a_clear_error(tmp_path):
                              (dict(allowed_hosts=["a:b:c"]), "--allowed-host 'a:b:c'")):
         with pytest.raises(UrdfkbError, match=message):
             make_server(tmp_path / "kb.sqlite3", port=0, **options)
+
+
+# --- errors kept with a job are cut ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fail", [UrdfkbError("\U0001F600" * 5_000_000), RuntimeError("x" * 5_000_000)])
+def test_a_huge_job_error_is_cut_where_it_is_kept_and_logged(kb, caplog, fail):
+    """A 614-byte xacro made a 19 MB job error, kept with the job and logged in full (security test, item 2)."""
+    app, jobs = kb(runner=fake_runner(fail=fail))
+    c = app.test_client()
+    with caplog.at_level(logging.INFO, logger="urdfkb.kb_server.jobs"):
+        job = finished(jobs, c.post("/populate", data=toy(), content_type=XML).json["id"])
+    r = c.get(f"/jobs/{job.id}")
+    assert job.state == "failed" and len(r.data) < 64 * 1024  # JSON escapes each emoji as 12 bytes
+    assert re.search(r"\.\.\. \[cut: 5,000,0\d\d characters in all\]$", r.json["errors"][0])
+    assert caplog.records and all(len(record.getMessage()) < 64 * 1024 for record in caplog.records)

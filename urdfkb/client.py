@@ -10,7 +10,9 @@ One method per bundled query (`GET /queries/<name>?robot=...`), each returning a
 dataclasses with Python values: names as plain strings (the URDF's or the pipeline's, percent-escapes
 undone), classes as ontology local names (`"RGBDCamera"`), numbers as floats. `query()` runs any
 query by name and gives its rows as dicts of strings. Standard library only (urllib); one HTTP
-request per call, so an instance may be shared between threads.
+request per call, so an instance may be shared between threads. It follows no redirect: a redirect
+could lead anywhere, and the request would take the token there; a 3xx answer raises `QueryFailed`
+naming its `Location` (give the client the URL it points to, if it is the server's).
 
 Errors: `ServerUnavailable` when nothing answers at the URL (or not in time), `UnknownRobot` when the
 server has no robot of that name, `QueryFailed` for any other refusal (a bad parameter, a query the
@@ -179,11 +181,22 @@ class ArmEndEffector:
 
 # --- the client ------------------------------------------------------------------------------------
 
+class _NoRedirect(urllib.request.HTTPRedirectHandler):
+    """Refuses every redirect: urllib then raises the 3xx answer as an HTTPError."""
+
+    def redirect_request(self, req, fp, code, msg, headers, newurl):
+        return None
+
+
+_OPENER = urllib.request.build_opener(_NoRedirect)
+
+
 class KnowledgeBase:
     """The bundled HRI queries of the urdfkb server at `url` (e.g. "http://127.0.0.1:8000").
 
-    `token` is sent as `Authorization: Bearer <token>` (a server or proxy that wants one); `timeout`
-    bounds each request in seconds."""
+    `token` is sent as `Authorization: Bearer <token>` (a server or proxy that wants one), to `url` only:
+    a redirect is never followed (QueryFailed names where it pointed); `timeout` bounds each request in
+    seconds."""
 
     def __init__(self, url: str, token: str | None = None, timeout: float = 10.0):
         parts = urllib.parse.urlsplit(url)
@@ -307,10 +320,10 @@ class KnowledgeBase:
             headers["Authorization"] = f"Bearer {self.token}"
         request = urllib.request.Request(self.url + path, headers=headers)
         try:
-            with urllib.request.urlopen(request, timeout=self.timeout) as response:
+            with _OPENER.open(request, timeout=self.timeout) as response:
                 body = response.read()
         except urllib.error.HTTPError as e:
-            message = _message(e)
+            message = _redirect(e) if 300 <= e.code < 400 else _message(e)
             if e.code == 404 and robot is not None and message.startswith("no robot"):
                 raise UnknownRobot(robot, self.url) from None
             raise QueryFailed(what, e.code, message, self.url) from None
@@ -344,6 +357,11 @@ def _message(error: urllib.error.HTTPError) -> str:
     except (ValueError, KeyError, TypeError):
         text = body.decode("utf-8", "replace").strip()
         return text[:300] or str(error.reason or "")
+
+
+def _redirect(error: urllib.error.HTTPError) -> str:
+    location = error.headers.get("Location", "")[:300]
+    return f"redirected to {location!r}: the client follows no redirect (it would send the token along)"
 
 
 def _reason(reason) -> str:

@@ -7,6 +7,7 @@ line, the server and the library cannot drift apart.
 # Input
 MAX_BYTES = 10_000_000  # bytes of a URDF or xacro document, and of a request body: --max-bytes (populate), 413
 MAX_LINKS = 5_000  # links or joints of one robot (the largest real robots have a few hundred): --max-links
+MAX_JSON_DEPTH = 32  # arrays and objects nested in a JSON request body (a correction needs 2): 400
 
 # SPARQL
 QUERY_TIMEOUT = 10.0  # seconds a query or update may run (a worker past it is killed): 503
@@ -20,8 +21,11 @@ THREADS = 16  # waitress threads answering requests
 MAX_HEADER = 32_768  # bytes of a request's headers: 431
 MAX_CONNECTIONS = 1_000  # open client connections; more wait in the listen backlog: --max-connections
 CHANNEL_TIMEOUT = 30  # seconds a connection may stay idle (nothing received or sent): --channel-timeout
+HEADER_TIMEOUT = 10.0  # seconds from a request's first byte to the end of its headers: --header-timeout
+BODY_TIMEOUT = 60.0  # seconds from the end of a request's headers to the end of its body (10 MB: 170 kB/s): --body-timeout
 JOB_WAIT = 30.0  # seconds GET /jobs/<id>?wait=1 waits at most (also its default)
 REMOTE_TIMEOUT = 30.0  # seconds one request to the --remote-store endpoint may take
+MAX_ERROR = 4_096  # characters of an error kept with a job or written to the log; the rest is cut, its length said
 
 
 def job_waiters(threads: int) -> int:

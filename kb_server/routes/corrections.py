@@ -2,13 +2,16 @@
 stale) and POST /robots/<name>/corrections (one more, with the token where one is configured)."""
 from __future__ import annotations
 
-from flask import Blueprint, jsonify, request
+from flask import Blueprint, jsonify
 
 from urdfkb.kb_server import corrections as review
+from urdfkb.kb_server.json_body import BadJSON, json_body
 from urdfkb.kb_server.replies import error
 from urdfkb.kb_server.services import services
 
 bp = Blueprint("corrections", __name__)
+USAGE = ("send the correction as a JSON object: {action, links, class?, mount?, reviewer?} "
+         "or, for a body part, {part, action, class?, side?, with?, at?, reviewer?}")
 
 
 @bp.get("/robots/<name>/corrections")
@@ -27,10 +30,12 @@ def add_correction(name: str):
     kb = services()
     if not kb.may_write():
         return error(403, "corrections need the server's token (Authorization: Bearer ...)")
-    data = request.get_json(silent=True)
+    try:
+        data = json_body()
+    except BadJSON as e:
+        return error(e.status, f"{e}: {USAGE}")
     if not isinstance(data, dict):
-        return error(400, "send the correction as a JSON object: {action, links, class?, mount?, reviewer?} "
-                          "or, for a body part, {part, action, class?, side?, with?, at?, reviewer?}")
+        return error(400, USAGE)
     try:
         correction = review.new(data)
         entry = kb.store.add_correction(name, correction)

@@ -1,0 +1,46 @@
+"""Request bodies sent as JSON, parsed with a bound on their nesting: json.loads recurses once per array or
+object, so a body of 100,000 nested arrays raised RecursionError, a 500, where a 400 is due."""
+from __future__ import annotations
+
+import json
+import re
+
+from flask import request
+
+from urdfkb.limits import MAX_JSON_DEPTH
+
+_BRACKETS = re.compile(rb'"(?:[^"\\]|\\.)*"|[\[\]{}]')  # a string (skipped whole) or a bracket
+
+
+class BadJSON(ValueError):
+    """A request body that is not JSON, or nests too deep."""
+
+    status = 400
+
+
+def json_body(max_depth: int = MAX_JSON_DEPTH) -> object:
+    """The request's body as JSON (Content-Type application/json or */*+json); BadJSON if it is not, or if
+    its arrays and objects nest deeper than `max_depth`."""
+    if not request.is_json:
+        raise BadJSON("send the body as application/json")
+    data = request.get_data()
+    if _deeper_than(data, max_depth):
+        raise BadJSON(f"JSON nested deeper than {max_depth} levels is refused")
+    try:
+        return json.loads(data)
+    except ValueError as e:
+        raise BadJSON(f"the body is not JSON ({e})") from None
+
+
+def _deeper_than(data: bytes, max_depth: int) -> bool:
+    """Whether brackets outside strings nest deeper than `max_depth` (scanned, not parsed)."""
+    depth = 0
+    for match in _BRACKETS.finditer(data):
+        bracket = data[match.start()]
+        if bracket in b"[{":
+            depth += 1
+            if depth > max_depth:
+                return True
+        elif bracket in b"]}":
+            depth -= 1
+    return False
