@@ -26,6 +26,7 @@ import functools
 import os
 import pwd
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -151,9 +152,10 @@ def _argv(bwrap: str, seccomp_fd: int, program: Path, args: Iterable[str], read_
 
 
 def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, **popen) -> tuple[int, bytes, bytes]:
-    """subprocess.run with outputs capped at `max_output` bytes each; the child is killed on timeout."""
+    """subprocess.run with outputs capped at `max_output` bytes each; past `timeout` seconds the child's
+    process group (the child starts one) is killed and TimeoutExpired raised."""
     with subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                          **popen) as proc:
+                          start_new_session=True, **popen) as proc:
         if proc.stdin is None:
             raise RuntimeError("the child has no stdin pipe")
         outputs: dict[str, bytes] = {}
@@ -178,13 +180,21 @@ def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, 
                 pass
             proc.wait(timeout)
         except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+            _kill_group(proc)
             raise
         finally:
             for t in readers:
                 t.join(5)
         return proc.returncode, outputs.get("out", b""), outputs.get("err", b"")
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    """SIGKILL the process group `proc` leads (a sandbox's PID namespace dies with bwrap), then reap it."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
 
 
 @functools.lru_cache(maxsize=1)

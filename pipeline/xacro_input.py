@@ -20,14 +20,13 @@ import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from urdfkb.limits import MAX_BYTES, MAX_LINKS
+from urdfkb.limits import MAX_BYTES, MAX_LINKS, XACRO_TIMEOUT
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.tree import KinematicTree
 
 WORKER = Path(__file__).with_name("xacro_worker.py")
-TIMEOUT = 20.0          # seconds of wall time for one expansion
 CPU_SECONDS = 10
 MEMORY = 1 << 30        # address space of the child
 SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the sandbox
@@ -72,12 +71,13 @@ def parse_package_paths(items: Iterable[str]) -> dict[str, Path]:
 
 def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
            args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-           max_bytes: int = MAX_BYTES, timeout: float = TIMEOUT, confined: bool = False) -> bytes:
+           max_bytes: int = MAX_BYTES, timeout: float = XACRO_TIMEOUT, confined: bool = False) -> bytes:
     """The URDF that xacro document `data` (called `name`) expands to.
 
     Includes, `$(find NAME)` and `package://NAME/` resolve inside `main_dir` (None for uploads:
     then nothing beside the package paths) and `packages` only; `args` are the xacro:arg values.
-    `confined` runs the child inside pipeline.sandbox (sandbox.Unavailable where it cannot)."""
+    `confined` runs the child inside pipeline.sandbox (sandbox.Unavailable where it cannot). Past
+    `timeout` seconds of wall time the child and everything it started are killed."""
     if len(data) > max_bytes:
         raise XacroError(f"{name}: too large: over the {max_bytes}-byte limit")
     packages = {k: Path(v).resolve() for k, v in (packages or {}).items()}
@@ -101,7 +101,8 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
                                                      json.dumps(request).encode(), timeout, cap,
                                                      cwd=empty, env={"PATH": "/usr/bin:/bin"})
         except subprocess.TimeoutExpired:
-            raise XacroError(f"{name}: expansion took longer than {timeout:.0f} s (a macro or expression that does not end?)") from None
+            raise XacroError(f"{name}: expansion took longer than {timeout:g} s, the xacro time limit (wall time, "
+                             "--xacro-timeout): a macro or expression that does not end, or waits?") from None
         except sandbox.Unavailable as e:
             raise XacroError(f"{name}: cannot confine the expansion: {e}") from None
     if code != 0 or not out:
@@ -123,12 +124,12 @@ def _tail(stderr: bytes) -> str:
 
 def load_description(source: str | os.PathLike | bytes, *, filename: str | None = None,
                      args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-                     max_bytes: int = MAX_BYTES, max_links: int = MAX_LINKS,
+                     max_bytes: int = MAX_BYTES, max_links: int = MAX_LINKS, timeout: float = XACRO_TIMEOUT,
                      trust_folder: bool = True, confined: bool = False) -> KinematicTree:
     """A URDF or xacro file (path) or document (bytes) as a checked tree.
 
     For a path, the file's own folder may be read by includes when `trust_folder` (the command
-    line); uploaded bytes never read anything but the package paths. `confined`: see expand()."""
+    line); uploaded bytes never read anything but the package paths. `timeout`, `confined`: see expand()."""
     main_dir = None
     if isinstance(source, bytes):
         data = source
@@ -147,7 +148,7 @@ def load_description(source: str | os.PathLike | bytes, *, filename: str | None 
             raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
         return load_urdf(data, max_bytes=max_bytes, max_links=max_links)
     urdf = expand(data, filename or "robot.urdf.xacro", main_dir=main_dir, args=args, packages=packages,
-                  max_bytes=max_bytes, confined=confined)
+                  max_bytes=max_bytes, timeout=timeout, confined=confined)
     try:
         return load_urdf(urdf, max_bytes=max_bytes, max_links=max_links)
     except URDFError as e:

@@ -108,6 +108,51 @@ def test_the_server_refuses_xacro_where_no_sandbox_can_run(tmp_path, monkeypatch
         store.close()
 
 
+SLEEP = "__import__('time').sleep(60)"
+
+
+@confined_only
+def test_a_sleeping_xacro_job_ends_within_15_s_naming_the_limit(tmp_path):
+    """Sleeping costs no CPU, so only the wall-clock limit (10 s by default) ends it: it held a job 20 s."""
+    store = Store(tmp_path / "kb.sqlite3")
+    try:
+        app, jobs = make_app(store)
+        started = time.monotonic()
+        status, _, out = client(app)("POST", "/populate?structure_only=true", escape(SLEEP),
+                                     {"Content-Type": "application/xml"})
+        assert status == 202
+        job = jobs.get(json.loads(out)["id"])
+        assert job.wait(30)
+        assert time.monotonic() - started < 15
+        assert job.state == "failed" and "longer than 10 s, the xacro time limit" in job.errors[0], job.errors
+        jobs.shutdown()
+    finally:
+        store.close()
+
+
+def _processes_running(marker: str) -> list[str]:
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if marker in cmdline.read_bytes().decode("utf-8", "replace"):
+                found.append(cmdline.parent.name)
+        except OSError:
+            pass
+    return found
+
+
+def test_past_the_limit_the_whole_process_group_is_killed():
+    """An (unconfined) expansion that starts a sleeper holding its output: the sleeper dies with it,
+    and the limit is not stretched by waiting for the sleeper's pipe (before: 5 s more, sleeper alive)."""
+    marker = "77.123"
+    code = f"import subprocess; subprocess.Popen(['sleep', '{marker}']); {SLEEP}"
+    started = time.monotonic()
+    with pytest.raises(XacroError, match="longer than 2 s"):
+        expand(escape(code), "sleeper.urdf.xacro", timeout=2)
+    assert time.monotonic() - started < 4
+    assert _processes_running(marker) == []
+
+
 @pytest.mark.slow
 @confined_only
 def test_hostile_xacro_jobs_cost_no_other_route(tmp_path):
