@@ -32,6 +32,7 @@ MEMORY = 1 << 30        # address space of the child
 SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the sandbox
 SANDBOX_MAIN = "/main"
 XACRO_NS = b"http://www.ros.org/wiki/xacro"
+PACKAGES = ("xacro", "yaml", "defusedxml")  # what the worker imports besides the standard library
 _RUNNING = threading.BoundedSemaphore(2)  # at most two children (2 x MEMORY) at once per process
 
 
@@ -95,7 +96,8 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
     with _RUNNING, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
         try:
             if confined:
-                code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap)
+                code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap,
+                                             PACKAGES)
             else:
                 code, out, err = sandbox.bounded_run([sys.executable, "-I", str(WORKER), limits],
                                                      json.dumps(request).encode(), timeout, cap,
