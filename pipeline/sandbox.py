@@ -16,7 +16,8 @@ Used for xacro documents sent to the server (xacro's `${...}` is Python, so an u
   makes; every other one, through ctypes too, fails with EPERM (processes, threads, sockets, uname,
   sleeps, mounts, namespaces, ptrace...);
 - in its own session (no terminal injection), killed with its parent (`--die-with-parent`), and with
-  its whole process group past the caller's wall-clock timeout.
+  its whole process group past the caller's wall-clock timeout;
+- at most one sandbox per core at once (SLOTS): a run waits for a free core before its timeout starts.
 
 CPU, memory and file-size limits are rlimits the program sets before reading any input, and the
 caller reads its output with a cap. `unavailable()` says why a machine cannot provide this (no
@@ -62,6 +63,8 @@ ALLOWED = ("execve", "arch_prctl", "set_tid_address", "set_robust_list", "rseq",
            "wait4")  # bwrap's init (PID 1 inside, reaping the program) runs under the filter too
 # Allowed too where setpriv runs inside (it starts under the filter; without capabilities they change nothing).
 SETPRIV_CALLS = ("capget", "capset", "prctl", "getresuid", "getresgid", "setgroups", "setresuid", "setresgid")
+# At most one sandbox per core at once; the wait for a slot is not counted in run()'s timeout.
+SLOTS = threading.BoundedSemaphore(len(os.sched_getaffinity(0)))
 
 
 class Unavailable(RuntimeError):
@@ -174,8 +177,8 @@ def run(program: Path, args: Iterable[str], read_only: Mapping[str, Path], stdin
     """Run `python program args` confined, each of `read_only`'s folders (sandbox path → host folder)
     visible read-only at its sandbox path, and the installed `packages` (import names) importable:
     (exit status, stdout, stderr), each output cut at `max_output` bytes (the rest is read and
-    dropped, so a flood costs no memory); TimeoutExpired past `timeout` seconds, Unavailable where the
-    machine cannot confine it."""
+    dropped, so a flood costs no memory); TimeoutExpired past `timeout` seconds once started (waiting
+    for one of the SLOTS is not counted), Unavailable where the machine cannot confine it."""
     bwrap, (user, prefix) = _bwrap(), _user()
     bpf = _seccomp_filter(SETPRIV_CALLS if prefix else ())
     read_fd, write_fd = os.pipe()  # bwrap reads the seccomp program from a file descriptor
@@ -185,7 +188,8 @@ def run(program: Path, args: Iterable[str], read_only: Mapping[str, Path], stdin
         os.close(write_fd)
     try:
         argv = _argv(bwrap, [*user, "--seccomp", str(read_fd)], prefix, program, args, read_only, packages)
-        return bounded_run(argv, stdin, timeout, max_output, pass_fds=(read_fd,))
+        with SLOTS:
+            return bounded_run(argv, stdin, timeout, max_output, pass_fds=(read_fd,))
     finally:
         os.close(read_fd)
 

@@ -6,7 +6,8 @@ file-size limits and lowers its priority before reading its input, and may read 
 file's folder (command line) and the package paths given; see its docstring for every guard.
 Those guards live in the interpreter that runs the expression, so for documents from strangers
 (`confined=True`, the server) the child also runs inside the operating-system boundary of
-pipeline.sandbox (bubblewrap and seccomp, as an unprivileged user). Its output is read with a cap.
+pipeline.sandbox (bubblewrap and seccomp, as an unprivileged user). Its output is read with a cap, it
+is killed past its wall-clock limit, and at most one expansion runs per core at once (sandbox.SLOTS).
 Every refusal is a XacroError (a URDFError) naming the file and line.
 """
 from __future__ import annotations
@@ -16,7 +17,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
@@ -33,7 +33,6 @@ SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the san
 SANDBOX_MAIN = "/main"
 XACRO_NS = b"http://www.ros.org/wiki/xacro"
 PACKAGES = ("xacro", "yaml", "defusedxml")  # what the worker imports besides the standard library
-_RUNNING = threading.BoundedSemaphore(2)  # at most two children (2 x MEMORY) at once per process
 
 
 class XacroError(URDFError):
@@ -93,20 +92,19 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
                "args": dict(args or {}), "packages": seen_packages, "max_bytes": max_bytes}
     limits = json.dumps({"memory": MEMORY, "cpu": CPU_SECONDS})
     cap = 2 * max_bytes + 65536  # the JSON answer around an expanded URDF of at most max_bytes
-    with _RUNNING, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
-        try:
-            if confined:
-                code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap,
-                                             PACKAGES)
-            else:
+    try:
+        if confined:
+            code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap, PACKAGES)
+        else:
+            with sandbox.SLOTS, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
                 code, out, err = sandbox.bounded_run([sys.executable, "-I", str(WORKER), limits],
                                                      json.dumps(request).encode(), timeout, cap,
                                                      cwd=empty, env={"PATH": "/usr/bin:/bin"})
-        except subprocess.TimeoutExpired:
-            raise XacroError(f"{name}: expansion took longer than {timeout:g} s, the xacro time limit (wall time, "
-                             "--xacro-timeout): a macro or expression that does not end, or waits?") from None
-        except sandbox.Unavailable as e:
-            raise XacroError(f"{name}: cannot confine the expansion: {e}") from None
+    except subprocess.TimeoutExpired:
+        raise XacroError(f"{name}: expansion took longer than {timeout:g} s, the xacro time limit (wall time, "
+                         "--xacro-timeout): a macro or expression that does not end, or waits?") from None
+    except sandbox.Unavailable as e:
+        raise XacroError(f"{name}: cannot confine the expansion: {e}") from None
     if code != 0 or not out:
         raise XacroError(f"{name}: expansion stopped by its CPU or memory limit (an expression or macro that grows "
                          f"without bound?){_tail(err)}")

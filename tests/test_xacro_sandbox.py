@@ -311,3 +311,26 @@ def test_host_facts_never_reach_the_store(tmp_path, fact):
         jobs.shutdown()
     finally:
         store.close()
+
+
+@confined_only
+def test_at_most_one_sandbox_runs_per_core(monkeypatch):
+    """Before, any number of sandboxes ran at once (the xacro loader let two through, whatever the cores)."""
+    cores = len(os.sched_getaffinity(0))
+    running_now, most, lock = [0], [0], threading.Lock()
+
+    def fake_run(argv, stdin, timeout, max_output, **popen):
+        with lock:
+            running_now[0] += 1
+            most[0] = max(most[0], running_now[0])
+        time.sleep(0.2)
+        with lock:
+            running_now[0] -= 1
+        return 0, b"", b""
+    monkeypatch.setattr(sandbox, "bounded_run", fake_run)
+    runs = [threading.Thread(target=sandbox.run, args=(SPIN, [], {}, b"", 5, 4096)) for _ in range(cores + 2)]
+    for t in runs:
+        t.start()
+    for t in runs:
+        t.join()
+    assert most[0] == cores
