@@ -140,7 +140,7 @@ def _packages(names: Iterable[str]) -> dict[str, str]:
         spec = find_spec(name)
         if spec is None or not (spec.submodule_search_locations or spec.origin):
             raise Unavailable(f"the Python package {name!r} is not installed")
-        source = spec.submodule_search_locations[0] if spec.submodule_search_locations else spec.origin
+        source = spec.submodule_search_locations[0] if spec.submodule_search_locations else str(spec.origin)
         mounts[f"{SITE}/{os.path.basename(source)}"] = os.path.realpath(source)
     return mounts
 
