@@ -25,24 +25,24 @@ from urdfkb.kb_server.routes import BLUEPRINTS
 from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.services import EXTENSION, Services
 from urdfkb.kb_server.store import Store
-from urdfkb.limits import MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, job_waiters
+from urdfkb.limits import MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, XACRO_TIMEOUT, job_waiters
 
 
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = MAX_BYTES,
                query_timeout: float = QUERY_TIMEOUT, policy: Policy | None = None, max_links: int = MAX_LINKS,
                max_waiters: int = job_waiters(THREADS), package_paths: Mapping[str, Path] | None = None,
-               trust_xacro: bool = False) -> Flask:
+               trust_xacro: bool = False, xacro_timeout: float = XACRO_TIMEOUT) -> Flask:
     """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
 
     `policy` (default: a loopback server with nothing opened) checks every request; at most
     `max_waiters` clients wait on a job at once (GET /jobs/<id>?wait=1), so waits never hold
     every server thread. Uploaded xacro files may include only from `package_paths` (none: they
     read no server file), inside the sandbox of pipeline.sandbox unless `trust_xacro`; expansion
-    is the job's first step, never the request's."""
+    is the job's first step, never the request's, and fails past `xacro_timeout` seconds."""
     app = Flask(__name__)
     app.config["MAX_CONTENT_LENGTH"] = max_body
     kb = Services(store, jobs, policy or Policy(), token, max_body, query_timeout, max_links, max_waiters,
-                  threading.BoundedSemaphore(max_waiters), package_paths, trust_xacro)
+                  threading.BoundedSemaphore(max_waiters), package_paths, trust_xacro, xacro_timeout)
     app.extensions[EXTENSION] = kb
     kb.policy.install(app, refusal)
     app.register_error_handler(QueueFull, queue_full)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Sequence
 
 from urdfkb import __version__
 from urdfkb.limits import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
-                           MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY)
+                           MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY, XACRO_TIMEOUT)
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
 
@@ -78,8 +78,8 @@ def _settings(args: argparse.Namespace, structure_only: bool = False):
 
 
 def _limits(args: argparse.Namespace) -> dict:
-    """load_urdf's size and count limits from the command line (the library's defaults where not given)."""
-    return {k: v for k in ("max_bytes", "max_links") if (v := getattr(args, k, None)) is not None}
+    """The input limits given on the command line: size, count, xacro time (the library's defaults where not given)."""
+    return {k: v for k in ("max_bytes", "max_links", "xacro_timeout") if (v := getattr(args, k, None)) is not None}
 
 
 def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace, timings, limits: dict,
@@ -274,6 +274,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--max-links", type=int, metavar="N", help=f"refuse URDFs with more links or joints than this (default {MAX_LINKS:,})")
     _add_package_path(g, "let uploaded xacro files include from this ROS package folder via $(find NAME) or package://NAME/ "
                          "(repeatable; without it, uploads read no server file)")
+    g.add_argument("--xacro-timeout", type=float, metavar="S", help="stop an uploaded xacro's expansion (its job fails) "
+                   f"after this many seconds of wall time (default {XACRO_TIMEOUT:g})")
     g.add_argument("--trust-xacro", action="store_true", help="expand uploaded xacro files without the operating-system "
                    "sandbox (bubblewrap + seccomp): only where every client may run code as the server's user")
     g.add_argument("--max-result-rows", type=int, default=MAX_RESULT_ROWS, metavar="N",

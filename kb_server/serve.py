@@ -15,7 +15,7 @@ from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
 from urdfkb.limits import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER,
                            MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY, QUERY_TIMEOUT, THREADS,
-                           job_waiters)
+                           XACRO_TIMEOUT, job_waiters)
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
@@ -32,6 +32,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                 llm_urls: Sequence[str] = (), insecure_no_token: bool = False,
                 max_links: int = MAX_LINKS, max_header: int = MAX_HEADER,
                 package_paths: dict[str, Path] | None = None, trust_xacro: bool = False,
+                xacro_timeout: float = XACRO_TIMEOUT,
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS, channel_timeout: int = CHANNEL_TIMEOUT,
                 header_timeout: float = HEADER_TIMEOUT, body_timeout: float = BODY_TIMEOUT,
@@ -49,10 +50,12 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
     longer than `header_timeout` seconds from its first byte, or its body `body_timeout` seconds
     more. With a remote store, every robot already stored is
     mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or
-    refused where it is unavailable, unless `trust_xacro`."""
+    refused where it is unavailable, unless `trust_xacro`; an expansion fails past `xacro_timeout` s."""
     check_bind(host, token, insecure_no_token)
     if min(max_connections, channel_timeout, header_timeout, body_timeout) < 1:
         raise UrdfkbError("--max-connections, --channel-timeout, --header-timeout and --body-timeout must be at least 1")
+    if not xacro_timeout > 0:
+        raise UrdfkbError("--xacro-timeout must be more than 0 seconds")
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
     connections = open_files_for(max_connections)
     store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes, query_memory))
@@ -60,7 +63,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
     jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
                      max_links=max_links, max_waiters=job_waiters(threads), package_paths=package_paths,
-                     trust_xacro=trust_xacro)
+                     trust_xacro=trust_xacro, xacro_timeout=xacro_timeout)
     # waitress buffers a whole request before the app sees it (refusing a body of max_request_body_size
     # bytes or more), so bodies over max_body are refused before they fill memory or a temporary file;
     # poll(), unlike select(), takes descriptors past 1023.
@@ -101,8 +104,8 @@ def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: i
     """
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     packages = parse_package_paths(package_paths)
-    trees = [load_description(path, packages=packages, max_bytes=max_body,
-                              max_links=options.get("max_links", MAX_LINKS)) for path in populate]
+    trees = [load_description(path, packages=packages, max_bytes=max_body, max_links=options.get("max_links", MAX_LINKS),
+                              timeout=options.get("xacro_timeout", XACRO_TIMEOUT)) for path in populate]
     for tree in trees:
         check_robot_name(tree.robot_name)
     server, store, jobs = make_server(store_path, host, port, token, remote_store, query_timeout, max_body, threads,

@@ -32,6 +32,7 @@ class Services:
     waiters: threading.BoundedSemaphore  # one per client waiting on a job (GET /jobs/<id>?wait=1)
     package_paths: Mapping[str, Path] | None
     trust_xacro: bool
+    xacro_timeout: float  # seconds of wall time one xacro expansion may take
 
     def authorized(self) -> bool:
         """The request carries the server's token (never true when no token is configured)."""

@@ -6,7 +6,8 @@ file-size limits and lowers its priority before reading its input, and may read 
 file's folder (command line) and the package paths given; see its docstring for every guard.
 Those guards live in the interpreter that runs the expression, so for documents from strangers
 (`confined=True`, the server) the child also runs inside the operating-system boundary of
-pipeline.sandbox (bubblewrap and seccomp, as an unprivileged user). Its output is read with a cap.
+pipeline.sandbox (bubblewrap and seccomp, as an unprivileged user). Its output is read with a cap, it
+is killed past its wall-clock limit, and at most one expansion runs per core at once (sandbox.SLOTS).
 Every refusal is a XacroError (a URDFError) naming the file and line.
 """
 from __future__ import annotations
@@ -16,24 +17,22 @@ import os
 import subprocess
 import sys
 import tempfile
-import threading
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from urdfkb.limits import MAX_BYTES, MAX_LINKS
+from urdfkb.limits import MAX_BYTES, MAX_LINKS, XACRO_TIMEOUT
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.tree import KinematicTree
 
 WORKER = Path(__file__).with_name("xacro_worker.py")
-TIMEOUT = 20.0          # seconds of wall time for one expansion
 CPU_SECONDS = 10
 MEMORY = 1 << 30        # address space of the child
 SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the sandbox
 SANDBOX_MAIN = "/main"
 XACRO_NS = b"http://www.ros.org/wiki/xacro"
-_RUNNING = threading.BoundedSemaphore(2)  # at most two children (2 x MEMORY) at once per process
+PACKAGES = ("xacro", "yaml", "defusedxml")  # what the worker imports besides the standard library
 
 
 class XacroError(URDFError):
@@ -72,12 +71,13 @@ def parse_package_paths(items: Iterable[str]) -> dict[str, Path]:
 
 def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
            args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-           max_bytes: int = MAX_BYTES, timeout: float = TIMEOUT, confined: bool = False) -> bytes:
+           max_bytes: int = MAX_BYTES, timeout: float = XACRO_TIMEOUT, confined: bool = False) -> bytes:
     """The URDF that xacro document `data` (called `name`) expands to.
 
     Includes, `$(find NAME)` and `package://NAME/` resolve inside `main_dir` (None for uploads:
     then nothing beside the package paths) and `packages` only; `args` are the xacro:arg values.
-    `confined` runs the child inside pipeline.sandbox (sandbox.Unavailable where it cannot)."""
+    `confined` runs the child inside pipeline.sandbox (sandbox.Unavailable where it cannot). Past
+    `timeout` seconds of wall time the child and everything it started are killed."""
     if len(data) > max_bytes:
         raise XacroError(f"{name}: too large: over the {max_bytes}-byte limit")
     packages = {k: Path(v).resolve() for k, v in (packages or {}).items()}
@@ -92,18 +92,19 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
                "args": dict(args or {}), "packages": seen_packages, "max_bytes": max_bytes}
     limits = json.dumps({"memory": MEMORY, "cpu": CPU_SECONDS})
     cap = 2 * max_bytes + 65536  # the JSON answer around an expanded URDF of at most max_bytes
-    with _RUNNING, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
-        try:
-            if confined:
-                code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap)
-            else:
+    try:
+        if confined:
+            code, out, err = sandbox.run(WORKER, [limits], mounts, json.dumps(request).encode(), timeout, cap, PACKAGES)
+        else:
+            with sandbox.SLOTS, tempfile.TemporaryDirectory(prefix="urdfkb-xacro-") as empty:
                 code, out, err = sandbox.bounded_run([sys.executable, "-I", str(WORKER), limits],
                                                      json.dumps(request).encode(), timeout, cap,
                                                      cwd=empty, env={"PATH": "/usr/bin:/bin"})
-        except subprocess.TimeoutExpired:
-            raise XacroError(f"{name}: expansion took longer than {timeout:.0f} s (a macro or expression that does not end?)") from None
-        except sandbox.Unavailable as e:
-            raise XacroError(f"{name}: cannot confine the expansion: {e}") from None
+    except subprocess.TimeoutExpired:
+        raise XacroError(f"{name}: expansion took longer than {timeout:g} s, the xacro time limit (wall time, "
+                         "--xacro-timeout): a macro or expression that does not end, or waits?") from None
+    except sandbox.Unavailable as e:
+        raise XacroError(f"{name}: cannot confine the expansion: {e}") from None
     if code != 0 or not out:
         raise XacroError(f"{name}: expansion stopped by its CPU or memory limit (an expression or macro that grows "
                          f"without bound?){_tail(err)}")
@@ -123,12 +124,12 @@ def _tail(stderr: bytes) -> str:
 
 def load_description(source: str | os.PathLike | bytes, *, filename: str | None = None,
                      args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
-                     max_bytes: int = MAX_BYTES, max_links: int = MAX_LINKS,
+                     max_bytes: int = MAX_BYTES, max_links: int = MAX_LINKS, timeout: float = XACRO_TIMEOUT,
                      trust_folder: bool = True, confined: bool = False) -> KinematicTree:
     """A URDF or xacro file (path) or document (bytes) as a checked tree.
 
     For a path, the file's own folder may be read by includes when `trust_folder` (the command
-    line); uploaded bytes never read anything but the package paths. `confined`: see expand()."""
+    line); uploaded bytes never read anything but the package paths. `timeout`, `confined`: see expand()."""
     main_dir = None
     if isinstance(source, bytes):
         data = source
@@ -147,7 +148,7 @@ def load_description(source: str | os.PathLike | bytes, *, filename: str | None 
             raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
         return load_urdf(data, max_bytes=max_bytes, max_links=max_links)
     urdf = expand(data, filename or "robot.urdf.xacro", main_dir=main_dir, args=args, packages=packages,
-                  max_bytes=max_bytes, confined=confined)
+                  max_bytes=max_bytes, timeout=timeout, confined=confined)
     try:
         return load_urdf(urdf, max_bytes=max_bytes, max_links=max_links)
     except URDFError as e:

@@ -138,6 +138,28 @@ def test_http_populate_of_xacro_reads_only_configured_packages(tmp_path):
         store.close()
 
 
+def test_the_xacro_time_limit_is_set_by_serve_xacro_timeout(tmp_path, monkeypatch):
+    from urdfkb.kb_server import serve
+    from urdfkb.kb_server.cli import _limits, build_parser
+    from urdfkb.pipeline.errors import UrdfkbError
+    assert _limits(build_parser().parse_args(["serve", "--xacro-timeout", "2.5"]))["xacro_timeout"] == 2.5
+    real, apps = serve.create_app, []
+
+    def spy(*args, **kwargs):
+        apps.append(real(*args, **kwargs))
+        return apps[-1]
+    monkeypatch.setattr(serve, "create_app", spy)
+    server, store, jobs = serve.make_server(tmp_path / "kb.sqlite3", port=0, xacro_timeout=2.5)
+    try:
+        assert apps[0].extensions["urdfkb"].xacro_timeout == 2.5
+    finally:
+        server.close()
+        jobs.shutdown()
+        store.close()
+    with pytest.raises(UrdfkbError, match="--xacro-timeout"):
+        serve.make_server(tmp_path / "kb.sqlite3", port=0, xacro_timeout=0)
+
+
 def test_plain_urdf_with_xacro_arguments_is_an_error():
     with pytest.raises(URDFError, match="not a xacro file"):
         load_description(b'<robot name="r"><link name="a"/></robot>', filename="r.urdf", args={"x": "1"})

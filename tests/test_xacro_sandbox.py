@@ -2,10 +2,16 @@
 in the job queue, with their output capped (issue 19). Each attack here worked on the code before."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
+import shutil
+import socket
+import subprocess
 import sys
+import sysconfig
+import threading
 import time
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -20,6 +26,10 @@ from urdfkb.pipeline.xacro_input import XacroError, expand
 
 XNS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
 ATTACKS = Path(__file__).parent / "data" / "sandbox" / "attacks.py"
+EXPOSURE = Path(__file__).parent / "data" / "sandbox" / "exposure.py"
+SPIN = Path(__file__).parent / "data" / "sandbox" / "spin.py"
+EPERM = "refused: errno 1"
+ENOENT = "refused: errno 2"
 confined_only = pytest.mark.skipif(bool(sandbox.unavailable()), reason=f"no sandbox here: {sandbox.unavailable()}")
 
 # A published escape from xacro's expression namespace: python.vars/python.type reach a function's
@@ -36,6 +46,15 @@ def escape(code: str) -> bytes:
     expr = (f"{_BUILTINS}['exec']({disarm + code!r}, "
             f"python.dict([('_'+'_builtins_'+'_', {_BUILTINS}), ('G', {_XACRO_GLOBALS})]))")
     return f'<robot name="r" {XNS}><link name={quoteattr("${" + expr + "}")}/></robot>'.encode()
+
+
+def leak(code: str) -> bytes:
+    """A xacro document whose one link is named by `code`'s value, evaluated with the real builtins as
+    `B` once the audit hook is off (no double underscore in `code`: xacro refuses it)."""
+    env = f"python.dict([('_'+'_builtins_'+'_', {_BUILTINS}), ('G', {_XACRO_GLOBALS}), ('B', {_BUILTINS})])"
+    disarm = "G['sys'].modules['_'+'_main_'+'_'].audit.__code__=(lambda e, a: None).__code__"
+    expr = f"[{_BUILTINS}['exec']({disarm!r}, {env}), {_BUILTINS}['eval']({code!r}, {env})][1]"
+    return f'<robot name="leak" {XNS}><link name={quoteattr("${" + expr + "}")}/></robot>'.encode()
 
 
 RUN_ID = "import subprocess; raise ValueError('uid_' + subprocess.run(['id', '-u'], capture_output=True, text=True).stdout.strip())"
@@ -108,6 +127,73 @@ def test_the_server_refuses_xacro_where_no_sandbox_can_run(tmp_path, monkeypatch
         store.close()
 
 
+SLEEP = "__import__('time').sleep(60)"
+
+
+def _populate(app, jobs, doc: bytes):
+    """POST `doc` (a raw xacro body) and wait for its job: (job, seconds from the post to its end)."""
+    started = time.monotonic()
+    status, _, out = client(app)("POST", "/populate?structure_only=true", doc, {"Content-Type": "application/xml"})
+    assert status == 202, out
+    job = jobs.get(json.loads(out)["id"])
+    assert job.wait(30)
+    return job, time.monotonic() - started
+
+
+@confined_only
+def test_a_sleeping_xacro_job_ends_within_15_s(tmp_path):
+    """Sleeping costs no CPU: before, only a 20 s wall clock ended it. Now the seccomp allow-list refuses
+    the sleep (and the 10 s wall clock would end it otherwise)."""
+    store = Store(tmp_path / "kb.sqlite3")
+    try:
+        app, jobs = make_app(store)
+        job, seconds = _populate(app, jobs, escape(SLEEP))
+        assert seconds < 15 and job.state == "failed", (seconds, job.errors)
+        assert re.search(r"Operation not permitted|longer than 10 s, the xacro time limit", job.errors[0])
+        jobs.shutdown()
+    finally:
+        store.close()
+
+
+@confined_only
+def test_the_wall_clock_limit_ends_a_job_that_does_not_end(tmp_path):
+    """A busy loop, with the server's --xacro-timeout 2: the job fails after 2 s, naming the limit."""
+    store = Store(tmp_path / "kb.sqlite3")
+    try:
+        app, jobs = make_app(store, xacro_timeout=2)
+        job, seconds = _populate(app, jobs, escape("while True: pass"))
+        assert seconds < 5 and job.state == "failed", (seconds, job.errors)
+        assert "longer than 2 s, the xacro time limit (wall time, --xacro-timeout)" in job.errors[0]
+        jobs.shutdown()
+    finally:
+        store.close()
+
+
+def _processes_running(marker: str, but: str | None = None) -> list[str]:
+    """The pids of the processes with `marker` in their command line (but not those of program `but`)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            line = cmdline.read_bytes().decode("utf-8", "replace")
+        except OSError:
+            continue
+        if marker in line and (but is None or not line.startswith(but + "\0")):
+            found.append(cmdline.parent.name)
+    return found
+
+
+def test_past_the_limit_the_whole_process_group_is_killed():
+    """An (unconfined) expansion that starts a sleeper holding its output: the sleeper dies with it,
+    and the limit is not stretched by waiting for the sleeper's pipe (before: 5 s more, sleeper alive)."""
+    marker = "77.123"
+    code = f"import subprocess; subprocess.Popen(['sleep', '{marker}']); {SLEEP}"
+    started = time.monotonic()
+    with pytest.raises(XacroError, match="longer than 2 s"):
+        expand(escape(code), "sleeper.urdf.xacro", timeout=2)
+    assert time.monotonic() - started < 4
+    assert _processes_running(marker) == []
+
+
 @pytest.mark.slow
 @confined_only
 def test_hostile_xacro_jobs_cost_no_other_route(tmp_path):
@@ -132,3 +218,119 @@ def test_hostile_xacro_jobs_cost_no_other_route(tmp_path):
         assert slowest < 1.0, slowest
     jobs.shutdown()
     store.close()
+
+
+def _syscalls(*names: str) -> list[str]:
+    """NAME=NUMBER of each system call on this machine, for exposure.py."""
+    import pyseccomp
+    return [f"{name}={pyseccomp.resolve_syscall(pyseccomp.system_arch(), name)}" for name in names]
+
+
+def _exposure() -> dict:
+    site = sysconfig.get_paths(vars={"base": sys.base_prefix, "platbase": sys.base_exec_prefix})["purelib"]
+    calls = _syscalls("personality", "uname", "socket", "unshare", "sethostname")
+    code, out, err = sandbox.run(EXPOSURE, [sys.prefix, site, *calls], {}, b"", 30, 65536)
+    assert code == 0, err
+    return json.loads(out)
+
+
+def _assert_shows_only_what_expansion_needs(facts: dict) -> None:
+    assert facts.pop("uid") == 65534  # nobody
+    assert facts.pop("host name") == facts.pop("uname") == EPERM  # uname(2) is not on the allow-list
+    assert facts.pop("/dev") == ["null", "urandom", "zero"]
+    assert facts.pop("/dev/pts") == facts.pop("/dev/tty") == ENOENT
+    assert not set(facts.pop("the root")) & {"bin", "sbin", "etc", "proc", "sys", "tmp", "home", "var", "run", "opt"}
+    assert facts.pop("/usr/local") is facts.pop("/bin/sh") is False
+    assert facts.pop("the venv") is (sys.prefix == sys.base_prefix)  # a venv is never mounted
+    assert facts.pop("site-packages") in ([], ENOENT) and facts.pop("import pip") == "refused: ModuleNotFoundError"
+    assert facts == {f"syscall {name}": EPERM for name in ("personality", "uname", "socket", "unshare", "sethostname")}
+
+
+@confined_only
+def test_the_sandbox_shows_only_what_expansion_needs():
+    """Before: all of /usr (/usr/local too), the venv, the host's name, a full /dev where /dev/pts opened,
+    and a deny-list letting ctypes make every other system call (personality, uname, sethostname...)."""
+    _assert_shows_only_what_expansion_needs(_exposure())
+
+
+@confined_only
+def test_where_the_kernel_refuses_a_user_namespace_the_sandbox_runs_as_the_hosts_nobody(monkeypatch):
+    if os.geteuid() != 0:
+        pytest.skip("the fallback is for a server running as root")
+    monkeypatch.setattr(sandbox, "_userns_refusal", lambda: "refused for the test")
+    _assert_shows_only_what_expansion_needs(_exposure())
+
+
+@confined_only
+def test_the_sandbox_has_its_own_user_namespace():
+    """Before, a root server's sandbox shared the host's user namespace (setpriv only changed its uid)."""
+    runner = threading.Thread(target=_run_briefly, args=(SPIN,))
+    runner.start()
+    try:
+        namespaces: set[str] = set()
+        deadline = time.monotonic() + 5
+        while not namespaces and time.monotonic() < deadline:
+            for pid in _processes_running(SPIN.name, but=shutil.which("bwrap")):  # python, not bwrap
+                try:
+                    namespaces.add(os.readlink(f"/proc/{pid}/ns/user"))
+                except OSError:
+                    pass
+            time.sleep(0.05)
+    finally:
+        runner.join()
+    assert namespaces and os.readlink("/proc/self/ns/user") not in namespaces
+
+
+def _run_briefly(program: Path) -> None:
+    """Run `program` confined for 2 s at most."""
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        sandbox.run(program, [], {}, b"", 2, 4096)
+
+
+HOST_FACTS = {
+    "host name": "B['_'+'_import_'+'_']('socket').gethostname()",
+    "uname": "'-'.join(B['_'+'_import_'+'_']('os').uname())",
+    "/etc/hostname": "B['open']('/etc/hostname').read().strip()",
+    "/proc": "B['open']('/proc/sys/kernel/hostname').read().strip()",
+}
+
+
+@confined_only
+@pytest.mark.parametrize("fact", HOST_FACTS)
+def test_host_facts_never_reach_the_store(tmp_path, fact):
+    """Before, the host's name (through socket or uname) became a link's name in the store."""
+    store = Store(tmp_path / "kb.sqlite3")
+    host = {socket.gethostname(), "-".join(os.uname())}
+    try:
+        app, jobs = make_app(store)
+        job, _ = _populate(app, jobs, leak(HOST_FACTS[fact]))
+        graph = store.graph("leak")
+        stored = {str(term) for triple in graph for term in triple} if graph is not None else set()
+        assert not host & stored and not any(h in e for h in host for e in job.errors)
+        assert job.state == "failed" and "Operation not permitted" in job.errors[0] or "No such file" in job.errors[0]
+        jobs.shutdown()
+    finally:
+        store.close()
+
+
+@confined_only
+def test_at_most_one_sandbox_runs_per_core(monkeypatch):
+    """Before, any number of sandboxes ran at once (the xacro loader let two through, whatever the cores)."""
+    cores = len(os.sched_getaffinity(0))
+    running_now, most, lock = [0], [0], threading.Lock()
+
+    def fake_run(argv, stdin, timeout, max_output, **popen):
+        with lock:
+            running_now[0] += 1
+            most[0] = max(most[0], running_now[0])
+        time.sleep(0.2)
+        with lock:
+            running_now[0] -= 1
+        return 0, b"", b""
+    monkeypatch.setattr(sandbox, "bounded_run", fake_run)
+    runs = [threading.Thread(target=sandbox.run, args=(SPIN, [], {}, b"", 5, 4096)) for _ in range(cores + 2)]
+    for t in runs:
+        t.start()
+    for t in runs:
+        t.join()
+    assert most[0] == cores

@@ -8,6 +8,7 @@ line, the server and the library cannot drift apart.
 MAX_BYTES = 10_000_000  # bytes of a URDF or xacro document, and of a request body: --max-bytes (populate), 413
 MAX_LINKS = 5_000  # links or joints of one robot (the largest real robots have a few hundred): --max-links
 MAX_JSON_DEPTH = 32  # arrays and objects nested in a JSON request body (a correction needs 2): 400
+XACRO_TIMEOUT = 10.0  # seconds of wall time one xacro expansion may take (its process group is killed): --xacro-timeout
 
 # SPARQL
 QUERY_TIMEOUT = 10.0  # seconds a query or update may run (a worker past it is killed): 503

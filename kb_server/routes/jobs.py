@@ -86,12 +86,12 @@ def _xacro_loader(kb: Services, data: bytes, filename: str | None,
         raise Refused(403, f"xacro input is disabled on this server: xacro expressions are Python code, and "
                          f"this machine cannot run them confined ({reason}); send the expanded URDF, or the "
                          "operator can start the server with --trust-xacro")
-    packages, max_body, max_links = kb.package_paths, kb.max_body, kb.max_links
+    packages, max_body, max_links, timeout = kb.package_paths, kb.max_body, kb.max_links, kb.xacro_timeout
 
     def load() -> KinematicTree:
         try:
             return load_description(data, filename=filename, args=args, packages=packages,
-                                    max_bytes=max_body, max_links=max_links, confined=confined)
+                                    max_bytes=max_body, max_links=max_links, timeout=timeout, confined=confined)
         except XacroError as e:
             raise XacroError(f"cannot expand the xacro: {e}") from None
     return load
