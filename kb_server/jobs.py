@@ -264,7 +264,7 @@ class JobManager:
 
     @staticmethod
     def _load(job: Job, load: Callable[[], KinematicTree]) -> KinematicTree:
-        job.stage = "expand"
+        job.stage = "load"
         tree = load()
         if job.robot is None:
             try:

@@ -21,7 +21,7 @@ import defusedxml.ElementTree as DET
 import yourdfpy
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
-from urdfkb.limits import MAX_BYTES, MAX_LINKS
+from urdfkb.limits import MAX_BYTES, MAX_LINKS, MAX_XML_ATTRIBUTES, MAX_XML_ELEMENTS
 from urdfkb.pipeline import evidence
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
@@ -110,9 +110,28 @@ def _check_counts(robot: ET.Element, max_links: int) -> None:
 # -- 2. hardened XML ----------------------------------------------------------------------
 
 
+class _CountingBuilder(ET.TreeBuilder):
+    """Builds the element tree and refuses, as the parser reaches them, more elements or attributes than
+    MAX_XML_ELEMENTS / MAX_XML_ATTRIBUTES: a hostile document is refused before its tree fills memory."""
+
+    elements = attributes = 0
+
+    def start(self, tag, attrs):
+        self.elements += 1
+        self.attributes += len(attrs)
+        if self.elements > MAX_XML_ELEMENTS:
+            raise URDFError(f"more than {MAX_XML_ELEMENTS:,} XML elements (no real URDF has as many)", f"<{tag}>")
+        if self.attributes > MAX_XML_ATTRIBUTES:
+            raise URDFError(f"more than {MAX_XML_ATTRIBUTES:,} XML attributes (no real URDF has as many)", f"<{tag}>")
+        return super().start(tag, attrs)
+
+
 def _parse_hardened(data: bytes) -> ET.Element:
+    parser = DET.DefusedXMLParser(target=_CountingBuilder(), forbid_dtd=True, forbid_entities=True,
+                                  forbid_external=True)
     try:
-        root = DET.fromstring(data, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+        parser.feed(data)
+        root = parser.close()
     except DTDForbidden as err:
         raise _dtd_refusal(data, err) from None
     except ET.ParseError as err:

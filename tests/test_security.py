@@ -185,14 +185,36 @@ def star(links: int) -> bytes:
     return f'<robot name="huge">{"".join(body)}</robot>'.encode()
 
 
-def test_too_many_links_are_refused_before_queueing(kb):
+def test_too_many_links_are_refused_before_the_pipeline(kb):
+    """Counted as the upload is parsed in its job (never on the request thread): the pipeline never sees it."""
     app, jobs = kb(runner=(runner := recording(fake_runner())), max_links=100)
     c = app.test_client()
     r = c.post("/populate", data=star(101), content_type=XML)
-    assert r.status_code == 400 and "too many links: 101, over the limit of 100" in r.json["error"]
-    assert c.post("/populate", data=star(100), content_type=XML).status_code == 202
+    assert r.status_code == 202
+    done = c.get(f"/jobs/{r.json['id']}?wait=1").json
+    assert done["state"] == "failed" and "too many links: 101, over the limit of 100" in done["errors"][0]
+    r = c.post("/populate", data=star(100), content_type=XML)
+    assert r.status_code == 202 and c.get(f"/jobs/{r.json['id']}?wait=1").json["state"] == "succeeded"
     jobs.shutdown()
     assert len(runner.calls) == 1
+
+
+def test_a_huge_upload_is_parsed_in_its_job_and_refused_by_its_attribute_count(kb):
+    """A 5.6 MB URDF of 700,000 attributes: the POST answers at once (the request thread parses nothing), the job
+    fails naming the cap, and /robots answers meanwhile."""
+    app, jobs = kb(runner=(runner := recording(fake_runner())))
+    c = app.test_client()
+    attrs = " ".join(f'a{i}="1"' for i in range(100))
+    doc = ('<robot name="big"><link name="l"/>' + f"<g {attrs}/>" * 7_000 + "</robot>").encode()
+    assert len(doc) > 5_000_000
+    started = time.monotonic()
+    r = c.post("/populate", data=doc, content_type=XML)
+    assert r.status_code == 202 and time.monotonic() - started < 2.0
+    assert c.get("/robots").status_code == 200
+    done = c.get(f"/jobs/{r.json['id']}?wait=1").json
+    assert done["state"] == "failed" and "more than 250,000 XML attributes" in done["errors"][0], done
+    jobs.shutdown()
+    assert runner.calls == []
 
 
 # --- bounded waits, queue, expiry --------------------------------------------------------------

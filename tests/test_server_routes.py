@@ -122,8 +122,10 @@ def test_populate_raw_and_multipart_then_robot_routes(server, shared):
 
 
 def test_bad_input(server, shared):
-    status, ctype, out = populate(server, b"<html><body>hi</body></html>")
-    assert status == 400 and ctype.startswith("application/json") and "URDF" in out["error"]
+    status, ctype, job = populate(server, b"<html><body>hi</body></html>")  # parsed in its job, off the request thread
+    assert status == 202
+    done = wait(server, job["id"])
+    assert done["state"] == "failed" and "not a valid URDF" in done["errors"][0] and done["stage"] == "load"
     status, _, out = populate(server, b"x" * 2_000_001)
     assert status == 413
     status, _, out = populate(server, urdf(shared), "?votes=many")

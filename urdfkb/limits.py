@@ -7,6 +7,8 @@ line, the server and the library cannot drift apart.
 # Input
 MAX_BYTES = 10_000_000  # bytes of a URDF or xacro document, and of a request body: --max-bytes (populate), 413
 MAX_LINKS = 5_000  # links or joints of one robot (the largest real robots have a few hundred): --max-links
+MAX_XML_ELEMENTS = 250_000  # elements of a URDF document (PR2 has 2,564; 50 a link at MAX_LINKS): refused as parsed
+MAX_XML_ATTRIBUTES = 250_000  # attributes of a URDF document (PR2 has 2,671; the truth robots at most 35 a link)
 MAX_JSON_DEPTH = 32  # arrays and objects nested in a JSON request body (a correction needs 2): 400
 XACRO_TIMEOUT = 10.0  # seconds of wall time one xacro expansion may take (its process group is killed): --xacro-timeout
 

@@ -13,6 +13,7 @@ from urdfkb.kb_server.store import RobotNameError, check_robot_name
 from urdfkb.limits import JOB_WAIT
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
+from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args
@@ -52,8 +53,9 @@ def populate():
         args = parse_args(xacro_args)
         if is_xacro(filename, data):
             return accepted(kb.jobs.submit(_xacro_loader(kb, data, filename, args), name, settings))
-        tree = load_description(data, filename=filename, args=args, max_bytes=kb.max_body, max_links=kb.max_links)
-        return accepted(kb.jobs.submit(tree, check_robot_name(name or tree.robot_name), settings))
+        if args:
+            raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
+        return accepted(kb.jobs.submit(_urdf_loader(kb, data), name, settings))
     except XacroError as e:
         return error(400, f"cannot expand the xacro: {e}")
     except URDFError as e:
@@ -75,6 +77,19 @@ def repopulate(name: str):
         return error(404, f"no stored URDF for robot {name!r}")
     tree, model = source
     return accepted(kb.jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only")))
+
+
+def _urdf_loader(kb: Services, data: bytes) -> Callable[[], KinematicTree]:
+    """The job's first step for a URDF upload: parsing and checking it, off the request thread (a large
+    hostile document costs a job slot, never a server thread or the store lock)."""
+    max_body, max_links = kb.max_body, kb.max_links
+
+    def load() -> KinematicTree:
+        try:
+            return load_urdf(data, max_bytes=max_body, max_links=max_links)
+        except URDFError as e:
+            raise URDFError(f"not a valid URDF: {e}") from None
+    return load
 
 
 def _xacro_loader(kb: Services, data: bytes, filename: str | None,
