@@ -44,9 +44,15 @@ def backend(model_path):
 @pytest.fixture(scope="module")
 def reference(model_path, backend):
     """Naive scores: each full prompt + option evaluated alone, fresh KV cache, logits at every position."""
+    import llama_cpp
     from llama_cpp import Llama
 
-    llm = Llama(str(model_path), n_ctx=2048, logits_all=True, verbose=False)
+    from urdfkb.pipeline.llm.llama import without_amx_buffers
+
+    default = llama_cpp.llama_cpp.llama_model_default_params
+    with pytest.MonkeyPatch.context() as patch:  # the backend's model parameters (no AMX buffers where it has them)
+        patch.setattr(llama_cpp.llama_cpp, "llama_model_default_params", lambda: without_amx_buffers(default()))
+        llm = Llama(str(model_path), n_ctx=2048, logits_all=True, verbose=False)
 
     def score(q):
         prompt, row = backend.prompt_tokens(q), []

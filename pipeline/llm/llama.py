@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import ctypes
+import functools
 import logging
 import math
 import os
@@ -542,11 +543,33 @@ def _load_model(llama_cpp, internals, path: Path):
         set_verbose(False)  # llama.cpp's log: errors only, as Llama(verbose=False) sets it
         llama_cpp.llama_backend_init()
         _BACKEND_READY = True
-    params = llama_cpp.llama_model_default_params()
+    params = without_amx_buffers(llama_cpp.llama_model_default_params())
     params.n_gpu_layers, params.split_mode, params.main_gpu = 0, llama_cpp.LLAMA_SPLIT_MODE_LAYER, 0
     params.vocab_only = False
     params.load_mode = llama_cpp.LLAMA_LOAD_MODE_MMAP
     return internals.LlamaModel(path_model=str(path), params=params, verbose=False)
+
+
+def without_amx_buffers(params):
+    """llama.cpp model parameters `params`, less the extra weight buffers on a processor with AMX: the AMX
+    matrix kernel of llama-cpp-python 0.3.36 (built natively) segfaults in its first batched decode on such
+    a machine (gdb: ggml_backend_amx_mul_mat, Sapphire Rapids under this workplace's VMs), and without the
+    extra buffers the weights stay in the ordinary CPU buffer, whose kernels answer (measured: Qwen2.5-Coder
+    1.5B completes, the AMX build crashes every time with 2 threads)."""
+    if cpu_has_amx():
+        params.use_extra_bufts = False
+    return params
+
+
+@functools.cache
+def cpu_has_amx() -> bool:
+    """The processor offers AMX tiles (Linux /proc/cpuinfo flags; False where that cannot be read)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = next((line for line in f if line.startswith("flags")), "")
+    except OSError:
+        return False
+    return "amx_tile" in flags.split()
 
 
 def _file_identity(path: Path) -> list:
