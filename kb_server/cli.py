@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from tqdm import tqdm
 
 DEFAULT_TRUTH = Path("..") / "shared" / "eval" / "truth"
+FOLDS = Path(__file__).resolve().parents[1] / "benchmarks" / "folds.yaml"  # in a checkout only
 
 
 class StageBars:
@@ -153,6 +154,16 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from urdfkb.pipeline.truth_run import run_truth_robot
     truth_dir = Path(args.truth_dir)
     files = sorted(truth_dir.glob("*.yaml"))
+    folds = evaluation.load_folds(args.folds) if args.folds else {}
+    if args.fold:
+        if unknown_folds := set(args.fold) - set(folds):
+            raise UrdfkbError(f"no fold {', '.join(sorted(unknown_folds))} in {args.folds} (folds: {', '.join(folds)})")
+        args.robot += [r for f in args.fold for r in folds[f]]
+    if args.robot:
+        unknown = set(args.robot) - {f.stem for f in files}
+        if unknown:
+            raise UrdfkbError(f"no truth file for {', '.join(sorted(unknown))} in {truth_dir}")
+        files = [f for f in files if f.stem in args.robot]
     if not files:
         raise UrdfkbError(f"no truth files (*.yaml) in {truth_dir}")
     if args.traces:
@@ -186,9 +197,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         extra["tokens"][robot] = prov.get("prompt_tokens", "?")
         extra["declared"][robot] = prov.get("declared_constraints", "?")
         extra["seconds"][robot] = f"{result.seconds:.1f}"
-    print(evaluation.format_table(per_robot, extra))
+    print(evaluation.format_table(per_robot, extra, folds))
     if args.json:
-        Path(args.json).write_text(json.dumps({"robots": per_robot, "mean": evaluation.mean_scores(per_robot), "run": extra}, indent=2))
+        Path(args.json).write_text(json.dumps({"robots": per_robot, "mean": evaluation.mean_scores(per_robot),
+                                               "folds": evaluation.fold_means(per_robot, folds), "run": extra}, indent=2))
     return 0
 
 
@@ -250,6 +262,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--traces", metavar="DIR", help="write each robot's question trace to DIR/<robot>.jsonl")
     p.add_argument("--explain", action="store_true",
                    help="after each robot, print what it got wrong (missed, extra, mistyped, misrooted components and sub-parts)")
+    p.add_argument("--robot", action="append", default=[], metavar="NAME",
+                   help="only this truth robot (a file stem; repeatable)")
+    p.add_argument("--folds", metavar="FILE", default=str(FOLDS) if FOLDS.exists() else None,
+                   help="a folds file (robots by family); each fold's mean is printed under the robots "
+                        "(default: benchmarks/folds.yaml of this checkout)")
+    p.add_argument("--fold", action="append", default=[], metavar="NAME",
+                   help="only the robots of this fold of --folds (repeatable)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     _add_model_options(p)
     p.set_defaults(func=cmd_eval)

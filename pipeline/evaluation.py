@@ -35,6 +35,7 @@ from rdflib import RDF, RDFS, URIRef
 from rdflib.term import Node
 
 from urdfkb.pipeline.components import END_EFFECTOR, KINDS, SIDES
+from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.namespaces import CORE
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.tree import KinematicTree
@@ -571,21 +572,40 @@ def _table(rows: list[list[str]]) -> list[str]:
     return [lines[0], "-" * len(lines[0]), *lines[1:]]
 
 
-def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapping[str, object]] | None = None) -> str:
+def load_folds(path: str | Path) -> dict[str, list[str]]:
+    """The folds of a folds file (benchmarks/folds.yaml): fold name -> its robots (truth file stems)."""
+    data = yaml.safe_load(Path(path).read_text())
+    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
+        raise UrdfkbError(f"{path}: expected fold names mapping robots to their families")
+    return {str(fold): list(robots) for fold, robots in data.items()}
+
+
+def fold_means(per_robot: Mapping[str, dict], folds: Mapping[str, list[str]]) -> dict[str, dict]:
+    """mean_scores over each fold's robots that were run (folds none of whose robots ran are left out)."""
+    out = {}
+    for fold, robots in folds.items():
+        runs = {r: per_robot[r] for r in robots if r in per_robot}
+        if runs:
+            out[fold] = mean_scores(runs)
+    return out
+
+
+def format_table(per_robot: Mapping[str, dict], extra_columns: Mapping[str, Mapping[str, object]] | None = None,
+                 folds: Mapping[str, list[str]] | None = None) -> str:
     """Plain-text report: one block per scope (all, sensor, end_effector), rows the robots and
-    their mean, columns the metrics (the headline is TYPED_F1), then the "body" block (its
-    headline BODY_F1, the typed body-part F1). ``extra_columns`` maps a column
+    their mean (and each of `folds`' means), columns the metrics (the headline is TYPED_F1), then the
+    "body" block (its headline BODY_F1, the typed body-part F1). ``extra_columns`` maps a column
     title to ``{robot: value}`` (e.g. model, voting, LLM calls, tokens, wall time), shown in a
     final "run" block; a value under the key ``"mean"`` fills the mean row.
     """
     names = list(per_robot)
-    mean = mean_scores(per_robot)
-    label = {n: n + (" (failed)" if per_robot[n].get("failed") else "") for n in names} | {"mean": "mean"}
+    means = {"mean": mean_scores(per_robot), **{f"mean {f}": m for f, m in fold_means(per_robot, folds or {}).items()}}
+    label = {n: n + (" (failed)" if per_robot[n].get("failed") else "") for n in names} | {m: m for m in means}
     blocks = []
     for scope, metrics, headers in [*((s, METRICS, _HEADERS) for s in SCOPES), (BODY, BODY_METRICS, _BODY_HEADERS)]:
         rows = [[scope, *(headers[m] for m in metrics)]]
         rows += [[label[n], *(_cell(per_robot[n][scope][m]) for m in metrics)] for n in names]
-        rows.append([label["mean"], *(_cell(mean[scope][m]) for m in metrics)])
+        rows += [[label[k], *(_cell(mean[scope][m]) for m in metrics)] for k, mean in means.items()]
         blocks.append("\n".join(_table(rows)))
     if extra_columns:
         cols = list(extra_columns)

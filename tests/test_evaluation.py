@@ -1,12 +1,14 @@
 """Accuracy metrics on hand-built graphs, and a guard on the shared truth data."""
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import pytest
 import rdflib
+import yaml
 from rdflib import RDF, RDFS
 
 from urdfkb.pipeline.evaluation import (
-    CORE, METRICS, SCOPES, failed_scores, format_table, load_truth, mean_scores, read_prediction, score,
+    CORE, METRICS, SCOPES, failed_scores, fold_means, format_table, load_truth, mean_scores, read_prediction, score,
 )
 
 HIERARCHY = {
@@ -266,3 +268,22 @@ def test_a_kind_the_robot_lacks_scores_one_unless_predicted(tmp_path):
     mean = mean_scores({"quiet": quiet, "noisy": noisy})
     assert mean["end_effector"]["root_accuracy"] is None and mean["end_effector"]["typed_f1"] == 0.5
     assert "-" in format_table({"quiet": quiet})
+
+
+def test_each_fold_gets_its_mean_row(truth):
+    per_robot = {"toy": run(truth, PERFECT), "broken": failed_scores(), "other": run(truth, PERFECT)}
+    folds = {"A": ["toy", "other", "not_run"], "B": ["broken"]}
+    means = fold_means(per_robot, folds)
+    assert means["A"]["all"]["typed_f1"] == 1.0 and means["B"]["all"]["typed_f1"] == 0.0
+    lines = format_table(per_robot, folds=folds).splitlines()
+    assert any(line.startswith("mean A") and "1.000" in line for line in lines)
+    assert any(line.startswith("mean B") and "0.000" in line for line in lines)
+
+
+def test_the_folds_split_every_truth_robot_by_family(shared):
+    """Every truth robot in exactly one fold, and no family in both (benchmarks/folds.yaml)."""
+    data = yaml.safe_load((Path(__file__).parents[1] / "benchmarks" / "folds.yaml").read_text())
+    robots = [r for fold in data.values() for r in fold]
+    assert sorted(robots) == sorted(p.stem for p in (shared / "eval" / "truth").glob("*.yaml"))
+    families = [{family for family in fold.values()} for fold in data.values()]
+    assert not set.intersection(*families)
