@@ -22,19 +22,19 @@ from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.evidence import LinkEvidence, named
 from urdfkb.pipeline.ontology import Kind, Vocabulary
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.passes import Pass, PassManager, Step
-from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order
+from urdfkb.pipeline.prompts import NONE, product_text
 from urdfkb.pipeline.stages import tools
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
 from urdfkb.pipeline.stages import body as body_stage
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge
-from urdfkb.pipeline.stages.identification import identify
+from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import ToolStructure
+from urdfkb.pipeline.structure import ToolStructure, feet, hand_leaves
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -42,6 +42,7 @@ _NO_FACTS = LinkEvidence()
 
 
 BODY = "body"  # the pass that finds no component kind: body parts
+BODY_PART = "BodyPart"  # what identification calls a leaf of the body (a foot)
 
 
 @dataclass
@@ -82,6 +83,8 @@ class Abstractor:
         self.shares: dict[str, float] = {}  # leaf → the share of identification's votes its answer had
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
         self.body: tuple[BodyPart, ...] = ()  # the last run's body parts
+        self.hand_tips: frozenset[str] = frozenset()  # leaves of hands and grippers: the end-effector pass's (shape step)
+        self.feet: frozenset[str] = frozenset()  # limb tips the robot stands on: never tools (shape step)
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -101,11 +104,27 @@ class Abstractor:
 
     # --- steps (see PASSES) --------------------------------------------------------------------
 
+    def shape(self, s: PassState) -> None:
+        """What the robot's shape settles before any question (pipeline.structure): the leaves of hands and
+        grippers (their fingers, a hand's drive, tool centre points) belong to the end-effector pass unless a
+        simulator declares a sensor on them, and limb tips the robot stands on are feet, never tools."""
+        declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
+        self.hand_tips = hand_leaves(s.robot) - declared
+        self.feet = feet(s.robot)
+        self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet)})
+
     def identification(self, s: PassState) -> None:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
         s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
+        tools = self.tax.kinds[END_EFFECTOR].cls if END_EFFECTOR in self.tax.kinds else None
+        for leaf in s.leaves:
+            if tools and leaf in self.hand_tips and leaf not in self.claims:
+                self.claims[leaf], self.shares[leaf] = tools, 1.0
         unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
         for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress).items():
+            if kind == tools and leaf in self.feet:  # the tip of a leg: part of the body, as the body pass will find
+                self.log(f"{leaf}: a foot the robot stands on, not a tool")
+                kind = BODY_PART if BODY_PART in self.tax.subclasses(self.tax.component) else NONE
             self.claims[leaf], self.shares[leaf] = kind, share
 
     def mimic_veto(self, s: PassState) -> None:
@@ -309,7 +328,8 @@ class Abstractor:
         with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
         shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
         between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
-        return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}", ruled_out)
+        product = product_text(self.tax, named_product(tree, list(reversed(chain.links))))
+        return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
     def _ruled_out(self, tree: KinematicTree, links, below: str, key: str) -> frozenset[str]:
         """Classes under `below` that the simulator sensors declared on `links` rule out (the
@@ -364,40 +384,45 @@ class Abstractor:
 
 
 SENSOR_PASS = Pass(SENSOR, (
-    Step("identification", Abstractor.identification),
-    Step("mimic veto", Abstractor.mimic_veto),
-    Step("sensor check", Abstractor.sensor_check),
-    Step("attachment", partial(Abstractor.attachment, rigid=True)),
-    Step("pre-classification", Abstractor.pre_classification),
-    Step("group merging", Abstractor.group_merging),
-    Step("verification", Abstractor.verification),
-    Step("post-classification", Abstractor.post_classification),
-    Step("numbered units", Abstractor.numbered_units),
-    Step("sub-part typing", Abstractor.subpart_typing),
-    Step("assembly", Abstractor.assembly),
+    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet")),
+    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet"),
+         ("leaves", "claims")),
+    Step("mimic veto", Abstractor.mimic_veto, ("leaves", "claims"), ("claims",)),
+    Step("sensor check", Abstractor.sensor_check, ("leaves", "claims"), ("claims",)),
+    Step("attachment", partial(Abstractor.attachment, rigid=True), ("leaves", "claims"), ("chains",)),
+    Step("pre-classification", Abstractor.pre_classification, ("chains",), ("pre",)),
+    Step("group merging", Abstractor.group_merging, ("chains", "pre"), ("groups",)),
+    Step("verification", Abstractor.verification, ("groups", "claims"), ("groups",)),
+    Step("post-classification", Abstractor.post_classification, ("groups", "pre"), ("post",)),
+    Step("numbered units", Abstractor.numbered_units, ("groups", "pre", "post"), ("groups", "post")),
+    Step("sub-part typing", Abstractor.subpart_typing, ("groups", "post"), ("parts",)),
+    Step("assembly", Abstractor.assembly, ("groups", "post", "parts"), ("found", "components")),
 ))
 
 END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
-    Step("identification", Abstractor.identification),
-    Step("attachment", Abstractor.attachment),
-    Step("group merging", Abstractor.group_merging),
-    Step("verification", Abstractor.verification),
-    Step("tool extent", Abstractor.tool_extent),
-    Step("reasoner", Abstractor.reasoner),
-    Step("end-effector classification", Abstractor.tool_classification),
-    Step("sub-part typing", Abstractor.subpart_typing),
-    Step("assembly", Abstractor.assembly),
+    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet"),
+         ("leaves", "claims")),
+    Step("attachment", Abstractor.attachment, ("leaves", "claims"), ("chains",)),
+    Step("group merging", Abstractor.group_merging, ("chains",), ("groups",)),
+    Step("verification", Abstractor.verification, ("groups", "claims"), ("groups",)),
+    Step("tool extent", Abstractor.tool_extent, ("groups", "claims"), ("groups", "structures")),
+    Step("reasoner", Abstractor.reasoner, ("groups", "structures", "components"), ("inferred", "fingers")),
+    Step("end-effector classification", Abstractor.tool_classification, ("groups", "structures", "inferred"),
+         ("post",)),
+    Step("sub-part typing", Abstractor.subpart_typing, ("groups", "post", "structures"), ("parts",)),
+    Step("assembly", Abstractor.assembly, ("groups", "post", "parts", "fingers"), ("found", "components")),
 ))
 
 BODY_PASS = Pass(BODY, (
-    Step("device joints", Abstractor.device_joints),
-    Step("candidates", Abstractor.body_candidates),
-    Step("body classification", Abstractor.body_classification),
-    Step("assembly", Abstractor.body_assembly),
-    Step("sides", Abstractor.sides),
-    Step("location", Abstractor.location),
+    Step("device joints", Abstractor.device_joints, ("robot", "components"), ("components",)),
+    Step("candidates", Abstractor.body_candidates, ("robot", "components"), ("candidates",)),
+    Step("body classification", Abstractor.body_classification, ("candidates", "components"), ("candidates",)),
+    Step("assembly", Abstractor.body_assembly, ("candidates",), ("body",)),
+    Step("sides", Abstractor.sides, ("body",), ("body",)),
+    Step("location", Abstractor.location, ("body", "components"), ("components",)),
 ))
 
 # Run in this order; a device pass is named by the core:componentKind of the components it finds, and
 # removes them from the tree the next device pass sees.
 PASSES = (SENSOR_PASS, END_EFFECTOR_PASS, BODY_PASS)
+check_order(PASSES, given=("robot", "tree", "components"))  # what each pass's state starts with

@@ -7,6 +7,12 @@ step's wall time to the trace as `{"key": "timing", "pass": ..., "step": ..., "s
 what the `counters` counted during the step (model seconds, tokens, ...: pipeline.timings).
 Timings go to the trace only, never into a prompt or the ontology. pipeline.abstraction declares the
 passes; adding one is adding a list of steps there.
+
+Each step declares the analyses it reads (`needs`) and those it makes (`makes`), by name: the finger
+structure, the identification claims, the groups... `check_order` (numba's `finalize`) verifies, once,
+when the passes are declared, that every analysis a step needs was given at the start or made by an
+earlier step of this pass or an earlier pass, so a step moved before what it reads fails at import,
+not with a wrong answer.
 """
 from __future__ import annotations
 
@@ -23,6 +29,8 @@ class State(Protocol):
 class Step:
     name: str
     run: Callable[[Any, Any], None]  # (context, state) -> None
+    needs: tuple[str, ...] = ()  # analyses it reads
+    makes: tuple[str, ...] = ()  # analyses it makes (or remakes)
 
 
 @dataclass(frozen=True)
@@ -34,6 +42,17 @@ class Pass:
         names = [s.name for s in self.steps]
         if len(set(names)) != len(names):
             raise ValueError(f"pass {self.name!r} names a step twice: {names}")
+
+
+def check_order(passes: tuple[Pass, ...], given: tuple[str, ...]) -> None:
+    """ValueError naming the first step that needs an analysis neither `given` nor an earlier step makes."""
+    made = set(given)
+    for declared in passes:
+        for step in declared.steps:
+            if missing := [n for n in step.needs if n not in made]:
+                raise ValueError(f"pass {declared.name!r}, step {step.name!r} needs {', '.join(missing)}, "
+                                 "which no earlier step makes")
+            made.update(step.makes)
 
 
 class PassManager:

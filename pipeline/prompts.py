@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence, TypeVar
 
+from urdfkb.pipeline.catalogue import Product
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.ontology import Kind, Vocabulary
 
@@ -59,8 +60,14 @@ def chain_text(chain: Sequence[str]) -> str:
     return " < ".join(shown) + (" < ..." if len(chain) > MAX_CHAIN else "")
 
 
-def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str) -> Choice:
-    """Which kind of component (or none) a leaf link is part of."""
+def product_text(tax: Vocabulary, product: Product | None) -> str:
+    """The catalogue product a link names, as a line of evidence ('' for none)."""
+    return f"\nProduct: {product.label} ({tax.label(product.cls)})" if product else ""
+
+
+def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str,
+                product: Product | None = None) -> Choice:
+    """Which kind of component (or none) a leaf link is part of; `product`: the catalogue's, where it names one."""
     system = (
         _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(tax, kinds)
         + f"\n- {NONE}: part of none of these: actuators and emitters (motors, lights, loudspeakers, displays,"
@@ -69,7 +76,7 @@ def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Seq
         " prismatic joint is a finger, a wheel or another moving part, not a sensor."
         "\nReply with the kind only."
     )
-    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}"
+    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}" + product_text(tax, product)
     return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 

@@ -183,8 +183,19 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
             velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
     if drive.mimic is not None and drive.mimic_multiplier < 0:  # the drive turns against the joint it follows
         velocity = (-velocity[0], -velocity[1], -velocity[2])
+    if _closes_backwards(drive, pose):
+        velocity = (-velocity[0], -velocity[1], -velocity[2])
     direction = _unit(velocity) if _dot(velocity, velocity) >= _STILL else None
     return None if direction is None else (point, direction)
+
+
+def _closes_backwards(drive: Edge, pose: dict[str, float]) -> bool:
+    """A joint at zero in the pose whose range reaches further below zero than above it: written open, it closes
+    by moving negatively (a finger of range [-1.7, 0], a mirrored thumb of range [-1.0, 0.6])."""
+    if drive.limits is None or drive.mimic is not None or pose.get(drive.joint, 0.0) != 0.0:
+        return False
+    lower, upper = drive.limits
+    return -lower > upper
 
 
 def _configuration(tree: KinematicTree) -> dict[str, float]:
@@ -286,3 +297,135 @@ def _unit(v: Vector) -> Vector | None:
 
 def _cross(a: Vector, b: tuple[float, ...]) -> Vector:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+# --- what the robot's shape says before any question ------------------------------------------------
+
+HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
+MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
+TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' span across the hand, at most
+TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
+# hand's back or sides lie under half of it)
+FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
+STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
+
+
+def hand_leaves(tree: KinematicTree) -> frozenset[str]:
+    """The leaves of every hand or gripper the tree's shape shows, read before anything is asked, so that they
+    go to the end-effector pass and not to the sensors. A hand is a fork (tool_structure) with two finger
+    chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
+    range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
+    finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
+    the pure frames fixed to its body that lie out among the fingertips (_among_tips): tool centre points.
+    A joint that spins freely (continuous, following no other) is a wheel's or a caster's, never a finger's."""
+    found: set[str] = set()
+    for fork in tree.links:
+        small = [c for c in _moving_children(tree, fork) if _hand_sized(tree, fork, c)]
+        if len(small) < 2:
+            continue
+        leaves = [link for c in small for link in (c, *tree.descendants(c)) if tree.is_leaf(link)]
+        structure = tool_structure(tree, leaves)
+        fingers = [f for f in structure.fingers if f.name in small]
+        if len(fingers) < 2:
+            continue
+        found.update(link for c in small for link in (c, *tree.descendants(c)) if tree.is_leaf(link))
+        found.update(_tool_points(tree, structure.fork, fingers))
+    return frozenset(found)
+
+
+def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:
+    tips = [tree.position_in(max(f.links, key=lambda link: len(tree.chain_to_root(link))), fork) for f in fingers]
+    centre = tuple(sum(p[i] for p in tips) / len(tips) for i in range(3))
+    span = max(math.dist(p, centre) for p in tips)
+    body, stack = [], list(tree.children(fork))
+    while stack:
+        link = stack.pop()
+        if not tree.edge_to(link).movable and _is_frame(tree, link):
+            body.append(link)
+            stack.extend(tree.children(link))
+    return [link for link in body if tree.is_leaf(link) and _among_tips(tree.position_in(link, fork), centre, span)]
+
+
+def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
+    """A point of the hand's body lies out among its fingertips: at least TIP_DEPTH of the way from the fork to
+    their centre, along that line, and within TOOL_POINT of their span across it."""
+    reach = _norm(centre)
+    if reach == 0:
+        return _norm(point) <= span + TOOL_POINT
+    along = _dot(point, centre) / reach
+    across = math.sqrt(max(_dot(point, point) - along * along, 0.0))
+    return along >= TIP_DEPTH * reach and across <= span + TOOL_POINT
+
+
+def _is_frame(tree: KinematicTree, link: str) -> bool:
+    facts = tree.evidence.get(link)
+    return facts is None or facts.is_pure_frame
+
+
+def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
+    links = (child, *tree.descendants(child))
+    edges = [e for link in links if (e := tree.edge_to(link)).movable]
+    ranged = all(e.mimic is not None or (e.limits is not None and e.joint_type != "continuous") for e in edges)
+    return (len(edges) <= MAX_FINGER_JOINTS and ranged
+            and all(_norm(tree.position_in(link, fork)) <= HAND_REACH for link in links))
+
+
+def feet(tree: KinematicTree) -> frozenset[str]:
+    """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
+    of the robot's lowest link origin at the zero pose, on a robot whose root lies STANCE above that point
+    and that has two such tips at least. Where a limb ends there is a foot, not a tool."""
+    height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
+    lowest = min(height.values())
+    if height[tree.root] - lowest < STANCE:
+        return frozenset()
+    limbs = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND
+             and sum(tree.edge_to(link).movable for link in tree.chain_to_root(leaf)[:-1]) >= 2]
+    return frozenset(limbs) if len(limbs) >= 2 else frozenset()
+
+
+ALIKE_TOLERANCE = 1e-3  # m: joint offsets of alike chains agree to a millimetre (mirror images, copies)
+
+
+def alike_leaves(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
+    """`leaves` partitioned into sets of alike ones (in the order given): two leaves are alike when the chains
+    from their lowest common ancestor down to each have the same shape (joint types, offset lengths, the
+    leaves' own geometry and mass) and move, at least one joint of each being movable: the fingers of a
+    hand, mirrored limbs, a quadruped's legs. Fixed frames side by side on one body are never alike here:
+    a camera and an IMU bolted at equal distances are not the same thing."""
+    paths = {leaf: tree.chain_to_root(leaf)[::-1] for leaf in leaves}
+    parent = {leaf: leaf for leaf in leaves}
+
+    def find(leaf: str) -> str:
+        while parent[leaf] != leaf:
+            parent[leaf] = parent[parent[leaf]]
+            leaf = parent[leaf]
+        return leaf
+
+    for i, a in enumerate(leaves):
+        for b in leaves[:i]:
+            if find(a) != find(b) and _alike(tree, paths[a], paths[b]):
+                parent[find(a)] = find(b)
+    groups: dict[str, list[str]] = {}
+    for leaf in leaves:
+        groups.setdefault(find(leaf), []).append(leaf)
+    return list(groups.values())
+
+
+def _alike(tree: KinematicTree, a: tuple[str, ...], b: tuple[str, ...]) -> bool:
+    common = 0
+    while common < min(len(a), len(b)) and a[common] == b[common]:
+        common += 1
+    below_a, below_b = a[common:], b[common:]
+    if not below_a or len(below_a) != len(below_b):
+        return False
+    edges = [(tree.edge_to(x), tree.edge_to(y)) for x, y in zip(below_a, below_b)]
+    if not any(e.movable for e, _ in edges):
+        return False
+    for e, f in edges:
+        if e.joint_type != f.joint_type or abs(_norm(e.origin.xyz) - _norm(f.origin.xyz)) > ALIKE_TOLERANCE:
+            return False
+    facts_a, facts_b = tree.evidence.get(a[-1]), tree.evidence.get(b[-1])
+    if facts_a is None or facts_b is None:
+        return facts_a is facts_b
+    return (facts_a.shape, round(facts_a.mass or 0.0, 3), facts_a.is_pure_frame) == \
+        (facts_b.shape, round(facts_b.mass or 0.0, 3), facts_b.is_pure_frame)

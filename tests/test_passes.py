@@ -13,7 +13,7 @@ from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.passes import Pass, PassManager, Step
+from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order
 
 
 @dataclass
@@ -78,3 +78,17 @@ def test_one_reasoner_run_settles_the_tools_and_the_body_candidates(monkeypatch)
     assert any(classes)
     monkeypatch.setattr(reasoning, "_hermit", hermit)
     assert reasoning.classify_parts(facts)[0] == classes
+
+
+def test_a_step_before_what_it_reads_is_refused_when_the_passes_are_declared():
+    """check_order, run on PASSES at import: moving the finger structure after identification (or the end-effector
+    pass before the sensor pass that makes it) is an error naming the step and what it lacks."""
+    check_order(PASSES, given=("robot", "tree", "components"))
+    sensor = PASSES[0]
+    swapped = Pass(sensor.name, (sensor.steps[1], sensor.steps[0], *sensor.steps[2:]))
+    with pytest.raises(ValueError, match="step 'identification' needs hands, feet"):
+        check_order((swapped, *PASSES[1:]), given=("robot", "tree", "components"))
+    with pytest.raises(ValueError, match="pass 'end_effector', step 'identification' needs hands"):
+        check_order((PASSES[1], PASSES[0], PASSES[2]), given=("robot", "tree", "components"))
+    with pytest.raises(ValueError, match="needs b"):
+        check_order((Pass("p", (Step("x", print, needs=("b",)), Step("y", print, makes=("b",)))),), given=())

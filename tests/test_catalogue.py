@@ -1,0 +1,72 @@
+"""The hardware product catalogue (ontologies/products.ttl, pipeline.catalogue) and where it reaches the questions."""
+from __future__ import annotations
+
+import pytest
+
+from urdfkb.pipeline import catalogue as catalogue_mod
+from urdfkb.pipeline.catalogue import Catalogue, Product, catalogue, load
+from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.prompts import kind_choice
+
+TAX = vocabulary()
+
+
+def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its_source():
+    products = catalogue().products
+    assert len(products) >= 60
+    for p in products:
+        assert p.fragments and p.source and p.label, p
+        assert TAX.is_a(p.cls, "Sensor") or TAX.is_a(p.cls, "EndEffector"), p
+    kinds = {p.cls for p in products}
+    assert {"RGBDCamera", "StereoCamera", "Lidar", "IMU", "ForceTorqueSensor", "MicrophoneArray",
+            "ParallelGripper", "AnthropomorphicHand"} <= kinds
+
+
+@pytest.mark.parametrize("name, label", [
+    ("D435i_camera_link", "Intel RealSense D435"),
+    ("base_laser_velodyne_vlp16", "Velodyne lidar"),
+    ("mid360_link", "Livox Mid-360"),
+    ("sensors/lds", "ROBOTIS LDS"),
+    ("zed2_left_camera_frame", "Stereolabs ZED"),
+    ("normalized_frame", None),   # "zed" inside a word
+    ("mtimes_link", None),        # "mti" followed by letters
+    ("pos1_frame", None),         # "os1" not at a word start
+])
+def test_a_fragment_matches_where_a_word_starts(name, label):
+    found = catalogue().match([name])
+    assert (found.label if found else None) == label
+
+
+def test_a_user_catalogue_adds_products(tmp_path, monkeypatch):
+    own = tmp_path / "mine.ttl"
+    own.write_text('@prefix prod: <https://w3id.org/urdfkb/products#> . @prefix core: <https://w3id.org/urdfkb/core#> .\n'
+                   '@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> . @prefix dcterms: <http://purl.org/dc/terms/> .\n'
+                   'prod:Mine a prod:Product ; rdfs:label "Acme EyeCam" ; prod:kind core:MonocularCamera ;\n'
+                   '    prod:nameFragment "eyecam" ; dcterms:source "Acme, EyeCam" .\n')
+    monkeypatch.setenv(catalogue_mod.ENV, str(own))
+    catalogue.cache_clear()
+    try:
+        assert catalogue().match(["left_eyecam_frame"]).label == "Acme EyeCam"
+    finally:
+        monkeypatch.delenv(catalogue_mod.ENV)
+        catalogue.cache_clear()
+
+
+def test_an_entry_of_no_core_class_is_refused(tmp_path):
+    bad = tmp_path / "bad.ttl"
+    bad.write_text('@prefix prod: <https://w3id.org/urdfkb/products#> .\n'
+                   'prod:X a prod:Product ; prod:kind <http://example.org/Thing> ; prod:nameFragment "x" .\n')
+    with pytest.raises(OntologyError, match="no prod:kind in the core"):
+        load([bad])
+    with pytest.raises(OntologyError, match="cannot read"):
+        load([tmp_path / "missing.ttl"])
+
+
+def test_the_identification_question_shows_a_named_product():
+    product = Product("Livox Mid-360", "Lidar", ("mid360",), "Livox, Mid-360")
+    shown = kind_choice(TAX, TAX.subclasses(TAX.component), "mid360_link", ["torso_link"], "fixed", product)
+    plain = kind_choice(TAX, TAX.subclasses(TAX.component), "mid360_link", ["torso_link"], "fixed")
+    assert shown.question.user.endswith("Product: Livox Mid-360 (" + TAX.label("Lidar") + ")")
+    assert "Product" not in plain.question.user and shown.question.system == plain.question.system
+    assert Catalogue([product]).match(["x_mid360"]) == product

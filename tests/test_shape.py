@@ -1,0 +1,125 @@
+"""What the robot's shape settles before any question (pipeline.structure: hand_leaves, feet), on generated
+robots with known truth, and with a scripted model that makes the small model's mistakes: it claims fingertips
+for sensors, and a quadruped's feet for tools. Names are meaningless, so only structure can correct it."""
+from __future__ import annotations
+
+import pytest
+from tests.body_robots import legged, wheeled
+from tests.hand_robots import build
+
+from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.structure import alike_leaves, feet, hand_leaves
+
+TAX = vocabulary()
+SEEDS = range(300)
+SENSOR_CLS, TOOL_CLS = TAX.kinds["sensor"].cls, TAX.kinds["end_effector"].cls
+
+
+def _chain_leaves(built, tree) -> set[str]:
+    return {link for chain in built.chains for link in chain.links if tree.is_leaf(link)}
+
+
+def _leg_tips(built, tree) -> set[str]:
+    tips = set()
+    for part in built.parts:
+        if part.cls == "Leg":
+            last = next(e.child for e in tree.edges if e.joint == part.joints[-1])
+            tips |= {link for link in (last, *tree.descendants(last)) if tree.is_leaf(link)}
+    return tips
+
+
+@pytest.mark.parametrize("alone", [False, True])
+def test_hand_leaves_are_the_tools_leaves_and_nothing_else(alone):
+    """Every leaf of the generated gripper or hand (fingertips, tip frames, the TCP frame), none of the arm's."""
+    wrong = []
+    for seed in SEEDS:
+        built = build(seed, alone)
+        tree = load_urdf(built.urdf)
+        if hand_leaves(tree) != set(built.leaves) or feet(tree):
+            wrong.append((seed, built.layout))
+    assert not wrong
+
+
+def test_wheels_and_casters_are_no_fingers():
+    for seed in range(0, 300, 3):
+        tree = load_urdf(wheeled(seed).urdf)
+        wheels = {leaf for leaf in tree.leaves() if tree.edge_to(leaf).joint_type == "continuous"}
+        assert wheels and not wheels & hand_leaves(tree), seed
+
+
+def test_feet_are_the_leg_tips_of_legged_robots_and_wheels_are_no_feet():
+    wrong = []
+    for seed in SEEDS:
+        for make in (legged, wheeled):
+            built = make(seed)
+            tree = load_urdf(built.urdf)
+            if feet(tree) != _leg_tips(built, tree):
+                wrong.append((make.__name__, seed))
+    assert not wrong
+
+
+def _identified(urdf: bytes, rule) -> dict[str, str]:
+    """The leaves' kinds after the sensor pass's shape and identification steps, answered by `rule`."""
+    tree = load_urdf(urdf)
+    abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
+    state = PassState(TAX.kinds["sensor"], tree, tree, [])
+    for step in SENSOR_PASS.steps[:2]:
+        step.run(abstractor, state)
+    return abstractor.claims
+
+
+def _leaf(question) -> str:
+    return question.key.split(":", 1)[1]
+
+
+def test_fingertips_the_model_takes_for_sensors_go_to_the_tool():
+    """The erring model says "sensor" at 0.6 for every finger leaf: none of them is a sensor after all."""
+    for seed in range(0, 300, 7):
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        tips = _chain_leaves(built, tree)
+        options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.4}
+        claims = _identified(built.urdf, lambda q: options if _leaf(q) in tips else NONE)
+        assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, TOOL_CLS), seed
+
+
+def test_feet_the_model_takes_for_tools_are_no_tools():
+    """The erring model calls every leg tip a tool at 0.7 (a quadruped's four lower legs became four grippers):
+    they are parts of the body."""
+    for seed in range(0, 300, 7):
+        built = legged(seed)
+        tree = load_urdf(built.urdf)
+        tips = _leg_tips(built, tree)
+        tool = {TAX.answer(TOOL_CLS): 0.7, NONE: 0.3}
+        claims = _identified(built.urdf, lambda q: tool if _leaf(q) in tips else NONE)
+        assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, "BodyPart"), seed
+
+
+def test_alike_limbs_are_asked_once_and_answered_alike():
+    """The feet of a generated legged robot are one set of alike leaves: one identification question, whose
+    answer all of them get, even from a model that would have told them apart (by a meaningless name)."""
+    for seed in range(0, 300, 11):
+        built = legged(seed)
+        tree = load_urdf(built.urdf)
+        tips = _leg_tips(built, tree)
+        assert sorted(tips) in [sorted(g) for g in alike_leaves(tree, list(tree.leaves()))], seed
+        asked = []
+
+        def fickle(q):
+            asked.append(_leaf(q))
+            return TAX.answer(SENSOR_CLS) if _leaf(q) == min(tips) else NONE
+        claims = _identified(built.urdf, fickle)
+        assert len(set(asked) & tips) == 1 and len({claims[t] for t in tips}) == 1, seed
+
+
+def test_fixed_frames_side_by_side_are_never_alike():
+    built = build(3)
+    tree = load_urdf(built.urdf)
+    for group in alike_leaves(tree, list(tree.leaves())):
+        if len(group) > 1:
+            assert all(any(tree.edge_to(link).movable for link in tree.chain_to_root(leaf)[:-1]) for leaf in group)
