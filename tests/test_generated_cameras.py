@@ -32,3 +32,22 @@ def test_the_generator_covers_lone_cameras_several_cameras_and_stereo_pairs():
     builds = [build(seed) for seed in SEEDS]
     assert {len(b.devices) for b in builds} >= {1, 2, 3, 4, 5}
     assert any(len({b.housing[f] for f in d}) == 2 for b in builds for d in b.devices)
+
+
+@pytest.mark.slow  # many generated robots
+def test_frames_on_one_body_are_one_device_whatever_the_names_say():
+    """The model's mistake the other way: every frame named a device of its own (its whole name), as RGB-D
+    cameras were split into one camera per frame. The frames of one housing are one device by structure;
+    separate housings (a stereo pair's included, which only names join) stay apart."""
+    for seed in SEEDS:
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        frames = [frame for device in built.devices for frame in device]
+        chains = [sub_chain(tree, frame, built.mount) for frame in frames]
+        oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
+        groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
+        by_housing: dict[str, list[str]] = {}
+        for frame in frames:
+            by_housing.setdefault(built.housing[frame], []).append(frame)
+        assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(fs) for fs in by_housing.values()), \
+            (seed, built.description)

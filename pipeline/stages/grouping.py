@@ -16,6 +16,12 @@ End-effectors: sub-chains whose leaves meet (their lowest common ancestor) insid
 at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
 the tool's provisional mount is the deepest mount the model named for any of its chains that carries
 them all (stages.tools then settles extent and mount from structure).
+One body, one device: two sensor sub-chains of one category whose leaves are frames (no geometry) hanging
+by fixed joints from one link inside both (the device's body, a housing or a bare camera frame), within
+CAMERA_BODY of it, each by a branch of that link that leads to it alone, are one device whatever their
+names: the colour, depth, infrared and inertial frames of an RGB-D camera, which the name question
+split into one device per frame. A branch that carries several frames is a camera of its own (a stereo
+head's wide and narrow pairs on one bar), so it binds nothing there; its own frames bind below it.
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
@@ -34,6 +40,7 @@ from urdfkb.pipeline.tree import KinematicTree
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
+CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
 
 
 @dataclass
@@ -93,6 +100,30 @@ def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
     return near and all(sum(x * y for x, y in zip(u, v)) >= ALIKE for u, v in zip(axes(a), axes(b)))
 
 
+def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """The two leaves are frames hanging by fixed joints from one link inside both sub-chains, within
+    CAMERA_BODY of it, each on a branch of that link that leads to it alone."""
+    below_b = set(tree.chain_to_root(b.leaf))
+    body = next(link for link in tree.chain_to_root(a.leaf) if link in below_b)
+    if body not in a.links or body not in b.links:
+        return False
+    for leaf in (a.leaf, b.leaf):
+        path = tree.chain_to_root(leaf)
+        branch = path[:path.index(body)]  # leaf ... the body's child
+        if any(tree.edge_to(link).movable or not _frame(tree, link) for link in branch):
+            return False
+        if any(len(tree.children(link)) > 1 for link in branch[1:]):
+            return False
+        if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
+            return False
+    return True
+
+
+def _frame(tree: KinematicTree, link: str) -> bool:
+    facts = tree.evidence.get(link)
+    return facts is None or facts.is_pure_frame
+
+
 def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     below_b = set(tree.chain_to_root(b.leaf))
     meet = next(link for link in tree.chain_to_root(a.leaf) if link in below_b)
@@ -108,8 +139,11 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
         could = [[i != j and categories[a.leaf] == categories[b.leaf] and _near(tree, a, b)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
-        device = _device_names(oracle, chains, [any(row) for row in could], progress)
-        same = [[could[i][j] and device[i] == device[j] for j in range(len(chains))] for i in range(len(chains))]
+        bound = [[could[i][j] and _one_body(tree, a, b) for j, b in enumerate(chains)] for i, a in enumerate(chains)]
+        joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
+        device = _device_names(oracle, chains, joinable, progress)
+        same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
+                for i in range(len(chains))]
     parent = list(range(len(chains)))
 
     def find(i: int) -> int:
