@@ -33,6 +33,7 @@ def _leg_tips(built, tree) -> set[str]:
     return tips
 
 
+@pytest.mark.slow  # many generated robots
 @pytest.mark.parametrize("alone", [False, True])
 def test_hand_leaves_are_the_tools_leaves_and_nothing_else(alone):
     """Every leaf of the generated gripper or hand (fingertips, tip frames, the TCP frame), none of the arm's."""
@@ -52,6 +53,7 @@ def test_wheels_and_casters_are_no_fingers():
         assert wheels and not wheels & hand_leaves(tree), seed
 
 
+@pytest.mark.slow  # many generated robots
 def test_feet_are_the_leg_tips_of_legged_robots_and_wheels_are_no_feet():
     wrong = []
     for seed in SEEDS:
