@@ -29,7 +29,7 @@ from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
 from urdfkb.pipeline.stages import body as body_stage
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
-from urdfkb.pipeline.stages.grouping import Group, merge
+from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
 from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
@@ -145,6 +145,8 @@ class Abstractor:
             return
         s.chains = detect_roots(self.oracle, s.tree, selected, kind, self._blocked(s.tree, kind.cls), self.progress,
                                 rigid=rigid)
+        if rigid:  # frames of one body share one mount (grouping.one_mount)
+            s.chains = one_mount(s.tree, s.chains)
 
     def pre_classification(self, s: PassState) -> None:
         kind = self._kind(s)

@@ -11,7 +11,7 @@ from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.attachment import sub_chain
-from urdfkb.pipeline.stages.grouping import merge
+from urdfkb.pipeline.stages.grouping import merge, one_mount
 
 SEEDS = range(200)
 
@@ -51,3 +51,27 @@ def test_frames_on_one_body_are_one_device_whatever_the_names_say():
             by_housing.setdefault(built.housing[frame], []).append(frame)
         assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(fs) for fs in by_housing.values()), \
             (seed, built.description)
+
+
+@pytest.mark.slow  # many generated robots
+def test_frames_of_one_body_mounted_apart_share_the_highest_mount_and_one_device():
+    """The model mounts a housing's frames apart (one on the head, the others on the housing itself): they
+    get one mount, the head, and group merging then keeps them one device whatever their names."""
+    for seed in SEEDS:
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        frames = [frame for device in built.devices for frame in device]
+        chains = [sub_chain(tree, frame, built.mount if k % 2 == 0 else built.housing[frame])
+                  for k, frame in enumerate(frames)]
+        chains = one_mount(tree, chains)
+        by_housing: dict[str, list[str]] = {}
+        for frame in frames:
+            by_housing.setdefault(built.housing[frame], []).append(frame)
+        for fs in by_housing.values():
+            if len(fs) > 1 and any(frames.index(f) % 2 == 0 for f in fs):
+                assert {c.root for c in chains if c.leaf in fs} == {built.mount}, (seed, built.description)
+        oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))
+        groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
+        for fs in by_housing.values():
+            if {c.root for c in chains if c.leaf in fs} == {built.mount}:
+                assert sorted(fs) in [sorted(g.leaves) for g in groups], (seed, built.description)

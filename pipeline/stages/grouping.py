@@ -101,22 +101,46 @@ def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
 
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """The two leaves are frames hanging by fixed joints from one link inside both sub-chains, within
-    CAMERA_BODY of it, each on a branch of that link that leads to it alone."""
-    below_b = set(tree.chain_to_root(b.leaf))
-    body = next(link for link in tree.chain_to_root(a.leaf) if link in below_b)
-    if body not in a.links or body not in b.links:
-        return False
-    for leaf in (a.leaf, b.leaf):
+    """The two leaves are frames of one body (_body_of) that lies inside both sub-chains."""
+    body = _body_of(tree, a.leaf, b.leaf)
+    return body is not None and body in a.links and body in b.links
+
+
+def _body_of(tree: KinematicTree, a: str, b: str) -> str | None:
+    """The link both leaves hang from as frames of one body: by fixed joints through links without geometry,
+    within CAMERA_BODY of it, each on a branch that leads to it alone (None where they do not)."""
+    below_b = set(tree.chain_to_root(b))
+    body = next(link for link in tree.chain_to_root(a) if link in below_b)
+    for leaf in (a, b):
         path = tree.chain_to_root(leaf)
         branch = path[:path.index(body)]  # leaf ... the body's child
-        if any(tree.edge_to(link).movable or not _frame(tree, link) for link in branch):
-            return False
+        if not branch or any(tree.edge_to(link).movable or not _frame(tree, link) for link in branch):
+            return None
         if any(len(tree.children(link)) > 1 for link in branch[1:]):
-            return False
+            return None
         if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
-            return False
-    return True
+            return None
+    return body
+
+
+def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
+    """Frames of one body (_body_of) that the model mounted apart, some on a link above the body and some on
+    the body or below it, all mounted on the highest of those mounts above the body: the body is then
+    inside every chain, and group merging binds them into one device."""
+    out = {c.leaf: c for c in chains}
+    bodies = [(a.leaf, b.leaf, body) for i, a in enumerate(chains) for b in chains[:i]
+              if (body := _body_of(tree, a.leaf, b.leaf)) is not None]
+    moved = True
+    while moved:  # each move only raises a mount: this ends
+        moved = False
+        for a, b, body in bodies:
+            above = tree.chain_to_root(body)[1:]
+            mounts = [out[leaf].root for leaf in (a, b) if out[leaf].root in above]
+            if mounts and out[a].root != out[b].root:
+                top = max(mounts, key=above.index)
+                out[a], out[b] = sub_chain(tree, a, top), sub_chain(tree, b, top)
+                moved = True
+    return [out[c.leaf] for c in chains]
 
 
 def _frame(tree: KinematicTree, link: str) -> bool:
