@@ -69,22 +69,24 @@ class DeadlineServer(TcpWSGIServer):
     def readable(self) -> bool:
         now = time.time()
         if now >= self.next_channel_cleanup:
-            self.next_channel_cleanup = now + self.adj.cleanup_interval
+            self.next_channel_cleanup = now + self.adj.cleanup_interval  # type: ignore[assignment]  # stubs: int
             self.maintenance(now)
-        return self.accepting and (len(self._map) < self.adj.connection_limit or self._longest_waiting() is not None)
+        connections = len(self._map)  # type: ignore[attr-defined]  # asyncore's socket map, not in the stubs
+        return self.accepting and (connections < self.adj.connection_limit or self._longest_waiting() is not None)
 
     def maintenance(self, now: float) -> None:
-        super().maintenance(now)  # waitress's idle timeout
-        for channel in self.active_channels.values():
+        super().maintenance(now)  # type: ignore[arg-type]  # waitress's idle timeout; it passes time.time() too
+        for channel in self.active_channels.values():  # type: ignore[attr-defined]  # a dict; stubs say a channel
             if channel.overdue(now, self.header_timeout, self.body_timeout):
                 channel.will_close = True
 
     def handle_accept(self) -> None:
-        if len(self._map) >= self.adj.connection_limit and (oldest := self._longest_waiting()) is not None:
+        if len(self._map) >= self.adj.connection_limit and (  # type: ignore[attr-defined]  # asyncore's map
+                oldest := self._longest_waiting()) is not None:
             oldest.will_close = True  # closed by the loop's next pass, after the new socket has its descriptor
         super().handle_accept()
 
     def _longest_waiting(self) -> DeadlineChannel | None:
-        waiting = [(since, channel) for channel in self.active_channels.values()
+        waiting = [(since, channel) for channel in self.active_channels.values()  # type: ignore[attr-defined]
                    if (since := channel.waiting_since()) is not None]
         return min(waiting, key=lambda pair: pair[0])[1] if waiting else None

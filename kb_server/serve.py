@@ -71,7 +71,7 @@ def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", p
                             max_request_header_size=max_header, max_request_body_size=max_body + 1,
                             connection_limit=connections, channel_timeout=channel_timeout, cleanup_interval=1,
                             asyncore_use_poll=True)
-    policy.port = int(server.effective_port)
+    policy.port = int(server.effective_port)  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
     return server, store, jobs
 
 

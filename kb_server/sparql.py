@@ -105,8 +105,8 @@ class Scan:
     """What the lexical pass found: keywords at any depth, dataset IRIs (resolved) at depth 0."""
 
     keywords: set[str] = field(default_factory=set)
-    from_graphs: list[str] = field(default_factory=list)
-    from_named: list[str] = field(default_factory=list)
+    from_graphs: list[str | None] = field(default_factory=list)  # None: a prefixed name with no PREFIX
+    from_named: list[str | None] = field(default_factory=list)
 
 
 def tokens(text: str) -> Iterator[tuple[str, str]]:
@@ -129,7 +129,8 @@ def tokens(text: str) -> Iterator[tuple[str, str]]:
 def scan(text: str, update: bool = False) -> Scan:
     """Read `text` as the engine does; QueryError for SERVICE (and LOAD in an update), however glued to
     what follows, or for nesting deeper than MAX_DEPTH."""
-    out, depth, base, prefixes = Scan(), 0, "", {}
+    out, depth, base = Scan(), 0, ""
+    prefixes: dict[str, str] = {}
     refused = ("SERVICE", "LOAD") if update else ("SERVICE",)
     prev: list[tuple[str, str]] = []  # the last few significant tokens at depth 0
     for kind, tok in tokens(text):
@@ -155,7 +156,7 @@ def scan(text: str, update: bool = False) -> Scan:
             iri = _resolve(tok, base, prefixes)
             if len(words) >= 2 and words[-2] == "BASE":
                 base = iri or base
-            elif len(words) >= 3 and words[-3] == "PREFIX" and prev[-2][0] == "pname":
+            elif len(words) >= 3 and words[-3] == "PREFIX" and prev[-2][0] == "pname" and iri is not None:
                 prefixes[prev[-2][1][:-1]] = iri
             elif len(words) >= 3 and words[-3:-1] == ["FROM", "NAMED"]:
                 out.from_named.append(iri)

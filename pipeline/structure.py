@@ -335,7 +335,7 @@ def hand_leaves(tree: KinematicTree) -> frozenset[str]:
 
 def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:
     tips = [tree.position_in(max(f.links, key=lambda link: len(tree.chain_to_root(link))), fork) for f in fingers]
-    centre = tuple(sum(p[i] for p in tips) / len(tips) for i in range(3))
+    centre = (sum(p[0] for p in tips) / len(tips), sum(p[1] for p in tips) / len(tips), sum(p[2] for p in tips) / len(tips))
     span = max(math.dist(p, centre) for p in tips)
     body, stack = [], list(tree.children(fork))
     while stack:
