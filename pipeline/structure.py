@@ -32,7 +32,9 @@ definitions do that, applied by a reasoner (pipeline.reasoning).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
 
@@ -328,7 +330,7 @@ def hand_leaves(tree: KinematicTree) -> frozenset[str]:
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
             continue
-        found.update(link for c in small for link in (c, *tree.descendants(c)) if tree.is_leaf(link))
+        found.update(leaves)
         found.update(_tool_points(tree, structure.fork, fingers))
     return frozenset(found)
 
@@ -340,7 +342,7 @@ def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> 
     body, stack = [], list(tree.children(fork))
     while stack:
         link = stack.pop()
-        if not tree.edge_to(link).movable and _is_frame(tree, link):
+        if not tree.edge_to(link).movable and is_frame(tree, link):
             body.append(link)
             stack.extend(tree.children(link))
     return [link for link in body if tree.is_leaf(link) and _among_tips(tree.position_in(link, fork), centre, span)]
@@ -357,7 +359,8 @@ def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
     return along >= TIP_DEPTH * reach and across <= span + TOOL_POINT
 
 
-def _is_frame(tree: KinematicTree, link: str) -> bool:
+def is_frame(tree: KinematicTree, link: str) -> bool:
+    """The link has no geometry: a coordinate frame rather than a body (a link without evidence counts)."""
     facts = tree.evidence.get(link)
     return facts is None or facts.is_pure_frame
 
@@ -393,22 +396,31 @@ def alike_leaves(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
     hand, mirrored limbs, a quadruped's legs. Fixed frames side by side on one body are never alike here:
     a camera and an IMU bolted at equal distances are not the same thing."""
     paths = {leaf: tree.chain_to_root(leaf)[::-1] for leaf in leaves}
-    parent = {leaf: leaf for leaf in leaves}
+    return partition(leaves, lambda a, b: _alike(tree, paths[a], paths[b]))
 
-    def find(leaf: str) -> str:
-        while parent[leaf] != leaf:
-            parent[leaf] = parent[parent[leaf]]
-            leaf = parent[leaf]
-        return leaf
 
-    for i, a in enumerate(leaves):
-        for b in leaves[:i]:
-            if find(a) != find(b) and _alike(tree, paths[a], paths[b]):
-                parent[find(a)] = find(b)
-    groups: dict[str, list[str]] = {}
-    for leaf in leaves:
-        groups.setdefault(find(leaf), []).append(leaf)
-    return list(groups.values())
+T = TypeVar("T")
+
+
+def partition(items: Sequence[T], joined: Callable[[T, T], bool]) -> list[list[T]]:
+    """`items` in the classes of the transitive closure of `joined` (asked once for each pair of items not
+    already in one class), each class in the items' order, the classes in the order of their first items."""
+    parent = list(range(len(items)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, a in enumerate(items):
+        for j, b in enumerate(items[:i]):
+            if find(i) != find(j) and joined(a, b):
+                parent[find(i)] = find(j)
+    classes: dict[int, list[T]] = {}
+    for i, item in enumerate(items):
+        classes.setdefault(find(i), []).append(item)
+    return list(classes.values())
 
 
 def _alike(tree: KinematicTree, a: tuple[str, ...], b: tuple[str, ...]) -> bool:

@@ -35,6 +35,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import device_name_question
 from urdfkb.pipeline.stages.asking import Progress, ask
 from urdfkb.pipeline.stages.attachment import SubChain, sub_chain
+from urdfkb.pipeline.structure import fork_of, is_frame, partition
 from urdfkb.pipeline.tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
@@ -109,12 +110,11 @@ def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 def _body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     """The link both leaves hang from as frames of one body: by fixed joints through links without geometry,
     within CAMERA_BODY of it, each on a branch that leads to it alone (None where they do not)."""
-    below_b = set(tree.chain_to_root(b))
-    body = next(link for link in tree.chain_to_root(a) if link in below_b)
+    body = fork_of(tree, [a, b])
     for leaf in (a, b):
         path = tree.chain_to_root(leaf)
         branch = path[:path.index(body)]  # leaf ... the body's child
-        if not branch or any(tree.edge_to(link).movable or not _frame(tree, link) for link in branch):
+        if not branch or any(tree.edge_to(link).movable or not is_frame(tree, link) for link in branch):
             return None
         if any(len(tree.children(link)) > 1 for link in branch[1:]):
             return None
@@ -143,14 +143,8 @@ def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
     return [out[c.leaf] for c in chains]
 
 
-def _frame(tree: KinematicTree, link: str) -> bool:
-    facts = tree.evidence.get(link)
-    return facts is None or facts.is_pure_frame
-
-
 def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    below_b = set(tree.chain_to_root(b.leaf))
-    meet = next(link for link in tree.chain_to_root(a.leaf) if link in below_b)
+    meet = fork_of(tree, [a.leaf, b.leaf])
     return meet in a.links or meet in b.links or meet == a.root == b.root
 
 
@@ -168,25 +162,12 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
         device = _device_names(oracle, chains, joinable, progress)
         same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
                 for i in range(len(chains))]
-    parent = list(range(len(chains)))
-
-    def find(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i in range(len(chains)):
-        for j in range(i):
-            if same[i][j]:
-                parent[find(i)] = find(j)
-    groups: dict[int, Group] = {}
-    for i, chain in enumerate(chains):
-        groups.setdefault(find(i), Group([])).chains.append(chain)
+    groups = [Group([chains[i] for i in members])
+              for members in partition(range(len(chains)), lambda i, j: same[i][j])]
     if kind == END_EFFECTOR:
-        for group in groups.values():
+        for group in groups:
             group.chains = _one_mount(tree, group.chains)
-    return list(groups.values())
+    return groups
 
 
 def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool],
