@@ -122,6 +122,12 @@ def _tail(stderr: bytes) -> str:
     return f": {lines[-1]}" if lines and "Error" in lines[-1] else ""
 
 
+def refuse_args(filename: str | None, args: Mapping[str, str] | None) -> None:
+    """XacroError where xacro arguments come with a document that is not a xacro file."""
+    if args:
+        raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
+
+
 def load_description(source: str | os.PathLike | bytes, *, filename: str | None = None,
                      args: Mapping[str, str] | None = None, packages: Mapping[str, Path] | None = None,
                      max_bytes: int = MAX_BYTES, max_links: int = MAX_LINKS, timeout: float = XACRO_TIMEOUT,
@@ -144,8 +150,7 @@ def load_description(source: str | os.PathLike | bytes, *, filename: str | None 
         data, filename = path.read_bytes(), filename or path.name
         main_dir = path.parent if trust_folder else None
     if not is_xacro(filename, data):
-        if args:
-            raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
+        refuse_args(filename, args)
         return load_urdf(data, max_bytes=max_bytes, max_links=max_links)
     urdf = expand(data, filename or "robot.urdf.xacro", main_dir=main_dir, args=args, packages=packages,
                   max_bytes=max_bytes, timeout=timeout, confined=confined)

@@ -16,7 +16,7 @@ from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
-from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args
+from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args, refuse_args
 
 bp = Blueprint("jobs", __name__)
 
@@ -53,13 +53,10 @@ def populate():
         args = parse_args(xacro_args)
         if is_xacro(filename, data):
             return accepted(kb.jobs.submit(_xacro_loader(kb, data, filename, args), name, settings))
-        if args:
-            raise XacroError(f"xacro arguments given, but {filename or 'the document'} is not a xacro file")
+        refuse_args(filename, args)
         return accepted(kb.jobs.submit(_urdf_loader(kb, data), name, settings))
     except XacroError as e:
         return error(400, f"cannot expand the xacro: {e}")
-    except URDFError as e:
-        return error(400, f"not a valid URDF: {e}")
     except RobotNameError as e:
         return error(400, f"{e}: pass ?name=...")
     except Refused as e:
