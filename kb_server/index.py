@@ -33,8 +33,8 @@ import signal
 import threading
 import time
 from collections.abc import Mapping
-from typing import NoReturn
 from multiprocessing.connection import wait
+from typing import NoReturn
 
 import pyoxigraph as ox
 
@@ -42,6 +42,7 @@ from urdfkb.kb_server.results import ResultLimits, ResultTooLarge
 from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
                               run_update)
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.sandbox import add_rules
 
 Changes = dict[str, tuple[bytes | None, bytes | None]]
 
@@ -75,11 +76,7 @@ def _confine(memory: int) -> None:
     try:
         import pyseccomp as seccomp
         rules = seccomp.SyscallFilter(defaction=seccomp.ALLOW)
-        for call in NO_NETWORK:
-            try:
-                rules.add_rule(seccomp.ERRNO(errno.EACCES), call)
-            except (OSError, ValueError, RuntimeError):  # not a syscall of this architecture
-                pass
+        add_rules(rules, seccomp.ERRNO(errno.EACCES), NO_NETWORK)
         rules.load()
     except (ImportError, OSError, TypeError, RuntimeError) as e:  # pyseccomp raises on import without libseccomp
         logging.getLogger(__name__).warning("SPARQL workers are not network-confined (libseccomp: %s)", e)

@@ -85,11 +85,7 @@ def _seccomp_filter(extra: Iterable[str] = ()) -> bytes:
     except (ImportError, OSError, TypeError) as e:  # pyseccomp raises on import when libseccomp is missing
         raise Unavailable(f"libseccomp is not usable through pyseccomp ({e})") from None
     rules = seccomp.SyscallFilter(defaction=seccomp.ERRNO(errno.EPERM))
-    for name in (*ALLOWED, *extra):
-        try:
-            rules.add_rule(seccomp.ALLOW, name)
-        except (OSError, ValueError, RuntimeError):  # a syscall this architecture does not have
-            pass
+    add_rules(rules, seccomp.ALLOW, (*ALLOWED, *extra))
     rules.add_rule(seccomp.ALLOW, "ioctl", seccomp.Arg(1, seccomp.EQ, termios.TCGETS))
     rules.add_rule(seccomp.ERRNO(errno.ENOSYS), "clone3")
     with tempfile.TemporaryFile() as f:
@@ -98,16 +94,30 @@ def _seccomp_filter(extra: Iterable[str] = ()) -> bytes:
         return f.read()
 
 
+def add_rules(rules, action, calls: Iterable[str]) -> None:
+    """Give each of the system calls `calls` that this architecture has `action` in the pyseccomp filter `rules`."""
+    for name in calls:
+        try:
+            rules.add_rule(action, name)
+        except (OSError, ValueError, RuntimeError):  # a syscall this architecture does not have
+            pass
+
+
 def _interpreter() -> str:
     """The Python binary itself (a venv's python is a link to it)."""
     return os.path.realpath(getattr(sys, "_base_executable", None) or sys.executable)
+
+
+def _base_paths() -> dict[str, str]:
+    """The base Python installation's paths (not a venv's): its standard library and site-packages."""
+    return sysconfig.get_paths(vars={"base": sys.base_prefix, "platbase": sys.base_exec_prefix})
 
 
 @functools.lru_cache(maxsize=1)
 def _runtime() -> dict[str, str]:
     """Mounts (inside path -> host path) of the Python runtime at its own paths: the interpreter, its
     standard library with its extension modules, and the shared libraries they link to."""
-    paths = sysconfig.get_paths(vars={"base": sys.base_prefix, "platbase": sys.base_exec_prefix})
+    paths = _base_paths()
     mounts = {_interpreter(): _interpreter()}
     for lib in (paths["stdlib"], paths["platstdlib"]):
         mounts[lib] = os.path.realpath(lib)
@@ -119,7 +129,7 @@ def _runtime() -> dict[str, str]:
 
 def _hidden() -> list[str]:
     """Folders inside the mounted standard library that expansion must not see: its site-packages."""
-    paths = sysconfig.get_paths(vars={"base": sys.base_prefix, "platbase": sys.base_exec_prefix})
+    paths = _base_paths()
     return sorted({p for p in (paths["purelib"], paths["platlib"]) if os.path.isdir(p)})
 
 
