@@ -137,16 +137,7 @@ def test_slow_clients_do_not_starve_the_others(server):
     head = (f"POST /populate HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: {XML}\r\n"
             "Content-Length: 100000\r\n\r\n").encode()
     slow, stop = [], threading.Event()
-
-    def trickle():
-        while not stop.wait(0.2):
-            for s in slow:
-                try:
-                    s.send(b"<")
-                except OSError:
-                    pass
-
-    trickler = threading.Thread(target=trickle, daemon=True)
+    trickler = threading.Thread(target=trickle, args=(slow, stop, b"<"), daemon=True)
     try:
         for _ in range(110):
             s = socket.create_connection((host, int(port)), timeout=2)
@@ -159,11 +150,25 @@ def test_slow_clients_do_not_starve_the_others(server):
         assert status == 200 and json.loads(body)[0]["name"] == "pr2"
         assert time.monotonic() - started < 1
     finally:
-        stop.set()
-        if trickler.is_alive():
-            trickler.join(2)
+        stop_trickling(trickler, stop, slow)
+
+
+def trickle(slow: list[socket.socket], stop: threading.Event, byte: bytes) -> None:
+    """Send `byte` on every socket of `slow` every 0.2 s (never idle), until `stop` is set."""
+    while not stop.wait(0.2):
         for s in slow:
-            s.close()
+            try:
+                s.send(byte)
+            except OSError:
+                pass
+
+
+def stop_trickling(trickler: threading.Thread, stop: threading.Event, slow: list[socket.socket]) -> None:
+    stop.set()
+    if trickler.is_alive():
+        trickler.join(2)
+    for s in slow:
+        s.close()
 
 
 def closed(s: socket.socket) -> bool:
@@ -189,16 +194,7 @@ def test_trickling_clients_are_cut_off_at_the_deadline_and_never_keep_another_ou
     heads = (b"GET /robots HTTP/1.1\r\nX-Slow: ",
              f"POST /populate HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Type: {XML}\r\n"
              "Content-Length: 100000\r\n\r\n".encode())
-
-    def trickle():
-        while not stop.wait(0.2):
-            for s in slow:
-                try:
-                    s.send(b"a")
-                except OSError:
-                    pass
-
-    trickler = threading.Thread(target=trickle, daemon=True)
+    trickler = threading.Thread(target=trickle, args=(slow, stop, b"a"), daemon=True)
     try:
         with running(srv):
             for i in range(40):
@@ -215,11 +211,7 @@ def test_trickling_clients_are_cut_off_at_the_deadline_and_never_keep_another_ou
                 pass
             assert not left, f"{len(left)} trickling connections still open"
     finally:
-        stop.set()
-        if trickler.is_alive():
-            trickler.join(2)
-        for s in slow:
-            s.close()
+        stop_trickling(trickler, stop, slow)
         jobs.shutdown()
         store.close()
 
