@@ -1,4 +1,5 @@
-"""The README's accuracy table from an `urdfkb eval --json` file: one row a robot with its fold, the mean, each fold's.
+"""The accuracy table of docs/accuracy.md from an `urdfkb eval --json` file: one row a robot with its fold, the mean,
+each fold's.
 
 Usage: python -m benchmarks.accuracy_table EVAL.json [BEFORE.json]
 

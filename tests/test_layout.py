@@ -1,4 +1,4 @@
-"""One import name per module (README, Layout): absolute imports only, no sys.path edits, a mapped folder
+"""One import name per module (docs/layout.md): absolute imports only, no sys.path edits, a mapped folder
 refuses its bare name, and the type checker's view of the package (.import-root) matches package-dir."""
 import ast
 import functools
