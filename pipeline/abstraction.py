@@ -34,7 +34,7 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import ToolStructure, feet, hand_leaves
+from urdfkb.pipeline.structure import ToolStructure, feet, frames_of_one_body, hand_leaves, viewpoints
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -121,11 +121,28 @@ class Abstractor:
             if tools and leaf in self.hand_tips and leaf not in self.claims:
                 self.claims[leaf], self.shares[leaf] = tools, 1.0
         unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
-        for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress).items():
+        for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress, self.log).items():
             if kind == tools and leaf in self.feet:  # the tip of a leg: part of the body, as the body pass will find
                 self.log(f"{leaf}: a foot the robot stands on, not a tool")
                 kind = BODY_PART if BODY_PART in self.tax.subclasses(self.tax.component) else NONE
             self.claims[leaf], self.shares[leaf] = kind, share
+        self._one_kind_per_body(s)
+
+    def _one_kind_per_body(self, s: PassState) -> None:
+        """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
+        split them between the device passes' kinds, the kind with the larger sum of vote shares over them
+        takes them all (a hand's leaf, known from structure, counts one)."""
+        devices = {self.tax.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in self.tax.kinds}
+        claimed = [leaf for leaf in s.leaves if self.claims.get(leaf) in devices]
+        for frames in frames_of_one_body(s.tree, claimed):
+            totals: dict[str, float] = {}
+            for leaf in frames:
+                totals[self.claims[leaf]] = totals.get(self.claims[leaf], 0.0) + self.shares[leaf]
+            if len(totals) > 1:
+                kind = max(totals, key=totals.__getitem__)
+                self.log(f"frames of one body {frames}: all {kind} ({', '.join(f'{k} {v:.2f}' for k, v in totals.items())})")
+                for leaf in frames:
+                    self.claims[leaf] = kind
 
     def mimic_veto(self, s: PassState) -> None:
         for leaf in coupled(s.tree, s.leaves, self._claimed(s), self.log):
@@ -163,23 +180,32 @@ class Abstractor:
         s.groups = verify(s.tree, s.groups, self._unclaimed(s.tree, s.groups, {c.root for c in s.components}), self.log)
 
     def post_classification(self, s: PassState) -> None:
-        """Multi-chain groups descend again from what their members share; a lone chain keeps its class.
+        """Multi-chain groups descend again from what their members share; a lone chain keeps its class,
+        unless where its frames see from rules that class out (below).
 
         The descent starts at the deepest class common to the members' pre-classes, or one level
         above it when that is a leaf class, so that siblings stay open (several sonar frames may
         still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
+        Where a device's optical frames see from (structure.viewpoints) rules classes out by the
+        ontology's core:viewpointCount definitions (a monocular camera sees from one place, a stereo camera
+        from two), they are not offered; a lone chain's pre-class so ruled out descends again from its parent.
         """
         top = self._kind(s).cls
         typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
         by_start: dict[str, list[Group]] = {}
+        unseen = {id(g): self.tax.unseen(viewpoints(s.tree, g.leaves), top) for g in s.groups}
         for g in s.groups:
             if len(g.chains) > 1:
                 by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
+            elif (cls := s.pre[g.leaves[0]].cls) in unseen[id(g)]:
+                self.log(f"post:{g.leaves[0]}: its frames see from {viewpoints(s.tree, g.leaves)} place(s), "
+                         f"so it is no {cls}")
+                by_start.setdefault(self.tax.parents(cls)[0], []).append(g)
         for start, members in by_start.items():
             results = descend(self.oracle, self.tax, start, [
                 Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                         "Frames: " + "; ".join(f"{leaf} ({self.tax.label(s.pre[leaf].cls)})" for leaf in g.leaves),
-                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}"))
+                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}") | unseen[id(g)])
                 for g in members
             ], "post-classification", self.progress)
             typed.update({id(g): t for g, t in zip(members, results)})
@@ -230,11 +256,13 @@ class Abstractor:
                      for st, i in zip(structures, s.inferred)]
 
     def tool_classification(self, s: PassState) -> None:
-        """The model is asked the kind of the tools whose structure settles none."""
+        """The model is asked the kind of the tools whose structure settles none, seeing what each is mounted
+        on (a fingerless tool on a link whose mesh is a hand is a hand)."""
         open_groups = [(g, st) for g, st, i in zip(s.groups, s.structures or [], s.inferred) if not i.settled]
         asked = descend(self.oracle, self.tax, self._kind(s).cls, [
             Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
-                    f"Links: {', '.join(g.leaves)}\nStructure: {st.describe()}")
+                    f"Links: {', '.join(g.leaves)}\nOn: {named(s.tree.evidence, self._mount(s.tree, g))}"
+                    f"\nStructure: {st.describe()}")
             for g, st in open_groups
         ], "end-effector classification", self.progress)
         by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}

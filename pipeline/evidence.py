@@ -48,6 +48,17 @@ class LinkEvidence:
         """No geometry at all: a coordinate frame rather than a body."""
         return not self.meshes and not self.shape
 
+    @property
+    def extent(self) -> float | None:
+        """The largest dimension of its primitive shape in metres (None without one, or with a mesh)."""
+        if self.meshes or not self.shape:
+            return None
+        kind, _, sizes = self.shape.partition(" ")
+        numbers = [float(n) for n in re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", sizes)]
+        if kind == "box":
+            return max(numbers, default=0.0)
+        return max([2 * numbers[0], *numbers[1:]]) if numbers else None  # cylinder r, l; sphere r
+
     def text(self) -> str:
         """The link's geometry in a few words, or '' when it has none worth saying. Declared simulator
         sensors are not rendered: they narrow the classes offered (abstraction._ruled_out) instead."""

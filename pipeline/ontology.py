@@ -16,7 +16,8 @@ from typing import Iterable
 
 import owlready2
 import rdflib
-from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS
+from rdflib.collection import Collection
+from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS, XSD
 
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, CORE_ONTOLOGY_IRI
@@ -119,6 +120,7 @@ class Vocabulary:
         self._roles: dict[str, str] = {}  # class → its core:fingerChainRole
         self._units: set[str] = set()  # classes marked core:numberedUnits
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
+        self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
         for name in self._order:
             node = CORE[name]
             parents = sorted(filter(None, map(_local, graph.objects(node, RDFS.subClassOf))),
@@ -131,6 +133,8 @@ class Vocabulary:
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
             self._excluded[name] = _restricted_parts(graph, node, complement=True)
+            if (views := _viewpoint_range(graph, node)) is not None:
+                self._views[name] = views
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
                 self._declared_by.setdefault(str(sim_type).strip().lower(), set()).add(name)
             for joint_type in graph.objects(node, CORE.urdfJointType):
@@ -297,6 +301,14 @@ class Vocabulary:
         """Classes the ontology aligns to any of these simulator (SDF) sensor types (core:simulatorSensorType)."""
         return frozenset(c for t in sim_types for c in self._declared_by.get(t.strip().lower(), ()))
 
+    def unseen(self, count: int, below: str) -> frozenset[str]:
+        """Classes under `below` that a device whose optical frames see from `count` places cannot be
+        (core:viewpointCount restrictions on them or on a class above them: a stereo camera sees from two)."""
+        def allows(name: str) -> bool:
+            return all(low <= count <= high for c in (name, *self.ancestors(name))
+                       for low, high in [self._views.get(c, (0, float("inf")))])
+        return frozenset(c for c in self.subclasses_below(below) if not allows(c))
+
     def disagreeing(self, declared: frozenset[str], below: str) -> frozenset[str]:
         """Classes under `below` that agree with none of `declared` (neither above nor below one of them):
         what a declaration rules out. Empty when nothing is declared or nothing declared lies under `below`."""
@@ -318,6 +330,25 @@ def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool
         if part is not None and (local := _local(part)):
             out.add(local)
     return out
+
+
+def _viewpoint_range(graph: rdflib.Graph, node: rdflib.URIRef) -> tuple[float, float] | None:
+    """(least, most) from `node ⊑ ∀viewpointCount.integer[>= least, <= most]`, None without such an axiom."""
+    for restriction in graph.objects(node, RDFS.subClassOf):
+        if graph.value(restriction, OWL.onProperty) != CORE.viewpointCount:
+            continue
+        low, high = 0.0, float("inf")
+        facets = graph.value(graph.value(restriction, OWL.allValuesFrom), OWL.withRestrictions)
+        for facet in Collection(graph, facets) if facets is not None else ():
+            for kind, value in graph.predicate_objects(facet):
+                if kind == XSD.minInclusive:
+                    low = float(value)
+                elif kind == XSD.maxInclusive:
+                    high = float(value)
+                else:
+                    raise OntologyError(f"{_local(node)}: viewpointCount facet {kind} is not minInclusive or maxInclusive")
+        return low, high
+    return None
 
 
 def _local(node: rdflib.term.Node | None) -> str | None:

@@ -303,6 +303,7 @@ def _cross(a: Vector, b: tuple[float, ...]) -> Vector:
 
 # --- what the robot's shape says before any question ------------------------------------------------
 
+FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) only marks where a frame is
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
 MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
 TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' span across the hand, at most
@@ -360,9 +361,13 @@ def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
 
 
 def is_frame(tree: KinematicTree, link: str) -> bool:
-    """The link has no geometry: a coordinate frame rather than a body (a link without evidence counts)."""
+    """The link is a coordinate frame rather than a body: it has no geometry (a link without evidence counts),
+    or only a primitive of at most FRAME_MARK drawn to show where the frame is."""
     facts = tree.evidence.get(link)
-    return facts is None or facts.is_pure_frame
+    if facts is None or facts.is_pure_frame:
+        return True
+    extent = facts.extent
+    return extent is not None and extent <= FRAME_MARK
 
 
 def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
@@ -384,6 +389,56 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     limbs = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND
              and sum(tree.edge_to(link).movable for link in tree.chain_to_root(leaf)[:-1]) >= 2]
     return frozenset(limbs) if len(limbs) >= 2 else frozenset()
+
+
+# --- frames of one body, and where a camera sees from ------------------------------------------------
+
+CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
+VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
+OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
+
+
+def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
+    """The link both leaves hang from as frames of one body: by fixed joints through frames (is_frame),
+    within CAMERA_BODY of it, each on a branch that leads to it alone (None where they do not)."""
+    body = fork_of(tree, [a, b])
+    for leaf in (a, b):
+        path = tree.chain_to_root(leaf)
+        branch = path[:path.index(body)]  # leaf ... the body's child
+        if not branch or any(tree.edge_to(link).movable or not is_frame(tree, link) for link in branch):
+            return None
+        if any(len(tree.children(link)) > 1 for link in branch[1:]):
+            return None
+        if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
+            return None
+    return body
+
+
+def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
+    """`leaves` partitioned into the frames of one body (body_of), each set in the order given."""
+    return partition(leaves, lambda a, b: body_of(tree, a, b) is not None)
+
+
+def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
+    """How many places a device's frames see from: their positions at the zero pose, those within VIEWPOINT
+    of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
+    along the x axis of the link they hang from), only those count: a camera's inertial frames see nothing."""
+    optical = [leaf for leaf in leaves if _optical(tree, leaf)] or leaves
+    places: list[Vector] = []
+    for leaf in optical:
+        point = tree.position_in(leaf, tree.root)
+        if all(math.dist(point, p) > VIEWPOINT for p in places):
+            places.append(point)
+    return len(places)
+
+
+def _optical(tree: KinematicTree, leaf: str) -> bool:
+    parent = tree.parent(leaf)
+    if parent is None:
+        return False
+    origin = tree.position_in(leaf, parent)
+    z = tuple(p - o for p, o in zip(tree.position_in(leaf, parent, (0.0, 0.0, 1.0)), origin))
+    return z[0] >= OPTICAL_AXIS
 
 
 ALIKE_TOLERANCE = 1e-3  # m: joint offsets of alike chains agree to a millimetre (mirror images, copies)

@@ -7,13 +7,17 @@ from __future__ import annotations
 import pytest
 from tests.camera_robots import build
 
+from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.attachment import sub_chain
-from urdfkb.pipeline.stages.grouping import merge, one_mount
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.stages.classification import Typed
+from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
 
 SEEDS = range(200)
+TAX = vocabulary()
 
 
 @pytest.mark.slow  # many generated robots
@@ -75,3 +79,63 @@ def test_frames_of_one_body_mounted_apart_share_the_highest_mount_and_one_device
         for fs in by_housing.values():
             if {c.root for c in chains if c.leaf in fs} == {built.mount}:
                 assert sorted(fs) in [sorted(g.leaves) for g in groups], (seed, built.description)
+
+
+def _answer(prefer):
+    """A scripted model that picks the first of `prefer` it is offered, else the first option."""
+    def rule(q):
+        return next((o for o in prefer if o in q.options), q.options[0])
+    return rule
+
+
+@pytest.mark.slow  # many generated robots
+def test_a_stereo_pair_read_as_monocular_is_a_stereo_camera_and_a_lone_frame_no_stereo_camera():
+    """The model reads a stereo pair as monocular cameras and calls any camera monocular where it may,
+    stereo otherwise: the ontology's core:viewpointCount definitions (a monocular camera sees from one place,
+    a stereo camera from two) and where the frames lie decide what it may say."""
+    mono, stereo = TAX.answer("MonocularCamera"), TAX.answer("StereoCamera")
+    seen = set()
+    for seed in SEEDS:
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        pair = next((d for d in built.devices if len({built.housing[f] for f in d}) == 2), None)
+        lone = next((d for d in built.devices if len(d) == 1), None)
+        groups = [Group([sub_chain(tree, f, built.mount) for f in d]) for d in (pair, lone) if d]
+        state = PassState(TAX.kinds["sensor"], tree, tree, [], groups=groups)
+        state.pre = {f: Typed("MonocularCamera" if d is pair else "StereoCamera", 0.9)
+                     for d in (pair, lone) if d for f in d}
+        Abstractor(Oracle(ScriptedBackend(_answer([mono, stereo]))), TAX).post_classification(state)
+        for group, typed in zip(groups, state.post):
+            if group.leaves == pair:
+                assert typed.cls == "StereoCamera", (seed, built.description)
+                seen.add("pair")
+            else:
+                assert typed.cls == "MonocularCamera", (seed, built.description)
+                seen.add("lone")
+    assert seen == {"pair", "lone"}
+
+
+@pytest.mark.slow  # many generated robots
+def test_frames_of_one_housing_the_model_splits_between_sensor_and_tool_are_all_sensors():
+    """The model calls one frame of a multi-frame housing part of an end-effector (0.52) and the others
+    sensors (0.6): frames of one body are of one kind, the kind with more votes over them."""
+    sensor, tool = TAX.answer(TAX.kinds["sensor"].cls), TAX.answer(TAX.kinds["end_effector"].cls)
+    checked = 0
+    for seed in SEEDS:
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        by_housing: dict[str, list[str]] = {}
+        for frame in (f for d in built.devices for f in d):
+            by_housing.setdefault(built.housing[frame], []).append(frame)
+        odd = {fs[0] for fs in by_housing.values() if len(fs) > 1}
+        if not odd:
+            continue
+        rule = lambda q: {tool: 0.52, sensor: 0.48} if q.key.split(":", 1)[1] in odd else {sensor: 0.6, tool: 0.4}
+        abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
+        state = PassState(TAX.kinds["sensor"], tree, tree, [])
+        for step in SENSOR_PASS.steps[:2]:
+            step.run(abstractor, state)
+        frames = [f for d in built.devices for f in d]
+        assert {f: abstractor.claims[f] for f in frames} == dict.fromkeys(frames, TAX.kinds["sensor"].cls), seed
+        checked += 1
+    assert checked > 50

@@ -35,13 +35,12 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import device_name_question
 from urdfkb.pipeline.stages.asking import Progress, ask
 from urdfkb.pipeline.stages.attachment import SubChain, sub_chain
-from urdfkb.pipeline.structure import fork_of, is_frame, partition
+from urdfkb.pipeline.structure import body_of, fork_of, is_frame, partition
 from urdfkb.pipeline.tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
-CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
 
 
 @dataclass
@@ -87,7 +86,7 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 
 def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
     """The sub-chain's first link with geometry: its body, where it has one."""
-    return next((link for link in chain.links if link in tree.evidence and not tree.evidence[link].is_pure_frame), None)
+    return next((link for link in chain.links if link in tree.evidence and not is_frame(tree, link)), None)
 
 
 def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
@@ -102,34 +101,18 @@ def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
 
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """The two leaves are frames of one body (_body_of) that lies inside both sub-chains."""
-    body = _body_of(tree, a.leaf, b.leaf)
+    """The two leaves are frames of one body (structure.body_of) that lies inside both sub-chains."""
+    body = body_of(tree, a.leaf, b.leaf)
     return body is not None and body in a.links and body in b.links
 
 
-def _body_of(tree: KinematicTree, a: str, b: str) -> str | None:
-    """The link both leaves hang from as frames of one body: by fixed joints through links without geometry,
-    within CAMERA_BODY of it, each on a branch that leads to it alone (None where they do not)."""
-    body = fork_of(tree, [a, b])
-    for leaf in (a, b):
-        path = tree.chain_to_root(leaf)
-        branch = path[:path.index(body)]  # leaf ... the body's child
-        if not branch or any(tree.edge_to(link).movable or not is_frame(tree, link) for link in branch):
-            return None
-        if any(len(tree.children(link)) > 1 for link in branch[1:]):
-            return None
-        if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
-            return None
-    return body
-
-
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
-    """Frames of one body (_body_of) that the model mounted apart, some on a link above the body and some on
+    """Frames of one body (structure.body_of) that the model mounted apart, some on a link above the body and some on
     the body or below it, all mounted on the highest of those mounts above the body: the body is then
     inside every chain, and group merging binds them into one device."""
     out = {c.leaf: c for c in chains}
     bodies = [(a.leaf, b.leaf, body) for i, a in enumerate(chains) for b in chains[:i]
-              if (body := _body_of(tree, a.leaf, b.leaf)) is not None]
+              if (body := body_of(tree, a.leaf, b.leaf)) is not None]
     moved = True
     while moved:  # each move only raises a mount: this ends
         moved = False

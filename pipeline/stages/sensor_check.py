@@ -4,7 +4,8 @@
   (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools keep
   every finger chain.
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
-  drive part or reference frame?), unless the file declares a simulator sensor on it. "Part of a
+  drive part or reference frame?), unless the file declares a simulator sensor on it; alike leaves
+  (structure.alike_leaves) once for all. "Part of a
   motor or drive" overrules identification: over the truth robots it went to motor screws, rotors
   and an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' alone
   also took laser scanners and optical frames, so they are traced but change nothing. And a leaf
@@ -21,6 +22,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import DRIVE_PART, sensor_check
 from urdfkb.pipeline.stages.asking import Progress, ask
 from urdfkb.pipeline.stages.verification import Log
+from urdfkb.pipeline.structure import alike_leaves
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -46,17 +48,19 @@ def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors:
     simulator sensor that the check calls a part of a motor or drive, or that neither question calls a
     sensor with a majority while both lean clearly against it."""
     checked = [leaf for leaf in leaves if leaf in sensors and not _declared(tree, leaf)]
-    questions = [sensor_check(leaf, named(tree.evidence, leaf), tree.chain_to_root(leaf)[1:]) for leaf in checked]
+    alike = alike_leaves(tree, checked)  # asked once, the first standing for all, as in identification
+    questions = [sensor_check(group[0], named(tree.evidence, group[0]), tree.chain_to_root(group[0])[1:])
+                 for group in alike]
     found = []
-    for leaf, verdict in zip(checked, ask(oracle, questions, "sensor check", progress)):
-        checked_share = verdict.distribution.get("sensor", 0.0)
+    for group, verdict in zip(alike, ask(oracle, questions, "sensor check", progress)):
+        leaf, checked_share = group[0], verdict.distribution.get("sensor", 0.0)
         if verdict.answer == DRIVE_PART:
-            found.append(leaf)
-            log(f"not a sensor: {leaf} is a part of a motor or drive ({verdict.confidence:.2f})")
+            found += group
+            log(f"not a sensor: {', '.join(group)} is a part of a motor or drive ({verdict.confidence:.2f})")
         elif (max(sensors[leaf], checked_share) <= MAJORITY
               and (sensors[leaf] + checked_share) / 2 <= MAJORITY - LAYOUT_NOISE):
-            found.append(leaf)
-            log(f"not a sensor: {leaf} is a sensor for a minority of the votes twice "
+            found += group
+            log(f"not a sensor: {', '.join(group)} is a sensor for a minority of the votes twice "
                 f"(identification {sensors[leaf]:.2f}, check {checked_share:.2f})")
     return found
 

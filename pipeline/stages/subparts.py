@@ -5,7 +5,7 @@ forming no images: a sensing element) has one at each of its sub-chains' leaves:
 from its mount to the frame its measurements are expressed in, and nothing hangs below that frame.
 Those leaves are refined below the required part (core:partQuestion asks which kind, where it has
 kinds); the device's other links are typed with that part's branch ruled out, and a tool's links
-with what its finger chains rule out (core:fingerChainRole).
+with what its finger chains rule out (core:fingerChainRole). Alike links asked the same are asked once.
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.structure import ToolStructure
+from urdfkb.pipeline.structure import ToolStructure, alike_leaves, partition
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -43,12 +43,26 @@ def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Ki
             f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
             f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}",
             tax.excluded_parts(device))))
-    typed = dict(zip([link for link, _ in rest], descend(
-        oracle, tax, kind.subparts, [s for _, s in rest], "sub-part classification", progress)))
+    typed = _descend_alike(oracle, tax, tree, kind.subparts, rest, "sub-part classification", progress)
     for part, subjects in frames.items():
-        typed.update(zip([link for link, _ in subjects], descend(
-            oracle, tax, part, [s for _, s in subjects], "required parts", progress)))
+        typed.update(_descend_alike(oracle, tax, tree, part, subjects, "required parts", progress))
     return typed
+
+
+def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: str,
+                   subjects: list[tuple[str, Subject]], stage: str, progress: Progress | None) -> dict[str, Typed]:
+    """Each link's class below `start`; alike links (structure.alike_leaves: the same link of a left and a
+    right gripper) asked the same about the same kind of device are asked once, the first standing for all."""
+    by_link = dict(subjects)
+    sets = [same for alike in alike_leaves(tree, list(by_link))
+            for same in partition(alike, lambda a, b: _same_question(by_link[a], by_link[b]))]
+    answers = descend(oracle, tax, start, [by_link[links[0]] for links in sets], stage, progress)
+    return {link: typed for links, typed in zip(sets, answers) for link in links}
+
+
+def _same_question(a: Subject, b: Subject) -> bool:
+    """The two subjects differ in their link's name at most (the first line of their evidence)."""
+    return (a.framing, a.exclude, a.evidence.split("\n", 1)[1:]) == (b.framing, b.exclude, b.evidence.split("\n", 1)[1:])
 
 
 def _required_links(tax: Vocabulary, groups: list[Group], classes: list[Typed]) -> dict[str, str]:
