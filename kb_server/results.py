@@ -58,12 +58,13 @@ class ResultLimits:
 
 def serialize(answer: ox.QuerySolutions | ox.QueryTriples | ox.QueryBoolean, fmt, limits: ResultLimits) -> bytes:
     """`answer` written in `fmt` (a QueryResultsFormat or RdfFormat); ResultTooLarge past `limits`."""
+    # pyoxigraph's stubs type `output` as typing.IO[bytes], but its writers only call write() and flush()
     if isinstance(answer, ox.QueryTriples):
         sink = _Sink(limits)
-        ox.serialize(_capped(answer, limits), sink, fmt)
+        ox.serialize(_capped(answer, limits), sink, fmt)  # type: ignore[arg-type]
     else:
         sink = _Sink(limits, *_ROWS[fmt]) if isinstance(answer, ox.QuerySolutions) else _Sink(limits)
-        answer.serialize(sink, fmt)
+        answer.serialize(sink, fmt)  # type: ignore[arg-type]
     return bytes(sink.body)
 
 

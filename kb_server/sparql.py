@@ -12,6 +12,7 @@ nested groups), and to find the dataset clauses (FROM / FROM NAMED must name loc
 """
 from __future__ import annotations
 
+import io
 import json
 import re
 from collections.abc import Iterator, Mapping
@@ -218,10 +219,16 @@ def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: li
 
 def graph_dumps(store: ox.Store) -> dict[str, bytes]:
     """Every graph of `store` as N-Triples, keyed by graph IRI ("" for the default graph)."""
-    out = {"": store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=ox.DefaultGraph())}
+    out = {"": _ntriples(store, ox.DefaultGraph())}
     for g in store.named_graphs():
-        out[g.value] = store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=g)
+        out[g.value] = _ntriples(store, g)
     return out
+
+
+def _ntriples(store: ox.Store, graph: ox.NamedNode | ox.BlankNode | ox.DefaultGraph) -> bytes:
+    buf = io.BytesIO()  # written into rather than returned: dump's stub types its return as bytes | None
+    store.dump(buf, format=ox.RdfFormat.N_TRIPLES, from_graph=graph)
+    return buf.getvalue()
 
 
 def run_update(store: ox.Store, text: str) -> dict[str, tuple[bytes | None, bytes | None]]:

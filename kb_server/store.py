@@ -105,9 +105,9 @@ class Store:
         self._open()
         with self.lock:
             self._entries = self._read_entries()
-            graphs = {CORE_GRAPH: self._graph_data(CORE_GRAPH)}
+            graphs = {CORE_GRAPH: _ntriples(self.core)}
             for e in self.robots():
-                graphs[e.ontology_iri] = self._graph_data(e.ontology_iri)
+                graphs[e.ontology_iri] = _ntriples(self._ontology(e.ontology_iri))
                 if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
                     graphs[review.corrections_iri(e.name)] = corrections
             graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
