@@ -34,7 +34,7 @@ from urdfkb.pipeline.ingest import load_urdf
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "urdf"
 QUERIES = {"cameras": {}, "sensors": {}, "mounted_below": {"link": "base_link"}, "end_effectors": {},
-           "low_confidence": {"threshold": "0.5"}, "components": {}}
+           "low_confidence": {}, "components": {}}
 KEYWORDS = (("optical", SENSOR, "MonocularCamera", "RgbFrame"), ("camera", SENSOR, "MonocularCamera", "RgbFrame"),
             ("laser", SENSOR, "Lidar", "SensingElement"), ("imu", SENSOR, "IMU", "SensingElement"),
             ("tool", END_EFFECTOR, "Gripper", "ToolCenterPoint"), ("finger", END_EFFECTOR, "Gripper", "ContactSurface"))

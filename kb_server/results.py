@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import pyoxigraph as ox
 
-from urdfkb.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.settings import MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY
 
 MIN_QUERY_MEMORY = 256 * 2**20
 _PAGING = "add a LIMIT, or page through the answer with LIMIT and OFFSET (and ORDER BY, for stable pages)"

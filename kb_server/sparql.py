@@ -24,8 +24,7 @@ import pyoxigraph as ox
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
-
-MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack
+from urdfkb.settings import MAX_QUERY_NESTING
 
 
 class QueryError(UrdfkbError, ValueError):
@@ -129,7 +128,7 @@ def tokens(text: str) -> Iterator[tuple[str, str]]:
 
 def scan(text: str, update: bool = False) -> Scan:
     """Read `text` as the engine does; QueryError for SERVICE (and LOAD in an update), however glued to
-    what follows, or for nesting deeper than MAX_DEPTH."""
+    what follows, or for nesting deeper than MAX_QUERY_NESTING."""
     out, depth, base = Scan(), 0, ""
     prefixes: dict[str, str] = {}
     refused = ("SERVICE", "LOAD") if update else ("SERVICE",)
@@ -137,8 +136,8 @@ def scan(text: str, update: bool = False) -> Scan:
     for kind, tok in tokens(text):
         if kind == "open":
             depth += 1
-            if depth > MAX_DEPTH:
-                raise QueryError(f"query nests more than {MAX_DEPTH} levels of (), {{}} or []")
+            if depth > MAX_QUERY_NESTING:
+                raise QueryError(f"query nests more than {MAX_QUERY_NESTING} levels of (), {{}} or []")
         elif kind == "close":
             depth = max(depth - 1, 0)
         elif kind in ("word", "pname"):
