@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import http.client
+import io
 import statistics
 import subprocess
 import sys
@@ -33,7 +34,7 @@ from urdfkb.pipeline.ingest import load_urdf
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "urdf"
 QUERIES = {"cameras": {}, "sensors": {}, "mounted_below": {"link": "base_link"}, "end_effectors": {},
-           "low_confidence": {"threshold": "0.5"}, "components": {}}
+           "low_confidence": {}, "components": {}}
 KEYWORDS = (("optical", SENSOR, "MonocularCamera", "RgbFrame"), ("camera", SENSOR, "MonocularCamera", "RgbFrame"),
             ("laser", SENSOR, "Lidar", "SensingElement"), ("imu", SENSOR, "IMU", "SensingElement"),
             ("tool", END_EFFECTOR, "Gripper", "ToolCenterPoint"), ("finger", END_EFFECTOR, "Gripper", "ContactSurface"))
@@ -122,12 +123,16 @@ def main() -> None:
         t0 = time.perf_counter()
         robots = populate(store, args.robots, trees)
         print(f"# {args.robots} robots populated in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        target = store.robot(robots[0]).robot_iri
+        entry = store.robot(robots[0])
+        assert entry is not None, f"{robots[0]} was not stored"
+        target = entry.robot_iri
         store.close()
         t0 = time.perf_counter()
         store = Store(path, workers=0)
         print(f"# store reopened, index rebuilt from the quadstore, in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        nquads = store.index.master.dump(format=pyoxigraph.RdfFormat.N_QUADS)
+        dump = io.BytesIO()
+        store.index.master.dump(dump, format=pyoxigraph.RdfFormat.N_QUADS)
+        nquads = dump.getvalue()
         store.close()
         kport, oport = free_port(), free_port()
         bin_dir = Path(sys.executable).parent

@@ -51,7 +51,7 @@ def workload(leaves: int):
     tree, tax = load_urdf(SHARED / "urdf" / "pr2.urdf"), vocabulary()
     kinds = tax.subclasses(tax.component)
     chosen = tree.leaves()[:leaves]
-    stages = [[kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.parent_edge(leaf).joint_type).question
+    stages = [[kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.edge_to(leaf).joint_type).question
                for leaf in chosen],
               [sensor_check(leaf, leaf, tree.chain_to_root(leaf)[1:]) for leaf in chosen]]
     return [sorted(stage, key=lambda q: q.system) for stage in stages]

@@ -9,6 +9,7 @@ import argparse
 import os
 import statistics
 import time
+from collections.abc import Callable
 
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
@@ -41,7 +42,7 @@ def question(link: str) -> Question:
     return Question(SYSTEM, user, OPTIONS, key=f"kind:{link}")
 
 
-def run_interleaved(backend: LlamaBackend, cases: list[tuple[str, object, int]], reps: int) -> None:
+def run_interleaved(backend: LlamaBackend, cases: list[tuple[str, Callable[[], object], int]], reps: int) -> None:
     """Run every case once per round (so load from other processes hits all alike); print medians."""
     times: dict[str, list[float]] = {label: [] for label, _, _ in cases}
     tokens: dict[str, list[int]] = {label: [] for label, _, _ in cases}

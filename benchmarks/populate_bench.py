@@ -75,7 +75,12 @@ def populate(urdf: Path, out: Path, pythonpath: Path | None, timings: bool = Fal
     if code != 0:
         sys.exit(f"urdfkb failed ({code}):\n{stderr[-2000:]}")
     text = out.read_text()
-    number = lambda prop: int(re.search(rf"core:{prop}\s+\"?(\d+)", text).group(1))  # noqa: E731
+
+    def number(prop: str) -> int:
+        if (match := re.search(rf"core:{prop}\s+\"?(\d+)", text)) is None:
+            sys.exit(f"the populated file has no core:{prop}")
+        return int(match.group(1))
+
     answers, restored = {}, 0
     for line in trace.read_text().splitlines():
         record = json.loads(line)

@@ -7,6 +7,8 @@ world, as one end-effector pass would assert them; with the ratio to the core al
 import argparse
 import statistics
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import owlready2
@@ -49,8 +51,8 @@ def main() -> None:
     args = parser.parse_args()
     tree = load_urdf(RACK)
     structures = [tool_structure(tree, leaves) for leaves in TOOLS]
-    cases = [("JVM + HermiT, one class", trivial), ("core ontology alone", core_only)]
-    cases += [(f"core + {3 * k} tools", lambda k=k: classify(structures * k)) for k in (1, 2, 4)]
+    cases: list[tuple[str, Callable[[], object]]] = [("JVM + HermiT, one class", trivial), ("core ontology alone", core_only)]
+    cases += [(f"core + {3 * k} tools", partial(classify, structures * k)) for k in (1, 2, 4)]
     print(f"median of {args.runs} runs (wall clock, includes the JVM start)\n")
     print(f"| {'case':<26} | {'median s':>8} | {'x core':>6} |")
     print(f"|{'-' * 28}|{'-' * 9}:|{'-' * 7}:|")

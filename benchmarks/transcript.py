@@ -44,7 +44,8 @@ def transcribe(truth_path: Path, out: Path, traces: Path | None = None, salt: st
     """Write one truth robot's transcript (and its oracle trace into `traces`); the number of questions asked."""
     truth = evaluation.load_truth(truth_path)
     tree = load_urdf(truth_path.resolve().parents[2] / truth.urdf)
-    asked, batches = [], []
+    asked: list[dict] = []
+    batches: list[int] = []
 
     def rule(question: Question) -> dict[str, float]:
         shares = hashed(question, salt)

@@ -25,7 +25,7 @@ from urdfkb.kb_server.routes import BLUEPRINTS
 from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.services import EXTENSION, Services
 from urdfkb.kb_server.store import Store
-from urdfkb.limits import MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, XACRO_TIMEOUT, job_waiters
+from urdfkb.settings import MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, XACRO_TIMEOUT, job_waiters
 
 
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = MAX_BYTES,

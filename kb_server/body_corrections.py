@@ -15,7 +15,6 @@ from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.stages.body import locate
 from urdfkb.pipeline.tree import KinematicTree
 
-BODY_PART = "BodyPart"
 NO_SIDE = "none"
 SIDE_CHOICES = (*SIDES, NO_SIDE)
 Body = tuple[list[BodyPart], list[Component]]
@@ -23,7 +22,8 @@ Body = tuple[list[BodyPart], list[Component]]
 
 def classes() -> tuple[str, ...]:
     """The classes a part may be given: every class below BodyPart in the ontology."""
-    return vocabulary().subclasses_below(BODY_PART)
+    tax = vocabulary()
+    return tax.subclasses_below(tax.body_part)
 
 
 def check_class(cls: str) -> str:

@@ -11,10 +11,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 from urdfkb import __version__
-from urdfkb.limits import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
-                           MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY, XACRO_TIMEOUT)
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
+from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
+                             MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, TEMPERATURE, VOTES, XACRO_TIMEOUT)
 
 if TYPE_CHECKING:
     from tqdm import tqdm
@@ -51,8 +51,9 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--model", metavar="GGUF", help="a GGUF model file (default: Qwen2.5-Coder-1.5B-Instruct, fetched once)")
     g.add_argument("--llm-url", metavar="URL", help="an OpenAI-compatible server (llama.cpp server, vLLM, Ollama /v1) instead of the embedded model")
     g.add_argument("--llm-model", metavar="NAME", help="the model name to request from --llm-url")
-    g.add_argument("--vote", choices=MODES, help="exact: whole-answer probabilities in one pass (default with an embedded model); sample: K samples at temperature 0.7")
-    g.add_argument("--votes", type=int, default=5, metavar="K", help="samples per question with --vote sample (default 5)")
+    g.add_argument("--vote", choices=MODES, help="exact: whole-answer probabilities in one pass (default with an embedded model); "
+                                                 f"sample: K samples at temperature {TEMPERATURE:g}")
+    g.add_argument("--votes", type=int, default=VOTES, metavar="K", help=f"samples per question with --vote sample (default {VOTES})")
     g.add_argument("--no-cache", action="store_true", help="ignore and do not write the result cache")
 
 
@@ -280,8 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("serve", help="serve the knowledge base: SPARQL endpoint, POST /populate, robots, HRI queries")
     p.add_argument("--store", help="the quadstore file (default: a kb.sqlite3 in the user data directory)")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
-    p.add_argument("--port", type=int, default=8000, help="port (default 8000)")
+    p.add_argument("--host", default=HOST, help=f"address to bind (default {HOST})")
+    p.add_argument("--port", type=int, default=PORT, help=f"port (default {PORT})")
     p.add_argument("--token", help="bearer token allowing SPARQL updates and deletions (or env URDFKB_TOKEN)")
     p.add_argument("--remote-store", metavar="URL", help="mirror every robot as a named graph into this SPARQL 1.1 Graph Store endpoint")
     p.add_argument("--populate", metavar="URDF", action="append", default=[], help="populate this URDF into the store before serving (repeatable)")

@@ -36,13 +36,12 @@ from urdfkb.pipeline.components import Abstraction, BodyPart, Component, SubComp
 from urdfkb.pipeline.errors import CorrectionError
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, REVIEW, body_part_local, component_iri, corrections_iri, escape
 from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.structure import fork_of
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import MAX_REVIEWER
 
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
 BODY_ACTIONS = ("reclassify", "side", "merge", "split", "reject")
-MAX_REVIEWER = 100
-
-
 
 
 @dataclass(frozen=True)
@@ -229,9 +228,7 @@ def allowed_classes(comp: Component) -> tuple[str, ...]:
 
 def mount_options(tree: KinematicTree, links: tuple[str, ...]) -> tuple[str, ...]:
     """Links above every one of `links` (nearest first): where such a group may be mounted."""
-    chains = [tree.chain_to_root(link) for link in links]
-    common = [a for a in chains[0] if all(a in ch for ch in chains[1:])]
-    return tuple(a for a in common if a not in links)
+    return tuple(a for a in tree.chain_to_root(fork_of(tree, list(links))) if a not in links)
 
 
 def _find(comps: list[Component], links: tuple[str, ...]) -> int:

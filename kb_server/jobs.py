@@ -35,6 +35,7 @@ from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.llm.base import Backend
 from urdfkb.pipeline.runner import Progress, Settings, make_backend, run
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import JOB_THREADS, KEEP_JOB_SECONDS, KEEP_JOBS, MAX_QUEUED_JOBS, QUEUE_RETRY_AFTER
 
 log = logging.getLogger(__name__)
 
@@ -154,7 +155,8 @@ class JobManager:
     """Runs populate jobs on a small thread pool; remembers unfinished jobs and recently finished ones."""
 
     def __init__(self, store: Store, runner: Runner = pipeline_runner, remote: RemoteStore | None = None,
-                 workers: int = 2, max_queued: int = 8, keep: int = 100, keep_seconds: float = 3600.0):
+                 workers: int = JOB_THREADS, max_queued: int = MAX_QUEUED_JOBS, keep: int = KEEP_JOBS,
+                 keep_seconds: float = KEEP_JOB_SECONDS):
         self.store = store
         self.runner = runner
         self.remote = remote
@@ -173,7 +175,7 @@ class JobManager:
         with self._guard:
             self._expire()
             if sum(j.state == "queued" for j in self._jobs.values()) >= self.max_queued:
-                raise QueueFull(f"{self.max_queued} populate jobs are already queued; retry later", 30)
+                raise QueueFull(f"{self.max_queued} populate jobs are already queued; retry later", QUEUE_RETRY_AFTER)
             self._jobs[job.id] = job
         self._pool.submit(self._run, job, source, settings)
         return job

@@ -7,7 +7,7 @@ import re
 
 from flask import request
 
-from urdfkb.limits import MAX_JSON_DEPTH
+from urdfkb.settings import MAX_JSON_DEPTH
 
 _BRACKETS = re.compile(rb'"(?:[^"\\]|\\.)*"|[\[\]{}]')  # a string (skipped whole) or a bracket
 

@@ -12,7 +12,6 @@ from functools import cache
 
 from urdfkb.pipeline.ontology import vocabulary
 
-BODY_PART = "BodyPart"
 KIND_COLOURS = ("#1f77b4", "#d95f02", "#7570b3", "#e7298a")
 BODY_COLOURS = ("#66a61e", "#999933", "#8c6bb1", "#1b9e77", "#e7298a", "#a6761d", "#666666")
 OTHER = "#777777"  # a class of no kind the palette knows
@@ -37,10 +36,10 @@ def kinds() -> tuple[Swatch, ...]:
 
 @cache
 def body_classes() -> tuple[Swatch, ...]:
-    """Each direct subclass of BodyPart's swatch, keyed `part-<Class>`."""
+    """Each direct subclass of the body's class's swatch (Vocabulary.body_classes), keyed `part-<Class>`."""
     tax = vocabulary()
     return tuple(Swatch(f"part-{cls}", tax.label(cls), BODY_COLOURS[i % len(BODY_COLOURS)])
-                 for i, cls in enumerate(tax.subclasses(BODY_PART)))
+                 for i, cls in enumerate(tax.body_classes))
 
 
 def kind_colour(kind: str) -> str:

@@ -4,7 +4,12 @@ A query file is SPARQL whose header comments give a title and its parameters:
 
     # title: What is mounted on or below a link
     # param link: string - URDF name of the link
-    # param threshold: decimal = 0.5 - what it means
+    # param side: string = any - what it means
+    # param threshold: decimal = {REVIEW_THRESHOLD} - what it means
+
+A default follows `=`; written `{NAME}`, it is the setting NAME of urdfkb.settings, filled in as the file
+is loaded, so a default the server also uses elsewhere (the review threshold of the pages) has one home
+and the file stays a SPARQL query Protégé or any client can read.
 
 `$robot` is always bound to the robot's individual IRI; other `$name` variables to the request's
 values, validated for their type and written into the text as escaped RDF terms (`Literal(...).n3()`)
@@ -25,13 +30,15 @@ from functools import cache
 from rdflib import Literal, URIRef
 from rdflib.namespace import XSD
 
+from urdfkb import local_name, settings
 from urdfkb.kb_server.sparql import Result
 from urdfkb.kb_server.store import Store
-from urdfkb.limits import QUERY_TIMEOUT
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import RESULTS_BY_NAME
+from urdfkb.settings import QUERY_TIMEOUT
 
 _PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(.*))?$")
+_SETTING = re.compile(r"^\{([A-Z][A-Z0-9_]*)\}$")
 _VAR = re.compile(r"\$(\w+)")
 TYPES = ("string", "decimal", "integer")
 
@@ -105,12 +112,21 @@ def _parse(name: str, text: str) -> NamedQuery:
             pname, ptype, default, doc = m.groups()
             if ptype not in TYPES or pname == "robot":
                 raise ValueError(f"query file {name}.rq: bad parameter declaration {line!r}")
-            params.append(Param(pname, ptype, default, (doc or "").strip()))
+            params.append(Param(pname, ptype, _setting(name, default), (doc or "").strip()))
     declared = {p.name for p in params} | {"robot"}
     used = set(_VAR.findall(text))
     if used != declared:
         raise ValueError(f"query file {name}.rq: variables {sorted(used)} do not match parameters {sorted(declared)}")
     return NamedQuery(name, title, text, tuple(params))
+
+
+def _setting(name: str, default: str | None) -> str | None:
+    """A parameter's default, with a `{NAME}` placeholder replaced by urdfkb.settings.NAME."""
+    if default is None or (m := _SETTING.match(default)) is None:
+        return default
+    if not hasattr(settings, m.group(1)):
+        raise ValueError(f"query file {name}.rq: no setting {m.group(1)} in urdfkb.settings")
+    return str(getattr(settings, m.group(1)))
 
 
 @cache
@@ -139,18 +155,14 @@ def components(store: Store, robot: str) -> list[dict]:
     out: dict[str, dict] = {}
     for row in result.as_dicts():
         comp = out.setdefault(row["component"], {
-            "iri": row["component"], "class": _local(row["class"]),
+            "iri": row["component"], "class": local_name(row["class"]),
             "confidence": float(row["confidence"]) if "confidence" in row else None,
             "mount": row.get("mount"), "subcomponents": []})
         if "sub" in row:
             comp["subcomponents"].append({
-                "iri": row["sub"], "class": _local(row["subClass"]), "link": row.get("subLink"),
+                "iri": row["sub"], "class": local_name(row["subClass"]), "link": row.get("subLink"),
                 "confidence": float(row["subConfidence"]) if "subConfidence" in row else None})
     return list(out.values())
-
-
-def _local(iri: str) -> str:
-    return iri.rsplit("#", 1)[-1]
 
 
 def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path=None, fmt: str = "table",
@@ -173,7 +185,7 @@ def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path
 
 def _table(result: Result) -> str:
     rows = result.as_dicts()
-    cells = [[_local(row[v]) if "#" in row.get(v, "") else row.get(v, "") for v in result.vars] for row in rows]
+    cells = [[local_name(row[v]) if "#" in row.get(v, "") else row.get(v, "") for v in result.vars] for row in rows]
     widths = [max([len(v)] + [len(r[i]) for r in cells]) for i, v in enumerate(result.vars)]
     lines = ["  ".join(v.ljust(w) for v, w in zip(result.vars, widths)).rstrip(),
              "  ".join("-" * w for w in widths)]

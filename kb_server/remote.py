@@ -12,8 +12,8 @@ import urllib.request
 
 import rdflib
 
-from urdfkb.limits import REMOTE_TIMEOUT
 from urdfkb.pipeline.formats import N_TRIPLES
+from urdfkb.settings import REMOTE_TIMEOUT
 
 
 class RemoteError(RuntimeError):

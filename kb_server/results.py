@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import pyoxigraph as ox
 
-from urdfkb.limits import MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.settings import MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY
 
 MIN_QUERY_MEMORY = 256 * 2**20
 _PAGING = "add a LIMIT, or page through the answer with LIMIT and OFFSET (and ORDER BY, for stable pages)"
@@ -58,12 +58,13 @@ class ResultLimits:
 
 def serialize(answer: ox.QuerySolutions | ox.QueryTriples | ox.QueryBoolean, fmt, limits: ResultLimits) -> bytes:
     """`answer` written in `fmt` (a QueryResultsFormat or RdfFormat); ResultTooLarge past `limits`."""
+    # pyoxigraph's stubs type `output` as typing.IO[bytes], but its writers only call write() and flush()
     if isinstance(answer, ox.QueryTriples):
         sink = _Sink(limits)
-        ox.serialize(_capped(answer, limits), sink, fmt)
+        ox.serialize(_capped(answer, limits), sink, fmt)  # type: ignore[arg-type]
     else:
         sink = _Sink(limits, *_ROWS[fmt]) if isinstance(answer, ox.QuerySolutions) else _Sink(limits)
-        answer.serialize(sink, fmt)
+        answer.serialize(sink, fmt)  # type: ignore[arg-type]
     return bytes(sink.body)
 
 

@@ -26,6 +26,7 @@ from flask import Flask, Response, request
 from urdfkb.kb_server.text import check_text
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
+from urdfkb.settings import HOST
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +95,7 @@ def _llm_base(url: str) -> str:
 class Policy:
     """The request checks of one server; `port` is the bound port, known after binding (None = any)."""
 
-    def __init__(self, bind_host: str = "127.0.0.1", port: int | None = None, allowed_hosts: Iterable[str] = (),
+    def __init__(self, bind_host: str = HOST, port: int | None = None, allowed_hosts: Iterable[str] = (),
                  model_dir: str | Path | None = None, llm_urls: Iterable[str] = ()):
         self.bind_host = bind_host.strip("[]").lower()
         self.port = port or None

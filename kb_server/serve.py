@@ -1,4 +1,4 @@
-"""`urdfkb serve`: the app under waitress over a persistent store (127.0.0.1 unless told otherwise)."""
+"""`urdfkb serve`: the app under waitress over a persistent store (on loopback, settings.HOST, unless told otherwise)."""
 from __future__ import annotations
 
 import logging
@@ -13,19 +13,19 @@ from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.store import Store, check_robot_name
-from urdfkb.limits import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER,
-                           MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, QUERY_MEMORY, QUERY_TIMEOUT, THREADS,
-                           XACRO_TIMEOUT, job_waiters)
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.xacro_input import load_description, parse_package_paths
+from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER,
+                             MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, QUERY_TIMEOUT, THREADS,
+                             XACRO_TIMEOUT, job_waiters)
 
 log = logging.getLogger(__name__)
 FD_RESERVE = 256  # descriptors besides the connections': store files, worker pipes, the listening socket
 
 
-def make_server(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
+def make_server(store_path: str | Path | None = None, host: str = HOST, port: int = PORT,
                 token: str | None = None, remote_store: str | None = None, query_timeout: float = QUERY_TIMEOUT,
                 max_body: int = MAX_BYTES, threads: int = THREADS, runner: Runner = pipeline_runner,
                 allowed_hosts: Sequence[str] = (), model_dir: str | Path | None = None,
@@ -91,7 +91,7 @@ def open_files_for(connections: int) -> int:
     return fit
 
 
-def serve(store_path: str | Path | None = None, host: str = "127.0.0.1", port: int = 8000,
+def serve(store_path: str | Path | None = None, host: str = HOST, port: int = PORT,
           token: str | None = None, remote_store: str | None = None, populate: Sequence[str] = (),
           query_timeout: float = QUERY_TIMEOUT, max_body: int = MAX_BYTES, threads: int = THREADS,
           package_paths: Sequence[str] = (), **options) -> None:

@@ -12,6 +12,7 @@ nested groups), and to find the dataset clauses (FROM / FROM NAMED must name loc
 """
 from __future__ import annotations
 
+import io
 import json
 import re
 from collections.abc import Iterator, Mapping
@@ -23,8 +24,7 @@ import pyoxigraph as ox
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
-
-MAX_DEPTH = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack
+from urdfkb.settings import MAX_QUERY_NESTING
 
 
 class QueryError(UrdfkbError, ValueError):
@@ -128,7 +128,7 @@ def tokens(text: str) -> Iterator[tuple[str, str]]:
 
 def scan(text: str, update: bool = False) -> Scan:
     """Read `text` as the engine does; QueryError for SERVICE (and LOAD in an update), however glued to
-    what follows, or for nesting deeper than MAX_DEPTH."""
+    what follows, or for nesting deeper than MAX_QUERY_NESTING."""
     out, depth, base = Scan(), 0, ""
     prefixes: dict[str, str] = {}
     refused = ("SERVICE", "LOAD") if update else ("SERVICE",)
@@ -136,8 +136,8 @@ def scan(text: str, update: bool = False) -> Scan:
     for kind, tok in tokens(text):
         if kind == "open":
             depth += 1
-            if depth > MAX_DEPTH:
-                raise QueryError(f"query nests more than {MAX_DEPTH} levels of (), {{}} or []")
+            if depth > MAX_QUERY_NESTING:
+                raise QueryError(f"query nests more than {MAX_QUERY_NESTING} levels of (), {{}} or []")
         elif kind == "close":
             depth = max(depth - 1, 0)
         elif kind in ("word", "pname"):
@@ -218,10 +218,16 @@ def run_query(store: ox.Store, text: str, accept: str | None, default_graphs: li
 
 def graph_dumps(store: ox.Store) -> dict[str, bytes]:
     """Every graph of `store` as N-Triples, keyed by graph IRI ("" for the default graph)."""
-    out = {"": store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=ox.DefaultGraph())}
+    out = {"": _ntriples(store, ox.DefaultGraph())}
     for g in store.named_graphs():
-        out[g.value] = store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=g)
+        out[g.value] = _ntriples(store, g)
     return out
+
+
+def _ntriples(store: ox.Store, graph: ox.NamedNode | ox.BlankNode | ox.DefaultGraph) -> bytes:
+    buf = io.BytesIO()  # written into rather than returned: dump's stub types its return as bytes | None
+    store.dump(buf, format=ox.RdfFormat.N_TRIPLES, from_graph=graph)
+    return buf.getvalue()
 
 
 def run_update(store: ox.Store, text: str) -> dict[str, tuple[bytes | None, bytes | None]]:

@@ -35,7 +35,6 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
-from urdfkb.limits import QUERY_TIMEOUT, QUERY_WORKERS
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError, UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph, robot_graph_of
@@ -45,6 +44,7 @@ from urdfkb.pipeline.ontology import load_core
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.shacl import violations
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import QUERY_TIMEOUT, QUERY_WORKERS
 
 # kb_sources: the model's own answer per robot (tree and abstraction as JSON), so reviewers'
 # corrections can be laid over it again whenever they change; the robot graph is model + corrections.
@@ -105,9 +105,9 @@ class Store:
         self._open()
         with self.lock:
             self._entries = self._read_entries()
-            graphs = {CORE_GRAPH: self._graph_data(CORE_GRAPH)}
+            graphs = {CORE_GRAPH: _ntriples(self.core)}
             for e in self.robots():
-                graphs[e.ontology_iri] = self._graph_data(e.ontology_iri)
+                graphs[e.ontology_iri] = _ntriples(self._ontology(e.ontology_iri))
                 if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
                     graphs[review.corrections_iri(e.name)] = corrections
             graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())

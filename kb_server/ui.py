@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from flask import Response, render_template, request
 
+from urdfkb import local_name
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import body_view, palette, queries, tree_svg
 from urdfkb.kb_server.body_corrections import SIDE_CHOICES
@@ -17,6 +18,7 @@ from urdfkb.pipeline.formats import RESULTS_MEDIA
 from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import REVIEW_THRESHOLD
 
 JSON_TYPES = tuple(media for media, f in RESULTS_MEDIA.items() if f.name == "json")  # what API clients ask for
 
@@ -55,7 +57,7 @@ def robot_page(store: Store, name: str) -> Response | str:
         model = corrected_comps.get(c["iri"])
         notes = influenced.get(c["iri"], [])
         rows.append({
-            **c, "key": c["iri"].rsplit("#", 1)[-1], "kind": kind, "links": links,
+            **c, "key": local_name(c["iri"]), "kind": kind, "links": links,
             "classes": review.allowed_classes(model) if model else (),
             "mounts": review.mount_options(tree, links) if source and links else (),
             "reviews": notes, "confirmed": any(n["action"] == "confirm" for n in notes),
@@ -63,7 +65,7 @@ def robot_page(store: Store, name: str) -> Response | str:
     rows.sort(key=lambda r: (r["confidence"] if r["confidence"] is not None else 1.0, r["key"]))
     outlines = [tree_svg.Outline(r["key"], f"{r['class']} ({r['confidence']:.2f})" if r["confidence"] is not None
                                  else r["class"], palette.kind_colour(r["kind"]), r["links"], r["mount"],
-                                 (r["confidence"] or 0) < 0.5 and not r["confirmed"]) for r in rows]
+                                 (r["confidence"] or 0) < REVIEW_THRESHOLD and not r["confirmed"]) for r in rows]
     tax = vocabulary()
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}

@@ -42,7 +42,6 @@ _NO_FACTS = LinkEvidence()
 
 
 BODY = "body"  # the pass that finds no component kind: body parts
-BODY_PART = "BodyPart"  # what identification calls a leaf of the body (a foot)
 
 
 @dataclass
@@ -124,7 +123,8 @@ class Abstractor:
         for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress, self.log).items():
             if kind == tools and leaf in self.feet:  # the tip of a leg: part of the body, as the body pass will find
                 self.log(f"{leaf}: a foot the robot stands on, not a tool")
-                kind = BODY_PART if BODY_PART in self.tax.subclasses(self.tax.component) else NONE
+                body = self.tax.body_part  # what identification calls a leaf of the body
+                kind = body if body in self.tax.subclasses(self.tax.component) else NONE
             self.claims[leaf], self.shares[leaf] = kind, share
         self._one_kind_per_body(s)
 
@@ -288,7 +288,7 @@ class Abstractor:
                             self._reasoned, self.body_reasoned)
 
     def body_assembly(self, s: PassState) -> None:
-        s.body = body_stage.assemble(s.robot, s.candidates)
+        s.body = body_stage.assemble(self.tax, s.robot, s.candidates)
 
     def sides(self, s: PassState) -> None:
         s.body = body_stage.sides(self.oracle, s.robot, s.body, self.progress, self.log)

@@ -285,7 +285,7 @@ def _urdf_names(graph: rdflib.Graph, node, prop: URIRef) -> set[str]:
 
 
 def _read_body(graph: rdflib.Graph, tax: _Taxonomy) -> list[PredictedBodyPart]:
-    body = CORE.BodyPart
+    body = CORE[vocabulary().body_part]
     reached = set()
     for robot in graph.subjects(RDF.type, CORE.Robot):
         reached |= _reach(graph, robot, CORE.hasComponent)
@@ -490,7 +490,7 @@ def score_body(body: TruthBody, preds: list[PredictedBodyPart], scored: frozense
       owning the joint, or 0 if that truth part has a side and the predicted side differs.
       Undefined for a robot with no scored joint.
     """
-    floors = ("BodyPart",)
+    floors = (vocabulary().body_part,)
     own = {p.node: p.joints & scored for p in preds}
     parts = [TruthBodyPart(t.id, t.classes, t.roots, t.joints & scored, t.links, t.side) for t in body.parts]
 

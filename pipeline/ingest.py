@@ -21,12 +21,10 @@ import defusedxml.ElementTree as DET
 import yourdfpy
 from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 
-from urdfkb.limits import MAX_BYTES, MAX_LINKS, MAX_XML_ATTRIBUTES, MAX_XML_ELEMENTS
 from urdfkb.pipeline import evidence
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
-
-MAX_DEPTH = 100  # real URDFs nest under 10 levels
+from urdfkb.settings import MAX_BYTES, MAX_LINKS, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH, MAX_XML_ELEMENTS
 
 
 @dataclass(frozen=True)
@@ -145,8 +143,8 @@ def _check_depth(root: ET.Element) -> None:
     """Refuse deep nesting, which recursive serialisers and lxml (limit 256) cannot handle."""
     level, depth = [root], 1
     while level:
-        if depth > MAX_DEPTH:
-            raise URDFError(f"elements nested deeper than {MAX_DEPTH} levels", f"<{level[0].tag}>")
+        if depth > MAX_XML_DEPTH:
+            raise URDFError(f"elements nested deeper than {MAX_XML_DEPTH} levels", f"<{level[0].tag}>")
         level = [child for element in level for child in element]
         depth += 1
 

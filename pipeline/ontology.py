@@ -2,8 +2,8 @@
 
 `ontologies/urdfkb.owl` and `ontologies/shapes.ttl` are the single source of truth; `Vocabulary` is a
 read-only view of them (classes, labels, definitions, examples, answer phrases, the component kinds
-and their sub-part branches, sub-parts excluded or required, joint-type and simulator alignments),
-and holds the two parsed graphs that export and SHACL validation reuse.
+and their sub-part branches, sub-parts excluded or required, joint-type and simulator alignments,
+the body's classes), and holds the two parsed graphs that export and SHACL validation reuse.
 """
 from __future__ import annotations
 
@@ -24,6 +24,9 @@ from urdfkb.pipeline.namespaces import CORE, CORE_IRI, CORE_ONTOLOGY_IRI
 
 _LOADED_MARK = CORE_IRI + "ontologyVersion"
 FINGER_CHAIN_ROLES = ("link", "tip", "carrier")  # the values core:fingerChainRole may take
+# The body's class, and the two of its direct subclasses the body pass gives a role (the base the other
+# base chains join around, the wheels it carries): the only body-part names the code writes out.
+BODY_PART, MOBILE_BASE, WHEEL = "BodyPart", "MobileBase", "Wheel"
 
 
 def core_path() -> pathlib.Path:
@@ -153,6 +156,7 @@ class Vocabulary:
             kids.sort(key=self._order.__getitem__)
         self.kinds = self._read_kinds()
         self._required = self._read_required_parts()
+        self.body_part, self.mobile_base, self.wheel = self._body_roles()
 
     def _read_kinds(self) -> dict[str, Kind]:
         kinds = {}
@@ -176,6 +180,18 @@ class Vocabulary:
         if len(parents) != 1:
             raise OntologyError(f"{what} ({', '.join(classes)}) do not share one superclass")
         return parents.pop()
+
+    def _body_roles(self) -> tuple[str, str, str]:
+        """BODY_PART, MOBILE_BASE and WHEEL, once the file is seen to declare the two directly below the first."""
+        for name in (MOBILE_BASE, WHEEL):
+            if name not in self or BODY_PART not in self.parents(name):
+                raise OntologyError(f"the core declares no class {name} directly below {BODY_PART}")
+        return BODY_PART, MOBILE_BASE, WHEEL
+
+    @property
+    def body_classes(self) -> tuple[str, ...]:
+        """The direct subclasses of the body's class (what a body part is), in the file's order."""
+        return self.subclasses(self.body_part)
 
     def _read_required_parts(self) -> dict[str, str]:
         """Class → the sub-part class a shape requires at least one of (sh:qualifiedValueShape on hasComponent)."""

@@ -9,9 +9,9 @@ from typing import Sequence, TextIO
 
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
+from urdfkb.settings import MAX_VOTES, RETRIES, TEMPERATURE, VOTES
 
 MODES = ("exact", "sample")  # the values of core:votingMode
-MAX_VOTES = 100
 
 
 def check_voting(vote: str | None, votes: int) -> None:
@@ -72,9 +72,9 @@ class Oracle:
         self,
         backend: Backend,
         vote: str | None = None,
-        votes: int = 5,
-        temperature: float = 0.7,
-        retries: int = 2,
+        votes: int = VOTES,
+        temperature: float = TEMPERATURE,
+        retries: int = RETRIES,
         trace: TextIO | None = None,
     ):
         check_voting(vote, votes)

@@ -104,7 +104,7 @@ def _check_body(vocab: Vocabulary, tree, body: tuple[BodyPart, ...], components:
         raise OntologyError("a body part name appears twice")
     for part in body:
         where = f"body part {part.name!r}"
-        _check_class(vocab, part.cls, "BodyPart", where)
+        _check_class(vocab, part.cls, vocab.body_part, where)
         _check_confidence(part.confidence, where)
         for link in (*part.links, *([part.root] if part.root else [])):
             _check_link(link, known, where)

@@ -152,7 +152,7 @@ TOOL_REF = "tool:"  # a device of a body part that is the tool of that index in 
 def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
     """Each candidate as a BodyPart individual with the facts the code asserts of it."""
     tax, tool = vocabulary(), _tool_class()
-    individuals = [core.BodyPart(f"part{i}") for i in range(len(parts))]
+    individuals = [core[tax.body_part](f"part{i}") for i in range(len(parts))]
     for i, (facts, part) in enumerate(zip(parts, individuals)):
         part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
         part.carriesDevice = [tools[int(cls[len(TOOL_REF):])] if cls.startswith(TOOL_REF) else core[cls](f"part{i}_device{j}")
@@ -167,7 +167,7 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
 
 
 def _part_class(part) -> str | None:
-    body = vocabulary().subclasses("BodyPart")
+    body = vocabulary().body_classes
     classes = {c.iri[len(CORE_IRI):] for c in part.is_a if isinstance(c, owlready2.ThingClass)}
     settled = [c for c in body if c in classes]
     return settled[0] if len(settled) == 1 else None

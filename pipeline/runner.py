@@ -20,6 +20,7 @@ from urdfkb.pipeline.population import stamp
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import VOTES
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,7 @@ class Settings:
     llm_url: str | None = None     # an OpenAI-compatible server instead of the embedded model
     llm_model: str | None = None   # the model name that server should use
     vote: str | None = None        # "exact" or "sample"; None = exact when the backend has logits
-    votes: int = 5
+    votes: int = VOTES
     use_cache: bool = True
 
     @classmethod

@@ -9,6 +9,7 @@ import pyshacl
 import rdflib
 from rdflib.namespace import RDF, RDFS, SH
 
+from urdfkb import local_name
 from urdfkb.pipeline.ontology import Vocabulary, vocabulary
 
 
@@ -29,7 +30,7 @@ def violations(data: rdflib.Graph, vocab: Vocabulary | None = None) -> list[str]
         source = results.value(result, SH.sourceShape)
         shape = vocab.shapes.value(predicate=SH.property, object=source) or source  # a property shape's node shape
         where = [results.value(result, SH.focusNode), results.value(result, SH.resultPath)]
-        lines.append(f"{_local(shape)}: {' '.join(_local(n) for n in where if isinstance(n, rdflib.URIRef))}: "
+        lines.append(f"{local_name(str(shape))}: {' '.join(local_name(n) for n in where if isinstance(n, rdflib.URIRef))}: "
                      f"{results.value(result, SH.resultMessage)}")
     return sorted(lines)
 
@@ -48,7 +49,3 @@ def _run(data: rdflib.Graph, vocab: Vocabulary) -> tuple[bool, rdflib.Graph, str
 def _holds_core(data: rdflib.Graph, vocab: Vocabulary) -> bool:
     """Every rdfs:subClassOf axiom of the core is in `data` (what class targets follow)."""
     return all(t in data for t in vocab.graph.triples((None, RDFS.subClassOf, None)))
-
-
-def _local(node: rdflib.term.Node | None) -> str:
-    return str(node).rsplit("#", 1)[-1]

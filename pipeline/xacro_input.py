@@ -20,15 +20,13 @@ import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from urdfkb.limits import MAX_BYTES, MAX_LINKS, XACRO_TIMEOUT
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import MAX_BYTES, MAX_LINKS, XACRO_CPU_SECONDS, XACRO_MEMORY, XACRO_TIMEOUT
 
 WORKER = Path(__file__).with_name("xacro_worker.py")
-CPU_SECONDS = 10
-MEMORY = 1 << 30        # address space of the child
 SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the sandbox
 SANDBOX_MAIN = "/main"
 XACRO_NS = b"http://www.ros.org/wiki/xacro"
@@ -90,7 +88,7 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
         seen_packages, seen_main = {k: str(v) for k, v in packages.items()}, str(main) if main else None
     request = {"text": data.decode("utf-8", "replace"), "name": name, "main_dir": seen_main,
                "args": dict(args or {}), "packages": seen_packages, "max_bytes": max_bytes}
-    limits = json.dumps({"memory": MEMORY, "cpu": CPU_SECONDS})
+    limits = json.dumps({"memory": XACRO_MEMORY, "cpu": XACRO_CPU_SECONDS})
     cap = 2 * max_bytes + 65536  # the JSON answer around an expanded URDF of at most max_bytes
     try:
         if confined:

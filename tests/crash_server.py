@@ -8,6 +8,7 @@ destroyed, new written, nothing committed).
 import os
 import sys
 import time
+from unittest.mock import patch
 
 import urdfkb.kb_server.store as store_mod
 from tests.kb_fixtures import PR2, fake_runner
@@ -36,7 +37,6 @@ def persist_then_hang(self, graph, data):
 
 
 if __name__ == "__main__":  # not in the query workers, which import this module again (spawn)
-    store_mod.build_robot = build_then_hang
-    store_mod.Store._persist = persist_then_hang
-    server, store, jobs = make_server(sys.argv[1], port=int(sys.argv[2]), runner=fake_runner({"pr2": PR2}), token="t")
-    server.run()
+    with patch.object(store_mod, "build_robot", build_then_hang), patch.object(store_mod.Store, "_persist", persist_then_hang):
+        server, store, jobs = make_server(sys.argv[1], port=int(sys.argv[2]), runner=fake_runner({"pr2": PR2}), token="t")
+        server.run()

@@ -100,7 +100,9 @@ def build(seed: int, alone: bool = False) -> Built:
     def segments(parent: str, start, axis, count: int, lengths: tuple[float, float], limits,
                  couple: bool, first_axis=None, first_limits=None, mimic_first=None) -> tuple[list[str], str]:
         """A finger of `count` joints from `start` on `parent`, pointing along the parent's +z."""
-        links, drive, flex = [], None, None
+        links: list[str] = []
+        joints: list[str] = []
+        flex = None
         xyz = start
         for j in range(count):
             child = w.link()
@@ -114,7 +116,7 @@ def build(seed: int, alone: bool = False) -> Built:
             joint = w.joint("revolute", parent, child, xyz, first_axis if abduct else axis, lim, mimic, mult)
             if not abduct and flex is None:
                 flex = joint
-            drive = drive or joint
+            joints.append(joint)
             links.append(child)
             parent = child
             xyz = (0.0, 0.0, 0.012) if abduct else (0.0, 0.0, rng.uniform(*lengths))
@@ -123,7 +125,7 @@ def build(seed: int, alone: bool = False) -> Built:
             tip = w.link()
             w.joint("fixed", parent, tip, xyz if count else start)
             links.append(tip)
-        return links, drive
+        return links, joints[0]  # the first joint drives the finger
 
     if layout == "gripper":
         prismatic = rng.random() < 0.5
@@ -215,9 +217,8 @@ def build(seed: int, alone: bool = False) -> Built:
     urdf = w.urdf()
     parent_of = {}
     for j in w.joints:
-        p = j.split('<parent link="')[1].split('"')[0]
-        c = j.split('<child link="')[1].split('"')[0]
-        parent_of[c] = p
+        child = j.split('<child link="')[1].split('"')[0]
+        parent_of[child] = j.split('<parent link="')[1].split('"')[0]
     has_child = set(parent_of.values())
     leaves = sorted(x for x in tool_links if x not in has_child)
     return Built(urdf, layout, kind, mount, base, tool_links, leaves, chains, flange,

@@ -7,7 +7,7 @@ import threading
 from contextlib import contextmanager
 from dataclasses import replace
 
-from waitress import create_server
+from waitress.server import create_server
 
 from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, BodyPart, Component, SubComponent
 
@@ -216,5 +216,6 @@ def both_engines(store, robot: str, name: str, args: dict) -> tuple[list[str], l
     # rdflib still tells "x" from "x"^^xsd:string (RDF 1.1 makes them one term): give it plain literals
     export = store.export(robot, "nt").replace(b"^^<http://www.w3.org/2001/XMLSchema#string>", b"")
     reference = rdflib.Graph().parse(data=export, format="nt").query(text)
-    return answer.vars, answer.as_dicts(), [{v: (str(row[v]) if row[v] is not None else None) for v in answer.vars}
-                                            for row in reference]
+    return answer.vars, answer.as_dicts(), [
+        {v: (str(value) if (value := row.get(rdflib.Variable(v))) is not None else None) for v in answer.vars}
+        for row in reference.bindings]

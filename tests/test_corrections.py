@@ -16,6 +16,7 @@ from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.shacl import violations
+from urdfkb.settings import REVIEW_THRESHOLD
 
 TOKEN = "s3cret"
 
@@ -140,6 +141,22 @@ def test_low_confidence_skips_confirmed_components_and_their_parts(store):
     correct(store, action="confirm", links=["r_gripper_motor_accelerometer_link"])
     assert not {i for i in low() if "accelerometer" in i}
     assert "comp_prosilica" in low()
+
+
+def test_the_pages_get_the_review_threshold_the_low_confidence_query_serves(store):
+    app, jobs = make_app(store)
+    try:
+        api = client(app)
+        (query,) = [q for q in json.loads(api("GET", "/queries")[2]) if q["name"] == "low_confidence"]
+        (threshold,) = [p["default"] for p in query["params"] if p["name"] == "threshold"]
+        with app.test_request_context("/"):
+            context: dict = {}
+            app.update_template_context(context)
+        assert float(threshold) == context["review_threshold"] == REVIEW_THRESHOLD
+        page = api("GET", "/robots/pr2", headers={"Accept": "text/html"})[2]
+        assert f"confidence below {threshold}".encode() in page
+    finally:
+        jobs.shutdown()
 
 
 def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):

@@ -5,9 +5,11 @@ import urllib.parse
 import pytest
 
 from tests.kb_fixtures import PR2, both_engines, client, make_app
-from urdfkb.kb_server.queries import ParamError, UnknownQuery, UnknownRobot, load_queries, run_named, run_named_query
+from urdfkb.kb_server.queries import (ParamError, UnknownQuery, UnknownRobot, _parse, load_queries, run_named,
+                                     run_named_query)
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.settings import MAX_VOTES, REVIEW_THRESHOLD
 
 R = "https://w3id.org/urdfkb/robot/pr2#"
 C = "https://w3id.org/urdfkb/core#"
@@ -91,6 +93,15 @@ def test_oxigraph_agrees_with_rdflib_on_the_export(store, name, args):
                        for r in rows), key=str)
 
     assert norm(got) == norm(want)
+
+
+def test_a_default_may_name_a_setting_filled_in_as_the_file_loads():
+    (threshold,) = load_queries()["low_confidence"].params
+    assert threshold.default == str(REVIEW_THRESHOLD)
+    head = "SELECT ?x WHERE { $robot ?p ?x FILTER(?x < $t) }"
+    assert _parse("q", "# param t: decimal = {MAX_VOTES} - t\n" + head).params[0].default == str(MAX_VOTES)
+    with pytest.raises(ValueError, match="no setting NOPE in urdfkb.settings"):
+        _parse("q", "# param t: decimal = {NOPE} - t\n" + head)
 
 
 def test_parameters_are_typed_and_checked(store):

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 import yourdfpy
 
-from urdfkb.limits import MAX_BYTES
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.settings import MAX_BYTES
 
 GOOD = b"""<?xml version="1.0"?>
 <!-- xacro leftovers: <xacro:property name="x" value="1"/> ${x} -->

@@ -165,7 +165,7 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
 
 @pytest.mark.reasoner
 def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
-    def jaw_as_sensor(q: Question) -> str:
+    def jaw_as_sensor(q: Question) -> str | dict:
         if q.key == "identify:vise_jaw_starboard":
             return "sensor"  # the model's mistake: the jaw that follows the other is taken for a sensor
         return perfect(q)

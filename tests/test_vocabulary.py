@@ -65,6 +65,8 @@ def test_the_vocabulary_reads_the_schema_from_the_ontology_and_shapes():
     with pytest.raises(OntologyError, match="spherical"):
         vocab.joint_class("spherical")
     assert vocab.branch("OpticalFrame") == {"OpticalFrame", "RgbFrame", "DepthFrame", "InfraredFrame"}
+    assert (vocab.body_part, vocab.mobile_base, vocab.wheel) == ("BodyPart", "MobileBase", "Wheel")
+    assert vocab.body_classes == ("MobileBase", "Wheel", "Arm", "Leg", "Head", "Torso")
 
 
 def test_the_camera_rule_comes_from_the_shapes(tmp_path):
@@ -82,6 +84,12 @@ def test_a_kind_must_say_its_branch_noun_and_mount_rule(tmp_path):
         return text[:start] + text[text.index("</core:mountRule>", start) + len("</core:mountRule>"):]
     with pytest.raises(OntologyError, match="Sensor carries core:componentKind"):
         copy_of_core(tmp_path, drop_rule)
+
+
+def test_the_body_classes_the_code_gives_a_role_must_be_in_the_ontology(tmp_path):
+    wheel = '<owl:Class rdf:about="https://w3id.org/urdfkb/core#Wheel">\n    <rdfs:subClassOf rdf:resource="https://w3id.org/urdfkb/core#'
+    with pytest.raises(OntologyError, match="no class Wheel directly below BodyPart"):
+        copy_of_core(tmp_path, lambda text: text.replace(wheel + "BodyPart", wheel + "Component"))
 
 
 def test_a_sensor_class_added_to_the_ontology_is_offered_and_written_out(tmp_path):

@@ -16,7 +16,10 @@ class Writer:
     """Builds a URDF of seeded random, meaningless, distinct link and joint names."""
 
     def __init__(self, rng: random.Random):
-        self.rng, self.links, self.joints, self.used = rng, [], [], set()
+        self.rng = rng
+        self.links: list[str] = []
+        self.joints: list[str] = []
+        self.used: set[str] = set()
 
     def name(self) -> str:
         while True:

@@ -56,11 +56,17 @@ def cases() -> list[Case]:
     for manifest in sorted(ROOT.glob("sparql1*/*/manifest.ttl")):
         store = ox.Store()
         store.load(path=str(manifest), format=ox.RdfFormat.TURTLE, base_iri=BASE + str(manifest.relative_to(ROOT)))
-        for r in store.query(_LIST):
+        for r in _select(store, _LIST):
             out.append(Case("/".join(r["t"].value.split("/")[-3:]), r["query"].value, r["result"].value,
                             tuple(r["data"].value.split() if r["data"] else ()),
                             tuple(r["named"].value.split() if r["named"] else ())))
     return sorted(out, key=str)
+
+
+def _select(store: ox.Store, query: str) -> ox.QuerySolutions:
+    answer = store.query(query)
+    assert isinstance(answer, ox.QuerySolutions), query
+    return answer
 
 
 def _parse(iri: str) -> list[ox.Triple]:
@@ -133,8 +139,8 @@ def run(case: Case, endpoint: Endpoint) -> str | None:
 
 def _from_clauses(query: str) -> list[str]:
     from urdfkb.kb_server.sparql import scan
-    found = scan(query)
-    return found.from_graphs + found.from_named
+    found = scan(query)  # None for a prefixed name without its PREFIX: no file to load, the endpoint refuses it
+    return [iri for iri in found.from_graphs + found.from_named if iri is not None]
 
 
 _RESULT_FORMATS = {"application/sparql-results+json": ox.QueryResultsFormat.JSON,
@@ -177,11 +183,11 @@ def _solutions(data: bytes, fmt):
 def _rdf_result_set(iri: str):
     store = ox.Store()
     store.extend(ox.Quad(t.subject, t.predicate, t.object) for t in _parse(iri))
-    ask = list(store.query(f"SELECT ?b {{ ?r <{RS}boolean> ?b }}"))
+    ask = list(_select(store, f"SELECT ?b {{ ?r <{RS}boolean> ?b }}"))
     if ask:
         return ask[0]["b"].value == "true"
-    rows = {}
-    for r in store.query(f"""SELECT ?s ?v ?val ?i WHERE {{ ?rs <{RS}solution> ?s .
+    rows: dict[ox.BlankNode, tuple[dict[str, ox.NamedNode | ox.BlankNode | ox.Literal], int]] = {}
+    for r in _select(store, f"""SELECT ?s ?v ?val ?i WHERE {{ ?rs <{RS}solution> ?s .
             OPTIONAL {{ ?s <{RS}binding> ?b . ?b <{RS}variable> ?v ; <{RS}value> ?val }} OPTIONAL {{ ?s <{RS}index> ?i }} }}"""):
         row = rows.setdefault(r["s"], ({}, int(r["i"].value) if r["i"] else 0))[0]
         if r["v"] is not None:

@@ -9,6 +9,13 @@ part while site-packages holds only `urdfkb`.
 __version__ = "0.2.0"
 
 
+def local_name(iri: str) -> str:
+    """What follows an IRI's last '#' (the whole IRI where it has none): a class's or an individual's name
+    in its ontology. It lives in the package's root, which imports nothing, because the client (standard
+    library only) shares it with the server and the pipeline."""
+    return iri.rsplit("#", 1)[-1]
+
+
 def check_package_name(name: str, folder: str) -> None:
     """ImportError unless a mapped folder's package `name` is `urdfkb.<folder>`: imported by its folder's
     own name (the repository on sys.path), every module would load a second time, under a second name,

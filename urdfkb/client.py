@@ -28,7 +28,8 @@ import urllib.parse
 import urllib.request
 from dataclasses import dataclass
 
-from urdfkb import __version__
+from urdfkb import __version__, local_name
+from urdfkb.settings import CLIENT_TIMEOUT
 
 __all__ = [
     "KnowledgeBase", "ClientError", "ServerUnavailable", "UnknownRobot", "QueryFailed",
@@ -198,7 +199,7 @@ class KnowledgeBase:
     a redirect is never followed (QueryFailed names where it pointed); `timeout` bounds each request in
     seconds."""
 
-    def __init__(self, url: str, token: str | None = None, timeout: float = 10.0):
+    def __init__(self, url: str, token: str | None = None, timeout: float = CLIENT_TIMEOUT):
         parts = urllib.parse.urlsplit(url)
         if parts.scheme not in ("http", "https") or not parts.netloc:
             raise ValueError(f"not an http(s) URL: {url!r}")
@@ -232,31 +233,32 @@ class KnowledgeBase:
 
     def cameras(self, robot: str) -> list[CameraLink]:
         """Which of my links are cameras."""
-        return [CameraLink(r["link"], _name(r["camera"]), _local(r["class"])) for r in self.query("cameras", robot)]
+        return [CameraLink(r["link"], _name(r["camera"]), local_name(r["class"])) for r in self.query("cameras", robot)]
 
     def sensors(self, robot: str) -> list[Sensor]:
         """Every sensor with its class, mount and confidence."""
-        return [Sensor(_name(r["sensor"]), _local(r["class"]), r.get("mount"), _float(r.get("confidence")))
+        return [Sensor(_name(r["sensor"]), local_name(r["class"]), r.get("mount"), _float(r.get("confidence")))
                 for r in self.query("sensors", robot)]
 
     def mounted_below(self, robot: str, link: str) -> list[MountedComponent]:
         """What is mounted on `link` or below it."""
-        return [MountedComponent(_name(r["component"]), _local(r["class"]), r["mount"])
+        return [MountedComponent(_name(r["component"]), local_name(r["class"]), r["mount"])
                 for r in self.query("mounted_below", robot, link=link)]
 
     def end_effectors(self, robot: str) -> list[EndEffector]:
         """Each end-effector with its tool centre point and contact surfaces."""
-        return [EndEffector(_name(r["endEffector"]), _local(r["class"]), r.get("mount"), r.get("tcp"),
+        return [EndEffector(_name(r["endEffector"]), local_name(r["class"]), r.get("mount"), r.get("tcp"),
                             _words(r.get("contacts"))) for r in self.query("end_effectors", robot)]
 
-    def low_confidence(self, robot: str, threshold: float = 0.5) -> list[ReviewItem]:
-        """Components and sub-components classified with less confidence than `threshold`, least first."""
+    def low_confidence(self, robot: str, threshold: float | None = None) -> list[ReviewItem]:
+        """Components and sub-components classified with less confidence than `threshold` (None: the server's
+        review threshold), least first."""
         out = []
         for r in self.query("low_confidence", robot, threshold=threshold):
-            local = r["individual"].rsplit("#", 1)[-1]
+            local = local_name(r["individual"])
             subpart = local.startswith("sub_")
             owner = local.removeprefix("sub_").split(".", 1)[0] if subpart else local
-            out.append(ReviewItem(_name(owner), _local(r["class"]), float(r["confidence"]), r["link"], subpart))
+            out.append(ReviewItem(_name(owner), local_name(r["class"]), float(r["confidence"]), r["link"], subpart))
         return out
 
     def components(self, robot: str) -> list[Component]:
@@ -264,11 +266,11 @@ class KnowledgeBase:
         sub-components."""
         comps: dict[str, dict] = {}
         for r in self.query("components", robot):
-            c = comps.setdefault(r["component"], {"name": _name(r["component"]), "cls": _local(r["class"]),
+            c = comps.setdefault(r["component"], {"name": _name(r["component"]), "cls": local_name(r["class"]),
                                                   "confidence": _float(r.get("confidence")), "mount": r.get("mount"),
                                                   "subparts": []})
             if "sub" in r:
-                c["subparts"].append(SubPart(_local(r["subClass"]), r.get("subLink"), _float(r.get("subConfidence"))))
+                c["subparts"].append(SubPart(local_name(r["subClass"]), r.get("subLink"), _float(r.get("subConfidence"))))
         return [Component(**{**c, "subparts": tuple(c["subparts"])}) for c in comps.values()]
 
     def body_parts(self, robot: str) -> list[BodyPart]:
@@ -276,7 +278,7 @@ class KnowledgeBase:
         parts: dict[str, dict] = {}
         for r in self.query("body_parts", robot):
             p = parts.setdefault(r["bodyPart"], {
-                "name": r.get("name") or _name(r["bodyPart"]), "cls": _local(r["class"]), "label": r.get("classLabel"),
+                "name": r.get("name") or _name(r["bodyPart"]), "cls": local_name(r["class"]), "label": r.get("classLabel"),
                 "side": r.get("side"), "parent": _name(r["parent"]) if "parent" in r else None, "mount": r.get("mount"),
                 "confidence": _float(r.get("confidence")), "joints": []})
             if "joint" in r and r["joint"] not in p["joints"]:
@@ -295,7 +297,7 @@ class KnowledgeBase:
     def located_on(self, robot: str, part: str, side: str | None = None) -> list[LocatedComponent]:
         """The sensors and end-effectors located on the robot's `part` (as in `body_part_joints`) on `side`.
         "What is on your head" is `located_on(robot, "head")`."""
-        return [LocatedComponent(r.get("name") or _name(r["component"]), _local(r["class"]), r.get("classLabel"),
+        return [LocatedComponent(r.get("name") or _name(r["component"]), local_name(r["class"]), r.get("classLabel"),
                                  r.get("mount"), _name(r["bodyPart"]), r.get("side"))
                 for r in self.query("located_on", robot, part=part, side=_side(side))]
 
@@ -305,7 +307,7 @@ class KnowledgeBase:
         for r in self.query("arm_end_effector", robot, side=_side(side)):
             tool = None
             if "endEffector" in r:
-                tool = EndEffector(r.get("name") or _name(r["endEffector"]), _local(r["class"]), r.get("mount"), r.get("tcp"),
+                tool = EndEffector(r.get("name") or _name(r["endEffector"]), local_name(r["class"]), r.get("mount"), r.get("tcp"),
                                    _words(r.get("contacts")), r.get("classLabel"), _words(r.get("joints")))
             out.append(ArmEndEffector(r.get("armName") or _name(r["arm"]), r.get("side"), tool))
         return out
@@ -372,13 +374,9 @@ def _reason(reason) -> str:
     return str(reason) or type(reason).__name__
 
 
-def _local(iri: str) -> str:
-    return iri.rsplit("#", 1)[-1]
-
-
 def _name(iri: str) -> str:
     """A component's or body part's name from its individual IRI (`comp_<name>`, `body_<name>`, escaped)."""
-    local = _local(iri)
+    local = local_name(iri)
     for prefix in ("comp_", "body_"):
         if local.startswith(prefix):
             local = local[len(prefix):]

@@ -10,13 +10,13 @@ from urdfkb.kb_server.replies import accepted, error
 from urdfkb.kb_server.security import Refused
 from urdfkb.kb_server.services import Services, services
 from urdfkb.kb_server.store import RobotNameError, check_robot_name
-from urdfkb.limits import JOB_WAIT
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args, refuse_args
+from urdfkb.settings import JOB_WAIT, WAIT_RETRY_AFTER
 
 bp = Blueprint("jobs", __name__)
 
@@ -125,7 +125,7 @@ def job_status(job_id: str):
         timeout = min(timeout, JOB_WAIT)
         if not kb.waiters.acquire(blocking=False):
             resp = error(429, f"{kb.max_waiters} clients are already waiting on jobs: poll without wait=1, or retry")
-            resp.headers["Retry-After"] = "1"
+            resp.headers["Retry-After"] = str(WAIT_RETRY_AFTER)
             return resp
         try:
             job.wait(timeout)

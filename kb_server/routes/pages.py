@@ -1,4 +1,5 @@
-"""The index page (GET /: the stored robots, an upload form) and what every page's template gets (colours)."""
+"""The index page (GET /: the stored robots, an upload form) and what every page's template gets (colours,
+the review threshold)."""
 from __future__ import annotations
 
 from collections import Counter
@@ -8,6 +9,7 @@ from flask import Blueprint, render_template
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import palette, queries
 from urdfkb.kb_server.services import services
+from urdfkb.settings import REVIEW_THRESHOLD
 
 bp = Blueprint("pages", __name__)
 
@@ -25,6 +27,6 @@ def index():
 
 
 @bp.app_context_processor
-def colours() -> dict:
-    """Every page's legend entries and dot colours (kb_server.palette)."""
-    return {"kinds": palette.kinds(), "palette_css": palette.css()}
+def page_context() -> dict:
+    """Every page's legend entries and dot colours (kb_server.palette), and the review threshold."""
+    return {"kinds": palette.kinds(), "palette_css": palette.css(), "review_threshold": REVIEW_THRESHOLD}

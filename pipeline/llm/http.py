@@ -11,8 +11,7 @@ from typing import Sequence
 
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
-
-MAX_REPLY = 10_000_000  # a chat completion of a few short answers is a few kilobytes
+from urdfkb.settings import LLM_TIMEOUT, MAX_LLM_REPLY
 
 
 class OpenAIBackend(Backend):
@@ -24,7 +23,7 @@ class OpenAIBackend(Backend):
 
     exposes_logits = False
 
-    def __init__(self, base_url: str, model: str, api_key: str | None = None, timeout: float = 60):
+    def __init__(self, base_url: str, model: str, api_key: str | None = None, timeout: float = LLM_TIMEOUT):
         parts = urllib.parse.urlsplit(base_url)
         if parts.scheme not in ("http", "https") or not parts.hostname:
             raise BackendError(f"LLM server URL must be http:// or https:// with a host, not {base_url[:100]!r}")
@@ -77,16 +76,16 @@ class OpenAIBackend(Backend):
         self.stats.calls += 1
         try:
             with urllib.request.urlopen(request, timeout=self.timeout) as response:
-                raw = response.read(MAX_REPLY + 1)
+                raw = response.read(MAX_LLM_REPLY + 1)
         except urllib.error.HTTPError as exc:
             raise BackendError(f"{self.name}: {self.url} answered HTTP {exc.code} {_phrase(exc.code)} "
-                               f"(body of {len(exc.read(MAX_REPLY))} bytes not shown)") from exc
+                               f"(body of {len(exc.read(MAX_LLM_REPLY))} bytes not shown)") from exc
         except (TimeoutError, socket.timeout) as exc:
             raise BackendError(f"{self.name}: {self.url} timed out after {self.timeout}s") from exc
         except (urllib.error.URLError, OSError) as exc:
             raise BackendError(f"{self.name}: cannot reach {self.url}: {getattr(exc, 'reason', exc)}") from exc
-        if len(raw) > MAX_REPLY:
-            raise BackendError(f"{self.name}: {self.url} answered more than {MAX_REPLY} bytes")
+        if len(raw) > MAX_LLM_REPLY:
+            raise BackendError(f"{self.name}: {self.url} answered more than {MAX_LLM_REPLY} bytes")
         try:
             reply = json.loads(raw)
         except ValueError:

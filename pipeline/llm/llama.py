@@ -17,7 +17,8 @@ import numpy as np
 
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
-from urdfkb.pipeline.llm.prefix_store import DEFAULT_MAX_BYTES, PrefixStore, default_dir, enabled_by_env
+from urdfkb.pipeline.llm.prefix_store import PrefixStore, default_dir, enabled_by_env
+from urdfkb.settings import PREFIX_CACHE_BYTES
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +87,7 @@ class LlamaBackend(Backend):
 
     def __init__(self, model_path: str | Path, n_ctx: int = 4096, n_threads: int | None = None, seed: int = 0,
                  n_batch: int = 512, n_seq_max: int = 64, prefix_cache: bool | str | Path = True,
-                 prefix_cache_bytes: int = DEFAULT_MAX_BYTES,
+                 prefix_cache_bytes: int = PREFIX_CACHE_BYTES,
                  flash_attn: bool = False, kv_type: str = "f16"):
         _choose_openmp_waiting()
         import llama_cpp

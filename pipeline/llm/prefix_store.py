@@ -20,6 +20,7 @@ from typing import Sequence
 
 from urdfkb.pipeline.atomic import write_atomically
 from urdfkb.pipeline.cache import cache_root
+from urdfkb.settings import PREFIX_CACHE_BYTES
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +29,6 @@ FORMAT = 3  # 3: keyed by tokens alone (every state is computed in an emptied ca
 _HEADER = struct.Struct("<I Q 32s 32s")  # format, payload length, sha256(payload), key digest
 SUFFIX = ".kv"
 SUBDIR = "prefixes"
-DEFAULT_MAX_BYTES = 512 << 20  # the sixteen truth robots leave 27 states, 150 MB (Qwen2.5-1.5B: 28 KB a token)
 # "off" / "0" / "false" / "no" disables the store; it is on otherwise. A state is restored into the
 # emptied cache it was computed in, the cells evaluating it would fill, so it changes no score.
 ENV_SWITCH = "URDFKB_PREFIX_CACHE"
@@ -47,7 +47,7 @@ class PrefixStore:
     """KV-state payloads (opaque bytes) keyed by an identity and a token sequence: a file holds the
     state of positions 0..len(tokens)-1, computed from an empty cache."""
 
-    def __init__(self, directory: Path, identity: dict, max_bytes: int = DEFAULT_MAX_BYTES):
+    def __init__(self, directory: Path, identity: dict, max_bytes: int = PREFIX_CACHE_BYTES):
         self.directory = Path(directory)
         self.identity = json.dumps(identity, sort_keys=True)
         self.max_bytes = max_bytes

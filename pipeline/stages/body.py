@@ -27,10 +27,9 @@ from urdfkb.pipeline.ontology import Vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.stages.asking import Progress, ask
+from urdfkb.pipeline.structure import fork_of
 from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
 
-BASE, WHEEL = "MobileBase", "Wheel"
-JOINING = ("Arm", "Leg", "Head", "Torso")  # classes whose adjacent chains are one part
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
@@ -239,14 +238,16 @@ def _nearest(tree: KinematicTree, link: str, by_link: dict[str, Chain]) -> Chain
     return next((by_link[a] for a in tree.chain_to_root(link) if a in by_link), None)
 
 
-def _join(found: list[Chain]) -> list[Chain]:
-    """A chain of a joining class whose only follower of that class hangs from its links is one part with it."""
+def _join(tax: Vocabulary, found: list[Chain]) -> list[Chain]:
+    """A chain of a joining class (every body class but the base, whose chains join around its chassis,
+    and the wheel) whose only follower of that class hangs from its links is one part with it."""
+    joining = set(tax.body_classes) - {tax.mobile_base, tax.wheel}
     joined = True
     while joined:
         joined = False
         for parent in found:
             followers = [c for c in found if c is not parent and c.mount in parent.links and c.cls == parent.cls]
-            if parent.cls in JOINING and len(followers) == 1:
+            if parent.cls in joining and len(followers) == 1:
                 child = followers[0]
                 parent.joints += child.joints
                 parent.links += child.links
@@ -257,38 +258,29 @@ def _join(found: list[Chain]) -> list[Chain]:
     return found
 
 
-def assemble(tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
+def assemble(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
     """Body parts from the classified candidates: adjacent chains of one joining class as one part, the
     base chains joined into one MobileBase around its chassis; candidates classified none drop out."""
-    return _parts(tree, [c for c in _join(found) if c.cls != NONE])
+    return _parts(tax, tree, [c for c in _join(tax, found) if c.cls != NONE])
 
 
-def _parts(tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
+def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
     """Body parts: one per chain, the base chains joined into one MobileBase around its chassis."""
-    base_chains = [c for c in found if c.cls == BASE]
-    wheels = [c for c in found if c.cls == WHEEL]
+    base, wheel = tax.mobile_base, tax.wheel
+    base_chains = [c for c in found if c.cls == base]
+    wheels = [c for c in found if c.cls == wheel]
     parts = [BodyPart(f"{c.cls.lower()}_{c.joints[0].joint}", c.cls, round(c.confidence, 4), c.mount,
                       tuple(e.joint for e in c.joints), tuple(c.links))
-             for c in found if c.cls != BASE]
+             for c in found if c.cls != base]
     if not base_chains and not wheels:
         return parts
-    chassis = _common_ancestor(tree, [c.mount for c in base_chains + wheels])
+    chassis = fork_of(tree, [c.mount for c in base_chains + wheels])
     joints = tuple(e.joint for c in base_chains for e in c.joints)
     links = tuple(dict.fromkeys([chassis, *(link for c in base_chains for link in c.links)]))
     root = base_chains[0].mount if base_chains else tree.parent(chassis)
     confidence = min([c.confidence for c in base_chains] or [1.0])
-    base = BodyPart(f"mobile_base_{chassis}", BASE, round(confidence, 4), root, joints, links)
-    return [base] + [replace(p, parent=base.name) if p.cls == WHEEL else p for p in parts]
-
-
-def _common_ancestor(tree: KinematicTree, links: list[str]) -> str:
-    paths = [tree.chain_to_root(link)[::-1] for link in links]
-    common = tree.root
-    for step in zip(*paths):
-        if len(set(step)) != 1:
-            break
-        common = step[0]
-    return common
+    mobile_base = BodyPart(f"mobile_base_{chassis}", base, round(confidence, 4), root, joints, links)
+    return [mobile_base] + [replace(p, parent=mobile_base.name) if p.cls == wheel else p for p in parts]
 
 
 def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: Progress | None,

@@ -1,0 +1,1 @@
+../../urdfkb/settings.py
