@@ -1,11 +1,9 @@
 """Shared test fixtures: where the read-only shared assets live, and a store without query workers."""
-import os
 from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-SHARED = Path(os.environ.get("URDFKB_SHARED", REPO.parent / "shared")).resolve()
+from tests.shared_assets import SHARED
 
 
 @pytest.fixture(scope="session")

@@ -10,7 +10,7 @@ from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.ontology import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.shacl import validate
-from tests.test_population import sample_abstraction, sample_tree
+from tests.sample_bot import sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)
 
