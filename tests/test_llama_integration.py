@@ -98,7 +98,7 @@ def test_option_and_its_continuation_match_reference_exactly(backend, reference)
 def test_scores_match_naive_reference(backend, reference):
     questions = [question(link) for link in LINKS] + [question("r_wrist", options=("end effector part", "sensor")),
                                                       question("r_wrist", options=("wrist", "wrist link", "sensor"))]
-    for q, row in zip(questions, backend.score(questions)):
+    for q, row in zip(questions, backend.score(questions), strict=True):
         ref = reference(q)
         assert np.abs(np.subtract(row, ref)).max() < LOGPROB_TOL, (q.key, row, ref)
         assert np.abs(np.subtract(softmax(row), softmax(ref))).max() < PROB_TOL, (q.key, row, ref)

@@ -200,7 +200,9 @@ def test_empty_robot_name_is_refused():
 @pytest.mark.reasoner
 def test_shared_urdfs_populate_exactly_and_consistently(shared):
     world = owlready2.World()
-    for path in sorted((shared / "urdf").glob("*.urdf")):
+    paths = sorted((shared / "urdf").glob("*.urdf"))
+    assert paths, "no shared URDF"
+    for path in paths:
         tree = load_urdf(path)
         g = triples(build_robot(world, tree, tree.robot_name))
         names = {str(n) for link in g.subjects(rdflib.RDF.type, CORE.Link) for n in g.objects(link, CORE.urdfName)}
