@@ -71,9 +71,10 @@ class Abstractor:
     """Runs the passes over one robot, keeping what identification learnt between them."""
 
     def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None,
-                 record: Callable[[dict], None] | None = None):
-        """`record` receives each step's timing record (default: the oracle's trace)."""
-        self.oracle, self.tax = oracle, tax
+                 record: Callable[[dict], None] | None = None, reasoner: reasoning.Reasoner = reasoning.classify_together):
+        """`record` receives each step's timing record (default: the oracle's trace); `reasoner` classifies
+        tools and body candidates from their facts (HermiT; tests inject a stand-in)."""
+        self.oracle, self.tax, self.infer = oracle, tax, reasoner
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.record = record or self._trace
         self.reasoner_seconds = 0.0  # HermiT's wall time over the run
@@ -242,11 +243,11 @@ class Abstractor:
         structures = s.structures or []
         parts = self._body_facts(s) if any(t.fingers for t in structures) else []
         if parts:
-            s.inferred, classes, seconds = reasoning.classify_together(structures, parts)
+            s.inferred, classes, seconds = self.infer(structures, parts)
             self.body_reasoned = ([replace(f, devices=tuple(self._settled(d, s.inferred) for d in f.devices))
                                    for f in parts], classes)
         else:
-            s.inferred, seconds = reasoning.classify(structures)
+            s.inferred, seconds = reasoning.classify(structures, self.infer)
         self.reasoner_seconds += seconds
         self._trace({"key": "reasoner", "seconds": round(seconds, 2), "tools": [
             {"leaves": g.leaves, "facts": st.describe(), "inferred": i.cls, "thumbs": list(i.thumbs)}
@@ -285,7 +286,7 @@ class Abstractor:
 
     def body_classification(self, s: PassState) -> None:
         body_stage.classify(self.oracle, self.tax, s.robot, s.candidates, s.components, self.progress, self.log,
-                            self._reasoned, self.body_reasoned)
+                            self._reasoned, self.body_reasoned, self.infer)
 
     def body_assembly(self, s: PassState) -> None:
         s.body = body_stage.assemble(self.tax, s.robot, s.candidates)

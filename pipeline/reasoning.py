@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import owlready2
 
@@ -47,11 +48,11 @@ class Inference:
         return self.cls != _tool_class()
 
 
-def classify(tools: list[ToolStructure]) -> tuple[list[Inference], float]:
+def classify(tools: list[ToolStructure], reasoner: Reasoner | None = None) -> tuple[list[Inference], float]:
     """One Inference per tool, and the reasoner's wall time in seconds (0 when nothing needed it)."""
     if not any(t.fingers for t in tools):
         return [Inference(_tool_class(), ()) for _ in tools], 0.0
-    inferred, _, seconds = classify_together(tools, [])
+    inferred, _, seconds = (reasoner or classify_together)(tools, [])
     return inferred, seconds
 
 
@@ -137,12 +138,17 @@ class PartFacts:
     reaches_ground: bool
 
 
-def classify_parts(parts: list[PartFacts]) -> tuple[list[str | None], float]:
+# classify_together's contract: HermiT by default; Abstractor and runner.run take another, as tests inject a
+# stand-in that needs no JVM (tests/scripted_reasoner.py), the way they inject a scripted model backend.
+Reasoner = Callable[[list[ToolStructure], list[PartFacts]], tuple[list[Inference], list[str | None], float]]
+
+
+def classify_parts(parts: list[PartFacts], reasoner: Reasoner | None = None) -> tuple[list[str | None], float]:
     """Each candidate's BodyPart class inferred from the ontology's sufficient conditions (None where
     they settle none, or settle two), and the reasoner's wall time (0 when nothing needed it)."""
     if not parts:
         return [], 0.0
-    _, inferred, seconds = classify_together([], parts)
+    _, inferred, seconds = (reasoner or classify_together)([], parts)
     return inferred, seconds
 
 

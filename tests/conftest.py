@@ -1,11 +1,11 @@
-"""Shared test fixtures: where the read-only shared assets live, and a store without query workers."""
-import os
+"""Shared test fixtures: where the read-only shared assets live, a store without query workers, and the
+populated PR2 stores, built once per session (per pytest-xdist worker) and opened by each user as a copy."""
 from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-SHARED = Path(os.environ.get("URDFKB_SHARED", REPO.parent / "shared")).resolve()
+from tests.kb_fixtures import PR2, copied, store_whole_pr2
+from tests.shared_assets import SHARED
 
 
 @pytest.fixture(scope="session")
@@ -22,5 +22,49 @@ def store(tmp_path):
     from urdfkb.kb_server.store import Store
 
     s = Store(tmp_path / "kb.sqlite3", workers=0)
+    yield s
+    s.close()
+
+
+@pytest.fixture(scope="session")
+def pr2_tree(shared):
+    """PR2's kinematic tree (shared/urdf/pr2.urdf); a KinematicTree is immutable."""
+    from urdfkb.pipeline.ingest import load_urdf
+
+    return load_urdf(shared / "urdf" / "pr2.urdf")
+
+
+def _built(folder: Path, fill) -> Path:
+    """A closed store file in `folder`, filled by `fill(store)`."""
+    from urdfkb.kb_server.store import Store
+
+    s = Store(folder / "kb.sqlite3", workers=0)
+    try:
+        fill(s)
+    finally:
+        s.close()
+    return s.path
+
+
+@pytest.fixture(scope="session")
+def pr2_kb(pr2_tree, tmp_path_factory) -> Path:
+    """A store file holding "pr2" with its hand-written components (kb_fixtures.PR2). Never opened by a
+    test: open a copy (kb_fixtures.copied), or take `pr2_store`."""
+    return _built(tmp_path_factory.mktemp("pr2_kb"), lambda s: s.replace_robot("pr2", pr2_tree, PR2))
+
+
+@pytest.fixture(scope="session")
+def whole_pr2_kb(pr2_tree, tmp_path_factory) -> Path:
+    """A store file holding PR2 with its whole body, the same with one gripper, and with no body
+    (kb_fixtures.store_whole_pr2). Open a copy, as for pr2_kb."""
+    return _built(tmp_path_factory.mktemp("whole_pr2_kb"), lambda s: store_whole_pr2(s, pr2_tree))
+
+
+@pytest.fixture
+def pr2_store(pr2_kb, tmp_path):
+    """This test's own store holding PR2 (a copy of pr2_kb), answering in this process: it may write."""
+    from urdfkb.kb_server.store import Store
+
+    s = Store(copied(pr2_kb, tmp_path), workers=0)
     yield s
     s.close()

@@ -2,10 +2,12 @@
 through Flask's test client, and a live server for the tests where a real socket is the point."""
 from __future__ import annotations
 
+import shutil
 import socket
 import threading
 from contextlib import contextmanager
 from dataclasses import replace
+from pathlib import Path
 
 from waitress.server import create_server
 
@@ -101,6 +103,11 @@ def store_whole_pr2(store, tree) -> None:
     store.replace_robot("pr2_one_gripper", tree, replace(PR2_WHOLE, components=tuple(
         c for c in PR2_WHOLE.components if c.name != "l_gripper")))
     store.replace_robot("pr2_no_body", tree, PR2)
+
+
+def copied(kb: Path, folder: Path) -> Path:
+    """A copy of the closed store file `kb` (conftest's pr2_kb, whole_pr2_kb) in `folder`, to open and write to."""
+    return Path(shutil.copy(kb, folder / kb.name))
 
 
 def free_port() -> int:

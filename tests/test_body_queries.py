@@ -8,23 +8,20 @@ from decimal import Decimal
 
 import pytest
 
-from tests.kb_fixtures import PR2_ARM, PR2_BODY, both_engines, client, make_app, store_whole_pr2
+from tests.kb_fixtures import PR2_ARM, PR2_BODY, both_engines, client, copied, make_app
 from urdfkb.kb_server.queries import ParamError, run_named
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction, BodyPart
-from urdfkb.pipeline.ingest import load_urdf
 
 R = "https://w3id.org/urdfkb/robot/pr2#"
 C = "https://w3id.org/urdfkb/core#"
 
 
 @pytest.fixture(scope="module")
-def store(shared, tmp_path_factory):
-    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
-    tree = load_urdf(shared / "urdf" / "pr2.urdf")
-    store_whole_pr2(s, tree)
+def store(whole_pr2_kb, pr2_tree, tmp_path_factory):
+    s = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
     # and one whose base stands for its chassis
-    s.replace_robot("pr2_chassis", tree, Abstraction((), {}, (BodyPart("base", "MobileBase", 0.7, None, (), ("base_link",)),)))
+    s.replace_robot("pr2_chassis", pr2_tree, Abstraction((), {}, (BodyPart("base", "MobileBase", 0.7, None, (), ("base_link",)),)))
     yield s
     s.close()
 

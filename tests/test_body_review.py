@@ -12,25 +12,23 @@ import pytest
 import rdflib
 from rdflib.namespace import RDF
 
-from tests.kb_fixtures import PR2_ARM, PR2_WHOLE, client, make_app
+from tests.kb_fixtures import PR2_ARM, PR2_WHOLE, client, copied, make_app
 from urdfkb.kb_server import palette
 from urdfkb.kb_server.corrections import PROV, REVIEW, CorrectionError, new
 from urdfkb.kb_server.queries import run_named
+from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.namespaces import robot_iri
 
 HTML = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
 
 
-@pytest.fixture(scope="module")
-def pr2_tree(shared):
-    return load_urdf(shared / "urdf" / "pr2.urdf")
-
-
 @pytest.fixture
-def store(store, pr2_tree):
-    store.replace_robot("pr2", pr2_tree, PR2_WHOLE)
-    return store
+def store(whole_pr2_kb, tmp_path):
+    """This test's own store holding PR2 with its whole body (a copy of conftest's whole_pr2_kb)."""
+    s = Store(copied(whole_pr2_kb, tmp_path), workers=0)
+    yield s
+    s.close()
 
 
 @pytest.fixture
@@ -116,8 +114,8 @@ def body(store, robot="pr2") -> dict[str, dict]:
 def located(store, robot="pr2") -> dict[str, tuple[str, str | None]]:
     """Each located component's body part and side, as stored."""
     rows = store.query(f"PREFIX core: <https://w3id.org/urdfkb/core#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
-                       f"SELECT ?c ?p ?side WHERE {{ ?comp core:isLocatedOn ?part ; rdfs:label ?c . ?part rdfs:label ?p . "
-                       f"OPTIONAL {{ ?comp core:side ?side }} }}").as_dicts()
+                       f"SELECT ?c ?p ?side WHERE {{ GRAPH <{robot_iri(robot)}> {{ ?comp core:isLocatedOn ?part ; rdfs:label ?c . "
+                       f"?part rdfs:label ?p . OPTIONAL {{ ?comp core:side ?side }} }} }}").as_dicts()
     return {r["c"]: (r["p"], r.get("side")) for r in rows}
 
 

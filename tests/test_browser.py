@@ -17,6 +17,7 @@ from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import run
 
 from tests.kb_fixtures import running
+from tests.toy_robot import TOY, perfect
 
 CHROMIUM = next((p for p in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if p), None)
 DRIVER = shutil.which("chromedriver")
@@ -24,13 +25,11 @@ pytestmark = [pytest.mark.browser, pytest.mark.skipif(
     not (CHROMIUM and DRIVER),
     reason="headless Chromium and chromedriver not found: install Debian's chromium and chromium-driver to run the browser tests")]
 
-TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 SHOTS = os.environ.get("URDFKB_SCREENSHOTS")
 
 
 def scripted_runner(tree, settings, progress):
     """The real pipeline with the scripted 'perfect' model of the toy robot (no cache writes)."""
-    from tests.test_pipeline import perfect
     return run(tree, dataclasses.replace(settings, use_cache=False), backend=ScriptedBackend(perfect), progress=progress)
 
 

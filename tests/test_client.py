@@ -5,23 +5,16 @@ import time
 
 import pytest
 
-from tests.kb_fixtures import PR2_ARM, free_port, live, make_app, store_whole_pr2
+from tests.kb_fixtures import PR2_ARM, copied, free_port, live, make_app
 from urdfkb.client import (ArmEndEffector, BodyPart, CameraLink, ClientError, Joint, KnowledgeBase, LocatedComponent,
                            QueryFailed, ServerUnavailable, UnknownRobot, class_words)
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
 
 
 
 @pytest.fixture(scope="module")
-def tree(shared):
-    return load_urdf(shared / "urdf" / "pr2.urdf")
-
-
-@pytest.fixture(scope="module")
-def store(tree, tmp_path_factory):
-    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
-    store_whole_pr2(s, tree)
+def store(whole_pr2_kb, tmp_path_factory):
+    s = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
     yield s
     s.close()
 
@@ -82,7 +75,7 @@ def test_body_parts(kb):
     assert kb.body_parts("pr2_no_body") == []
 
 
-def test_which_joints_move_the_left_arm(kb, tree):
+def test_which_joints_move_the_left_arm(kb, pr2_tree):
     joints = kb.body_part_joints("pr2", "arm", side="left")
     assert [j.name for j in joints] == [f"l_{j}_joint" for j in PR2_ARM]
 
@@ -90,7 +83,7 @@ def test_which_joints_move_the_left_arm(kb, tree):
         lower, upper = (round(x, 4) for x in e.limits) if e.limits else (None, None)
         return e.joint, e.joint_type, lower, upper, round(e.velocity, 4), round(e.effort, 4)
 
-    urdf = {e.joint: e for e in tree.edges}
+    urdf = {e.joint: e for e in pr2_tree.edges}
     assert [(j.name, j.type, j.lower, j.upper, j.velocity, j.effort) for j in joints] == [
         stored(urdf[j.name]) for j in joints]  # all seven with their limits
     assert joints[0] == Joint("l_shoulder_pan_joint", "revolute", -0.7146, 2.2854, 2.088, 30.0, (0.0, 0.0, 1.0), "l_arm", "left")

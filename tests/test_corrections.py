@@ -8,28 +8,22 @@ from dataclasses import replace
 import pytest
 import rdflib
 
-from tests.kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import PR2, client, copied, make_app
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError
-from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.shacl import violations
 from urdfkb.settings import REVIEW_THRESHOLD
 
 TOKEN = "s3cret"
 
 
-@pytest.fixture(scope="module")
-def pr2_tree(shared):
-    return load_urdf(shared / "urdf" / "pr2.urdf")
-
-
 @pytest.fixture
-def store(store, pr2_tree):
-    store.replace_robot("pr2", pr2_tree, PR2)
-    return store
+def store(pr2_store):
+    """This test's own store holding PR2 (conftest)."""
+    return pr2_store
 
 
 def correct(store, who="ann", **data):
@@ -210,10 +204,9 @@ def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shar
         store.close()
 
 
-def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_tree):
-    path = tmp_path / "kb.sqlite3"
+def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_kb):
+    path = copied(pr2_kb, tmp_path)
     store = Store(path, workers=0)
-    store.replace_robot("pr2", pr2_tree, PR2)
     correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])
     ask = f"ASK {{ GRAPH <{corrections_iri('pr2')}> {{ ?s ?p ?o }} }}"
     assert json.loads(store.query(ask).body)["boolean"]

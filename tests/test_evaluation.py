@@ -244,6 +244,7 @@ def test_real_truth_files_name_urdf_leaves(shared, robot):
     assert truth.robot == robot
     links, leaves = urdf_links(shared / truth.urdf)
     comps = [*truth.components, *(c for alt in truth.alternatives for c in alt.with_)]
+    assert comps
     for c in comps:
         assert c.leaves <= leaves - truth.ignore, (c.id, c.leaves - leaves)
         assert c.roots <= links, (c.id, c.roots - links)

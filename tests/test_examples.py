@@ -6,9 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.kb_fixtures import PR2, PR2_WHOLE, free_port, live, make_app
+from tests.kb_fixtures import PR2_WHOLE, copied, free_port, live, make_app
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
 
 pytestmark = pytest.mark.slow  # the example runs in a subprocess
 
@@ -16,12 +15,9 @@ SCRIPT = Path(__file__).resolve().parents[1] / "examples" / "ask_the_robot.py"
 
 
 @pytest.fixture(scope="module")
-def url(shared, tmp_path_factory):
-    store = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
-    tree = load_urdf(shared / "urdf" / "pr2.urdf")
-    store.replace_robot("pr2", tree, PR2_WHOLE)
-    store.replace_robot("pr2_no_body", tree, PR2)
-    store.replace_robot("pr2_right_arm_only", tree, replace(PR2_WHOLE, body=tuple(p for p in PR2_WHOLE.body if p.name != "l_arm"),
+def url(whole_pr2_kb, pr2_tree, tmp_path_factory):
+    store = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
+    store.replace_robot("pr2_right_arm_only", pr2_tree, replace(PR2_WHOLE, body=tuple(p for p in PR2_WHOLE.body if p.name != "l_arm"),
                                                             components=tuple(c for c in PR2_WHOLE.components if c.name != "l_gripper")))
     app, jobs = make_app(store)
     try:

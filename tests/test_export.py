@@ -16,7 +16,7 @@ from urdfkb.pipeline.formats import BY_NAME
 from urdfkb.pipeline.ontology import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import Edge, KinematicTree
-from tests.test_population import HOSTILE, ZERO, sample_abstraction, sample_tree
+from tests.sample_bot import HOSTILE, ZERO, sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)
 PARSERS = {"rdfxml": "xml", "turtle": "turtle", "ntriples": "nt"}

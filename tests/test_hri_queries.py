@@ -4,7 +4,7 @@ import urllib.parse
 
 import pytest
 
-from tests.kb_fixtures import PR2, both_engines, client, make_app
+from tests.kb_fixtures import PR2, both_engines, client, copied, make_app
 from urdfkb.kb_server.queries import (ParamError, UnknownQuery, UnknownRobot, _parse, load_queries, run_named,
                                      run_named_query)
 from urdfkb.kb_server.store import Store
@@ -16,11 +16,9 @@ C = "https://w3id.org/urdfkb/core#"
 
 
 @pytest.fixture(scope="module")
-def store(shared, tmp_path_factory):
-    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=0)
-    tree = load_urdf(shared / "urdf" / "pr2.urdf")
-    s.replace_robot("pr2", tree, PR2)
-    s.replace_robot("pr2_bare", tree, None)  # same links, no components: must not leak into pr2's answers
+def store(pr2_kb, pr2_tree, tmp_path_factory):
+    s = Store(copied(pr2_kb, tmp_path_factory.mktemp("kb")), workers=0)
+    s.replace_robot("pr2_bare", pr2_tree, None)  # same links, no components: must not leak into pr2's answers
     yield s
     s.close()
 
@@ -155,11 +153,8 @@ def test_http_route_and_cli(store):
     jobs.shutdown()
 
 
-def test_cli_query(shared, tmp_path):
-    path = tmp_path / "kb.sqlite3"
-    s = Store(path, workers=0)
-    s.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
-    s.close()
+def test_cli_query(pr2_kb, tmp_path):
+    path = copied(pr2_kb, tmp_path)
     out = run_named_query("end_effectors", "pr2", {}, store_path=path, fmt="tsv")
     assert out.splitlines()[0] == "?endEffector\t?class\t?mount\t?tcp\t?contacts"
     assert '"r_gripper_tool_frame"' in out

@@ -17,7 +17,7 @@ import xml.dom.minidom
 import pyoxigraph as ox
 import pytest
 
-from tests.kb_fixtures import PR2, fake_runner, http, make_app, running
+from tests.kb_fixtures import copied, fake_runner, http, make_app, running
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.results import ResultLimits, ResultTooLarge, serialize
@@ -25,7 +25,6 @@ from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.runner import Settings
 
 CROSS = "SELECT * { ?a ?p ?b . ?c ?q ?d } LIMIT 1200000"  # 536 MB of JSON over PR2 before the limits
@@ -33,18 +32,15 @@ XML = "application/xml"
 
 
 @pytest.fixture(scope="module")
-def pr2_store(shared, tmp_path_factory):
-    path = tmp_path_factory.mktemp("kb") / "kb.sqlite3"
-    store = Store(path, workers=0)
-    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
-    store.close()
-    return path
+def pr2_path(pr2_kb, tmp_path_factory):
+    """The module's store file holding PR2."""
+    return copied(pr2_kb, tmp_path_factory.mktemp("kb"))
 
 
 @pytest.fixture(scope="module")
-def server(pr2_store):
+def server(pr2_path):
     """A live `urdfkb serve` (make_server, default options) over the PR2 store; yields its base URL."""
-    srv, store, jobs = make_server(pr2_store, port=0, runner=fake_runner())
+    srv, store, jobs = make_server(pr2_path, port=0, runner=fake_runner())
     try:
         with running(srv):
             yield f"http://127.0.0.1:{srv.effective_port}"
@@ -105,8 +101,8 @@ def test_rows_are_counted_exactly_in_every_format(fmt):
         serialize(store.query(text), fmt, ResultLimits(bytes=len(plain) - 1))
 
 
-def test_named_queries_and_the_cli_answer_within_the_same_limits(pr2_store, monkeypatch, capsys):
-    store = Store(pr2_store, limits=ResultLimits(rows=3))
+def test_named_queries_and_the_cli_answer_within_the_same_limits(pr2_path, monkeypatch, capsys):
+    store = Store(pr2_path, limits=ResultLimits(rows=3))
     app, jobs = make_app(store)
     try:
         r = app.test_client().get("/queries/components?robot=pr2")
@@ -115,7 +111,7 @@ def test_named_queries_and_the_cli_answer_within_the_same_limits(pr2_store, monk
         jobs.shutdown()
         store.close()
     monkeypatch.setattr(queries, "Store", functools.partial(Store, limits=ResultLimits(rows=3)))
-    assert main(["query", "components", "--robot", "pr2", "--store", str(pr2_store)]) == 2
+    assert main(["query", "components", "--robot", "pr2", "--store", str(pr2_path)]) == 2
     assert "urdfkb: error: the answer has more than 3 rows" in capsys.readouterr().err
 
 

@@ -98,7 +98,7 @@ def test_option_and_its_continuation_match_reference_exactly(backend, reference)
 def test_scores_match_naive_reference(backend, reference):
     questions = [question(link) for link in LINKS] + [question("r_wrist", options=("end effector part", "sensor")),
                                                       question("r_wrist", options=("wrist", "wrist link", "sensor"))]
-    for q, row in zip(questions, backend.score(questions)):
+    for q, row in zip(questions, backend.score(questions), strict=True):
         ref = reference(q)
         assert np.abs(np.subtract(row, ref)).max() < LOGPROB_TOL, (q.key, row, ref)
         assert np.abs(np.subtract(softmax(row), softmax(ref))).max() < PROB_TOL, (q.key, row, ref)
@@ -323,12 +323,12 @@ def test_a_robots_answers_are_identical_cold_warm_and_after_another_robot(model_
     from the same robot, and warm from another robot, every question gets bit-identical probabilities.
 
     SmolLM2 calls every leaf 'none', so its own answers end the device passes at identification; steered,
-    the pipeline takes the toy's true answers (tests.test_pipeline.perfect) while every question is still
+    the pipeline takes the toy's true answers (tests.toy_robot.perfect) while every question is still
     scored by the model, so every stage's system text goes through the store."""
     import json
     from pathlib import Path
 
-    from tests.test_pipeline import perfect
+    from tests.toy_robot import perfect
     from urdfkb.pipeline import runner
     from urdfkb.pipeline.ingest import load_urdf
     from urdfkb.pipeline.llm.llama import LlamaBackend

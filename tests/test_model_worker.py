@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from tests.test_timings import HEAD, perfect
+from tests.head_robot import HEAD, perfect
 from urdfkb.kb_server.jobs import JobManager, ModelWorker
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf

@@ -63,6 +63,7 @@ def test_every_spec_name_exists_with_kind_label_and_comment(core_graph, spec_tex
 def test_taxonomy_matches_spec_tree_and_order(spec_text):
     tax = vocabulary()
     tree = spec_tree(spec_text)
+    assert {"Component", "Sensor", "EndEffector", "BodyPart", "Subpart"} <= {name for name, _ in tree}
     for name, parents in tree:
         assert set(tax.parents(name)) == set(parents), name
     for name, _ in tree:

@@ -5,7 +5,8 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from tests.test_pipeline import TOY, perfect
+from tests.scripted_reasoner import scripted_reasoner
+from tests.toy_robot import TOY, perfect
 from urdfkb.pipeline import abstraction
 from urdfkb.pipeline.abstraction import PASSES, Abstractor
 from urdfkb.pipeline.errors import OntologyError
@@ -51,32 +52,33 @@ def test_every_component_kind_has_a_declared_pass_sensors_first(monkeypatch):
         Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
 
 
-@pytest.mark.reasoner
 def test_the_trace_times_every_step_of_every_pass():
     out = io.StringIO()
-    Abstractor(Oracle(ScriptedBackend(perfect), trace=out), vocabulary()).run(load_urdf(TOY))
+    Abstractor(Oracle(ScriptedBackend(perfect), trace=out), vocabulary(), reasoner=scripted_reasoner).run(load_urdf(TOY))
     timed = [(r["pass"], r["step"]) for r in map(json.loads, out.getvalue().splitlines()) if r["key"] == "timing"]
     assert timed == [(p.name, s.name) for p in PASSES for s in p.steps]
 
 
 @pytest.mark.reasoner
-def test_one_reasoner_run_settles_the_tools_and_the_body_candidates(monkeypatch):
-    """The end-effector pass's reasoner run also classifies the body pass's candidates (the toy's gripper is
+def test_one_reasoner_run_settles_the_tools_and_the_body_candidates():
+    """The end-effector pass's HermiT run also classifies the body pass's candidates (the toy's gripper is
     settled by its structure), and the body pass takes those classes: the same as a run of its own."""
     from urdfkb.pipeline import reasoning
     from urdfkb.pipeline.stages import body
 
     runs = []
-    hermit = reasoning._hermit
-    monkeypatch.setattr(reasoning, "_hermit", lambda world, left: runs.append(left) or hermit(world, left))
+
+    def counted(tools, parts):
+        runs.append((len(tools), len(parts)))
+        return reasoning.classify_together(tools, parts)
+
     robot = load_urdf(TOY)
-    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
+    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary(), reasoner=counted)
     components = body.with_joints(robot, list(abstractor.run(robot)))
-    assert runs == ["end-effector kinds and body parts are"]
     facts, classes = abstractor.body_reasoned
+    assert runs == [(1, len(facts))]
     assert facts == body.findings(robot, body.candidates(robot, components), components).facts
     assert any(classes)
-    monkeypatch.setattr(reasoning, "_hermit", hermit)
     assert reasoning.classify_parts(facts)[0] == classes
 
 

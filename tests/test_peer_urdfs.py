@@ -10,7 +10,7 @@ we differ from urdfdom; it is empty.
 import csv
 
 import pytest
-from tests.conftest import SHARED
+from tests.shared_assets import SHARED
 
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf

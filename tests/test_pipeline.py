@@ -1,18 +1,17 @@
-"""The abstraction stages and passes, driven by a scripted model on an invented robot."""
+"""The abstraction stages and passes, driven by a scripted model and the scripted reasoner on an invented robot."""
 from __future__ import annotations
 
 import io
 import json
-from pathlib import Path
 
 import pytest
 
+from tests.scripted_reasoner import scripted_reasoner
+from tests.toy_robot import TAX, TOY, perfect
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import SubChain, mount_candidates
@@ -21,45 +20,6 @@ from urdfkb.pipeline.stages import grouping
 from urdfkb.pipeline.stages.grouping import Group, device_names, merge, name_prefixes
 from urdfkb.pipeline.stages.verification import verify
 
-TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
-TAX = vocabulary()
-LABELS = {TAX.answer(c): c for c in TAX._order}  # answer phrase → class, for the scripted model
-
-# What a perfect model would answer about the toy robot.
-KIND = {"front_scanner": "sensor", "mast_rgbd_color_optical": "sensor", "mast_rgbd_depth_optical": "sensor",
-        "claw_jaw_a": "end effector", "claw_jaw_b": "end effector", "claw_tcp": "end effector",
-        "drive_wheel_left": "body part", "drive_wheel_right": "body part", "claw_status_light": NONE}
-ROOT = {"front_scanner": "chassis", "mast_rgbd_color_optical": "mast", "mast_rgbd_depth_optical": "mast",
-        "claw_jaw_a": "arm_flange", "claw_jaw_b": "arm_flange", "claw_tcp": "arm_flange"}
-DEVICE = {"front_scanner": "front_scanner", "mast_rgbd_color_optical": "mast_rgbd", "mast_rgbd_depth_optical": "mast_rgbd"}
-CLASS = {"pre:front_scanner": "Lidar", "pre:mast_rgbd_color_optical": "MonocularCamera",
-         "pre:mast_rgbd_depth_optical": "DepthCamera", "post:mast_rgbd_color_optical": "RGBDCamera",
-         "pre:claw_jaw_a": "ParallelGripper", "pre:claw_jaw_b": "ParallelGripper", "pre:claw_tcp": "ParallelGripper",
-         "post:claw_jaw_a": "ParallelGripper",
-         "part:mast_rgbd_body": "SensorHousing",
-         "part:mast_rgbd_color_optical": "RgbFrame", "part:mast_rgbd_depth_optical": "DepthFrame",
-         "part:claw_base": "Palm", "part:arm_flange": "ToolHousing", "part:claw_jaw_a": "Finger", "part:claw_jaw_b": "Finger",
-         "part:claw_tcp": "ToolCenterPoint", "part:claw_status_light": "StructuralSubpart"}
-
-
-def perfect(q: Question) -> str:
-    stage, _, subject = q.key.partition(":")
-    subject, _, concept = subject.partition("@")
-    if stage == "identify":
-        return KIND[subject]
-    if stage == "root":
-        return ROOT[subject]
-    if stage == "device":
-        return DEVICE.get(subject, subject)
-    if stage == "check":
-        return "sensor"
-    if stage == "side":
-        return q.options[0]  # the toy's names agree with its geometry
-    if stage == "body":
-        return "none"  # whatever structure leaves open is a mechanism
-    target = CLASS[f"{stage}:{subject}"]
-    return next(o for o in q.options if TAX.is_a(target, LABELS[o]))
-
 
 @pytest.fixture
 def toy():
@@ -67,10 +27,9 @@ def toy():
 
 
 def abstract(tree, rule=perfect, vote=None):
-    return Abstractor(Oracle(ScriptedBackend(rule), vote=vote), TAX).run(tree)
+    return Abstractor(Oracle(ScriptedBackend(rule), vote=vote), TAX, reasoner=scripted_reasoner).run(tree)
 
 
-@pytest.mark.reasoner
 def test_toy_robot_is_abstracted_into_its_devices(toy):
     comps = {c.cls: c for c in abstract(toy)}
     assert set(comps) == {"Lidar", "RGBDCamera", "ParallelGripper"}
@@ -86,13 +45,11 @@ def test_toy_robot_is_abstracted_into_its_devices(toy):
     assert set(gripper.links) == {"claw_base", "claw_jaw_a", "claw_jaw_b", "claw_tcp", "claw_status_light"}
 
 
-@pytest.mark.reasoner
 def test_every_link_belongs_to_at_most_one_component(toy):
     links = [link for c in abstract(toy) for link in c.links]
     assert len(links) == len(set(links))
 
 
-@pytest.mark.reasoner
 def test_confidence_is_the_product_along_the_descent(toy):
     def unsure(q):
         if q.key == "pre:front_scanner@Sensor":
@@ -104,7 +61,6 @@ def test_confidence_is_the_product_along_the_descent(toy):
     assert lidar.cls == "Lidar" and lidar.confidence == pytest.approx(0.48, abs=1e-3)
 
 
-@pytest.mark.reasoner
 def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
     def screw_scanner(q):
         return "mechanism" if q.key == "check:front_scanner" else perfect(q)
@@ -115,7 +71,6 @@ def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
         assert "Lidar" in {c.cls for c in kept}
 
 
-@pytest.mark.reasoner
 def test_a_leaf_both_questions_call_a_sensor_only_by_a_clear_minority_is_no_sensor(toy):
     def unsure(identified: float, checked: float):
         def answer(q):
@@ -133,7 +88,6 @@ def test_a_leaf_both_questions_call_a_sensor_only_by_a_clear_minority_is_no_sens
     assert "Lidar" in {c.cls for c in abstract(toy, unsure(0.6, 0.4))}
 
 
-@pytest.mark.reasoner
 def test_sampled_voting_reaches_the_same_devices(toy):
     assert {c.cls for c in abstract(toy, vote="sample")} == {"Lidar", "RGBDCamera", "ParallelGripper"}
 
@@ -148,7 +102,6 @@ def _asking(toy) -> tuple[list, list[str]]:
     return abstract(toy, spy), asked
 
 
-@pytest.mark.reasoner
 def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy):
     components, asked = _asking(toy)
     camera = next(c for c in components if c.cls == "RGBDCamera")
@@ -161,7 +114,6 @@ def test_each_camera_chain_leaf_is_an_optical_frame_and_the_rest_is_housing(toy)
     assert parts["mast_rgbd_body"] == "SensorHousing"
 
 
-@pytest.mark.reasoner
 def test_a_non_vision_sensor_measures_at_its_chain_leaf_with_no_question(toy):
     components, asked = _asking(toy)
     lidar = next(c for c in components if c.cls == "Lidar")
@@ -170,7 +122,6 @@ def test_a_non_vision_sensor_measures_at_its_chain_leaf_with_no_question(toy):
     assert not any(k.startswith("part:front_scanner") for k in asked)
 
 
-@pytest.mark.reasoner
 def test_end_effector_chains_meeting_inside_a_mount_are_one_tool(toy):
     def tcp_high(q):
         if q.key == "root:claw_tcp":
@@ -189,24 +140,22 @@ def test_backend_failure_is_a_clear_error(toy, failure):
         abstract(toy, broken)
 
 
-@pytest.mark.reasoner
 def test_answers_outside_the_options_are_abstentions_not_classes(toy):
     def wild(q):
         if q.key.startswith("pre:"):
             return "GalacticSensor"
         return q.options[0] if q.key.startswith("part:front_scanner") else perfect(q)  # a bare Sensor's parts
     comps = abstract(toy, wild, vote="sample")
-    assert all(c.cls in TAX for c in comps)
+    assert comps and all(c.cls in TAX for c in comps)
 
 
-@pytest.mark.reasoner
 def test_identification_offers_the_component_kinds_and_none(toy):
     seen = {}
 
     def spy(q):
         seen[q.key] = q.options
         return perfect(q)
-    Abstractor(Oracle(ScriptedBackend(spy)), TAX).run(toy)
+    Abstractor(Oracle(ScriptedBackend(spy)), TAX, reasoner=scripted_reasoner).run(toy)
     assert seen["identify:front_scanner"] == ("sensor", "end effector", "body part", NONE)
 
 
@@ -290,10 +239,9 @@ def test_verification_absorbs_unclaimed_links(toy):
     assert notes and notes[0].startswith("absorb")
 
 
-@pytest.mark.reasoner
 def test_trace_records_every_question(toy):
     out = io.StringIO()
-    Abstractor(Oracle(ScriptedBackend(perfect), trace=out), TAX).run(toy)
+    Abstractor(Oracle(ScriptedBackend(perfect), trace=out), TAX, reasoner=scripted_reasoner).run(toy)
     records = [json.loads(line) for line in out.getvalue().splitlines()]
     questions = [r for r in records if "options" in r]
     # no "device": the toy's colour and depth frames hang from one camera body, one device by structure
@@ -303,7 +251,6 @@ def test_trace_records_every_question(toy):
     assert reasoner["tools"][0]["inferred"] == "ParallelGripper"
 
 
-@pytest.mark.reasoner
 def test_post_classification_starts_from_what_the_members_share(toy):
     asked = []
 

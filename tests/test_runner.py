@@ -1,18 +1,20 @@
 """Settings, the result cache, and the runner's contract with its callers."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
-from urdfkb.pipeline import cache
+from urdfkb.pipeline import cache, runner
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.runner import Settings, run
-from tests.test_pipeline import perfect
+from urdfkb.pipeline.runner import Settings
+from tests.scripted_reasoner import scripted_reasoner
+from tests.toy_robot import TOY, perfect
 
-TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
+
+def run(tree, settings, **kw):
+    """runner.run with the scripted reasoner: the toy's gripper needs no JVM."""
+    return runner.run(tree, settings, reasoner=scripted_reasoner, **kw)
 
 
 @pytest.fixture(autouse=True)
@@ -37,7 +39,6 @@ def test_structure_only_asks_nothing():
     assert result.components == () and backend.stats.calls == 0
 
 
-@pytest.mark.reasoner
 def test_an_identical_second_run_comes_from_the_cache():
     tree = load_urdf(TOY)
     first_backend = ScriptedBackend(perfect)
@@ -54,7 +55,6 @@ def test_an_identical_second_run_comes_from_the_cache():
     assert second.provenance["generatedAt"] >= first.provenance["generatedAt"]
 
 
-@pytest.mark.reasoner
 def test_other_settings_or_robots_miss_the_cache():
     tree = load_urdf(TOY)
     run(tree, Settings(), backend=ScriptedBackend(perfect))
@@ -75,7 +75,6 @@ def test_a_failing_backend_raises_and_caches_nothing(tmp_path):
     assert not list((tmp_path / "cache").glob("**/*.json"))
 
 
-@pytest.mark.reasoner
 def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     tree = load_urdf(TOY)
     first = run(tree, Settings(), backend=ScriptedBackend(perfect))
@@ -86,7 +85,6 @@ def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     assert cache.load(entry.stem).components == again.components  # rewritten whole
 
 
-@pytest.mark.reasoner
 def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):
     tree = load_urdf(TOY)
     run(tree, Settings(), backend=ScriptedBackend(perfect))
@@ -119,7 +117,6 @@ def _robot_provenance(tree, abstraction) -> dict:
     return {str(p).removeprefix(core): o for p, o in g.predicate_objects(robot) if str(p).startswith(core)}
 
 
-@pytest.mark.reasoner
 def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp_path, monkeypatch):
     import hashlib
     from datetime import datetime, timedelta, timezone
@@ -127,7 +124,6 @@ def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp
     import rdflib
 
     import urdfkb
-    from urdfkb.pipeline import runner
     gguf = tmp_path / "my-model.Q4.gguf"
     gguf.write_bytes(b"GGUF not really a model")
     monkeypatch.setattr(runner, "make_backend", lambda settings: ScriptedBackend(perfect, name="llama.cpp:my-model.Q4.gguf"))
@@ -155,9 +151,7 @@ def test_a_populated_robot_says_when_from_what_with_which_software_and_model(tmp
     assert run(tree, Settings(model=str(gguf))).provenance["result_cache"] == "hit"
 
 
-@pytest.mark.reasoner
 def test_the_default_model_is_named_by_its_verified_digest_without_hashing(monkeypatch):
-    from urdfkb.pipeline import runner
     from urdfkb.pipeline.llm import fetch
     monkeypatch.setattr(runner, "make_backend", lambda settings: ScriptedBackend(perfect))
     monkeypatch.setattr(fetch, "_sha256", lambda path: pytest.fail("the fetched model is not hashed again"))
@@ -165,9 +159,7 @@ def test_the_default_model_is_named_by_its_verified_digest_without_hashing(monke
     assert (prov["modelFile"], prov["modelSha256"]) == (fetch.DEFAULT_MODEL.filename, fetch.DEFAULT_MODEL.sha256)
 
 
-@pytest.mark.reasoner
 def test_structure_only_and_http_runs_write_what_is_known(monkeypatch):
-    from urdfkb.pipeline import runner
     tree = load_urdf(TOY)
     prov = _robot_provenance(tree, run(tree, Settings(structure_only=True)))
     assert prov["abstractionMode"].toPython() == "structure-only"

@@ -13,13 +13,12 @@ import pytest
 import rdflib
 
 import urdfkb.kb_server.index as index_mod
-from tests.kb_fixtures import PR2, client, free_port, make_app, multipart
+from tests.kb_fixtures import PR2, client, copied, free_port, make_app, multipart
 from urdfkb.kb_server.jobs import pipeline_runner
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import BackendError
-from urdfkb.pipeline.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -262,12 +261,9 @@ def test_binds_loopback_by_default(tmp_path):
 
 
 @pytest.mark.slow
-def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, shared):
+def test_urdfkb_serve_restart_serves_what_was_stored(tmp_path, pr2_kb):
     """The real entry point (urdfkb serve, waitress) in a subprocess, restarted over the same store."""
-    path = tmp_path / "kb.sqlite3"
-    store = Store(path, workers=0)
-    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
-    store.close()
+    path = copied(pr2_kb, tmp_path)
     for run in range(2):
         port, log = free_port(), tmp_path / f"serve{run}.log"
         with log.open("wb") as err:

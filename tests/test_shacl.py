@@ -10,7 +10,7 @@ from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.ontology import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.shacl import validate
-from tests.test_population import sample_abstraction, sample_tree
+from tests.sample_bot import sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)
 
@@ -141,7 +141,9 @@ def test_robot_provenance_is_required_and_well_formed(prop, value):
 @pytest.mark.slow
 def test_shared_urdfs_conform_structure_only(shared):
     world = owlready2.World()
-    for path in sorted((shared / "urdf").glob("*.urdf")):
+    paths = sorted((shared / "urdf").glob("*.urdf"))
+    assert paths, "no shared URDF"
+    for path in paths:
         tree = load_urdf(path)
         conforms, report = validate(robot_graph(build_robot(world, tree, tree.robot_name)))
         assert conforms, f"{path.name}: {report}"

@@ -3,9 +3,12 @@ robots with known truth, and with a scripted model that makes the small model's 
 for sensors, and a quadruped's feet for tools. Names are meaningless, so only structure can correct it."""
 from __future__ import annotations
 
+import random
+
 import pytest
 from tests.body_robots import legged, wheeled
 from tests.hand_robots import build
+from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
@@ -120,8 +123,13 @@ def test_alike_limbs_are_asked_once_and_answered_alike():
 
 
 def test_fixed_frames_side_by_side_are_never_alike():
-    built = build(3)
-    tree = load_urdf(built.urdf)
-    for group in alike_leaves(tree, list(tree.leaves())):
-        if len(group) > 1:
-            assert all(any(tree.edge_to(link).movable for link in tree.chain_to_root(leaf)[:-1]) for leaf in group)
+    """Two frames bolted at equal distances on one body (a camera and an IMU) are no pair; two jaws sliding
+    on it, mirrored, are."""
+    w = Writer(random.Random(3))
+    body = w.link()
+    frames, jaws = [w.link() for _ in range(2)], [w.link() for _ in range(2)]
+    for frame, jaw, y in zip(frames, jaws, (1.0, -1.0)):
+        w.joint("fixed", body, frame, (0.0, 0.1 * y, 0.05))
+        w.joint("prismatic", body, jaw, (0.05, 0.02 * y, 0.0), (0.0, y, 0.0), (0.0, 0.03))
+    tree = load_urdf(w.urdf())
+    assert sorted(map(sorted, alike_leaves(tree, list(tree.leaves())))) == sorted([sorted(jaws), [frames[0]], [frames[1]]])

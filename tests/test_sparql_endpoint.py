@@ -10,9 +10,8 @@ import rdflib
 from rdflib.plugins.stores.sparqlstore import SPARQLStore
 from SPARQLWrapper import JSON, POST, POSTDIRECTLY, TURTLE, XML, SPARQLWrapper
 
-from tests.kb_fixtures import PR2, http, live, make_app
+from tests.kb_fixtures import PR2, copied, http, live, make_app
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
 
 P = "PREFIX core: <https://w3id.org/urdfkb/core#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
 KINECT = "https://w3id.org/urdfkb/robot/pr2#comp_kinect"
@@ -21,9 +20,8 @@ TOKEN = "s3cret"
 
 
 @pytest.fixture(scope="module")
-def url(shared, tmp_path_factory):
-    store = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3")
-    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+def url(pr2_kb, tmp_path_factory):
+    store = Store(copied(pr2_kb, tmp_path_factory.mktemp("kb")))
     app, jobs = make_app(store, token=TOKEN, query_timeout=1.0)
     with live(app) as base:
         yield base + "/sparql"

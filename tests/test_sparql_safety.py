@@ -9,10 +9,9 @@ import urllib.parse
 import pyoxigraph as ox
 import pytest
 
-from tests.kb_fixtures import PR2, client, make_app
+from tests.kb_fixtures import client, copied, make_app
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
 
 TOKEN = "t0k"
 CORE = "https://w3id.org/urdfkb/core#"
@@ -20,9 +19,8 @@ PR2_GRAPH = "https://w3id.org/urdfkb/robot/pr2#"
 COUNT_CORE = f"SELECT (COUNT(*) AS ?n) WHERE {{ GRAPH <{CORE}> {{ ?s ?p ?o }} }}"
 
 
-def _kb(shared, tmp_path, workers: int):
-    store = Store(tmp_path / "kb.sqlite3", workers=workers)
-    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+def _kb(pr2_kb, tmp_path, workers: int):
+    store = Store(copied(pr2_kb, tmp_path), workers=workers)
     app, jobs = make_app(store, token=TOKEN, query_timeout=2.0)
     yield client(app), store
     jobs.shutdown()
@@ -30,15 +28,15 @@ def _kb(shared, tmp_path, workers: int):
 
 
 @pytest.fixture
-def kb(shared, tmp_path):
+def kb(pr2_kb, tmp_path):
     """The app over a store holding PR2, answering SPARQL in this process."""
-    yield from _kb(shared, tmp_path, workers=0)
+    yield from _kb(pr2_kb, tmp_path, workers=0)
 
 
 @pytest.fixture
-def kb_workers(shared, tmp_path):
+def kb_workers(pr2_kb, tmp_path):
     """The same with query worker processes, which alone enforce a deadline."""
-    yield from _kb(shared, tmp_path, workers=2)
+    yield from _kb(pr2_kb, tmp_path, workers=2)
 
 
 def ask(api, q):
@@ -85,10 +83,9 @@ def test_clear_default_drop_all_and_clear_robot_keep_the_core(kb):
                     f"ASK {{ <{CORE}RGBDCamera> rdfs:subClassOf* <{CORE}Camera> }}") is True
 
 
-def test_updates_persist_exactly_across_restart(shared, tmp_path):
-    path = tmp_path / "kb.sqlite3"
+def test_updates_persist_exactly_across_restart(pr2_kb, tmp_path):
+    path = copied(pr2_kb, tmp_path)
     s = Store(path, workers=0)
-    s.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     s.update('INSERT DATA { <urn:x> <urn:v> "01"^^<http://www.w3.org/2001/XMLSchema#integer> . '
              'GRAPH <urn:g> { <urn:x> <urn:w> _:b } }')
     s.update(f"INSERT DATA {{ GRAPH <{PR2_GRAPH}> {{ <{PR2_GRAPH}comp_kinect> <urn:checked> true }} }}")
@@ -256,11 +253,10 @@ def test_a_query_worker_can_open_no_connection_whatever_it_is_asked(remote):
 
 
 @pytest.mark.slow
-def test_a_query_past_its_memory_is_stopped_and_others_are_answered(shared, tmp_path):
+def test_a_query_past_its_memory_is_stopped_and_others_are_answered(pr2_kb, tmp_path):
     """Two cross-product ORDER BYs (gigabytes each, unbounded) end with 503 naming --query-memory, and another
     client's ASK is answered meanwhile by the third worker."""
-    store = Store(tmp_path / "kb.sqlite3", workers=3, limits=ResultLimits(memory=512 * 2**20))
-    store.replace_robot("pr2", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
+    store = Store(copied(pr2_kb, tmp_path), workers=3, limits=ResultLimits(memory=512 * 2**20))
     app, jobs = make_app(store, token=TOKEN, query_timeout=10.0)
     api = client(app)
     heavy = "SELECT * WHERE { ?a ?b ?c . ?d ?e ?f } ORDER BY ?c ?f"

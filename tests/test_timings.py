@@ -4,27 +4,13 @@ from __future__ import annotations
 import io
 import json
 
+from tests.head_robot import HEAD, perfect
 from urdfkb.kb_server.cli import main
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.passes import Pass, PassManager, Step
 from urdfkb.pipeline.runner import Settings, run
 from urdfkb.pipeline.timings import COUNTERS, Timings, process_age
-
-# Sensors on fixed joints only: no finger chain and no movable joint, so no reasoner run (no JVM).
-HEAD = """<robot name="head">
-  <link name="base_link"/><link name="mast"/><link name="cam_link"/><link name="cam_optical_frame"/><link name="laser"/>
-  <joint name="j0" type="fixed"><parent link="base_link"/><child link="mast"/></joint>
-  <joint name="j1" type="fixed"><parent link="mast"/><child link="cam_link"/></joint>
-  <joint name="j2" type="fixed"><parent link="cam_link"/><child link="cam_optical_frame"/></joint>
-  <joint name="j3" type="fixed"><parent link="base_link"/><child link="laser"/></joint>
-</robot>"""
-
-
-def perfect(question: Question) -> str:
-    """Every leaf is a sensor; otherwise the first option."""
-    return "sensor" if "sensor" in question.options and question.key.startswith("identify:") else question.options[0]
 
 
 def test_a_step_record_counts_the_work_done_in_it():

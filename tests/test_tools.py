@@ -1,4 +1,5 @@
-"""End-effectors from structure: finger chains, the ontology's gripper kinds (HermiT), extent and mount.
+"""End-effectors from structure: finger chains, the ontology's gripper kinds (HermiT, or the scripted reasoner
+in the pipeline's runs), extent and mount.
 
 tests/data/tool_rack.urdf is an invented robot with three tools (and a clamp half-way up one arm): a vise (two sliding jaws, one
 mimicking the other) with a cuff camera beside it on the flange, a three-prong gripper driven by one
@@ -12,6 +13,7 @@ import owlready2
 import pytest
 import rdflib
 
+from tests.scripted_reasoner import scripted_reasoner
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.export import robot_graph
@@ -138,9 +140,8 @@ def perfect(q: Question) -> str | dict:
     return q.options[0]
 
 
-@pytest.mark.reasoner
 def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack):
-    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), TAX)
+    abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), TAX, reasoner=scripted_reasoner)
     comps = abstractor.run(rack)
     tools = {c.cls: c for c in comps if c.kind == "end_effector"}
     assert set(tools) == {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand"}
@@ -163,13 +164,12 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert (None, core.isMimicOf, None) in graph  # the starboard slide follows the port slide
 
 
-@pytest.mark.reasoner
 def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
     def jaw_as_sensor(q: Question) -> str | dict:
         if q.key == "identify:vise_jaw_starboard":
             return "sensor"  # the model's mistake: the jaw that follows the other is taken for a sensor
         return perfect(q)
-    abstractor = Abstractor(Oracle(ScriptedBackend(jaw_as_sensor)), TAX)
+    abstractor = Abstractor(Oracle(ScriptedBackend(jaw_as_sensor)), TAX, reasoner=scripted_reasoner)
     comps = abstractor.run(rack)
     vise = next(c for c in comps if c.kind == "end_effector" and c.root == "left_flange")
     assert vise.cls == "ParallelGripper" and "vise_jaw_starboard" in vise.links

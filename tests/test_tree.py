@@ -6,7 +6,7 @@ import random
 import pytest
 import trimesh.transformations as tra
 import yourdfpy
-from tests.conftest import SHARED
+from tests.shared_assets import SHARED
 
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.tree import Edge, KinematicTree, Origin, TreeError

@@ -8,6 +8,7 @@ import pytest
 import rdflib
 from rdflib.namespace import RDF, RDFS
 
+from tests.scripted_reasoner import scripted_reasoner
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction
 from urdfkb.pipeline.errors import OntologyError
@@ -110,7 +111,7 @@ def test_a_sensor_class_added_to_the_ontology_is_offered_and_written_out(tmp_pat
         return q.options[0]
 
     tree = load_urdf(KILN_BOT)
-    abstractor = Abstractor(Oracle(ScriptedBackend(model)), vocab)
+    abstractor = Abstractor(Oracle(ScriptedBackend(model)), vocab, reasoner=scripted_reasoner)
     (comp,) = abstractor.run(tree)
     assert (comp.kind, comp.cls, comp.root) == (SENSOR, "Thermometer", "boiler")
     pre = next(q for q in asked if q.key == "pre:boiler_temp_frame@Sensor")

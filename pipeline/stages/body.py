@@ -201,17 +201,18 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
 
 def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
              components: list[Component], progress: Progress | None, log: Log,
-             reasoned: Callable[[float], None] = lambda _seconds: None, known: Reasoned | None = None) -> None:
-    """Each candidate's class: structure first (the ontology's sufficient conditions, by the reasoner),
-    the model for the rest; `reasoned` receives the reasoner's wall time. `known` is what an earlier
-    reasoner run inferred for candidates' facts, taken where the facts are still these."""
+             reasoned: Callable[[float], None] = lambda _seconds: None, known: Reasoned | None = None,
+             reasoner: reasoning.Reasoner | None = None) -> None:
+    """Each candidate's class: structure first (the ontology's sufficient conditions, by `reasoner`: HermiT
+    by default), the model for the rest; `reasoned` receives the reasoner's wall time. `known` is what an
+    earlier reasoner run inferred for candidates' facts, taken where the facts are still these."""
     seen = findings(tree, found, components)
     devices, carries, grounded = seen.devices, seen.carries, seen.grounded
     if known is not None and known[0] == seen.facts:
         inferred, seconds = list(known[1]), 0.0
         log("body reasoner: inferred in the end-effector pass's run")
     else:
-        inferred, seconds = reasoning.classify_parts(seen.facts)
+        inferred, seconds = reasoning.classify_parts(seen.facts, reasoner)
     reasoned(seconds)
     log(f"body reasoner: {seconds:.2f} s, " + ", ".join(f"{c.joints[0].joint}={cls}" for c, cls in zip(found, inferred)))
     open_ = [i for i, cls in enumerate(inferred) if cls is None]

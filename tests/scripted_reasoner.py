@@ -1,0 +1,77 @@
+"""A stand-in for HermiT with pipeline.reasoning.classify_together's contract, so pipeline tests run
+without a JVM: the ontology's definitions of the end-effector kinds, ThumbChain and the body-part
+conditions (ontologies/urdfkb.owl) written out as rules over the facts the code asserts, and the
+facts closed as pipeline.reasoning closes them. Inject it as `reasoner=scripted_reasoner`
+(Abstractor, runner.run), as tests inject a ScriptedBackend for the model.
+
+test_reasoner_agreement checks it against HermiT on every input the fast lane's robots give it and on
+generated robots, so a change to the ontology's definitions that it misses fails there.
+"""
+from __future__ import annotations
+
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.reasoning import TOOL_REF, Inference, PartFacts
+from urdfkb.pipeline.structure import ToolStructure
+
+TOOL = "EndEffector"
+
+
+def scripted_reasoner(tools: list[ToolStructure], parts: list[PartFacts]) -> tuple[list[Inference], list[str | None], float]:
+    """Each tool's Inference, each candidate part's class (None where no condition, or two, hold), 0 s."""
+    return [_tool(t) for t in tools], _parts(parts), 0.0
+
+
+def _tool(tool: ToolStructure) -> Inference:
+    """ParallelGripper: two chains, one opposing; MultiFingerGripper: three chains, or four or more and no
+    thumb; AnthropomorphicHand: four or more and a thumb. A thumb opposes two chains that each move with one."""
+    opposes = _symmetric({f.name: f.opposes for f in tool.fingers})
+    along = _symmetric({f.name: f.moves_with for f in tool.fingers})
+    thumbs = tuple(f.name for f in tool.fingers if sum(bool(along[o]) for o in opposes[f.name]) >= 2)
+    n = len(tool.fingers)
+    if n == 2 and any(opposes.values()):
+        cls = "ParallelGripper"
+    elif n == 3 or (n >= 4 and not thumbs):
+        cls = "MultiFingerGripper"
+    elif n >= 4:
+        cls = "AnthropomorphicHand"
+    else:
+        cls = TOOL
+    return Inference(cls, thumbs)
+
+
+def _symmetric(relation: dict[str, tuple[str, ...]]) -> dict[str, set[str]]:
+    """opposes and movesWith are symmetric properties: a pair asserted one way holds both ways."""
+    out: dict[str, set[str]] = {name: set(others) for name, others in relation.items()}
+    for name, others in relation.items():
+        for other in others:
+            out[other].add(name)
+    return out
+
+
+def _parts(parts: list[PartFacts]) -> list[str | None]:
+    wheels = [_is_wheel(f) for f in parts]
+    return [_part(f, wheels) for f in parts]
+
+
+def _is_wheel(f: PartFacts) -> bool:
+    """One joint, continuous, carrying no part and no device."""
+    tax = vocabulary()
+    return (len(f.joint_types) == 1 and tax.is_a(tax.joint_class(f.joint_types[0]), "ContinuousJoint")
+            and not f.carries and not f.devices)
+
+
+def _part(f: PartFacts, wheels: list[bool]) -> str | None:
+    tax = vocabulary()
+    devices = [TOOL if d.startswith(TOOL_REF) else d for d in f.devices]  # a tool of the same run is an EndEffector
+    tools = sum(tax.is_a(d, TOOL) for d in devices)
+    joints, ground = len(f.joint_types), f.reaches_ground
+    held = {
+        "Wheel": _is_wheel(f),
+        "Leg": ground and joints >= 2 and not tools,
+        "Arm": not ground and tools > 0,
+        "Head": (not ground and any(tax.is_a(d, "Camera") for d in devices) and not tools and not f.carries
+                 and joints <= 3),
+        "MobileBase": joints == 1 and any(wheels[k] for k in f.carries) and not tools,
+    }
+    settled = [cls for cls, holds in held.items() if holds]
+    return settled[0] if len(settled) == 1 else None

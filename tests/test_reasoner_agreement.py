@@ -1,0 +1,100 @@
+"""The scripted reasoner (tests/scripted_reasoner.py) answers as HermiT does: on the toy's pipeline run,
+on generated hands and grippers, on generated bodies (their candidates carrying class names, and
+carrying tools of the same run) and on candidates either side of each body-part condition."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from tests.body_robots import legged, wheeled
+from tests.hand_robots import build
+from tests.scripted_reasoner import scripted_reasoner
+from tests.toy_robot import TAX, TOY, perfect
+from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.components import END_EFFECTOR
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.reasoning import TOOL_REF, PartFacts, classify_together
+from urdfkb.pipeline.stages import body
+from urdfkb.pipeline.structure import ToolStructure, tool_structure
+
+Call = tuple[list[ToolStructure], list[PartFacts]]
+
+
+def toy_run() -> list[Call]:
+    """What the pipeline gives the reasoner on the toy robot (tools and body candidates in one run)."""
+    calls: list[Call] = []
+
+    def recording(tools, parts):
+        calls.append((tools, parts))
+        return scripted_reasoner(tools, parts)
+    Abstractor(Oracle(ScriptedBackend(perfect)), TAX, reasoner=recording).run(load_urdf(TOY))
+    return calls
+
+
+def generated_body(built, tools_in_run: bool) -> Call:
+    """A generated robot's body candidates as the body pass asserts them: its grippers by their class, or
+    (`tools_in_run`) as the end-effector pass's run has them, tools of the same run."""
+    tree = load_urdf(built.urdf)
+    grippers = [c for c in built.components if c.kind == END_EFFECTOR] if tools_in_run else []
+    tools = [tool_structure(tree, [link for link in c.links if tree.is_leaf(link)]) for c in grippers]
+    ref = {c.name: f"{TOOL_REF}{i}" for i, c in enumerate(grippers)}
+    components = [replace(c, cls=ref.get(c.name, c.cls)) for c in body.with_joints(tree, built.components)]
+    return tools, body.findings(tree, body.candidates(tree, components), components).facts
+
+
+def boundaries() -> Call:
+    """Candidates on both sides of each body-part condition: one to four joints (one continuous), a camera,
+    a tool, another sensor, both or nothing, carrying a wheel, another part or none, on the ground or off it."""
+    wheel, other = PartFacts(("continuous",), (), (), True), PartFacts(("revolute", "revolute"), (), (), False)
+    joints = [("continuous",), ("revolute",), ("revolute", "continuous"), ("revolute", "revolute", "prismatic"),
+              ("revolute",) * 4]
+    devices = [(), ("MonocularCamera",), ("ParallelGripper",), ("Lidar",), ("RGBDCamera", "ParallelGripper")]
+    return [], [wheel, other, *(PartFacts(j, d, carries, ground) for j in joints for d in devices
+                                for carries in ((), (0,), (1,)) for ground in (True, False))]
+
+
+def merged(calls: list[Call]) -> Call:
+    """The calls as one: each part's followers and same-run tools renumbered."""
+    tools: list[ToolStructure] = []
+    parts: list[PartFacts] = []
+    for call_tools, call_parts in calls:
+        shift_tool, shift_part = len(tools), len(parts)
+        tools += call_tools
+        parts += [replace(f, carries=tuple(k + shift_part for k in f.carries),
+                          devices=tuple(f"{TOOL_REF}{int(d[len(TOOL_REF):]) + shift_tool}" if d.startswith(TOOL_REF) else d
+                                        for d in f.devices)) for f in call_parts]
+    return tools, parts
+
+
+def hands() -> Call:
+    """Generated grippers and hands of every layout, and a lone frame (no finger chain)."""
+    tools = [tool_structure(load_urdf(b.urdf), b.leaves) for b in map(build, range(0, 400, 25))]
+    return [*tools, tool_structure(load_urdf(TOY), ["claw_tcp"])], []
+
+
+def bodies() -> Call:
+    """Generated wheeled and legged robots, half of them with their grippers as tools of the same run."""
+    return merged([generated_body(make(seed), tools_in_run=seed % 2 == 1) for make in (wheeled, legged) for seed in range(6)])
+
+
+# each input, and the classes it must get (so that every condition is put to both reasoners)
+CASES = {
+    "toy": (lambda: merged(toy_run()), {"ParallelGripper"}, {"Wheel", "Arm"}),
+    "hands": (hands, {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand", "EndEffector"}, set()),
+    "bodies": (bodies, {"ParallelGripper"}, {"Wheel", "MobileBase", "Leg", "Arm", "Head", None}),
+    "boundaries": (boundaries, set(), {"Wheel", "MobileBase", "Leg", "Arm", "Head", None}),
+}
+
+
+@pytest.mark.reasoner
+@pytest.mark.parametrize("case", CASES)
+def test_the_scripted_reasoner_agrees_with_hermit(case):
+    """One HermiT run per case (merged into one, the cases take HermiT twice as long)."""
+    make, kinds, body_classes = CASES[case]
+    tools, parts = make()
+    hermit = classify_together(tools, parts)
+    assert scripted_reasoner(tools, parts)[:2] == hermit[:2]
+    assert {i.cls for i in hermit[0]} == kinds and set(hermit[1]) == body_classes
