@@ -4,7 +4,8 @@ The routes are blueprints by resource in kb_server/routes/: `sparql` (the SPARQL
 /sparql), `jobs` (POST /populate, POST /robots/<name>/populate, GET /jobs/<id>), `robots`,
 `corrections`, `queries` and `pages` (the index page); kb_server/ui.py renders the pages. The store,
 the jobs and the settings are kept in `app.extensions` (kb_server/services.py), where every blueprint
-reads them per request. Refusals and SPARQL answers are built by kb_server/replies.py.
+reads them per request. Routes refuse by raising a UrdfkbError, whose class carries its status;
+kb_server/replies.py answers them all in one place (`handle_error`), and builds the SPARQL answers.
 
 Writes (SPARQL updates, DELETE /robots/<name>, and, when a token is configured, populating and
 corrections) need `Authorization: Bearer <token>`; with no token configured, updates and deletes are
@@ -19,12 +20,13 @@ from pathlib import Path
 from flask import Flask
 from werkzeug.exceptions import HTTPException
 
-from urdfkb.kb_server.jobs import JobManager, QueueFull
-from urdfkb.kb_server.replies import http_error, queue_full, refusal
+from urdfkb.kb_server.jobs import JobManager
+from urdfkb.kb_server.replies import handle_error
 from urdfkb.kb_server.routes import BLUEPRINTS
 from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.services import EXTENSION, Services
 from urdfkb.kb_server.store import Store
+from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.settings import MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, XACRO_TIMEOUT, job_waiters
 
 
@@ -44,9 +46,9 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     kb = Services(store, jobs, policy or Policy(), token, max_body, query_timeout, max_links, max_waiters,
                   threading.BoundedSemaphore(max_waiters), package_paths, trust_xacro, xacro_timeout)
     app.extensions[EXTENSION] = kb
-    kb.policy.install(app, refusal)
-    app.register_error_handler(QueueFull, queue_full)
-    app.register_error_handler(HTTPException, http_error)
+    kb.policy.install(app)
+    app.register_error_handler(UrdfkbError, handle_error)
+    app.register_error_handler(HTTPException, handle_error)
     for blueprint in BLUEPRINTS:
         app.register_blueprint(blueprint)
     return app

@@ -50,9 +50,13 @@ Changes = dict[str, tuple[bytes | None, bytes | None]]
 class WorkerCrashed(UrdfkbError, RuntimeError):
     """A worker process died while evaluating an operation (a bug in the engine); it was replaced."""
 
+    status = 500
+
 
 class QueryOutOfMemory(UrdfkbError, MemoryError):
     """The operation needed more memory than a query worker may use; its worker was replaced."""
+
+    status = 503
 
 
 NO_NETWORK = ("socket", "socketpair", "io_uring_setup")  # refused to workers (EACCES): nothing to connect with

@@ -27,6 +27,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable
 
+from urdfkb.kb_server.errors import TooManyRequests
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
 from urdfkb.kb_server.text import cut
@@ -43,12 +44,10 @@ Runner = Callable[[KinematicTree, Settings, Progress], Abstraction]
 Source = KinematicTree | Callable[[], KinematicTree]
 
 
-class QueueFull(Exception):
+class QueueFull(TooManyRequests):
     """Too many populate jobs are waiting for a worker; retry after `retry_after` seconds."""
 
-    def __init__(self, message: str, retry_after: int):
-        super().__init__(message)
-        self.retry_after = retry_after
+    status = 429
 
 
 class ModelWorker:

@@ -7,29 +7,33 @@ import re
 
 from flask import request
 
+from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.settings import MAX_JSON_DEPTH
 
 _BRACKETS = re.compile(rb'"(?:[^"\\]|\\.)*"|[\[\]{}]')  # a string (skipped whole) or a bracket
 
 
-class BadJSON(ValueError):
-    """A request body that is not JSON, or nests too deep."""
+class BadJSON(UrdfkbError, ValueError):
+    """A request body that is not a JSON object, or nests too deep."""
 
     status = 400
 
 
-def json_body(max_depth: int = MAX_JSON_DEPTH) -> object:
-    """The request's body as JSON (Content-Type application/json or */*+json); BadJSON if it is not, or if
-    its arrays and objects nest deeper than `max_depth`."""
+def json_object(usage: str, max_depth: int = MAX_JSON_DEPTH) -> dict:
+    """The request's body as a JSON object (Content-Type application/json or */*+json); BadJSON ending with
+    `usage` (what to send) if it is not one, or if its arrays and objects nest deeper than `max_depth`."""
     if not request.is_json:
-        raise BadJSON("send the body as application/json")
+        raise BadJSON(f"send the body as application/json: {usage}")
     data = request.get_data()
     if _deeper_than(data, max_depth):
-        raise BadJSON(f"JSON nested deeper than {max_depth} levels is refused")
+        raise BadJSON(f"JSON nested deeper than {max_depth} levels is refused: {usage}")
     try:
-        return json.loads(data)
+        value = json.loads(data)
     except ValueError as e:
-        raise BadJSON(f"the body is not JSON ({e})") from None
+        raise BadJSON(f"the body is not JSON ({e}): {usage}") from None
+    if not isinstance(value, dict):
+        raise BadJSON(usage)
+    return value
 
 
 def _deeper_than(data: bytes, max_depth: int) -> bool:

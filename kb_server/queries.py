@@ -46,13 +46,13 @@ TYPES = ("string", "decimal", "integer")
 class ParamError(UrdfkbError, ValueError):
     """A missing, unknown or ill-typed query parameter."""
 
+    status = 400
+
 
 class UnknownQuery(UrdfkbError, LookupError):
     """No query of that name."""
 
-
-class UnknownRobot(UrdfkbError, LookupError):
-    """No robot of that name in the store."""
+    status = 404
 
 
 @dataclass(frozen=True)
@@ -143,10 +143,7 @@ def run_named(store: Store, name: str, robot: str, args: Mapping[str, str], time
     query = load_queries().get(name)
     if query is None:
         raise UnknownQuery(f"no query {name!r} (known: {', '.join(load_queries())})")
-    entry = store.robot(robot)
-    if entry is None:
-        raise UnknownRobot(f"no robot {robot!r} in the store")
-    return store.query(query.bind(entry.robot_iri, args), timeout, accept)
+    return store.query(query.bind(store.require(robot).robot_iri, args), timeout, accept)
 
 
 def components(store: Store, robot: str) -> list[dict]:

@@ -12,12 +12,16 @@ import urllib.request
 
 import rdflib
 
+from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import N_TRIPLES
 from urdfkb.settings import REMOTE_TIMEOUT
 
 
-class RemoteError(RuntimeError):
-    """The remote store could not be reached or refused the request."""
+class RemoteError(UrdfkbError, RuntimeError):
+    """The remote store could not be reached or refused the request (a failed mirror is its job's
+    `mirror_failed` state; a request that met it would get 502)."""
+
+    status = 502
 
 
 class RemoteStore:

@@ -30,6 +30,8 @@ _ROWS = {
 class ResultTooLarge(UrdfkbError, RuntimeError):
     """The answer has more rows or bytes than the server's limits; the message names the limit and its value."""
 
+    status = 413
+
 
 @dataclass(frozen=True)
 class ResultLimits:

@@ -21,10 +21,11 @@ from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
 
-from flask import Flask, Response, request
+from flask import Flask, request
 
+from urdfkb.kb_server.errors import BadRequest, Forbidden
 from urdfkb.kb_server.text import check_text
-from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.errors import SettingsError, UrdfkbError
 from urdfkb.pipeline.runner import Settings
 from urdfkb.settings import HOST
 
@@ -37,14 +38,6 @@ SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
 SIMPLE_TYPES = ("", "text/plain", "application/x-www-form-urlencoded", "multipart/form-data")
 PREFLIGHTED_HEADERS = ("Authorization", "X-Requested-With")
 MAX_LISTED = 20
-
-
-class Refused(Exception):
-    """A request the policy refuses: `status` and a message naming the setting that would allow it."""
-
-    def __init__(self, status: int, message: str):
-        super().__init__(message)
-        self.status = status
 
 
 def is_loopback(host: str) -> bool:
@@ -117,17 +110,13 @@ class Policy:
                                   "and no credentials, query or fragment")
             self.llm_urls.append(_llm_base(url))
 
-    def install(self, app: Flask, error) -> None:
-        """Check every request before its route runs; `error(status, message)` builds the refusal."""
+    def install(self, app: Flask) -> None:
+        """Check every request before its route runs (a refusal is raised, answered as any UrdfkbError)."""
         @app.before_request
-        def check_request() -> Response | None:
-            try:
-                self.check_host(request.headers.get("Host", ""))
-                if request.method not in SAFE_METHODS:
-                    self.check_write()
-            except Refused as refusal:
-                return error(refusal.status, str(refusal))
-            return None
+        def check_request() -> None:
+            self.check_host(request.headers.get("Host", ""))
+            if request.method not in SAFE_METHODS:
+                self.check_write()
 
     # --- Host -----------------------------------------------------------------------------
 
@@ -149,8 +138,8 @@ class Policy:
 
     def check_host(self, value: str) -> None:
         if not self.host_allowed(value):
-            raise Refused(400, "the Host header does not name this server (a guard against DNS rebinding); "
-                               "start it with --allowed-host NAME to answer to another name")
+            raise BadRequest("the Host header does not name this server (a guard against DNS rebinding); "
+                             "start it with --allowed-host NAME to answer to another name")
 
     # --- cross-site writes ----------------------------------------------------------------
 
@@ -159,16 +148,16 @@ class Policy:
         origin = request.headers.get("Origin")
         site = request.headers.get("Sec-Fetch-Site")
         if origin is not None and not self._own_origin(origin):
-            raise Refused(403, f"cross-origin {request.method} refused: the request's Origin is not this server's")
+            raise Forbidden(f"cross-origin {request.method} refused: the request's Origin is not this server's")
         if site in ("cross-site", "same-site"):
-            raise Refused(403, f"cross-site {request.method} refused (Sec-Fetch-Site: {site})")
+            raise Forbidden(f"cross-site {request.method} refused (Sec-Fetch-Site: {site})")
         if request.blueprint == "sparql":
             return  # a query changes nothing; an update needs the token, i.e. an Authorization header
         if request.method == "POST" and request.mimetype in SIMPLE_TYPES and origin is None and site != "same-origin" \
                 and not any(h in request.headers for h in PREFLIGHTED_HEADERS):
-            raise Refused(403, f"a POST with Content-Type {request.mimetype or '(none)'} and no Origin could come from "
-                               "any web page: send the URDF as application/xml, or add the header X-Requested-With "
-                               "(or the token)")
+            raise Forbidden(f"a POST with Content-Type {request.mimetype or '(none)'} and no Origin could come from "
+                            "any web page: send the URDF as application/xml, or add the header X-Requested-With "
+                            "(or the token)")
 
     def _own_origin(self, origin: str) -> bool:
         parts = urllib.parse.urlsplit(origin)
@@ -182,27 +171,30 @@ class Policy:
     # --- pipeline settings ----------------------------------------------------------------
 
     def check_settings(self, settings: Settings) -> Settings:
-        """The settings with `model` resolved in the model directory; Refused for what is not allowed,
-        ValueError for an `llm_model` no export could carry."""
+        """The settings with `model` resolved in the model directory; Forbidden (or BadRequest, for a model
+        the directory does not hold) for what is not allowed, SettingsError for an `llm_model` no export could carry."""
         if settings.llm_model:
-            check_text("llm_model", settings.llm_model)
+            try:
+                check_text("llm_model", settings.llm_model)
+            except ValueError as e:
+                raise SettingsError(str(e)) from None
         if settings.model:
             settings = replace(settings, model=str(self._model_path(settings.model)))
         if settings.llm_url:
             if not self.llm_urls:
-                raise Refused(403, "setting llm_url is disabled on this server: the operator can allow LLM "
-                                   "servers with `urdfkb serve --allow-llm-url URL`")
+                raise Forbidden("setting llm_url is disabled on this server: the operator can allow LLM "
+                                "servers with `urdfkb serve --allow-llm-url URL`")
             if _llm_base(settings.llm_url) not in self.llm_urls:
-                raise Refused(403, f"llm_url is not one of the LLM servers this server allows: {', '.join(self.llm_urls)}")
+                raise Forbidden(f"llm_url is not one of the LLM servers this server allows: {', '.join(self.llm_urls)}")
         return settings
 
     def _model_path(self, name: str) -> Path:
         if self.model_dir is None:
-            raise Refused(403, "setting model is disabled on this server: the operator can offer the GGUF files "
-                               "of one directory with `urdfkb serve --model-dir DIR`")
+            raise Forbidden("setting model is disabled on this server: the operator can offer the GGUF files "
+                            "of one directory with `urdfkb serve --model-dir DIR`")
         available = sorted(p.name for p in self.model_dir.glob("*.gguf") if p.is_file())
         if name not in available:  # a bare file name only: no path of any kind reaches the file system
             listed = ", ".join(available[:MAX_LISTED]) + (", ..." if len(available) > MAX_LISTED else "")
-            raise Refused(400, "model must be the file name of a GGUF file in the server's model directory; "
-                               f"available: {listed or 'none'}")
+            raise BadRequest("model must be the file name of a GGUF file in the server's model directory; "
+                             f"available: {listed or 'none'}")
         return self.model_dir / name

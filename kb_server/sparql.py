@@ -30,13 +30,19 @@ from urdfkb.settings import MAX_QUERY_NESTING
 class QueryError(UrdfkbError, ValueError):
     """The query (or update) is not valid SPARQL 1.1 or asks for something refused; the message says which."""
 
+    status = 400
+
 
 class QueryTimeout(UrdfkbError, RuntimeError):
     """The operation ran past its deadline and was stopped."""
 
+    status = 503
+
 
 class NotAcceptable(UrdfkbError, ValueError):
     """No offered media type matches the client's Accept header."""
+
+    status = 406
 
 
 @dataclass

@@ -57,12 +57,31 @@ _SCHEMA = ("""CREATE TABLE IF NOT EXISTS kb_robots (
 class ReadOnlyGraph(UrdfkbError, PermissionError):
     """An update would change the core ontology, which is read-only to SPARQL Update."""
 
+    status = 403
+
 
 ROBOT_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")  # the whole name: `$` would also match before a final "\n"
 
 
 class RobotNameError(UrdfkbError, ValueError):
     """A robot name the store cannot key on (it is also a URL path segment)."""
+
+    status = 400
+
+
+class UnknownRobot(UrdfkbError, LookupError):
+    """No robot of that name in the store."""
+
+    status = 404
+
+    def __init__(self, name: str):
+        super().__init__(f"no robot {name!r} in the store")
+
+
+class StoredBeforeSources(UrdfkbError):
+    """A robot stored before its URDF tree was kept (table kb_sources), so corrections cannot be laid over it."""
+
+    status = 409
 
 
 def check_robot_name(name: str) -> str:
@@ -173,6 +192,12 @@ class Store:
         """Robot `name` as of the last write (without the lock), or None."""
         return self._entries.get(name)
 
+    def require(self, name: str) -> RobotEntry:
+        """Robot `name` as robot() gives it; UnknownRobot if there is none."""
+        if (entry := self.robot(name)) is None:
+            raise UnknownRobot(name)
+        return entry
+
     def _read_entries(self) -> dict[str, RobotEntry]:
         """(Under the lock) table kb_robots as committed, by name: the snapshot robots() and robot() read."""
         rows = self.world.graph.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
@@ -247,13 +272,14 @@ class Store:
     def add_correction(self, name: str, correction: review.AnyCorrection) -> RobotEntry:
         """Store `correction` (a body correction naming its parts by their joints: review.resolve), or raise
         CorrectionError if it does not fit the robot as it is now or the robot it would make breaks the SHACL
-        shapes, LookupError if the robot is unknown; and rebuild the robot graph with it, in one transaction.
+        shapes, UnknownRobot if the robot is unknown; and rebuild the robot graph with it, in one transaction.
         Writes the robot's graph and its corrections graph."""
         with self._writing() as touched:
             touched.add(review.corrections_iri(name))
-            source = self.source(name) if self.robot(name) is not None else None
+            self.require(name)
+            source = self.source(name)
             if source is None:
-                raise LookupError(f"no robot {name!r}")
+                raise StoredBeforeSources(f"no robot {name!r}")
             tree, model = source
             existing = self._corrections(name)
             current, _ = review.apply(tree, model, existing)

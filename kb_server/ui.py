@@ -3,7 +3,7 @@
 The routes serve them (kb_server/routes/): `/` (routes/pages.py) lists the robots and uploads a URDF or
 xacro file; `/robots/<name>` for clients asking for HTML (routes/robots.py) draws the tree with the body
 parts and components, and lists both with review controls; `/sparql` with no query (routes/sparql.py)
-is a query editor.
+is a query editor. A browser's GET that fails gets an error page (kb_server.replies.handle_error).
 """
 from __future__ import annotations
 
@@ -29,11 +29,10 @@ def wants_html() -> bool:
     return "text/html" in accept.values() and accept.best_match((*JSON_TYPES, "text/html")) == "text/html"
 
 
-def robot_page(store: Store, name: str) -> Response | str:
-    """The robot's page: SVG tree, components least confident first, review controls."""
-    entry = store.robot(name)
-    if entry is None:
-        return Response(render_template("missing.html", name=name), 404)
+def robot_page(store: Store, name: str) -> str:
+    """The robot's page: SVG tree, components least confident first, review controls (UnknownRobot if there
+    is no such robot: kb_server.replies answers it as a page)."""
+    entry = store.require(name)
     source = store.source(name)
     comps = queries.components(store, name)
     tree = source[0] if source else _tree_from_store(store, name)
@@ -72,6 +71,12 @@ def robot_page(store: Store, name: str) -> Response | str:
     return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, body_view.bands(body)),
                            reviewable=source is not None, stale=stale, links=tree.links, claimed=claimed,
                            addable=addable, body=body, body_legend=body_view.legend(body), sides=SIDE_CHOICES)
+
+
+def error_page(status: int, message: str) -> Response:
+    """The page a browser gets for an error (kb_server.replies.handle_error): the message and a way back."""
+    page = render_template("error.html", status=status, message=message)
+    return Response(page.encode("utf-8", "backslashreplace"), status, mimetype="text/html")
 
 
 def _tree_from_store(store: Store, name: str) -> KinematicTree:

@@ -23,7 +23,7 @@ from defusedxml.common import DTDForbidden, EntitiesForbidden, ExternalReference
 
 from urdfkb.pipeline import evidence
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, TreeError, check_tree
+from urdfkb.pipeline.tree import JOINT_TYPES, Edge, KinematicTree, Origin, check_tree
 from urdfkb.settings import MAX_BYTES, MAX_LINKS, MAX_XML_ATTRIBUTES, MAX_XML_DEPTH, MAX_XML_ELEMENTS
 
 
@@ -180,10 +180,7 @@ def _validate(robot: ET.Element) -> None:
     links = [_require_name(link, f"link #{i}") for i, link in enumerate(robot.findall("link"), 1)]
     joints = [_check_joint(joint, i) for i, joint in enumerate(robot.findall("joint"), 1)]
     _check_materials(robot.findall("material"))
-    try:
-        check_tree(links, joints)
-    except TreeError as err:
-        raise URDFError(str(err), err.element) from None
+    check_tree(links, joints)
 
 
 def _require_name(element: ET.Element, where: str) -> str:

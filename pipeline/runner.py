@@ -12,7 +12,7 @@ from typing import Any, Callable, Mapping, TextIO
 from urdfkb.pipeline import cache
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.errors import BackendError, URDFError
+from urdfkb.pipeline.errors import BackendError, SettingsError, URDFError
 from urdfkb.pipeline.llm.base import Backend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
@@ -38,16 +38,18 @@ class Settings:
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, object]) -> "Settings":
-        """Settings from user input (JSON or form fields), with a clear error for anything invalid."""
+        """Settings from user input (JSON or form fields); SettingsError naming anything invalid."""
         fields = {f.name: f for f in dataclasses.fields(cls)}
         unknown = set(data) - set(fields)
         if unknown:
-            raise ValueError(f"unknown setting(s): {', '.join(sorted(unknown))}; valid: {', '.join(fields)}")
-        values: dict[str, Any] = {}
-        for name, raw in data.items():
-            values[name] = _coerce(name, str(fields[name].type), raw)  # annotations are strings here
-        settings = cls(**values)
-        settings.check()
+            raise SettingsError(f"unknown setting(s): {', '.join(sorted(unknown))}; valid: {', '.join(fields)}")
+        try:
+            values: dict[str, Any] = {name: _coerce(name, str(fields[name].type), raw)  # annotations are strings here
+                                      for name, raw in data.items()}
+            settings = cls(**values)
+            settings.check()
+        except ValueError as e:
+            raise SettingsError(str(e)) from None
         return settings
 
     def check(self) -> None:

@@ -43,6 +43,8 @@ from collections.abc import Iterable, Mapping
 from importlib.util import find_spec
 from pathlib import Path
 
+from urdfkb.pipeline.errors import UrdfkbError
+
 HOSTNAME = "sandbox"  # the host name inside: the host's never shows
 NOBODY = 65534  # the uid and gid inside
 PROGRAM_DIR = "/urdfkb"  # where the program is mounted inside
@@ -67,8 +69,11 @@ SETPRIV_CALLS = ("capget", "capset", "prctl", "getresuid", "getresgid", "setgrou
 SLOTS = threading.BoundedSemaphore(len(os.sched_getaffinity(0)))
 
 
-class Unavailable(RuntimeError):
-    """This machine cannot confine a program (the message says what is missing)."""
+class Unavailable(UrdfkbError, RuntimeError):
+    """This machine cannot confine a program (the message says what is missing); the server refuses (403)
+    what it would have to confine."""
+
+    status = 403
 
 
 def _bwrap() -> str:

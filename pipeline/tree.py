@@ -5,6 +5,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from math import cos, sin
 
+from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.evidence import LinkEvidence
 
 JOINT_TYPES = ("fixed", "revolute", "continuous", "prismatic", "floating", "planar")
@@ -55,12 +56,10 @@ class Edge:
         return self.movable and self.mimic is None
 
 
-class TreeError(ValueError):
+class TreeError(URDFError, ValueError):
     """Links and joints that do not form one rooted tree; `element` names the culprit."""
 
-    def __init__(self, message: str, element: str):
-        self.element = element
-        super().__init__(message)
+    status = 400
 
 
 def _to_parent(origin: Origin, point: Vector) -> Vector:

@@ -36,6 +36,8 @@ PACKAGES = ("xacro", "yaml", "defusedxml")  # what the worker imports besides th
 class XacroError(URDFError):
     """A xacro document that cannot be expanded: the message names file and line."""
 
+    status = 400
+
 
 def is_xacro(filename: str | None, data: bytes) -> bool:
     """A `.xacro` file name, or a document declaring the xacro namespace."""

@@ -40,8 +40,10 @@ MAX_MACRO_DEPTH = 50
 MAX_FILES = 500
 
 
-class Refused(Exception):
-    """Something the request may not do; the message says what (and `where`, if given, where)."""
+class Disallowed(Exception):
+    """Something the request may not do; the message says what (and `where`, if given, where). Raised and
+    answered in this child only: its message reaches the server as the XacroError of pipeline.xacro_input
+    (the worker imports nothing of urdfkb, so this is not a UrdfkbError)."""
 
     def __init__(self, message: str, where: tuple[str, object] | None = None):
         super().__init__(message)
@@ -67,15 +69,15 @@ class Request:
         return any(real.startswith(r) for r in self.roots)
 
     def resolve(self, path: str) -> str:
-        """A filesystem path for an include spec (package:// mapped); Refused outside the roots."""
+        """A filesystem path for an include spec (package:// mapped); Disallowed outside the roots."""
         if "package://" in path:
             rest = path.split("package://", 1)[1]
             pkg, _, rel = rest.partition("/")
             if pkg not in self.packages:
-                raise Refused(f"unknown package {pkg!r} in 'package://{rest}' ({self._known()})")
+                raise Disallowed(f"unknown package {pkg!r} in 'package://{rest}' ({self._known()})")
             path = os.path.join(self.packages[pkg], rel)
         if not self.inside(path):
-            raise Refused(f"include {self.display(path)!r} is outside the allowed directories ({self._known()})")
+            raise Disallowed(f"include {self.display(path)!r} is outside the allowed directories ({self._known()})")
         return os.path.realpath(path)
 
     def display(self, path: str | None) -> str:
@@ -114,10 +116,10 @@ def parse_text(text: str, display: str):
     try:
         DET.fromstring(text.encode())
     except DefusedXmlException as e:
-        raise Refused(f"DTDs and entities are not allowed in xacro ({type(e).__name__})", (display, 1)) from None
+        raise Disallowed(f"DTDs and entities are not allowed in xacro ({type(e).__name__})", (display, 1)) from None
     except DET.ParseError as e:
         line = e.position[0] if getattr(e, "position", None) else "?"
-        raise Refused(f"not well-formed XML: {e}", (display, line)) from None
+        raise Disallowed(f"not well-formed XML: {e}", (display, line)) from None
     builder = _LocatingBuilder()
     builder.where = display
     return builder.parseString(text)
@@ -129,21 +131,21 @@ def guarded_parse(inp, filename=None):
         return xacro.parse.__wrapped__(inp, filename)
     try:
         path = REQ.resolve(filename)
-    except Refused:
+    except Disallowed:
         xacro.filestack.pop()  # the include is not being processed: name the including file
         raise
     REQ.files += 1
     if REQ.files > MAX_FILES:
-        raise Refused(f"more than {MAX_FILES} files included")
+        raise Disallowed(f"more than {MAX_FILES} files included")
     try:
         with open(path, "rb") as f:
             data = f.read(REQ.max_bytes + 1)
     except OSError as e:
         xacro.filestack.pop()
-        raise Refused(f"cannot read include {REQ.display(path)!r}: {e.strerror}") from None
+        raise Disallowed(f"cannot read include {REQ.display(path)!r}: {e.strerror}") from None
     REQ.bytes_read += len(data)
     if REQ.bytes_read > REQ.max_bytes:
-        raise Refused(f"the xacro files read exceed the {REQ.max_bytes} byte limit")
+        raise Disallowed(f"the xacro files read exceed the {REQ.max_bytes} byte limit")
     return parse_text(data.decode("utf-8", "replace"), REQ.display(path))
 
 
@@ -170,7 +172,7 @@ def _locate(func):
 def _bounded_include(func):
     def wrapper(elt, *args, **kwargs):
         if len(xacro.filestack) > MAX_INCLUDE_DEPTH:
-            raise Refused(f"includes nested deeper than {MAX_INCLUDE_DEPTH} (an include loop?)")
+            raise Disallowed(f"includes nested deeper than {MAX_INCLUDE_DEPTH} (an include loop?)")
         return func(elt, *args, **kwargs)
     return wrapper
 
@@ -178,22 +180,22 @@ def _bounded_include(func):
 def _bounded_macro(func):
     def wrapper(node, *args, **kwargs):
         if len(xacro.macrostack or []) > MAX_MACRO_DEPTH:
-            raise Refused(f"macros nested deeper than {MAX_MACRO_DEPTH} (a macro that calls itself without end?)")
+            raise Disallowed(f"macros nested deeper than {MAX_MACRO_DEPTH} (a macro that calls itself without end?)")
         return func(node, *args, **kwargs)
     return wrapper
 
 
 def _no_eval(s, context):
-    raise Refused("$(eval ...) is not supported (it runs arbitrary Python); use ${...} expressions")
+    raise Disallowed("$(eval ...) is not supported (it runs arbitrary Python); use ${...} expressions")
 
 
 def _no_env(name):
-    raise Refused(f"$(env {name}) is not available: the server's environment is not exposed")
+    raise Disallowed(f"$(env {name}) is not available: the server's environment is not exposed")
 
 
 def _find(pkg):
     if pkg not in REQ.packages:
-        raise Refused(f"$(find {pkg}): unknown package ({REQ._known()})")
+        raise Disallowed(f"$(find {pkg}): unknown package ({REQ._known()})")
     return REQ.packages[pkg]
 
 
@@ -243,15 +245,15 @@ def expand(req: Request) -> str:
     xacro.process_doc(doc, mappings=dict(req.args), verbosity=0)
     out = doc.toprettyxml(indent="  ")
     if len(out.encode()) > req.max_bytes:
-        raise Refused(f"the expanded URDF is larger than the {req.max_bytes} byte limit")
+        raise Disallowed(f"the expanded URDF is larger than the {req.max_bytes} byte limit")
     return out
 
 
 def describe(e: BaseException) -> str:
     where = getattr(e, "_urdfkb_where", None)
-    if isinstance(wrapped := getattr(e, "exc", None), Refused):  # xacro wraps what its substitutions raise
+    if isinstance(wrapped := getattr(e, "exc", None), Disallowed):  # xacro wraps what its substitutions raise
         e = wrapped
-    if isinstance(e, Refused):
+    if isinstance(e, Disallowed):
         message = str(e)
     elif isinstance(e, RecursionError):
         message = "expansion nested too deeply (a recursive macro or property?)"

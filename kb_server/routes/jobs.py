@@ -6,10 +6,10 @@ from collections.abc import Callable, Mapping
 
 from flask import Blueprint, jsonify, request
 
-from urdfkb.kb_server.replies import accepted, error
-from urdfkb.kb_server.security import Refused
+from urdfkb.kb_server.errors import BadRequest, Forbidden, NotFound, TooManyRequests
+from urdfkb.kb_server.replies import accepted
 from urdfkb.kb_server.services import Services, services
-from urdfkb.kb_server.store import RobotNameError, check_robot_name
+from urdfkb.kb_server.store import check_robot_name
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
@@ -25,11 +25,11 @@ bp = Blueprint("jobs", __name__)
 def populate():
     kb = services()
     if not kb.may_write():
-        return error(403, "populating needs the server's token (Authorization: Bearer ...)")
+        raise Forbidden("populating needs the server's token (Authorization: Bearer ...)")
     if request.mimetype == "multipart/form-data":
         upload = request.files.get("urdf") or next(iter(request.files.values()), None)
         if upload is None:
-            return error(400, "multipart request without a file (send the URDF as field 'urdf')")
+            raise BadRequest("multipart request without a file (send the URDF as field 'urdf')")
         data, fields, filename = upload.read(), request.form.to_dict(), upload.filename
     else:
         data, fields, filename = request.get_data(), {}, None
@@ -40,27 +40,15 @@ def populate():
     name = fields.pop("name", None)
     filename = fields.pop("filename", None) or filename  # for a raw body: e.g. ?filename=arm.urdf.xacro
     if not data:
-        return error(400, "empty body: send the URDF as the raw body or as multipart field 'urdf'")
-    try:
-        settings = kb.policy.check_settings(Settings.from_mapping(fields))
-    except ValueError as e:
-        return error(400, f"bad pipeline settings: {e}")
-    except Refused as e:
-        return error(e.status, str(e))
-    try:
-        if name is not None:
-            name = check_robot_name(name)
-        args = parse_args(xacro_args)
-        if is_xacro(filename, data):
-            return accepted(kb.jobs.submit(_xacro_loader(kb, data, filename, args), name, settings))
-        refuse_args(filename, args)
-        return accepted(kb.jobs.submit(_urdf_loader(kb, data), name, settings))
-    except XacroError as e:
-        return error(400, f"cannot expand the xacro: {e}")
-    except RobotNameError as e:
-        return error(400, f"{e}: pass ?name=...")
-    except Refused as e:
-        return error(e.status, str(e))
+        raise BadRequest("empty body: send the URDF as the raw body or as multipart field 'urdf'")
+    settings = kb.policy.check_settings(Settings.from_mapping(fields))
+    if name is not None:
+        name = check_robot_name(name)
+    args = parse_args(xacro_args)
+    if is_xacro(filename, data):
+        return accepted(kb.jobs.submit(_xacro_loader(kb, data, filename, args), name, settings))
+    refuse_args(filename, args)
+    return accepted(kb.jobs.submit(_urdf_loader(kb, data), name, settings))
 
 
 @bp.post("/robots/<name>/populate")
@@ -68,10 +56,10 @@ def repopulate(name: str):
     """Populate a stored robot again from its stored URDF tree (same mode as last time)."""
     kb = services()
     if not kb.may_write():
-        return error(403, "populating needs the server's token (Authorization: Bearer ...)")
+        raise Forbidden("populating needs the server's token (Authorization: Bearer ...)")
     source = kb.store.source(name)
     if source is None:
-        return error(404, f"no stored URDF for robot {name!r}")
+        raise NotFound(f"no stored URDF for robot {name!r}")
     tree, model = source
     return accepted(kb.jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only")))
 
@@ -92,12 +80,12 @@ def _urdf_loader(kb: Services, data: bytes) -> Callable[[], KinematicTree]:
 def _xacro_loader(kb: Services, data: bytes, filename: str | None,
                   args: Mapping[str, str]) -> Callable[[], KinematicTree]:
     """The job's first step for a xacro upload: expansion, confined by pipeline.sandbox unless the
-    operator trusts xacro. Refused at once (403) where the machine offers no sandbox."""
+    operator trusts xacro. Refused at once (sandbox.Unavailable: 403) where the machine offers no sandbox."""
     confined = not kb.trust_xacro
     if confined and (reason := sandbox.unavailable()):
-        raise Refused(403, f"xacro input is disabled on this server: xacro expressions are Python code, and "
-                         f"this machine cannot run them confined ({reason}); send the expanded URDF, or the "
-                         "operator can start the server with --trust-xacro")
+        raise sandbox.Unavailable(f"xacro input is disabled on this server: xacro expressions are Python code, and "
+                                  f"this machine cannot run them confined ({reason}); send the expanded URDF, or the "
+                                  "operator can start the server with --trust-xacro")
     packages, max_body, max_links, timeout = kb.package_paths, kb.max_body, kb.max_links, kb.xacro_timeout
 
     def load() -> KinematicTree:
@@ -114,19 +102,15 @@ def job_status(job_id: str):
     kb = services()
     job = kb.jobs.get(job_id)
     if job is None:
-        return error(404, f"no job {job_id[:64]!r}: {kb.jobs.retention}")
+        raise NotFound(f"no job {job_id[:64]!r}: {kb.jobs.retention}")
     if request.args.get("wait") not in (None, "", "0", "false"):
-        try:
-            timeout = float(request.args.get("timeout", JOB_WAIT))
-        except ValueError:
-            timeout = -1.0
+        timeout = request.args.get("timeout", -1.0, type=float) if "timeout" in request.args else JOB_WAIT  # -1: NaN
         if not 0 <= timeout:  # also NaN
-            return error(400, f"timeout must be a number of seconds (at most {JOB_WAIT:g} are waited)")
+            raise BadRequest(f"timeout must be a number of seconds (at most {JOB_WAIT:g} are waited)")
         timeout = min(timeout, JOB_WAIT)
         if not kb.waiters.acquire(blocking=False):
-            resp = error(429, f"{kb.max_waiters} clients are already waiting on jobs: poll without wait=1, or retry")
-            resp.headers["Retry-After"] = str(WAIT_RETRY_AFTER)
-            return resp
+            raise TooManyRequests(f"{kb.max_waiters} clients are already waiting on jobs: poll without wait=1, "
+                                  "or retry", WAIT_RETRY_AFTER)
         try:
             job.wait(timeout)
         finally:

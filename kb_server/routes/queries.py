@@ -5,7 +5,8 @@ from __future__ import annotations
 from flask import Blueprint, jsonify, request
 
 from urdfkb.kb_server import queries
-from urdfkb.kb_server.replies import answer, error, results
+from urdfkb.kb_server.errors import BadRequest
+from urdfkb.kb_server.replies import results
 from urdfkb.kb_server.services import services
 
 bp = Blueprint("queries", __name__)
@@ -22,11 +23,5 @@ def named_query(name: str):
     args = request.args.to_dict()
     robot_name = args.pop("robot", None)
     if not robot_name:
-        return error(400, "give the robot: ?robot=NAME")
-    try:
-        return answer(lambda: results(queries.run_named(kb.store, name, robot_name, args, kb.query_timeout,
-                                                        request.headers.get("Accept"))))
-    except (queries.UnknownQuery, queries.UnknownRobot) as e:
-        return error(404, e.args[0])
-    except queries.ParamError as e:
-        return error(400, str(e))
+        raise BadRequest("give the robot: ?robot=NAME")
+    return results(queries.run_named(kb.store, name, robot_name, args, kb.query_timeout, request.headers.get("Accept")))

@@ -5,8 +5,9 @@ from __future__ import annotations
 from flask import Blueprint, Response, jsonify
 
 from urdfkb.kb_server import queries, ui
-from urdfkb.kb_server.replies import error
+from urdfkb.kb_server.errors import Forbidden, NotFound
 from urdfkb.kb_server.services import services
+from urdfkb.kb_server.store import UnknownRobot
 from urdfkb.pipeline.formats import BY_EXTENSION
 
 bp = Blueprint("robots", __name__)
@@ -23,18 +24,16 @@ def robot(spec: str):
     name, _, ext = spec.partition(".")
     if ext:
         if ext not in BY_EXTENSION:
-            return error(404, f"no export format .{ext} (use {', '.join('.' + x for x in BY_EXTENSION)})")
+            raise NotFound(f"no export format .{ext} (use {', '.join('.' + x for x in BY_EXTENSION)})")
         data = store.export(name, ext)
         if data is None:
-            return error(404, f"no robot {name!r}")
+            raise UnknownRobot(name)
         resp = Response(data, 200, content_type=BY_EXTENSION[ext].media_type)
         resp.headers["Content-Disposition"] = f'attachment; filename="{name}.{ext}"'
         return resp
     if ui.wants_html():
         return ui.robot_page(store, name)
-    entry = store.robot(name)
-    if entry is None:
-        return error(404, f"no robot {name!r}")
+    entry = store.require(name)
     return jsonify({**entry.to_dict(), "components": queries.components(store, name)})
 
 
@@ -42,8 +41,8 @@ def robot(spec: str):
 def delete_robot(name: str):
     kb = services()
     if not kb.authorized():
-        return error(403, "deleting a robot needs the server's token (Authorization: Bearer ...)")
+        raise Forbidden("deleting a robot needs the server's token (Authorization: Bearer ...)")
     entry, mirror_error = kb.jobs.delete_robot(name)
     if entry is None:
-        return error(404, f"no robot {name!r}")
+        raise UnknownRobot(name)
     return jsonify({"deleted": name, "ontology": entry.ontology_iri, "mirror_error": mirror_error})

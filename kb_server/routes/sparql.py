@@ -7,9 +7,10 @@ from flask import Blueprint, Response, request
 from rdflib.namespace import RDF
 
 from urdfkb.kb_server import ui
-from urdfkb.kb_server.replies import SPARQL_PATH, answer, error, results
+from urdfkb.kb_server.errors import BadRequest, Forbidden, UnsupportedMediaType
+from urdfkb.kb_server.replies import SPARQL_PATH, results
 from urdfkb.kb_server.services import services
-from urdfkb.kb_server.sparql import negotiate
+from urdfkb.kb_server.sparql import NotAcceptable, negotiate
 from urdfkb.pipeline.formats import GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
 from urdfkb.pipeline.namespaces import CORE_GRAPH
 
@@ -28,27 +29,23 @@ def protocol():
             return ui.sparql_page()
         if request.method == "GET":
             return _service_description()
-        return error(415 if request.mimetype not in FORM_TYPES else 400,
-                     "POST a query (application/sparql-query or form field query) or an update "
-                     "(application/sparql-update or form field update)", True)
+        usage = ("POST a query (application/sparql-query or form field query) or an update "
+                 "(application/sparql-update or form field update)")
+        raise UnsupportedMediaType(usage) if request.mimetype not in FORM_TYPES else BadRequest(usage)
     if query is not None and update is not None:
-        return error(400, "give a query or an update, not both", True)
+        raise BadRequest("give a query or an update, not both")
     if update is not None:
         if request.method != "POST":
-            return error(400, "updates must be sent by POST", True)
+            raise BadRequest("updates must be sent by POST")
         if not kb.authorized():
-            return error(403, "SPARQL updates need the server's token (Authorization: Bearer ...)", True)
-
-        def apply() -> Response:
-            kb.store.update(update, kb.query_timeout)
-            return Response(status=204)
-
-        return answer(apply)
+            raise Forbidden("SPARQL updates need the server's token (Authorization: Bearer ...)")
+        kb.store.update(update, kb.query_timeout)
+        return Response(status=204)
     dataset = request.values if request.mimetype in FORM_TYPES else request.args
     default, named = dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri")
     given = bool(default or named)  # the protocol's dataset, instead of the union default graph
-    return answer(lambda: results(kb.store.query(query, kb.query_timeout, request.headers.get("Accept"),
-                                                 default if given else None, named if given else None)))
+    return results(kb.store.query(query, kb.query_timeout, request.headers.get("Accept"),
+                                  default if given else None, named if given else None))
 
 
 def _operation() -> tuple[str | None, str | None]:
@@ -89,6 +86,6 @@ def _service_description() -> Response:
         g.add((named, SD.name, rdflib.URIRef(iri)))
     media = negotiate(request.headers.get("Accept"), list(GRAPH_MEDIA))
     if media is None:
-        return error(406, f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(GRAPH_MEDIA)}", True)
+        raise NotAcceptable(f"cannot answer as {request.headers.get('Accept')}; offered: {', '.join(GRAPH_MEDIA)}")
     body = g.serialize(format=GRAPH_MEDIA[media].rdflib, encoding="utf-8")
     return Response(body, 200, content_type=media + ("" if media.endswith("xml") else "; charset=utf-8"))
