@@ -78,12 +78,6 @@ class UnknownRobot(UrdfkbError, LookupError):
         super().__init__(f"no robot {name!r} in the store")
 
 
-class StoredBeforeSources(UrdfkbError):
-    """A robot stored before its URDF tree was kept (table kb_sources), so corrections cannot be laid over it."""
-
-    status = 409
-
-
 def check_robot_name(name: str) -> str:
     """`name` if it is 1-64 of A-Z a-z 0-9 _ - ; RobotNameError otherwise."""
     if not ROBOT_NAME.fullmatch(name or ""):
@@ -104,10 +98,17 @@ class RobotEntry:
     ontology_iri: str
     robot_iri: str
     updated: str
-    corrections: dict | None = field(default=None, compare=False)  # the last build's review.Report, as a dict
 
     def to_dict(self) -> dict:
         return {"name": self.name, "ontology": self.ontology_iri, "robot": self.robot_iri, "updated": self.updated}
+
+
+@dataclass(frozen=True)
+class BuiltRobot(RobotEntry):
+    """A robot as the write that built it returns it: its entry, and `corrections`, what laying the stored
+    corrections over the model's answer did (review.Report, as a dict)."""
+
+    corrections: dict = field(compare=False)
 
 
 class Store:
@@ -122,6 +123,7 @@ class Store:
         self.lock = threading.RLock()
         self._writes = 0  # writes that touched a graph, counted once the index has their graphs
         self._open()
+        self._refuse_robots_without_source()
         with self.lock:
             self._entries = self._read_entries()
             graphs = {CORE_GRAPH: _ntriples(self.core)}
@@ -138,6 +140,19 @@ class Store:
         for statement in _SCHEMA:
             self.world.graph.db.execute(statement)
         self.world.save()
+
+    def _refuse_robots_without_source(self) -> None:
+        """UrdfkbError naming the robots stored without their URDF tree and model answer (table kb_sources), as
+        development versions before reviewers' corrections wrote them: no release did, and without the URDF
+        (its origins, limits, geometry) they cannot be migrated."""
+        names = [row[0] for row in self.world.graph.db.execute(
+            "SELECT name FROM kb_robots WHERE name NOT IN (SELECT name FROM kb_sources) ORDER BY name")]
+        if names:
+            self.world.close()
+            raise UrdfkbError(
+                f"the store {self.path} holds robots written by a development version of urdfkb without their URDF "
+                f"tree: {', '.join(names)}. Populate them again from their URDF files into a new store (urdfkb serve "
+                "--store NEW.sqlite3 --populate ROBOT.urdf, or POST /populate), and remove this file")
 
     def _discard(self) -> None:
         """Drop uncommitted changes and the world's in-memory caches; reopen from the file."""
@@ -204,7 +219,7 @@ class Store:
         return {row[0]: RobotEntry(*row) for row in rows}
 
     def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
-                      provenance: dict[str, str] | None = None) -> RobotEntry:
+                      provenance: dict[str, str] | None = None) -> BuiltRobot:
         """Write robot `name` (replacing any earlier one) in one transaction; all or nothing.
 
         Reviewers' corrections stored for `name` are laid over the abstraction; the entry's
@@ -217,7 +232,7 @@ class Store:
                                         (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))
             return self._build(name, tree, model, touched)
 
-    def _build(self, name: str, tree, model: Abstraction, touched: set[str]) -> RobotEntry:
+    def _build(self, name: str, tree, model: Abstraction, touched: set[str]) -> BuiltRobot:
         """(Inside _writing) the robot graph from the model's answer and the stored corrections, checked
         against the SHACL shapes as the command line checks what it writes: ShapeError (the transaction
         rolls back) if it breaks them."""
@@ -233,7 +248,7 @@ class Store:
             raise ShapeError(f"robot {name!r} breaks the SHACL shapes, so it was not stored: {'; '.join(broken)}", broken)
         robot_cls = self.world[CORE_IRI + "Robot"]
         (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
-        entry = RobotEntry(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        entry = BuiltRobot(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"),
                            report.to_dict())
         self.world.graph.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
                                     (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
@@ -241,13 +256,13 @@ class Store:
 
     # --- reviewers' corrections (graph review.corrections_iri(name)) ----------------------------
 
-    def source(self, name: str) -> tuple[KinematicTree, Abstraction] | None:
-        """The tree and the model's own abstraction robot `name` was last populated from (None for a
-        robot never stored)."""
+    def source(self, name: str) -> tuple[KinematicTree, Abstraction]:
+        """The tree and the model's own abstraction robot `name` was last populated from (kept while an update
+        that emptied its graph has it out of robots()); UnknownRobot for a robot never stored, or deleted."""
         with self.lock:
             row = self.world.graph.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
         if row is None:
-            return None
+            raise UnknownRobot(name)
         return KinematicTree.from_dict(json.loads(row[0])), Abstraction.from_dict(json.loads(row[1]))
 
     def corrections(self, name: str) -> list[review.AnyCorrection]:
@@ -269,7 +284,7 @@ class Store:
             data = review.to_graph(name, items).serialize(format="nt", encoding="utf-8")
             self.world.get_ontology(iri).load(fileobj=io.BytesIO(data), format="ntriples")
 
-    def add_correction(self, name: str, correction: review.AnyCorrection) -> RobotEntry:
+    def add_correction(self, name: str, correction: review.AnyCorrection) -> BuiltRobot:
         """Store `correction` (a body correction naming its parts by their joints: review.resolve), or raise
         CorrectionError if it does not fit the robot as it is now or the robot it would make breaks the SHACL
         shapes, UnknownRobot if the robot is unknown; and rebuild the robot graph with it, in one transaction.
@@ -277,10 +292,7 @@ class Store:
         with self._writing() as touched:
             touched.add(review.corrections_iri(name))
             self.require(name)
-            source = self.source(name)
-            if source is None:
-                raise StoredBeforeSources(f"no robot {name!r}")
-            tree, model = source
+            tree, model = self.source(name)
             existing = self._corrections(name)
             current, _ = review.apply(tree, model, existing)
             correction = review.resolve(current, correction)

@@ -15,9 +15,8 @@ from urdfkb.kb_server import body_view, palette, queries, tree_svg
 from urdfkb.kb_server.body_corrections import SIDE_CHOICES
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.formats import RESULTS_MEDIA
-from urdfkb.pipeline.namespaces import CORE_IRI, component_iri
+from urdfkb.pipeline.namespaces import component_iri
 from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.settings import REVIEW_THRESHOLD
 
 JSON_TYPES = tuple(media for media, f in RESULTS_MEDIA.items() if f.name == "json")  # what API clients ask for
@@ -33,32 +32,26 @@ def robot_page(store: Store, name: str) -> str:
     """The robot's page: SVG tree, components least confident first, review controls (UnknownRobot if there
     is no such robot: kb_server.replies answers it as a page)."""
     entry = store.require(name)
-    source = store.source(name)
+    tree, model = store.source(name)
     comps = queries.components(store, name)
-    tree = source[0] if source else _tree_from_store(store, name)
+    corrected, report = review.apply(tree, model, store.corrections(name))
+    body = body_view.rows(tree, corrected, report)
+    corrected_comps = {component_iri(entry.ontology_iri, c.name): c for c in corrected.components}
     influenced: dict[str, list[dict]] = {}
-    corrected_comps = {}
-    body: list[dict] = []
-    if source:
-        corrected, report = review.apply(*source, store.corrections(name))
-        body = body_view.rows(tree, corrected, report)
-        corrected_comps = {component_iri(entry.ontology_iri, c.name): c for c in corrected.components}
-        for corr, comp_name in report.applied:
-            if isinstance(corr, review.Correction):
-                influenced.setdefault(component_iri(entry.ontology_iri, comp_name), []).append(corr.to_dict())
-        stale = [{**c.to_dict(), "reason": why} for c, why in report.stale]
-    else:
-        stale = []
+    for corr, comp_name in report.applied:
+        if isinstance(corr, review.Correction):
+            influenced.setdefault(component_iri(entry.ontology_iri, comp_name), []).append(corr.to_dict())
+    stale = [{**c.to_dict(), "reason": why} for c, why in report.stale]
     rows = []
     for c in comps:
         links = tuple(s["link"] for s in c["subcomponents"] if s.get("link"))
         kind = review.kind_of(c["class"]) or "other"
-        model = corrected_comps.get(c["iri"])
+        comp = corrected_comps.get(c["iri"])
         notes = influenced.get(c["iri"], [])
         rows.append({
             **c, "key": local_name(c["iri"]), "kind": kind, "links": links,
-            "classes": review.allowed_classes(model) if model else (),
-            "mounts": review.mount_options(tree, links) if source and links else (),
+            "classes": review.allowed_classes(comp) if comp else (),
+            "mounts": review.mount_options(tree, links) if links else (),
             "reviews": notes, "confirmed": any(n["action"] == "confirm" for n in notes),
             "added": any(n["action"] == "add" for n in notes)})
     rows.sort(key=lambda r: (r["confidence"] if r["confidence"] is not None else 1.0, r["key"]))
@@ -69,7 +62,7 @@ def robot_page(store: Store, name: str) -> str:
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
     return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, body_view.bands(body)),
-                           reviewable=source is not None, stale=stale, links=tree.links, claimed=claimed,
+                           stale=stale, links=tree.links, claimed=claimed,
                            addable=addable, body=body, body_legend=body_view.legend(body), sides=SIDE_CHOICES)
 
 
@@ -77,23 +70,6 @@ def error_page(status: int, message: str) -> Response:
     """The page a browser gets for an error (kb_server.replies.handle_error): the message and a way back."""
     page = render_template("error.html", status=status, message=message)
     return Response(page.encode("utf-8", "backslashreplace"), status, mimetype="text/html")
-
-
-def _tree_from_store(store: Store, name: str) -> KinematicTree:
-    """The tree of a robot stored before its source was kept, read back from its graph."""
-    from urdfkb.pipeline.tree import Edge, Origin
-    entry = store.robot(name)
-    if entry is None:
-        raise LookupError(f"robot {name!r} is not stored")
-    iri = f"<{entry.robot_iri}>"
-    links = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?n WHERE {{ {iri} core:hasLink ?l . "
-                        f"?l core:urdfName ?n }}").as_dicts()
-    joints = store.query(f"PREFIX core: <{CORE_IRI}> SELECT ?j ?p ?c WHERE {{ {iri} core:hasJoint ?jj . "
-                         f"?jj core:urdfName ?j ; core:hasParentLink/core:urdfName ?p ; "
-                         f"core:hasChildLink/core:urdfName ?c }}").as_dicts()
-    zero = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-    return KinematicTree(name, tuple(sorted(r["n"] for r in links)),
-                         tuple(Edge(r["j"], "fixed", r["p"], r["c"], zero) for r in sorted(joints, key=lambda r: r["j"])))
 
 
 def sparql_page() -> str:

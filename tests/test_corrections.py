@@ -11,7 +11,7 @@ import rdflib
 from tests.kb_fixtures import PR2, client, copied, make_app
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
-from urdfkb.kb_server.store import Store
+from urdfkb.kb_server.store import Store, UnknownRobot
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError
 from urdfkb.pipeline.shacl import violations
@@ -156,7 +156,9 @@ def test_the_pages_get_the_review_threshold_the_low_confidence_query_serves(stor
 def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):
     correct(store, action="confirm", links=["base_laser_link"])
     store.delete_robot("pr2")
-    assert store.corrections("pr2") == [] and store.source("pr2") is None
+    assert store.corrections("pr2") == []
+    with pytest.raises(UnknownRobot):
+        store.source("pr2")
     store.replace_robot("pr2", pr2_tree, PR2)
     assert store.corrections("pr2") == []
 

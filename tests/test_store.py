@@ -12,7 +12,7 @@ from tests.kb_fixtures import PR2
 from urdfkb.kb_server.sparql import QueryTimeout
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.errors import OntologyError
+from urdfkb.pipeline.errors import OntologyError, UrdfkbError
 from urdfkb.pipeline.ingest import load_urdf
 
 COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
@@ -39,6 +39,21 @@ def test_restart_serves_everything_stored(tmp_path, trees):
     assert s.robot("pr2").robot_iri == "https://w3id.org/urdfkb/robot/pr2#robot"
     assert components(s) == len(PR2.components)
     s.close()
+
+
+def test_a_store_with_robots_written_without_their_urdf_tree_is_refused_naming_them(tmp_path, trees):
+    """Development versions before reviewers' corrections kept no tree (table kb_sources): nothing can be laid
+    over such a robot, and without its URDF it cannot be migrated."""
+    path = tmp_path / "kb.sqlite3"
+    s = Store(path, workers=0)
+    for name in ("pr2", "panda"):
+        s.replace_robot(name, trees[name], None)
+    with s.lock:
+        s.world.graph.db.execute("DELETE FROM kb_sources WHERE name='panda'")
+        s.world.save()
+    s.close()
+    with pytest.raises(UrdfkbError, match=r"without their URDF tree: panda\. Populate them again from their URDF"):
+        Store(path, workers=0)
 
 
 def test_replace_is_whole_and_failures_leave_the_old_robot(store, trees, monkeypatch):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from flask import Blueprint, jsonify
 
 from urdfkb.kb_server import corrections as review
-from urdfkb.kb_server.errors import Forbidden, NotFound
+from urdfkb.kb_server.errors import Forbidden
 from urdfkb.kb_server.json_body import json_object
 from urdfkb.kb_server.services import services
 
@@ -17,11 +17,7 @@ USAGE = ("send the correction as a JSON object: {action, links, class?, mount?, 
 @bp.get("/robots/<name>/corrections")
 def list_corrections(name: str):
     store = services().store
-    store.require(name)
-    source = store.source(name)
-    if source is None:
-        raise NotFound(f"robot {name!r} was stored before corrections existed: populate it again")
-    _, report = review.apply(*source, store.corrections(name))
+    _, report = review.apply(*store.source(name), store.corrections(name))
     return jsonify(report.to_dict())
 
 
@@ -32,7 +28,7 @@ def add_correction(name: str):
         raise Forbidden("corrections need the server's token (Authorization: Bearer ...)")
     correction = review.new(json_object(USAGE))
     entry = kb.store.add_correction(name, correction)
-    stored = next(a for a in (entry.corrections or {})["applied"] if a["id"] == correction.id)
+    stored = next(a for a in entry.corrections["applied"] if a["id"] == correction.id)
     resp = jsonify({"correction": stored, "corrections": entry.corrections})
     resp.status_code = 201
     return resp

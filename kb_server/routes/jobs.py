@@ -57,10 +57,7 @@ def repopulate(name: str):
     kb = services()
     if not kb.may_write():
         raise Forbidden("populating needs the server's token (Authorization: Bearer ...)")
-    source = kb.store.source(name)
-    if source is None:
-        raise NotFound(f"no stored URDF for robot {name!r}")
-    tree, model = source
+    tree, model = kb.store.source(name)
     return accepted(kb.jobs.submit(tree, name, Settings(structure_only=model.provenance.get("mode") == "structure-only")))
 
 
