@@ -358,9 +358,9 @@ def _viewpoint_range(graph: rdflib.Graph, node: rdflib.URIRef) -> tuple[float, f
         for facet in Collection(graph, facets) if facets is not None else ():
             for kind, value in graph.predicate_objects(facet):
                 if kind == XSD.minInclusive:
-                    low = float(value)
+                    low = float(str(value))
                 elif kind == XSD.maxInclusive:
-                    high = float(value)
+                    high = float(str(value))
                 else:
                     raise OntologyError(f"{_local(node)}: viewpointCount facet {kind} is not minInclusive or maxInclusive")
         return low, high
