@@ -15,7 +15,7 @@ import math
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, fields
-from typing import Iterable, Mapping
+from typing import Any, Iterable, Mapping
 
 MAX_MESHES = 2  # mesh stems shown per link (visual first)
 _PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
@@ -51,10 +51,7 @@ class LinkEvidence:
     @classmethod
     def from_dict(cls, data: dict) -> LinkEvidence:
         """Inverse of dataclasses.asdict."""
-        known = {f.name for f in fields(SimSensor)}  # a tree stored before the numbers were kept has a detail instead
-        sensors = tuple(SimSensor(**{k: tuple(v) if isinstance(v, list) else v for k, v in s.items() if k in known})
-                        for s in data["sensors"])
-        return cls(tuple(data["meshes"]), data["shape"], data["mass"], sensors)
+        return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])))
 
     @property
     def is_pure_frame(self) -> bool:
@@ -81,6 +78,13 @@ class LinkEvidence:
         if self.is_pure_frame:
             parts.append("no geometry" + (", massless" if not self.mass else ""))
         return "; ".join(parts)
+
+
+def _sensor(data: dict[str, Any]) -> SimSensor:
+    """A SimSensor from its asdict form; a tree stored before the numbers were kept has a detail string instead."""
+    known = {f.name for f in fields(SimSensor)}
+    values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items() if k in known}
+    return SimSensor(**values)
 
 
 def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
