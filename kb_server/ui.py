@@ -91,8 +91,8 @@ def _capabilities(store: Store, name: str) -> tuple[dict[str, dict], dict[str, d
         sight = sights.setdefault(row["camera"], {
             "frames": [], "fov": math.degrees(float(row["fov"])) if "fov" in row else None,
             "image": f"{row['width']}×{row['height']}" if "width" in row and "height" in row else None})
-        sight["frames"].append({"link": row["frame"], "modality": row.get("modalityLabel") or row["modality"].rsplit("#", 1)[-1]})
-    reaches = {row["arm"].rsplit("#", 1)[-1]: {"reach": float(row["reach"]) if "reach" in row else None,
+        sight["frames"].append({"link": row["frame"], "modality": row.get("modalityLabel") or local_name(row["modality"])})
+    reaches = {local_name(row["arm"]): {"reach": float(row["reach"]) if "reach" in row else None,
                                                "dof": row.get("degreesOfFreedom")}
                for row in queries.run_named(store, "arm_reach", name, {}).as_dicts()}
     return sights, reaches

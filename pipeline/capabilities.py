@@ -3,7 +3,8 @@
 - A sensor's *reference frames*: the links its measurements are expressed in. Its simulator declarations
   (pipeline.evidence: those on its links whose type agrees with its class) name them: the plugin's
   frameName, else the link the declaration is attached to. A sensor without one is taken at the links of
-  its optical frames, else of its sensing elements, else at its leaf links.
+  the sub-parts its class requires (ontologies/shapes.ttl: a camera's optical frames, another sensor's
+  sensing elements), else at its leaf links.
 - Its *specification*: each number its declarations state (rate, horizontal field of view, image size,
   rays, range, range resolution), where every declaration that states it states the same value (two
   imagers of different sizes state no one size); a number none states is None, never guessed.
@@ -17,9 +18,9 @@
   limits; then a coordinate search from the best of them moves one joint at a time by a step starting
   at a quarter of its range, halved whenever no move improves, REFINEMENTS times (_JointSpace.largest).
   A sample can only fall short of the true largest distance, never exceed it.
-- A parallel gripper's *maximum opening*: how far its two opposing fingertips (the deepest link of each
-  finger chain, pipeline.structure, that is a body rather than a frame) move apart between their closest
-  and widest, over the same kind of sample of its finger joints.
+- A gripper's *maximum opening*: how far two opposing fingertips (the deepest link of each finger chain,
+  pipeline.structure, that is a body rather than a frame) move apart between their closest and widest,
+  over the same kind of sample of its finger joints; the widest pair where it has several.
 - A head's *pan* and *tilt ranges*: the range (upper minus lower limit; a full turn for a continuous
   joint) of its first joint turning about the vertical, and of its first turning about the sideways
   axis, both read in the root's frame at the zero pose.
@@ -42,6 +43,7 @@ SAMPLES = 2048           # random configurations of a joint space
 SEED = 31                # of the random generator: the same robot always gets the same sample
 MAX_CORNER_JOINTS = 10   # every corner of the limits is tried for at most this many joints (1024 corners)
 REFINEMENTS = 12         # halvings of the coordinate search's step
+TOOL_POINT = "ToolCenterPoint"  # the sub-part class an arm's reach is measured to
 AXIS_ALIGNED = math.cos(math.radians(20))  # a joint axis within 20 degrees of the vertical pans, of the sideways tilts
 
 
@@ -84,11 +86,11 @@ def _agreed(values: Iterable):
 
 
 def _own_frames(tree: KinematicTree, vocab: Vocabulary, comp: Component) -> tuple[str, ...]:
-    for part in ("OpticalFrame", "SensingElement"):
-        links = tuple(s.link for s in comp.subcomponents if part in vocab and vocab.is_a(s.cls, part))
-        if links:
-            return links
-    return tuple(link for link in comp.links if tree.is_leaf(link))
+    """The links of the sub-parts its class requires (the shapes': a camera's optical frames, another sensor's
+    sensing elements, typed at the frames its measurements are expressed in), else its leaf links."""
+    part = vocab.required_part(comp.cls)
+    links = tuple(s.link for s in comp.subcomponents if part is not None and vocab.is_a(s.cls, part))
+    return links or tuple(link for link in comp.links if tree.is_leaf(link))
 
 
 # --- kinematics ------------------------------------------------------------------------------------
@@ -106,8 +108,7 @@ def tool_point(tree: KinematicTree, vocab: Vocabulary, arm: BodyPart, components
     flange = _edges(tree)[arm.joints[-1]].child
     below = set(tree.descendants(flange)) | {flange}
     tcps = [s.link for c in components if c.kind == END_EFFECTOR and c.located_on == arm.name
-            for s in c.subcomponents if "ToolCenterPoint" in vocab and vocab.is_a(s.cls, "ToolCenterPoint")
-            and s.link in below]
+            for s in c.subcomponents if TOOL_POINT in vocab and vocab.is_a(s.cls, TOOL_POINT) and s.link in below]
     return tcps[0] if tcps else flange
 
 

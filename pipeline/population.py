@@ -18,6 +18,7 @@ from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, SCHEMA, SSN_SYSTEM, bod
                                         component_local, finger_chain_local, joint_local, link_local, robot_iri,
                                         subcomponent_local)
 from urdfkb.pipeline.ontology import Vocabulary, load_core, vocabulary
+from urdfkb.pipeline.structure import viewpoints
 
 # Provenance keys the pipeline writes (oracle, runner) -> core annotation properties.
 PROVENANCE_ALIASES = {
@@ -73,8 +74,9 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
             _add_fingers(world, onto, individual, comp, joints)
             if comp.kind == SENSOR:
                 _add_sensor_facts(world, onto, individual, subs, comp, tree, vocab, links)
-            elif vocab.is_a(comp.cls, "ParallelGripper") and (gap := capabilities.opening(tree, comp.links)) is not None:
-                _set(world, "maxOpeningMetres", individual, _decimal(gap))
+            elif vocab.is_a(comp.cls, vocab.domain("maxOpeningMetres")):
+                if (gap := capabilities.opening(tree, comp.links)) is not None:
+                    _set(world, "maxOpeningMetres", individual, _decimal(gap))
         _add_body_facts(world, tree, vocab, body, components, parts)
         _annotate(world, robot, notes)
     return onto
@@ -261,11 +263,16 @@ _SYSTEM_PROPERTIES = (("Frequency", "frequency", ("rate",), "HTZ"), ("Measuremen
 
 
 def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict) -> None:
-    """A sensor's optical frames (a camera's), reference frames and declared specification (capabilities):
-    the numbers SSN names as an ssn-system:SystemCapability with its system properties, the others as core data."""
-    if vocab.is_a(comp.cls, "Camera"):
+    """A camera's viewpoint count (structure.viewpoints over its leaf links, so that a reasoner can check its class
+    against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
+    specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
+    properties, the others as core data."""
+    if vocab.is_a(comp.cls, vocab.domain("viewpointCount")):
+        leaves = [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
+        _set(world, "viewpointCount", ind, viewpoints(tree, leaves))
+    if vocab.is_a(comp.cls, vocab.domain("hasOpticalFrame")):
         for sub in comp.subcomponents:
-            if vocab.is_a(sub.cls, "OpticalFrame"):
+            if vocab.is_a(sub.cls, vocab.range("hasOpticalFrame")):
                 _set(world, "hasOpticalFrame", ind, subs[sub.link])
     spec = capabilities.sensor_spec(tree, vocab, comp)
     for link in spec.reference_frames:
@@ -297,12 +304,12 @@ def _add_body_facts(world, tree, vocab: Vocabulary, body: tuple[BodyPart, ...], 
     """An arm's degrees of freedom and reach, a head's pan and tilt ranges (pipeline.capabilities)."""
     for part in body:
         ind = parts[part.name]
-        if vocab.is_a(part.cls, "Arm"):
+        if vocab.is_a(part.cls, vocab.domain("reachMetres")):
             _set(world, "degreesOfFreedom", ind, capabilities.degrees_of_freedom(tree, part.joints))
             tool = capabilities.tool_point(tree, vocab, part, components)
             if tool is not None and (far := capabilities.reach(tree, part.joints[0], tool)) is not None:
                 _set(world, "reachMetres", ind, _decimal(far))
-        elif vocab.is_a(part.cls, "Head"):
+        elif vocab.is_a(part.cls, vocab.domain("panRangeRadians")):
             for prop, value in zip(("panRangeRadians", "tiltRangeRadians"), capabilities.head_ranges(tree, part.joints)):
                 if value is not None:
                     _set(world, prop, ind, _decimal(value))

@@ -15,7 +15,7 @@ import owlready2.reasoning
 import pytest
 import rdflib
 import yourdfpy
-from rdflib.namespace import OWL, RDF
+from rdflib.namespace import OWL, RDF, RDFS
 
 from tests.kb_fixtures import PR2, PR2_ARM, PR2_WHOLE
 from urdfkb.pipeline import capabilities
@@ -113,8 +113,8 @@ def pr2_urdf(shared) -> Path:
 
 
 @pytest.fixture(scope="module")
-def pr2(pr2_urdf):
-    return build_robot(owlready2.World(), load_urdf(pr2_urdf), "pr2", PR2_BOTH_CAMERAS)
+def pr2(pr2_tree):
+    return build_robot(owlready2.World(), pr2_tree, "pr2", PR2_BOTH_CAMERAS)
 
 
 @pytest.fixture(scope="module")
@@ -143,6 +143,12 @@ def test_the_kinect_has_an_rgb_and_a_depth_optical_frame_and_its_declared_field_
     assert float(graph.value(R.comp_kinect, CORE.horizontalFieldOfViewRadians)) == pytest.approx(math.radians(57), abs=1e-4)
     assert _names(graph, R.comp_kinect, CORE.hasReferenceFrame) == {  # each imager's plugin frameName
         "head_mount_kinect_rgb_optical_frame", "head_mount_kinect_ir_optical_frame"}
+
+
+def test_each_camera_says_from_how_many_places_it_sees(graph):
+    counts = {str(graph.value(c, RDFS.label)): int(graph.value(c, CORE.viewpointCount))
+              for c in graph.subjects(CORE.viewpointCount, None)}
+    assert counts == {"kinect": 2, "wide_stereo": 2, "prosilica": 1, "r_forearm_cam": 1, "l_forearm_cam": 1}
 
 
 @pytest.mark.parametrize("side", ["l", "r"])
@@ -192,7 +198,7 @@ def test_each_arm_has_seven_degrees_of_freedom_and_reaches_as_far_as_an_independ
     assert reach == pytest.approx(independent_reach(pr2_urdf, side), rel=0.05)
 
 
-def independent_opening(urdf: Path, side: str, text: str | None = None) -> float:
+def independent_opening(urdf: Path, side: str) -> float:
     """yourdfpy: how far the fingertip links move apart as the finger joint goes from its lower to its upper
     limit (the other finger joints follow it through <mimic>)."""
     robot = yourdfpy.URDF.load(str(urdf), load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False)
@@ -223,9 +229,8 @@ def test_the_heads_pan_and_tilt_ranges(graph):
     assert float(graph.value(R.body_head, CORE.tiltRangeRadians)) == pytest.approx(0.471238 + 1.39626, abs=1e-4)
 
 
-def test_a_robot_without_body_or_declarations_gets_no_capability(pr2_urdf):
-    tree = load_urdf(pr2_urdf)
-    bare = KinematicTree(tree.robot_name, tree.links, tree.edges)  # no evidence: nothing declared
+def test_a_robot_without_body_or_declarations_gets_no_capability(pr2_tree):
+    bare = KinematicTree(pr2_tree.robot_name, pr2_tree.links, pr2_tree.edges)  # no evidence: nothing declared
     onto = build_robot(owlready2.World(), bare, "pr2", Abstraction(PR2.components[:1]))  # the kinect
     from urdfkb.pipeline.export import robot_graph
     g = robot_graph(onto)
@@ -250,3 +255,15 @@ def test_the_populated_export_is_consistent_and_in_owl2_dl(pr2, tmp_path):
     run = subprocess.run([owlready2.JAVA_EXE, "-cp", owlready2.reasoning._HERMIT_CLASSPATH, str(DL_CHECK), str(path)],
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0 and run.stdout.strip().endswith("IN PROFILE") and "NOT IN" not in run.stdout, run.stdout + run.stderr
+
+
+@pytest.mark.reasoner
+def test_hermit_finds_a_monocular_camera_that_sees_from_two_places_inconsistent(pr2_tree):
+    """The viewpoint count population asserts lets the reasoner check core:viewpointCount's definitions: PR2's
+    stereo pair written as a monocular camera (at most one place) cannot be."""
+    wrong = replace(PR2_WHOLE, components=tuple(replace(c, cls="MonocularCamera") if c.name == "wide_stereo" else c
+                                                 for c in PR2_WHOLE.components))
+    world = owlready2.World()
+    build_robot(world, pr2_tree, "pr2", wrong)
+    with pytest.raises(owlready2.OwlReadyInconsistentOntologyError):
+        owlready2.sync_reasoner(world, infer_property_values=False, debug=0)

@@ -1,6 +1,6 @@
 """The queries of what parts can do (camera_frames, arm_reach, gripper_opening) over HTTP on a live server, through
-urdfkb.client, by an independent engine, and on the robot's review page: PR2 with its hand-written body and both
-forearm cameras (test_capabilities.PR2_BOTH_CAMERAS), no model."""
+urdfkb.client, by an independent engine, and on the robot's review page: PR2 with its hand-written body
+(conftest's whole_pr2_kb), no model."""
 from __future__ import annotations
 
 import json
@@ -12,21 +12,16 @@ from html.parser import HTMLParser
 
 import pytest
 
-from tests.kb_fixtures import PR2, both_engines, http, live, make_app
-from tests.test_capabilities import PR2_BOTH_CAMERAS
+from tests.kb_fixtures import both_engines, copied, http, live, make_app
 from urdfkb.client import ArmReach, CameraFrame, KnowledgeBase
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
 
 HTML = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
 
 
 @pytest.fixture(scope="module")
-def store(shared, tmp_path_factory):
-    s = Store(tmp_path_factory.mktemp("kb") / "kb.sqlite3", workers=1)
-    tree = load_urdf(shared / "urdf" / "pr2.urdf")
-    s.replace_robot("pr2", tree, PR2_BOTH_CAMERAS)
-    s.replace_robot("pr2_no_body", tree, PR2)  # no body: no arm, no reach
+def store(whole_pr2_kb, tmp_path_factory):
+    s = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
     yield s
     s.close()
 
@@ -54,7 +49,7 @@ def test_camera_frames_over_http(url):
     assert float(rgb["fov"]) == pytest.approx(math.radians(57), abs=1e-4)
     assert sorted(rgb["referenceFrames"].split()) == ["head_mount_kinect_ir_optical_frame", "head_mount_kinect_rgb_optical_frame"]
     cameras = {r["name"] for r in rows(url, "camera_frames")}
-    assert cameras == {"kinect", "wide_stereo", "prosilica", "r_forearm_cam", "l_forearm_cam"}
+    assert cameras == {"kinect", "wide_stereo", "prosilica", "r_forearm_cam"}
 
 
 def test_arm_reach_and_gripper_opening_over_http(url):
@@ -85,7 +80,7 @@ def test_the_client_has_a_method_each(url):
         "kinect", "RGBDCamera", "head_mount_kinect_ir_optical_frame", "DepthFrame", "depth frame",
         frames["head_mount_kinect_ir_optical_frame"].fov, 640, 480, 1.0,
         ("head_mount_kinect_ir_optical_frame", "head_mount_kinect_rgb_optical_frame"))
-    assert frames["l_forearm_cam_optical_frame"].fov == pytest.approx(math.pi / 2, abs=1e-4)
+    assert frames["r_forearm_cam_optical_frame"].fov == pytest.approx(math.pi / 2, abs=1e-4)
     assert frames["wide_stereo_l_stereo_camera_optical_frame"].fov is None  # its declarations name other links
     [left] = kb.arm_reach("pr2", side="left")
     assert left == ArmReach("l_arm", "left", "torso_lift_link", 7, left.reach) and isinstance(left.reach, float)

@@ -352,7 +352,7 @@ class KnowledgeBase:
     def camera_frames(self, robot: str) -> list[CameraFrame]:
         """Each camera's optical frames with their modality, and the camera's field of view, image size and
         rate where its simulator declaration states them. "What can you see?" reads these."""
-        return [CameraFrame(_name(r["camera"]), _local(r["class"]), r["frame"], _local(r["modality"]),
+        return [CameraFrame(_name(r["camera"]), local_name(r["class"]), r["frame"], local_name(r["modality"]),
                             r.get("modalityLabel"), _float(r.get("fov")), _int(r.get("width")), _int(r.get("height")),
                             _float(r.get("rate")), _words(r.get("referenceFrames")))
                 for r in self.query("camera_frames", robot)]
@@ -365,7 +365,7 @@ class KnowledgeBase:
     def gripper_opening(self, robot: str) -> list[GripperOpening]:
         """Each gripper with the arm it is on and its maximum opening in metres (None where its finger joints
         give none)."""
-        return [GripperOpening(r.get("name") or _name(r["gripper"]), _local(r["class"]), r.get("classLabel"),
+        return [GripperOpening(r.get("name") or _name(r["gripper"]), local_name(r["class"]), r.get("classLabel"),
                                r.get("mount"), _name(r["arm"]) if "arm" in r else None, r.get("side"),
                                _float(r.get("opening"))) for r in self.query("gripper_opening", robot)]
 
