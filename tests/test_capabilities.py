@@ -20,6 +20,7 @@ from rdflib.namespace import OWL, RDF, RDFS
 from tests.kb_fixtures import PR2, PR2_ARM, PR2_WHOLE
 from urdfkb.pipeline import capabilities
 from urdfkb.pipeline.components import SENSOR, Abstraction, BodyPart, Component, SubComponent
+from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.evidence import LinkEvidence, SimSensor
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.namespaces import CORE, SCHEMA, SSN_SYSTEM, robot_iri
@@ -267,3 +268,10 @@ def test_hermit_finds_a_monocular_camera_that_sees_from_two_places_inconsistent(
     build_robot(world, pr2_tree, "pr2", wrong)
     with pytest.raises(owlready2.OwlReadyInconsistentOntologyError):
         owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
+
+
+def test_population_finds_where_each_capability_goes_in_the_ontology():
+    assert (TAX.domain("reachMetres"), TAX.domain("panRangeRadians"), TAX.domain("maxOpeningMetres")) == ("Arm", "Head", "Gripper")
+    assert (TAX.domain("hasOpticalFrame"), TAX.range("hasOpticalFrame")) == ("Camera", "OpticalFrame")
+    with pytest.raises(OntologyError, match="urdfName"):
+        TAX.domain("urdfName")  # Robot, Link or Joint: no one named class
