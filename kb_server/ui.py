@@ -2,10 +2,13 @@
 
 The routes serve them (kb_server/routes/): `/` (routes/pages.py) lists the robots and uploads a URDF or
 xacro file; `/robots/<name>` for clients asking for HTML (routes/robots.py) draws the tree with the body
-parts and components, and lists both with review controls; `/sparql` with no query (routes/sparql.py)
+parts and components, and lists both with review controls and what they can do (a camera's optical
+frames and field of view, an arm's reach); `/sparql` with no query (routes/sparql.py)
 is a query editor. A browser's GET that fails gets an error page (kb_server.replies.handle_error).
 """
 from __future__ import annotations
+
+import math
 
 from flask import Response, render_template, request
 
@@ -54,6 +57,11 @@ def robot_page(store: Store, name: str) -> str:
             "mounts": review.mount_options(tree, links) if links else (),
             "reviews": notes, "confirmed": any(n["action"] == "confirm" for n in notes),
             "added": any(n["action"] == "add" for n in notes)})
+    sights, reaches = _capabilities(store, name)
+    for r in rows:
+        r["sight"] = sights.get(r["iri"])
+    for p in body:
+        p["reach"] = reaches.get(p["key"])
     rows.sort(key=lambda r: (r["confidence"] if r["confidence"] is not None else 1.0, r["key"]))
     outlines = [tree_svg.Outline(r["key"], f"{r['class']} ({r['confidence']:.2f})" if r["confidence"] is not None
                                  else r["class"], palette.kind_colour(r["kind"]), r["links"], r["mount"],
@@ -70,6 +78,22 @@ def error_page(status: int, message: str) -> Response:
     """The page a browser gets for an error (kb_server.replies.handle_error): the message and a way back."""
     page = render_template("error.html", status=status, message=message)
     return Response(page.encode("utf-8", "backslashreplace"), status, mimetype="text/html")
+
+
+def _capabilities(store: Store, name: str) -> tuple[dict[str, dict], dict[str, dict]]:
+    """What the page shows of what parts can do (the camera_frames and arm_reach queries): per camera IRI its
+    optical frames (link, modality) and declared field of view (degrees) and image size; per arm (its
+    individual's local name) its reach (m) and degrees of freedom."""
+    sights: dict[str, dict] = {}
+    for row in queries.run_named(store, "camera_frames", name, {}).as_dicts():
+        sight = sights.setdefault(row["camera"], {
+            "frames": [], "fov": math.degrees(float(row["fov"])) if "fov" in row else None,
+            "image": f"{row['width']}×{row['height']}" if "width" in row and "height" in row else None})
+        sight["frames"].append({"link": row["frame"], "modality": row.get("modalityLabel") or local_name(row["modality"])})
+    reaches = {local_name(row["arm"]): {"reach": float(row["reach"]) if "reach" in row else None,
+                                               "dof": row.get("degreesOfFreedom")}
+               for row in queries.run_named(store, "arm_reach", name, {}).as_dicts()}
+    return sights, reaches
 
 
 def sparql_page() -> str:

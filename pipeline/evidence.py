@@ -5,15 +5,17 @@ rendered as a few words in the questions that concern a link (the model still de
 sensor declarations use SDF's closed vocabulary of sensor types (`camera`, `depth`, `ray`, `imu`,
 `contact`, ...); the older Gazebo form `<sensor:camera>` / `<sensor:ray>` of PR2-era files is read
 as the same types. A declaration is attached to the link it references and to the link its
-plugin publishes in (`frameName`), when that is another link of the robot.
+plugin publishes in (`frameName`), when that is another link of the robot. The numbers it states
+(rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
+(the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
 """
 from __future__ import annotations
 
 import math
 import re
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
-from typing import Iterable, Mapping
+from dataclasses import dataclass, fields
+from typing import Any, Iterable, Mapping
 
 MAX_MESHES = 2  # mesh stems shown per link (visual first)
 _PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
@@ -21,11 +23,20 @@ _PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
 
 @dataclass(frozen=True)
 class SimSensor:
-    """One simulator sensor declaration: its SDF type, plugin library stems and a short detail."""
+    """One simulator sensor declaration: its SDF type, plugin library stems, the links it names and the
+    numbers it states (None where it states none)."""
 
     type: str
     plugins: tuple[str, ...] = ()
-    detail: str = ""
+    reference: str = ""               # the link its <gazebo reference="..."> block names
+    frame: str | None = None          # the link its plugin expresses its data in (frameName), where one of the robot's
+    rate: float | None = None         # Hz: how often it updates (its own update_rate / updateRate)
+    fov: float | None = None          # rad: a camera's horizontal field of view, a ray sensor's horizontal span
+    image: tuple[int, int] | None = None  # a camera's image width and height in pixels
+    samples: int | None = None        # rays per horizontal scan
+    min_range: float | None = None    # m: a ray sensor's nearest and farthest measured distance
+    max_range: float | None = None
+    resolution: float | None = None   # m: a ray sensor's range resolution
 
 
 @dataclass(frozen=True)
@@ -40,8 +51,7 @@ class LinkEvidence:
     @classmethod
     def from_dict(cls, data: dict) -> LinkEvidence:
         """Inverse of dataclasses.asdict."""
-        sensors = tuple(SimSensor(s["type"], tuple(s["plugins"]), s["detail"]) for s in data["sensors"])
-        return cls(tuple(data["meshes"]), data["shape"], data["mass"], sensors)
+        return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])))
 
     @property
     def is_pure_frame(self) -> bool:
@@ -68,6 +78,13 @@ class LinkEvidence:
         if self.is_pure_frame:
             parts.append("no geometry" + (", massless" if not self.mass else ""))
         return "; ".join(parts)
+
+
+def _sensor(data: dict[str, Any]) -> SimSensor:
+    """A SimSensor from its asdict form; a tree stored before the numbers were kept has a detail string instead."""
+    known = {f.name for f in fields(SimSensor)}
+    values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items() if k in known}
+    return SimSensor(**values)
 
 
 def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
@@ -173,8 +190,10 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
             sensor_type = _sensor_type(element)
             if sensor_type is None:
                 continue
-            sensor = SimSensor(sensor_type, _plugins(element), _detail(element, sensor_type))
-            for link in dict.fromkeys([reference, *_output_frames(element, known)]):
+            frames = _output_frames(element, known)
+            sensor = SimSensor(sensor_type, _plugins(element), reference, frames[0] if frames else None,
+                               **_numbers(element, sensor_type))
+            for link in dict.fromkeys([reference, *frames]):
                 found.setdefault(link, []).append(sensor)
     return found
 
@@ -227,37 +246,67 @@ def _child_text(element: ET.Element, path: str) -> str | None:
     return (current[0].text or "").strip() if current else None
 
 
-def _detail(sensor: ET.Element, sensor_type: str) -> str:
-    """A few words from the sensor's own sub-block: image size, or ray count, span and range."""
+def _number(element: ET.Element, *paths: str) -> float | None:
+    """The finite number at the first of `paths` (see _child_text) that is present, else None."""
+    text = next((t for p in paths if (t := _child_text(element, p)) is not None), None)
     try:
-        cameras = [c for c in sensor.iter() if _local(c.tag)[1] == "camera"]
-        if cameras and (width := _child_text(cameras[0], "image/width")):
-            size = f"{width}x{_child_text(cameras[0], 'image/height')} image"
-            return f"{len(cameras)} cameras, {size}" if len(cameras) > 1 else size
-        if sensor_type.endswith("ray") or sensor_type in ("lidar", "gpu_lidar"):
-            return _ray_detail(sensor)
-        if sensor_type == "camera" and (width := _child_text(sensor, "imageSize")):
-            return f"{width.replace(' ', 'x')} image"
-    except (TypeError, ValueError):
-        return ""
-    return ""
+        value = float(text) if text is not None else math.nan
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
 
 
-def _ray_detail(sensor: ET.Element) -> str:
-    """'640 rays over 260°, up to 10 m' from SDF `<ray><scan>` or the old `rayCount/maxAngle`."""
-    samples = _child_text(sensor, "ray/scan/horizontal/samples") or _child_text(sensor, "rayCount")
-    low = _child_text(sensor, "ray/scan/horizontal/min_angle")
-    high = _child_text(sensor, "ray/scan/horizontal/max_angle")
-    span: float | None
-    if low is not None and high is not None:
-        span = math.degrees(float(high) - float(low))
+def _positive(value: float | None) -> float | None:
+    return value if value is not None and value > 0 else None
+
+
+def _numbers(sensor: ET.Element, sensor_type: str) -> dict:
+    """The numbers a declaration states, by SimSensor field: SDF (`<camera>`, `<ray>` or `<lidar>`, radians)
+    or the old Gazebo form (`imageSize`, `hfov`, `rayCount`, `minAngle`: degrees). An update rate of 0 (as
+    fast as the simulator runs) states no rate."""
+    found: dict = {"rate": _positive(_number(sensor, "update_rate", "updateRate"))}
+    if _local(sensor.tag) == ("", "sensor"):  # SDF: the first <camera> below it (a multicamera has several)
+        camera = next((c for c in sensor.iter() if _local(c.tag)[1] == "camera"), None)
+        if camera is not None:
+            found["fov"] = _positive(_number(camera, "horizontal_fov"))
+            found["image"] = _image(_number(camera, "image/width"), _number(camera, "image/height"))
     else:
-        low, high = _child_text(sensor, "minAngle"), _child_text(sensor, "maxAngle")
-        span = float(high) - float(low) if low is not None and high is not None else None
-    reach = _child_text(sensor, "ray/range/max") or _child_text(sensor, "maxRange")
-    words = []
-    if samples:
-        words.append(f"{int(float(samples))} rays" + (f" over {span:.0f}°" if span is not None else ""))
-    if reach:
-        words.append(f"up to {float(reach):g} m")
-    return ", ".join(words)
+        hfov = _number(sensor, "hfov")
+        found["fov"] = _positive(math.radians(hfov) if hfov is not None else None)
+        size = (_child_text(sensor, "imageSize") or "").split()
+        found["image"] = _image(*map(_float, size)) if len(size) == 2 else None
+    if sensor_type.endswith("ray") or sensor_type.endswith("lidar"):
+        found.update(_ray_numbers(sensor))
+    return found
+
+
+def _image(width: float | None, height: float | None) -> tuple[int, int] | None:
+    return (int(width), int(height)) if width and height and width >= 1 and height >= 1 else None
+
+
+def _ray_numbers(sensor: ET.Element) -> dict:
+    """Rays per horizontal scan, their span, range and range resolution: SDF `<ray>` / `<lidar>` or the old
+    `rayCount`, `minAngle`/`maxAngle` (degrees), `minRange`, `maxRange`, `resRange`."""
+    block = next((b for b in ("ray", "lidar") if _child_text(sensor, b) is not None), None)
+    if block is not None:
+        scan = f"{block}/scan/horizontal"
+        samples = _number(sensor, f"{scan}/samples")
+        low, high = _number(sensor, f"{scan}/min_angle"), _number(sensor, f"{scan}/max_angle")
+        span = high - low if low is not None and high is not None else None
+        minimum, maximum, resolution = (_number(sensor, f"{block}/range/{n}") for n in ("min", "max", "resolution"))
+    else:
+        samples = _number(sensor, "rayCount")
+        low, high = _number(sensor, "minAngle"), _number(sensor, "maxAngle")
+        span = math.radians(high - low) if low is not None and high is not None else None
+        minimum, maximum, resolution = (_number(sensor, n) for n in ("minRange", "maxRange", "resRange"))
+    return {"samples": int(samples) if samples is not None and samples >= 1 else None, "fov": _positive(span),
+            "min_range": minimum if minimum is not None and minimum >= 0 else None,
+            "max_range": _positive(maximum), "resolution": _positive(resolution)}
+
+
+def _float(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None

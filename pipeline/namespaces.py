@@ -2,10 +2,12 @@
 
 The core ontology is `CORE_ONTOLOGY_IRI` with its terms in `CORE`; in the knowledge base it is the named
 graph `CORE_GRAPH`. Each robot is its own ontology and named graph, `robot_iri(name)`, holding the
-individuals `robot`, `link_<l>`, `joint_<j>`, `comp_<c>`, `sub_<c>.<l>`, `body_<b>` and `finger_<c>.<chain>`
-(the functions below), each name escaped: every byte outside ASCII letters, digits, '-', '_' and '~' is
-percent-encoded (so '.' is free as a separator), which makes any URDF name a valid IRI and keeps distinct
-names distinct. Reviewers' corrections of a robot are the graph `corrections_iri(name)`, in `REVIEW` terms.
+individuals `robot`, `link_<l>`, `joint_<j>`, `comp_<c>`, `sub_<c>.<l>`, `body_<b>`, `finger_<c>.<chain>`
+and `cap_<c>`, `cap_<c>.<property>` (a sensor's SSN capability and its properties; the functions below),
+each name escaped: every byte outside ASCII letters, digits, '-', '_' and '~' is percent-encoded (so '.'
+is free as a separator), which makes any URDF name a valid IRI and keeps distinct names distinct.
+Reviewers' corrections of a robot are the graph `corrections_iri(name)`, in `REVIEW` terms. SSN's System
+Capabilities (`SSN_SYSTEM`) and schema.org (`SCHEMA`, http as SSN's examples write it) are not in rdflib.
 """
 from __future__ import annotations
 
@@ -20,6 +22,8 @@ CORE_ONTOLOGY_IRI = CORE_IRI[:-1]
 CORE = Namespace(CORE_IRI)
 CORE_GRAPH = CORE_IRI  # owlready2 keeps an ontology in the graph named by its base IRI
 REVIEW = Namespace("https://w3id.org/urdfkb/review#")
+SSN_SYSTEM = Namespace("http://www.w3.org/ns/ssn/systems/")
+SCHEMA = Namespace("http://schema.org/")
 ROBOT_BASE = "https://w3id.org/urdfkb/robot/"
 ROBOT = "robot"  # the local name of every robot's core:Robot individual
 
@@ -70,3 +74,8 @@ def body_part_local(part: str) -> str:
 
 def finger_chain_local(component: str, chain: str) -> str:
     return f"finger_{escape(component)}.{escape(chain)}"
+
+
+def capability_local(component: str, prop: str | None = None) -> str:
+    """A sensor's SSN system capability (`cap_<c>`), or one of its system properties (`cap_<c>.frequency`)."""
+    return f"cap_{escape(component)}" + (f".{prop}" if prop else "")

@@ -287,6 +287,20 @@ class Vocabulary:
         """The class (`name` or its nearest ancestor) whose shape requires a part of a `name` device, or None."""
         return next((c for c in (self._check(name), *self.ancestors(name)) if c in self._required), None)
 
+    def domain(self, prop: str) -> str:
+        """The named core class a core property applies to (its rdfs:domain): what population writes it on."""
+        return self._bound(prop, RDFS.domain)
+
+    def range(self, prop: str) -> str:
+        """The named core class a core object property's values fall in (its rdfs:range)."""
+        return self._bound(prop, RDFS.range)
+
+    def _bound(self, prop: str, which: rdflib.URIRef) -> str:
+        name = _local(self.graph.value(CORE[prop], which))
+        if name is None or name not in self:
+            raise OntologyError(f"core property {prop!r} has no named core class as its rdfs:{which.fragment}")
+        return name
+
     def part_question(self, part: str) -> str | None:
         """The question refining a link taken as a required `part` (core:partQuestion), or None."""
         return self._part_question.get(self._check(part))

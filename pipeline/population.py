@@ -1,4 +1,5 @@
-"""Populate one robot as its own OWL ontology: structure from the tree, components from an abstraction.
+"""Populate one robot as its own OWL ontology: structure from the tree, components from an abstraction, and
+what each part can do from the URDF (pipeline.capabilities: reference frames, declared specifications, reach...).
 
 The ontology and its individuals are named by pipeline.namespaces (`robot_iri(name)`, `link_<l>`, `comp_<c>`...).
 """
@@ -10,11 +11,14 @@ from datetime import datetime, timezone
 import owlready2
 
 from urdfkb import __version__
-from urdfkb.pipeline.components import SIDES, Abstraction, BodyPart, Component
+from urdfkb.pipeline import capabilities
+from urdfkb.pipeline.components import SENSOR, SIDES, Abstraction, BodyPart, Component
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, body_part_local, component_local, finger_chain_local, joint_local,
-                                        link_local, robot_iri, subcomponent_local)
+from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, SCHEMA, SSN_SYSTEM, body_part_local, capability_local,
+                                        component_local, finger_chain_local, joint_local, link_local, robot_iri,
+                                        subcomponent_local)
 from urdfkb.pipeline.ontology import Vocabulary, load_core, vocabulary
+from urdfkb.pipeline.structure import viewpoints
 
 # Provenance keys the pipeline writes (oracle, runner) -> core annotation properties.
 PROVENANCE_ALIASES = {
@@ -66,8 +70,14 @@ def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abst
         links, joints = _add_structure(world, onto, robot, tree, vocab)
         parts = _add_body(world, onto, robot, body, links, joints)
         for comp in components:
-            individual = _add_component(world, onto, robot, comp, links, joints, parts)
+            individual, subs = _add_component(world, onto, robot, comp, links, joints, parts)
             _add_fingers(world, onto, individual, comp, joints)
+            if comp.kind == SENSOR:
+                _add_sensor_facts(world, onto, individual, subs, comp, tree, vocab, links)
+            elif vocab.is_a(comp.cls, vocab.domain("maxOpeningMetres")):
+                if (gap := capabilities.opening(tree, comp.links)) is not None:
+                    _set(world, "maxOpeningMetres", individual, _decimal(gap))
+        _add_body_facts(world, tree, vocab, body, components, parts)
         _annotate(world, robot, notes)
     return onto
 
@@ -236,12 +246,73 @@ def _add_component(world, onto, robot, comp: Component, links: dict, joints: dic
         _set(world, "isLocatedOn", ind, parts[comp.located_on])
     if comp.side is not None:
         _set(world, "side", ind, comp.side)
+    subs = {}
     for sub in comp.subcomponents:
-        part = _new(world, onto, sub.cls, subcomponent_local(comp.name, sub.link), sub.link)
+        part = subs[sub.link] = _new(world, onto, sub.cls, subcomponent_local(comp.name, sub.link), sub.link)
         _set(world, "hasLink", part, links[sub.link])
         _set(world, "confidence", part, _decimal(sub.confidence))
         _set(world, "hasComponent", ind, part)
-    return ind
+    return ind, subs
+
+
+# SensorSpec fields → the core data property each is written as, and the SSN system properties (the field(s)
+# holding its value, or its minimum and maximum; its UN/CEFACT unit code)
+_SPEC_PROPERTIES = {"fov": "horizontalFieldOfViewRadians", "samples": "raySamples"}
+_SYSTEM_PROPERTIES = (("Frequency", "frequency", ("rate",), "HTZ"), ("MeasurementRange", "range", ("min_range", "max_range"), "MTR"),
+                      ("Resolution", "resolution", ("resolution",), "MTR"))
+
+
+def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict) -> None:
+    """A camera's viewpoint count (structure.viewpoints over its leaf links, so that a reasoner can check its class
+    against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
+    specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
+    properties, the others as core data."""
+    if vocab.is_a(comp.cls, vocab.domain("viewpointCount")):
+        leaves = [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
+        _set(world, "viewpointCount", ind, viewpoints(tree, leaves))
+    if vocab.is_a(comp.cls, vocab.domain("hasOpticalFrame")):
+        for sub in comp.subcomponents:
+            if vocab.is_a(sub.cls, vocab.range("hasOpticalFrame")):
+                _set(world, "hasOpticalFrame", ind, subs[sub.link])
+    spec = capabilities.sensor_spec(tree, vocab, comp)
+    for link in spec.reference_frames:
+        _set(world, "hasReferenceFrame", ind, links[link])
+    for name, prop in _SPEC_PROPERTIES.items():
+        if (value := getattr(spec, name)) is not None:
+            _set(world, prop, ind, _decimal(value) if isinstance(value, float) else value)
+    if spec.image is not None:
+        _set(world, "imageWidthPixels", ind, spec.image[0])
+        _set(world, "imageHeightPixels", ind, spec.image[1])
+    stated = [(cls, key, [getattr(spec, f) for f in names], unit) for cls, key, names, unit in _SYSTEM_PROPERTIES]
+    stated = [s for s in stated if any(v is not None for v in s[2])]
+    if not stated:
+        return
+    capability = world[SSN_SYSTEM.SystemCapability](capability_local(comp.name), namespace=onto)
+    world[SSN_SYSTEM.hasSystemCapability][ind].append(capability)
+    for cls, key, values, unit in stated:
+        prop = world[SSN_SYSTEM[cls]](capability_local(comp.name, key), namespace=onto)
+        world[SSN_SYSTEM.hasSystemProperty][capability].append(prop)
+        names = ("value",) if len(values) == 1 else ("minValue", "maxValue")
+        for name, value in zip(names, values):
+            if value is not None:
+                world[SCHEMA[name]][prop].append(_decimal(value))
+        world[SCHEMA.unitCode][prop].append(unit)
+
+
+def _add_body_facts(world, tree, vocab: Vocabulary, body: tuple[BodyPart, ...], components: tuple[Component, ...],
+                    parts: dict) -> None:
+    """An arm's degrees of freedom and reach, a head's pan and tilt ranges (pipeline.capabilities)."""
+    for part in body:
+        ind = parts[part.name]
+        if vocab.is_a(part.cls, vocab.domain("reachMetres")):
+            _set(world, "degreesOfFreedom", ind, capabilities.degrees_of_freedom(tree, part.joints))
+            tool = capabilities.tool_point(tree, vocab, part, components)
+            if tool is not None and (far := capabilities.reach(tree, part.joints[0], tool)) is not None:
+                _set(world, "reachMetres", ind, _decimal(far))
+        elif vocab.is_a(part.cls, vocab.domain("panRangeRadians")):
+            for prop, value in zip(("panRangeRadians", "tiltRangeRadians"), capabilities.head_ranges(tree, part.joints)):
+                if value is not None:
+                    _set(world, prop, ind, _decimal(value))
 
 
 def _add_fingers(world, onto, owner, comp: Component, joints: dict) -> None:

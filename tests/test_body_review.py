@@ -80,7 +80,8 @@ def test_the_page_lists_and_draws_every_body_part(api):
     page = Page(html.decode())
     assert set(page.rows) == {p.name for p in PR2_WHOLE.body}
     part, side, joints, on, _ = page.rows["l_arm"]
-    assert words(part) == ["Arm", "l_arm", "hangs", "from", "torso_lift_link"] and side.strip() == "left"
+    assert words(part) == ["Arm", "l_arm", "hangs", "from", "torso_lift_link", "reaches", "1.00", "m", "·", "7", "degrees",
+                           "of", "freedom"] and side.strip() == "left"
     assert words(joints) == [f"l_{j}_joint" for j in PR2_ARM]  # root-most first
     assert words(on) == ["l_gripper", "ParallelGripper"]
     part, side, joints, on, _ = page.rows["head"]

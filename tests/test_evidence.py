@@ -1,12 +1,14 @@
 """Evidence read from the whole URDF, and how it reaches the model and narrows its options."""
 from __future__ import annotations
 
+import json
+import math
 from pathlib import Path
 
 import pytest
 
 from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.evidence import SimSensor, mesh_stem, named
+from urdfkb.pipeline.evidence import LinkEvidence, SimSensor, mesh_stem, named
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -51,21 +53,43 @@ def test_a_link_is_named_with_its_facts_in_parentheses_and_bare_without(bot):
     assert named({}, "hull") == "hull"
 
 
-def test_sdf_sensor_declarations_with_plugin_and_detail(bot):
+def test_sdf_sensor_declarations_with_plugin_and_numbers(bot):
     assert bot.evidence["nose_scanner"].sensors == (
-        SimSensor("gpu_ray", ("gazebo_ros_gpu_laser",), "720 rays over 180°, up to 30 m"),)
+        SimSensor("gpu_ray", ("gazebo_ros_gpu_laser",), "nose_scanner", samples=720, fov=3.1416, min_range=0.1,
+                  max_range=30.0),)
     assert bot.evidence["hull"].sensors == ()  # a <gazebo> block without a sensor declares nothing
+    assert bot.evidence["echo_1_link"].sensors == (SimSensor("ray", ("gazebo_ros_range",), "echo_1_link"),)  # states no number
 
 
-def test_old_gazebo_sensor_form_is_read_as_the_same_type(bot):
-    assert bot.evidence["tail_scanner"].sensors == (
-        SimSensor("ray", ("gazebo_ros_laser",), "181 rays over 180°, up to 8 m"),)
+def test_old_gazebo_sensor_form_is_read_as_the_same_type_with_angles_in_degrees(bot):
+    [tail] = bot.evidence["tail_scanner"].sensors
+    assert (tail.type, tail.plugins, tail.reference, tail.frame) == ("ray", ("gazebo_ros_laser",), "tail_scanner", "tail_scanner")
+    assert (tail.samples, tail.fov, tail.max_range, tail.min_range) == (181, pytest.approx(math.pi), 8.0, None)
 
 
 def test_a_declaration_also_reaches_the_frame_its_plugin_publishes_in(bot):
-    camera = SimSensor("camera", ("gazebo_ros_camera",), "1280x720 image")
+    camera = SimSensor("camera", ("gazebo_ros_camera",), "mast_eye_body", "mast_eye_optical", image=(1280, 720))
     assert bot.evidence["mast_eye_body"].sensors == (camera,)
     assert bot.evidence["mast_eye_optical"].sensors == (camera,)
+
+
+def test_the_numbers_of_both_forms_are_read_in_si_units(shared):
+    pr2 = load_urdf(shared / "urdf" / "pr2.urdf").evidence
+    [rgb] = pr2["head_mount_kinect_rgb_optical_frame"].sensors  # old form: hfov 57 (degrees), imageSize "640 480"
+    assert (rgb.reference, rgb.rate, rgb.image, rgb.fov) == ("head_mount_kinect_rgb_link", 1.0, (640, 480),
+                                                             pytest.approx(math.radians(57)))
+    [laser] = pr2["base_laser_link"].sensors  # minAngle/maxAngle ±129.998° → a span in radians
+    assert (laser.samples, laser.min_range, laser.max_range, laser.resolution, laser.rate) == (640, 0.08, 10.0, 0.01, 20.0)
+    assert laser.fov == pytest.approx(math.radians(2 * 129.998394137))
+    [xtion] = load_urdf(shared / "urdf" / "tiago.urdf").evidence["xtion_rgb_optical_frame"].sensors  # SDF, radians
+    assert (xtion.type, xtion.image, xtion.fov, xtion.rate) == ("depth", (640, 480), pytest.approx(1.0995574), 30.0)
+
+
+def test_evidence_stored_before_the_numbers_were_kept_still_loads(bot):
+    old = {"meshes": [], "shape": "", "mass": None, "sensors": [{"type": "ray", "plugins": ["p"], "detail": "8 rays"}]}
+    assert LinkEvidence.from_dict(old).sensors == (SimSensor("ray", ("p",)),)
+    again = LinkEvidence.from_dict(json.loads(json.dumps(bot.to_dict()["evidence"]["mast_eye_optical"])))
+    assert again == bot.evidence["mast_eye_optical"]
 
 
 def test_evidence_survives_condensing_and_a_change_of_evidence_misses_the_cache(bot, tmp_path, monkeypatch):

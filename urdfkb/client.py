@@ -34,7 +34,7 @@ from urdfkb.settings import CLIENT_TIMEOUT
 __all__ = [
     "KnowledgeBase", "ClientError", "ServerUnavailable", "UnknownRobot", "QueryFailed",
     "CameraLink", "Sensor", "MountedComponent", "EndEffector", "ReviewItem", "SubPart", "Component",
-    "BodyPart", "Joint", "LocatedComponent", "ArmEndEffector", "class_words",
+    "BodyPart", "Joint", "LocatedComponent", "ArmEndEffector", "CameraFrame", "ArmReach", "GripperOpening", "class_words",
 ]
 
 SIDES = ("left", "right")
@@ -180,6 +180,43 @@ class ArmEndEffector:
     end_effector: EndEffector | None
 
 
+@dataclass(frozen=True)
+class CameraFrame:
+    """An optical frame of a camera, with what the camera's simulator declaration states (`camera_frames`)."""
+    camera: str                       # the camera component's name
+    cls: str                          # its class, e.g. "RGBDCamera"
+    frame: str                        # the optical frame's link
+    modality: str                     # the frame's class: "RgbFrame", "DepthFrame", "InfraredFrame" or "OpticalFrame"
+    modality_label: str | None        # its English label, e.g. "depth frame"
+    fov: float | None                 # the camera's horizontal field of view, rad
+    width: int | None                 # its image size, px
+    height: int | None
+    rate: float | None                # its update rate, Hz
+    reference_frames: tuple[str, ...]  # the links its measurements are expressed in
+
+
+@dataclass(frozen=True)
+class ArmReach:
+    """An arm's degrees of freedom and reach (`arm_reach`)."""
+    arm: str
+    side: str | None
+    mount: str | None                 # the link it hangs from
+    degrees_of_freedom: int | None    # joints that move on their own
+    reach: float | None               # m, from where its first joint sits to its tool centre point
+
+
+@dataclass(frozen=True)
+class GripperOpening:
+    """A gripper's maximum opening (`gripper_opening`)."""
+    gripper: str
+    cls: str                          # e.g. "ParallelGripper"
+    label: str | None                 # the class's English label
+    mount: str | None
+    arm: str | None                   # the arm it is located on
+    side: str | None                  # that arm's side
+    opening: float | None             # m, how far its opposing fingertips move apart
+
+
 # --- the client ------------------------------------------------------------------------------------
 
 class _NoRedirect(urllib.request.HTTPRedirectHandler):
@@ -312,6 +349,26 @@ class KnowledgeBase:
             out.append(ArmEndEffector(r.get("armName") or _name(r["arm"]), r.get("side"), tool))
         return out
 
+    def camera_frames(self, robot: str) -> list[CameraFrame]:
+        """Each camera's optical frames with their modality, and the camera's field of view, image size and
+        rate where its simulator declaration states them. "What can you see?" reads these."""
+        return [CameraFrame(_name(r["camera"]), local_name(r["class"]), r["frame"], local_name(r["modality"]),
+                            r.get("modalityLabel"), _float(r.get("fov")), _int(r.get("width")), _int(r.get("height")),
+                            _float(r.get("rate")), _words(r.get("referenceFrames")))
+                for r in self.query("camera_frames", robot)]
+
+    def arm_reach(self, robot: str, side: str | None = None) -> list[ArmReach]:
+        """Each arm on `side` (None: every arm) with its degrees of freedom and reach in metres."""
+        return [ArmReach(r.get("name") or _name(r["arm"]), r.get("side"), r.get("mount"), _int(r.get("degreesOfFreedom")),
+                         _float(r.get("reach"))) for r in self.query("arm_reach", robot, side=_side(side))]
+
+    def gripper_opening(self, robot: str) -> list[GripperOpening]:
+        """Each gripper with the arm it is on and its maximum opening in metres (None where its finger joints
+        give none)."""
+        return [GripperOpening(r.get("name") or _name(r["gripper"]), local_name(r["class"]), r.get("classLabel"),
+                               r.get("mount"), _name(r["arm"]) if "arm" in r else None, r.get("side"),
+                               _float(r.get("opening"))) for r in self.query("gripper_opening", robot)]
+
     # --- HTTP ------------------------------------------------------------------------------------
 
     def _get(self, path: str, what: str, robot: str | None = None):
@@ -386,6 +443,10 @@ def _name(iri: str) -> str:
 
 def _float(text: str | None) -> float | None:
     return float(text) if text not in (None, "") else None
+
+
+def _int(text: str | None) -> int | None:
+    return int(text) if text not in (None, "") else None
 
 
 def _words(text: str | None) -> tuple[str, ...]:
