@@ -101,9 +101,9 @@ def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace, timings
 
 
 def _robot_ontology(tree, name: str, abstraction):
-    import owlready2
+    from urdfkb.pipeline import rdf
     from urdfkb.pipeline.population import build_robot
-    return build_robot(owlready2.World(), tree, name, abstraction)
+    return build_robot(rdf.new_world(), tree, name, abstraction)
 
 
 def cmd_populate(args: argparse.Namespace) -> int:

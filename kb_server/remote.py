@@ -12,6 +12,7 @@ import urllib.request
 
 import rdflib
 
+from urdfkb.pipeline import rdf
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import N_TRIPLES
 from urdfkb.settings import REMOTE_TIMEOUT
@@ -54,7 +55,7 @@ class RemoteStore:
 
     def put_graph(self, graph_iri: str, graph: rdflib.Graph) -> None:
         """Replace named graph `graph_iri` with `graph`."""
-        self._send("PUT", graph_iri, graph.serialize(format=N_TRIPLES.rdflib, encoding="utf-8"))
+        self._send("PUT", graph_iri, rdf.to_ntriples(graph))
 
     def delete_graph(self, graph_iri: str) -> None:
         """Drop named graph `graph_iri` (no error if it is already absent)."""

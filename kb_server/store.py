@@ -1,4 +1,5 @@
-"""The persistent knowledge base: one owlready2 SQLite quadstore (the store of record) and its SPARQL index.
+"""The persistent knowledge base: one owlready2 SQLite quadstore (the store of record, reached through
+pipeline.rdf) and its SPARQL index.
 
 The quadstore holds the core ontology, one ontology per robot (its named graph: graph IRI =
 ontology IRI), and, in table kb_graphs, the exact N-Triples of every other graph SPARQL Update
@@ -26,7 +27,6 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
-import owlready2
 import rdflib
 from platformdirs import user_data_dir
 from rdflib.namespace import PROV
@@ -35,6 +35,7 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
+from urdfkb.pipeline import rdf
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError, UrdfkbError
 from urdfkb.pipeline.export import export_robot, robot_graph, robot_graph_of
@@ -126,26 +127,27 @@ class Store:
         self._refuse_robots_without_source()
         with self.lock:
             self._entries = self._read_entries()
-            graphs = {CORE_GRAPH: _ntriples(self.core)}
+            graphs = {CORE_GRAPH: rdf.ntriples(self.core)}
             for e in self.robots():
-                graphs[e.ontology_iri] = _ntriples(self._ontology(e.ontology_iri))
+                graphs[e.ontology_iri] = rdf.ntriples(self._ontology(e.ontology_iri))
                 if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
                     graphs[review.corrections_iri(e.name)] = corrections
-            graphs.update(self.world.graph.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
+            graphs.update(self.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
         self.index = Index(graphs, workers, limits)
 
     def _open(self) -> None:
-        self.world = owlready2.World(filename=str(self.path), exclusive=False, journal_mode="WAL")
+        self.world = rdf.open_world(self.path)
+        self.db = rdf.database(self.world)  # the store's own tables, written in the world's transactions
         self.core = load_core(self.world)
         for statement in _SCHEMA:
-            self.world.graph.db.execute(statement)
+            self.db.execute(statement)
         self.world.save()
 
     def _refuse_robots_without_source(self) -> None:
         """UrdfkbError naming the robots stored without their URDF tree and model answer (table kb_sources), as
         development versions before reviewers' corrections wrote them: no release did, and without the URDF
         (its origins, limits, geometry) they cannot be migrated."""
-        names = [row[0] for row in self.world.graph.db.execute(
+        names = [row[0] for row in self.db.execute(
             "SELECT name FROM kb_robots WHERE name NOT IN (SELECT name FROM kb_sources) ORDER BY name")]
         if names:
             self.world.close()
@@ -156,7 +158,7 @@ class Store:
 
     def _discard(self) -> None:
         """Drop uncommitted changes and the world's in-memory caches; reopen from the file."""
-        self.world.graph.db.rollback()
+        self.db.rollback()
         self.world.close()
         self._open()
 
@@ -183,13 +185,13 @@ class Store:
     def _graph_data(self, graph: str) -> bytes | None:
         """A graph's N-Triples as stored: the core, a robot's ontology, or a kb_graphs row (None: no such graph)."""
         if graph == CORE_GRAPH:
-            return _ntriples(self.core)
-        row = self.world.graph.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
+            return rdf.ntriples(self.core)
+        row = self.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row:
-            return _ntriples(self._ontology(graph))
+            return rdf.ntriples(self._ontology(graph))
         if (onto := self.world.ontologies.get(graph)) is not None:  # a robot's corrections
-            return _ntriples(onto)
-        row = self.world.graph.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
+            return rdf.ntriples(onto)
+        row = self.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
         return row[0] if row else None
 
     def close(self) -> None:
@@ -215,7 +217,7 @@ class Store:
 
     def _read_entries(self) -> dict[str, RobotEntry]:
         """(Under the lock) table kb_robots as committed, by name: the snapshot robots() and robot() read."""
-        rows = self.world.graph.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
+        rows = self.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
         return {row[0]: RobotEntry(*row) for row in rows}
 
     def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
@@ -228,8 +230,8 @@ class Store:
         abstraction = abstraction or Abstraction()
         model = Abstraction(abstraction.components, {**abstraction.provenance, **(provenance or {})}, abstraction.body)
         with self._writing() as touched:
-            self.world.graph.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)",
-                                        (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))
+            self.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)",
+                            (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))
             return self._build(name, tree, model, touched)
 
     def _build(self, name: str, tree, model: Abstraction, touched: set[str]) -> BuiltRobot:
@@ -239,10 +241,8 @@ class Store:
         corrected, report = review.apply(tree, model, self._corrections(name))
         onto = build_robot(self.world, tree, name, corrected)
         touched.add(onto.base_iri)
-        self.world.graph.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
-        influenced_by = self.world._abbreviate(str(PROV.wasInfluencedBy))
-        for comp, corr in review.influences(onto.base_iri, name, report):
-            onto._add_obj_triple_spo(self.world._abbreviate(comp), influenced_by, self.world._abbreviate(corr))
+        self.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
+        rdf.add_object_triples(onto, str(PROV.wasInfluencedBy), review.influences(onto.base_iri, name, report))
         broken = violations(robot_graph(onto, self._corrections_graph(name)))
         if broken:
             raise ShapeError(f"robot {name!r} breaks the SHACL shapes, so it was not stored: {'; '.join(broken)}", broken)
@@ -250,8 +250,8 @@ class Store:
         (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
         entry = BuiltRobot(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"),
                            report.to_dict())
-        self.world.graph.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
-                                    (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
+        self.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
+                        (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
         return entry
 
     # --- reviewers' corrections (graph review.corrections_iri(name)) ----------------------------
@@ -260,7 +260,7 @@ class Store:
         """The tree and the model's own abstraction robot `name` was last populated from (kept while an update
         that emptied its graph has it out of robots()); UnknownRobot for a robot never stored, or deleted."""
         with self.lock:
-            row = self.world.graph.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
+            row = self.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
         if row is None:
             raise UnknownRobot(name)
         return KinematicTree.from_dict(json.loads(row[0])), Abstraction.from_dict(json.loads(row[1]))
@@ -274,15 +274,14 @@ class Store:
         onto = self.world.ontologies.get(review.corrections_iri(name))
         if onto is None:
             return []
-        return review.from_graph(rdflib.Graph().parse(data=_ntriples(onto), format="nt"))
+        return review.from_graph(rdf.rdflib_graph(onto))
 
     def _write_corrections(self, name: str, items: list[review.AnyCorrection]) -> None:
         iri = review.corrections_iri(name)
         if (old := self.world.ontologies.get(iri)) is not None:
             old.destroy()
         if items:
-            data = review.to_graph(name, items).serialize(format="nt", encoding="utf-8")
-            self.world.get_ontology(iri).load(fileobj=io.BytesIO(data), format="ntriples")
+            rdf.load_graph(self.world, iri, review.to_graph(name, items))
 
     def add_correction(self, name: str, correction: review.AnyCorrection) -> BuiltRobot:
         """Store `correction` (a body correction naming its parts by their joints: review.resolve), or raise
@@ -313,14 +312,14 @@ class Store:
             touched.update((entry.ontology_iri, review.corrections_iri(name)))
             self._unregister(entry)
             self._write_corrections(name, [])
-            self.world.graph.db.execute("DELETE FROM kb_sources WHERE name=?", (name,))
+            self.db.execute("DELETE FROM kb_sources WHERE name=?", (name,))
         return entry
 
     def _unregister(self, entry: RobotEntry) -> None:
         self._ontology(entry.ontology_iri).destroy()
-        self.world.graph.db.execute("DELETE FROM kb_robots WHERE name=?", (entry.name,))
+        self.db.execute("DELETE FROM kb_robots WHERE name=?", (entry.name,))
 
-    def _ontology(self, iri: str) -> owlready2.Ontology:
+    def _ontology(self, iri: str) -> rdf.Ontology:
         return self.world.ontologies.get(iri) or self.world.get_ontology(iri)
 
     def _corrections_graph(self, name: str) -> rdflib.Graph | None:
@@ -389,7 +388,7 @@ class Store:
     def _check_shapes(self, graph: str, data: bytes | None) -> None:
         """The SHACL gate every write passes, for an update's new content of a robot graph: ShapeError
         (nothing is written) if it breaks the shapes. An update that empties a robot graph removes the robot."""
-        row = self.world.graph.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
+        row = self.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row is None or not data:
             return
         broken = violations(robot_graph_of(data, graph, self._corrections_graph(row[0])))
@@ -399,7 +398,7 @@ class Store:
 
     def _persist(self, graph: str, data: bytes | None) -> None:
         """Store one graph's new content: into the robot's ontology, or as a kb_graphs row."""
-        db = self.world.graph.db
+        db = self.db
         row = db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row is None:
             if data is None:
@@ -413,10 +412,4 @@ class Store:
             if data is not None:  # cleared, not dropped: the empty graph stays
                 db.execute("INSERT OR REPLACE INTO kb_graphs VALUES (?, ?)", (graph, b""))
             return
-        self.world.get_ontology(graph).load(fileobj=io.BytesIO(data), format="ntriples")
-
-
-def _ntriples(onto: owlready2.Ontology) -> bytes:
-    buf = io.BytesIO()
-    onto.save(buf, format="ntriples")
-    return buf.getvalue()
+        rdf.load_ntriples(self.world, graph, data)

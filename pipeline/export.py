@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import functools
-import io
 import os
 from typing import BinaryIO
 
-import owlready2
 import rdflib
 from rdflib.namespace import OWL, SOSA
 
+from urdfkb.pipeline import rdf
 from urdfkb.pipeline.atomic import write_atomically
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.formats import BY_NAME
@@ -24,20 +23,17 @@ def _core_triples(vocab: Vocabulary) -> tuple:
     return tuple(t for t in vocab.graph if t[0] != header)
 
 
-def robot_graph(onto: owlready2.Ontology, extra: rdflib.Graph | None = None,
+def robot_graph(onto: rdf.Ontology, extra: rdflib.Graph | None = None,
                 vocab: Vocabulary | None = None) -> rdflib.Graph:
     """The robot ontology's own triples plus the core's axioms (of `vocab`, the packaged vocabulary by
     default) and `extra` (e.g. reviewers' corrections), as one rdflib graph."""
-    buf = io.BytesIO()
-    onto.save(buf, format="ntriples")
-    return robot_graph_of(buf.getvalue(), onto.base_iri, extra, vocab)
+    return robot_graph_of(rdf.ntriples(onto), onto.base_iri, extra, vocab)
 
 
 def robot_graph_of(ntriples: bytes, base_iri: str, extra: rdflib.Graph | None = None,
                    vocab: Vocabulary | None = None) -> rdflib.Graph:
     """`robot_graph` of a robot graph given as N-Triples (its ontology IRI `base_iri`)."""
-    graph = rdflib.Graph()
-    graph.parse(data=ntriples, format="nt")
+    graph = rdf.parse_ntriples(ntriples)
     for triple in _core_triples(vocab or vocabulary()):
         graph.add(triple)
     if extra is not None:
@@ -52,7 +48,7 @@ def robot_graph_of(ntriples: bytes, base_iri: str, extra: rdflib.Graph | None = 
     return graph
 
 
-def export_robot(onto: owlready2.Ontology, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml",
+def export_robot(onto: rdf.Ontology, dest: str | os.PathLike | BinaryIO, fmt: str = "rdfxml",
                  extra: rdflib.Graph | None = None) -> None:
     """Write `robot_graph(onto, extra)` to a path (atomically: temp file then rename) or a binary stream."""
     if fmt not in BY_NAME:

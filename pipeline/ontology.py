@@ -14,11 +14,11 @@ import pathlib
 from dataclasses import dataclass
 from typing import Iterable
 
-import owlready2
 import rdflib
 from rdflib.collection import Collection
 from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS, XSD
 
+from urdfkb.pipeline import rdf
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, CORE_ONTOLOGY_IRI
 
@@ -43,7 +43,7 @@ def _packaged(name: str) -> pathlib.Path:
     return pathlib.Path(str(importlib.resources.files("urdfkb.ontologies").joinpath(name)))
 
 
-def load_core(world: owlready2.World, vocab: "Vocabulary | None" = None) -> owlready2.Ontology:
+def load_core(world: rdf.World, vocab: "Vocabulary | None" = None) -> rdf.Ontology:
     """Load the core (of `vocab`, the packaged one by default) into `world`, offline; no-op if this
     version is there.
 
@@ -52,22 +52,12 @@ def load_core(world: owlready2.World, vocab: "Vocabulary | None" = None) -> owlr
     """
     vocab = vocab or vocabulary()
     onto = world.get_ontology(CORE_ONTOLOGY_IRI)
-    if _stored_version(world, onto) == vocab.version:
+    if rdf.ontology_value(onto, _LOADED_MARK) == vocab.version:
         return onto
     with vocab.path.open("rb") as f:
         onto.load(fileobj=f, reload=onto.loaded)
-    mark = world._abbreviate(_LOADED_MARK)
-    onto._del_data_triple_spod(onto.storid, mark, None, None)
-    onto._add_data_triple_spod(onto.storid, mark, *owlready2.to_literal(vocab.version))
+    rdf.set_ontology_value(onto, _LOADED_MARK, vocab.version)
     return onto
-
-
-def _stored_version(world: owlready2.World, onto: owlready2.Ontology) -> str | None:
-    mark = world._abbreviate(_LOADED_MARK, False)
-    if mark is None:
-        return None
-    value = onto._get_data_triple_sp_od(onto.storid, mark)
-    return value[0] if value else None
 
 
 @dataclass(frozen=True)

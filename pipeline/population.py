@@ -8,10 +8,8 @@ from __future__ import annotations
 import math
 from datetime import datetime, timezone
 
-import owlready2
-
 from urdfkb import __version__
-from urdfkb.pipeline import capabilities
+from urdfkb.pipeline import capabilities, rdf
 from urdfkb.pipeline.components import SENSOR, SIDES, Abstraction, BodyPart, Component
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, SCHEMA, SSN_SYSTEM, body_part_local, capability_local,
@@ -43,8 +41,8 @@ def stamp(tree) -> dict[str, str]:
     return facts
 
 
-def build_robot(world: owlready2.World, tree, robot_name: str, abstraction: Abstraction | None = None,
-                provenance: dict[str, str] | None = None, vocab: Vocabulary | None = None) -> owlready2.Ontology:
+def build_robot(world: rdf.World, tree, robot_name: str, abstraction: Abstraction | None = None,
+                provenance: dict[str, str] | None = None, vocab: Vocabulary | None = None) -> rdf.Ontology:
     """Write the robot as ontology `robot_iri(robot_name)` in `world`, replacing any earlier version.
 
     The abstraction is checked first (classes, links, confidences, names), so a bad one raises
@@ -165,7 +163,7 @@ def _check_link(link: str, known: set[str], where: str) -> None:
         raise OntologyError(f"{where} names link {link!r}, which is not in the URDF")
 
 
-def _fresh_ontology(world: owlready2.World, iri: str) -> owlready2.Ontology:
+def _fresh_ontology(world: rdf.World, iri: str) -> rdf.Ontology:
     old = world.ontologies.get(iri)
     if old is not None:
         old.destroy()
@@ -340,7 +338,7 @@ def _decimal(value: float) -> float:
 def _annotate(world, robot, notes: dict[str, str]) -> None:
     for key, value in notes.items():
         prop = world[CORE_IRI + PROVENANCE_ALIASES.get(key, key)]
-        if isinstance(prop, owlready2.AnnotationPropertyClass):
+        if rdf.is_annotation_property(prop):
             prop[robot].append(datetime.fromisoformat(value) if key == "generatedAt" else str(value))  # xsd:dateTime
         else:
             _set(world, "provenanceNote", robot, f"{key}={value}")

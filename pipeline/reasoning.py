@@ -19,9 +19,7 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
-import owlready2
-
-from urdfkb.pipeline import components
+from urdfkb.pipeline import components, rdf
 from urdfkb.pipeline.namespaces import CORE_IRI
 from urdfkb.pipeline.ontology import load_core, vocabulary
 from urdfkb.pipeline.structure import ToolStructure
@@ -60,7 +58,7 @@ def classify_together(tools: list[ToolStructure], parts: list["PartFacts"]) -> t
     """Tools and candidate body parts in one reasoner run (one JVM): each tool's Inference, each part's
     class (see classify_parts) and the wall time. A part's device named TOOL_REF + i is the i-th tool's
     own individual, whatever class the run infers for it."""
-    world = owlready2.World()
+    world = rdf.new_world()
     try:
         core = load_core(world)
         onto = world.get_ontology("urn:urdfkb:reasoning#")
@@ -99,26 +97,23 @@ def _assert_tools(core, tools: list[ToolStructure]) -> list[tuple[object, dict]]
         chains_all.extend(chains.values())
         individuals.append((individual, chains))
     if len(chains_all) > 1:
-        owlready2.AllDifferent(chains_all)
+        rdf.all_different(chains_all)
     return individuals
 
 
-def _hermit(world: owlready2.World, left: str) -> tuple[bool, float]:
+def _hermit(world: rdf.World, left: str) -> tuple[bool, float]:
     """Run HermiT over `world`: (whether it ran, its wall time). Without Java, or when HermiT fails, what
     it would have settled (`left`, e.g. "body parts are") is left to the model."""
     started = time.monotonic()
-    try:
-        owlready2.sync_reasoner_hermit(world, infer_property_values=False, debug=0)
-    except (owlready2.OwlReadyJavaError, OSError) as e:
-        log.warning("reasoner unavailable (%s): %s left to the model", e, left)
+    if (failure := rdf.hermit(world)) is not None:
+        log.warning("reasoner unavailable (%s): %s left to the model", failure, left)
         return False, time.monotonic() - started
     return True, time.monotonic() - started
 
 
 def _inference(individual, chains: dict) -> Inference:
     tax, tool = vocabulary(), _tool_class()
-    names = [c.iri[len(CORE_IRI):] for c in individual.is_a
-             if isinstance(c, owlready2.ThingClass) and c.iri.startswith(CORE_IRI)]
+    names = [iri[len(CORE_IRI):] for iri in rdf.class_iris(individual) if iri.startswith(CORE_IRI)]
     under = [n for n in names if n in tax and tax.is_a(n, tool)]
     cls = max(under, key=lambda n: len(tax.ancestors(n)), default=tool)
     thumbs = tuple(name for name, chain in chains.items()
@@ -174,6 +169,6 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
 
 def _part_class(part) -> str | None:
     body = vocabulary().body_classes
-    classes = {c.iri[len(CORE_IRI):] for c in part.is_a if isinstance(c, owlready2.ThingClass)}
+    classes = {iri[len(CORE_IRI):] for iri in rdf.class_iris(part)}
     settled = [c for c in body if c in classes]
     return settled[0] if len(settled) == 1 else None

@@ -6,9 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-import owlready2
-
-from urdfkb.pipeline import evaluation
+from urdfkb.pipeline import evaluation, rdf
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
@@ -36,5 +34,5 @@ def run_truth_robot(truth_path: str | Path, settings: Settings, backend: Backend
     tree = load_urdf(urdf)
     abstraction = run(tree, settings, backend=backend, progress=progress, trace=trace)
     seconds = time.monotonic() - started
-    graph = robot_graph(build_robot(owlready2.World(), tree, truth.robot, abstraction))
+    graph = robot_graph(build_robot(rdf.new_world(), tree, truth.robot, abstraction))
     return RobotRun(truth.robot, evaluation.score(truth, graph, set(tree.leaves()), tree), abstraction, seconds)

@@ -7,7 +7,7 @@ import rdflib
 from rdflib.namespace import OWL, RDF, RDFS
 
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline import ontology
+from urdfkb.pipeline import ontology, rdf
 from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, core_path, load_core, shapes_path, vocabulary
 
 CORE = rdflib.Namespace(CORE_IRI)
@@ -170,12 +170,10 @@ def test_load_core_is_idempotent_and_persists(tmp_path):
 def test_load_core_replaces_an_older_core(tmp_path):
     world = owlready2.World()
     onto = load_core(world)
-    mark = world._abbreviate(ontology._LOADED_MARK)
-    onto._del_data_triple_spod(onto.storid, mark, None, None)
-    onto._add_data_triple_spod(onto.storid, mark, *owlready2.to_literal("stale"))
+    rdf.set_ontology_value(onto, ontology._LOADED_MARK, "stale")
     size = len(world.graph)
     load_core(world)
-    assert ontology._stored_version(world, onto) == vocabulary().version and len(world.graph) == size
+    assert rdf.ontology_value(onto, ontology._LOADED_MARK) == vocabulary().version and len(world.graph) == size
 
 
 def test_core_version_is_a_short_digest():

@@ -49,7 +49,7 @@ def test_a_store_with_robots_written_without_their_urdf_tree_is_refused_naming_t
     for name in ("pr2", "panda"):
         s.replace_robot(name, trees[name], None)
     with s.lock:
-        s.world.graph.db.execute("DELETE FROM kb_sources WHERE name='panda'")
+        s.db.execute("DELETE FROM kb_sources WHERE name='panda'")
         s.world.save()
     s.close()
     with pytest.raises(UrdfkbError, match=r"without their URDF tree: panda\. Populate them again from their URDF"):
