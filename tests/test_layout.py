@@ -46,3 +46,71 @@ def test_import_root_lays_out_the_installed_package():
         assert (root / "urdfkb" / name).resolve() == REPO / "urdfkb" / name
     assert {p.name for p in (root / "urdfkb").iterdir()} == {
         *modules, *(p.split(".", 1)[1] for p in PACKAGE_DIR if p != "urdfkb")}
+
+
+# --- one RDF seam (pipeline/rdf.py, docs/layout.md) ------------------------------------------------
+SEAM = REPO / "pipeline" / "rdf.py"
+PRODUCT = [p for p in SOURCES if p.relative_to(REPO).parts[0] in PACKAGE_DIR.values()]
+# Underscore names the product uses that owlready2 also defines, on objects that are not owlready2's.
+NOT_OWLREADY = {("pipeline/llm/llama.py", "_name")}  # a ctypes library's file name
+
+
+def _owlready_internals() -> set[str]:
+    """Every attribute name of owlready2's internals: the underscore names its classes define and a world, its
+    quadstore, an ontology and an individual hold, and two public names that are internals all the same (`storid`,
+    an entity's row in the quadstore; `db`, the quadstore's SQLite connection). Asked of the installed owlready2,
+    so a new version's names are covered."""
+    import owlready2
+    world = owlready2.World()
+    onto = world.get_ontology("urn:layout#")
+    with onto:
+        thing = owlready2.Thing("thing")
+    names = {"storid", "db"}
+    for module in [m for name, m in sys.modules.items() if name.split(".")[0] == "owlready2"]:
+        for value in vars(module).values():
+            if isinstance(value, type) and value.__module__.split(".")[0] == "owlready2":
+                names.update(dir(value))
+    for instance in (world, world.graph, onto, thing):
+        names.update(vars(instance))
+    world.close()
+    return {n for n in names if n in ("storid", "db") or (n.startswith("_") and not n.endswith("__"))}
+
+
+def test_only_the_seam_imports_owlready2():
+    """pipeline/rdf.py alone (stricter than the issue's "the seam and the store": the store needs no more)."""
+    importing = {path.relative_to(REPO).as_posix() for path in PRODUCT for node in ast.walk(ast.parse(path.read_text()))
+                 if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "owlready2" for a in node.names)
+                 or isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "owlready2"}
+    assert importing == {"pipeline/rdf.py"}
+
+
+def test_only_the_seam_touches_owlready2_internals():
+    """No attribute of owlready2's internals is read or written outside the seam. Attributes of `self` and `cls`
+    are the module's own: no product class outside the seam derives from an owlready2 class (the next test), and
+    only the seam can name one (the test before)."""
+    internals = _owlready_internals()
+    touched = []
+    for path in PRODUCT:
+        where = path.relative_to(REPO).as_posix()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (path != SEAM and isinstance(node, ast.Attribute) and node.attr in internals
+                    and not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"))
+                    and (where, node.attr) not in NOT_OWLREADY):
+                touched.append(f"{where}:{node.lineno} .{node.attr}")
+    assert touched == []
+    assert "_abbreviate" in internals and "_add_obj_triple_spo" in internals  # the check knows what it looks for
+
+
+def test_no_class_outside_the_seam_derives_from_its_types():
+    derived = []
+    for path in PRODUCT:
+        tree = ast.parse(path.read_text())
+        seam_names = {a.asname or a.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                      and node.module == "urdfkb.pipeline.rdf" for a in node.names}
+        for node in ast.walk(tree):
+            if path != SEAM and isinstance(node, ast.ClassDef):
+                for base in node.bases:
+                    if (isinstance(base, ast.Name) and base.id in seam_names
+                            or isinstance(base, ast.Attribute) and isinstance(base.value, ast.Name) and base.value.id == "rdf"):
+                        derived.append(f"{path.relative_to(REPO)}:{node.lineno}")
+    assert derived == []
