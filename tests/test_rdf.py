@@ -3,7 +3,7 @@ owlready2's object model write what they say."""
 import pytest
 import rdflib
 from rdflib.compare import isomorphic
-from rdflib.namespace import PROV, XSD
+from rdflib.namespace import PROV
 
 from urdfkb.pipeline import rdf
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, robot_iri
@@ -52,7 +52,7 @@ def test_an_ontology_states_one_value_of_itself(world):
     rdf.set_ontology_value(onto, mark, "first")
     rdf.set_ontology_value(onto, mark, "second")
     assert rdf.ontology_value(onto, mark) == "second"
-    assert list(rdf.rdflib_graph(onto).objects(rdflib.URIRef("urn:test"), CORE.ontologyVersion)) == [rdflib.Literal("second", datatype=XSD.string)]
+    assert list(rdf.rdflib_graph(onto).objects(rdflib.URIRef("urn:test"), CORE.ontologyVersion)) == [rdflib.Literal("second", datatype=rdflib.XSD.string)]
 
 
 def test_what_the_object_model_answers(world, robot):
