@@ -34,7 +34,8 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import ToolStructure, feet, frames_of_one_body, hand_leaves, viewpoints
+from urdfkb.pipeline.structure import (ToolStructure, alike_leaves, feet, frames_of_one_body, hand_mounts, partition,
+                                      viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -84,6 +85,7 @@ class Abstractor:
         self.declared = 0  # classification subjects whose options a simulator sensor declaration narrowed
         self.body: tuple[BodyPart, ...] = ()  # the last run's body parts
         self.hand_tips: frozenset[str] = frozenset()  # leaves of hands and grippers: the end-effector pass's (shape step)
+        self.hand_mounts: dict[str, str] = {}  # each of those leaves → its hand's mount
         self.feet: frozenset[str] = frozenset()  # limb tips the robot stands on: never tools (shape step)
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
@@ -109,7 +111,8 @@ class Abstractor:
         grippers (their fingers, a hand's drive, tool centre points) belong to the end-effector pass unless a
         simulator declares a sensor on them, and limb tips the robot stands on are feet, never tools."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
-        self.hand_tips = hand_leaves(s.robot) - declared
+        self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(s.robot).items() if leaf not in declared}
+        self.hand_tips = frozenset(self.hand_mounts)
         self.feet = feet(s.robot)
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet)})
 
@@ -161,16 +164,23 @@ class Abstractor:
         if not selected:
             s.done = True
             return
+        settled = {} if rigid else self.hand_mounts  # a hand's leaves are mounted where its shape says
         s.chains = detect_roots(self.oracle, s.tree, selected, kind, self._blocked(s.tree, kind.cls), self.progress,
-                                rigid=rigid)
+                                rigid=rigid, settled=settled)
         if rigid:  # frames of one body share one mount (grouping.one_mount)
             s.chains = one_mount(s.tree, s.chains)
 
     def pre_classification(self, s: PassState) -> None:
+        """Each sub-chain's class below the pass's kind; alike leaves (structure.alike_leaves) whose declarations
+        rule out the same classes are asked once, the first standing for all."""
         kind = self._kind(s)
-        typed = descend(self.oracle, self.tax, kind.cls, [self._chain_subject(s.tree, c, kind.cls) for c in s.chains],
+        subjects = {c.leaf: self._chain_subject(s.tree, c, kind.cls) for c in s.chains}
+        sets = [same for alike in alike_leaves(s.tree, list(subjects))
+                for same in partition(alike, lambda a, b: subjects[a].exclude == subjects[b].exclude)]
+        typed = descend(self.oracle, self.tax, kind.cls, [subjects[leaves[0]] for leaves in sets],
                         "pre-classification", self.progress)
-        s.pre = {c.leaf: t for c, t in zip(s.chains, typed)}
+        by_leaf = {leaf: t for leaves, t in zip(sets, typed) for leaf in leaves}
+        s.pre = {c.leaf: by_leaf[c.leaf] for c in s.chains}
 
     def group_merging(self, s: PassState) -> None:
         kind = self._kind(s)

@@ -314,14 +314,19 @@ STANCE = 0.15  # m: how far above its lowest points the root of a robot that sta
 
 
 def hand_leaves(tree: KinematicTree) -> frozenset[str]:
-    """The leaves of every hand or gripper the tree's shape shows, read before anything is asked, so that they
+    """The leaves of every hand or gripper the tree's shape shows (hand_mounts)."""
+    return frozenset(hand_mounts(tree))
+
+
+def hand_mounts(tree: KinematicTree) -> dict[str, str]:
+    """Each leaf of every hand or gripper the tree's shape shows → the hand's mount, read before anything is asked, so that they
     go to the end-effector pass and not to the sensors. A hand is a fork (tool_structure) with two finger
     chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
     range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
     finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
     the pure frames fixed to its body that lie out among the fingertips (_among_tips): tool centre points.
     A joint that spins freely (continuous, following no other) is a wheel's or a caster's, never a finger's."""
-    found: set[str] = set()
+    found: dict[str, str] = {}
     for fork in tree.links:
         small = [c for c in _moving_children(tree, fork) if _hand_sized(tree, fork, c)]
         if len(small) < 2:
@@ -331,9 +336,8 @@ def hand_leaves(tree: KinematicTree) -> frozenset[str]:
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
             continue
-        found.update(leaves)
-        found.update(_tool_points(tree, structure.fork, fingers))
-    return frozenset(found)
+        found.update(dict.fromkeys([*leaves, *_tool_points(tree, structure.fork, fingers)], structure.mount))
+    return found
 
 
 def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:

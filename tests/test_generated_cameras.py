@@ -11,7 +11,7 @@ from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.attachment import detect_roots, sub_chain
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
@@ -142,3 +142,22 @@ def test_frames_of_one_housing_the_model_splits_between_sensor_and_tool_are_all_
         assert {f: abstractor.claims[f] for f in frames} == dict.fromkeys(frames, TAX.kinds["sensor"].cls), seed
         checked += 1
     assert checked > 50
+
+
+@pytest.mark.slow  # many generated robots
+def test_the_frames_of_one_housing_are_mounted_by_one_question():
+    """Where the first frame of a housing is mounted on a link carrying the housing, its other frames are
+    mounted there unasked (group merging would raise them to it anyway); frames of separate housings are asked."""
+    for seed in SEEDS:
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        frames = [f for d in built.devices for f in d]
+        asked: list[str] = []
+
+        def mount_on_head(q):
+            asked.append(q.key)
+            return built.mount
+        chains = detect_roots(Oracle(ScriptedBackend(mount_on_head)), tree, frames, TAX.kinds["sensor"],
+                              lambda _link: False, rigid=True)
+        assert {c.root for c in chains} == {built.mount}, seed
+        assert len(asked) == len(set(built.housing.values())), (seed, built.description)

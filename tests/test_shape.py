@@ -16,7 +16,8 @@ from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.structure import alike_leaves, feet, hand_leaves
+from urdfkb.pipeline.stages.attachment import detect_roots
+from urdfkb.pipeline.structure import alike_leaves, feet, hand_leaves, hand_mounts
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -133,3 +134,18 @@ def test_fixed_frames_side_by_side_are_never_alike():
         w.joint("prismatic", body, jaw, (0.05, 0.02 * y, 0.0), (0.0, y, 0.0), (0.0, 0.03))
     tree = load_urdf(w.urdf())
     assert sorted(map(sorted, alike_leaves(tree, list(tree.leaves())))) == sorted([sorted(jaws), [frames[0]], [frames[1]]])
+
+
+@pytest.mark.slow  # many generated robots
+def test_a_hands_leaves_are_mounted_where_its_shape_says_unasked():
+    """The end-effector pass asks no mount for a hand's leaves: the shape gives the hand's mount (the link its
+    palm is bolted to), even where the model would have named another."""
+    for seed in range(0, 300, 5):
+        built = build(seed, False)
+        tree = load_urdf(built.urdf)
+        mounts = hand_mounts(tree)
+        assert set(mounts.values()) == {built.mount}, (seed, built.layout)
+        asked: list[str] = []
+        chains = detect_roots(Oracle(ScriptedBackend(lambda q: asked.append(q.key) or q.options[-1])), tree,
+                              sorted(mounts), TAX.kinds["end_effector"], lambda _link: False, settled=mounts)
+        assert not asked and {c.root for c in chains} == {built.mount}, (seed, built.layout)

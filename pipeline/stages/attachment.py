@@ -12,11 +12,12 @@ frame should, keeps its parent as the one candidate.)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Mapping
 
 from urdfkb.pipeline.ontology import Kind
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import root_question
+from urdfkb.pipeline.structure import alike_leaves, body_of, frames_of_one_body, partition
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.stages.asking import Progress, ask
 
@@ -54,18 +55,43 @@ def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bo
 
 
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: Kind,
-                 blocked: Callable[[str], bool], progress: Progress | None = None, rigid: bool = False) -> list[SubChain]:
+                 blocked: Callable[[str], bool], progress: Progress | None = None, rigid: bool = False,
+                 settled: Mapping[str, str] | None = None) -> list[SubChain]:
     """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device;
-    `rigid`: devices of this kind are fixed to their mount (sensors)."""
-    asked, chains = [], {}
-    for leaf in leaves:
-        candidates = mount_candidates(tree, leaf, blocked, rigid)
-        if len(candidates) == 1:
-            chains[leaf] = sub_chain(tree, leaf, candidates[0])
-        else:
-            asked.append((leaf, root_question(kind, leaf, candidates)))
-    verdicts = ask(oracle, [q for _, q in asked], "attachment root detection", progress)
-    for (leaf, q), v in zip(asked, verdicts):
-        root = v.answer or q.options[0]  # an abstention mounts the device on its parent
-        chains[leaf] = sub_chain(tree, leaf, root)
+    `rigid`: devices of this kind are fixed to their mount (sensors); `settled`: leaf → the mount its tree
+    shape gives it (a hand's leaves: structure.hand_mounts), taken unasked where it is among the candidates.
+
+    Fewer questions than leaves: alike leaves (structure.alike_leaves: a left and a right forearm camera) with
+    as many candidates are asked once, each mounted as high up its own chain as the first is on its chain; and
+    of the frames of one body (structure.body_of: an RGB-D camera's) the first is asked, the others taking its
+    mount where that lies above the body (they would be raised to it anyway: grouping.one_mount) and being
+    asked themselves where it does not (a mount on the body itself binds nothing)."""
+    candidates = {leaf: mount_candidates(tree, leaf, blocked, rigid) for leaf in leaves}
+    chains = {leaf: sub_chain(tree, leaf, c[0]) for leaf, c in candidates.items() if len(c) == 1}
+    chains.update({leaf: sub_chain(tree, leaf, mount) for leaf, mount in (settled or {}).items()
+                   if leaf in candidates and leaf not in chains and mount in candidates[leaf]})
+    bodies = frames_of_one_body(tree, [leaf for leaf in leaves if leaf not in chains])
+    _ask_mounts(oracle, tree, kind, [frames[0] for frames in bodies], candidates, chains, progress)
+    rest = []
+    for first, *others in bodies:
+        mount = chains[first].root
+        for leaf in others:
+            body = body_of(tree, first, leaf)
+            if body is not None and mount in tree.chain_to_root(body)[1:] and mount in candidates[leaf]:
+                chains[leaf] = sub_chain(tree, leaf, mount)
+            else:
+                rest.append(leaf)
+    _ask_mounts(oracle, tree, kind, rest, candidates, chains, progress)
     return [chains[leaf] for leaf in leaves]
+
+
+def _ask_mounts(oracle: Oracle, tree: KinematicTree, kind: Kind, leaves: list[str], candidates: dict[str, list[str]],
+                chains: dict[str, SubChain], progress: Progress | None) -> None:
+    """The mount of each of `leaves`, into `chains`; alike leaves with as many candidates asked once."""
+    sets = [same for alike in alike_leaves(tree, leaves)
+            for same in partition(alike, lambda a, b: len(candidates[a]) == len(candidates[b]))]
+    questions = [root_question(kind, group[0], candidates[group[0]]) for group in sets]
+    for group, q, v in zip(sets, questions, ask(oracle, questions, "attachment root detection", progress)):
+        depth = q.options.index(v.answer) if v.answer in q.options else 0  # an abstention: on its parent
+        for leaf in group:
+            chains[leaf] = sub_chain(tree, leaf, candidates[leaf][depth])

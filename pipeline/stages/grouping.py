@@ -20,7 +20,7 @@ One body, one device: two sensor sub-chains of one category whose leaves are fra
 by fixed joints from one link inside both (the device's body, a housing or a bare camera frame), within
 CAMERA_BODY of it, each by a branch of that link that leads to it alone, are one device whatever their
 names: the colour, depth, infrared and inertial frames of an RGB-D camera, which the name question
-split into one device per frame. A branch that carries several frames is a camera of its own (a stereo
+split into one device per frame; one device name is asked for them all. A branch that carries several frames is a camera of its own (a stereo
 head's wide and narrow pairs on one bar), so it binds nothing there; its own frames bind below it.
 Each sub-chain lands in exactly one group: a partition by construction.
 """
@@ -142,7 +142,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                  for i, a in enumerate(chains)]
         bound = [[could[i][j] and _one_body(tree, a, b) for j, b in enumerate(chains)] for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
-        device = _device_names(oracle, chains, joinable, progress)
+        device = _device_names(oracle, chains, joinable, partition(range(len(chains)), lambda i, j: bound[i][j]),
+                               progress)
         same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
                 for i in range(len(chains))]
     groups = [Group([chains[i] for i in members])
@@ -153,14 +154,20 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     return groups
 
 
-def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool],
+def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool], devices: list[list[int]],
                   progress: Progress | None) -> list[str]:
     """Each sub-chain's device name as the model gives it. Only a chain that could join another (one
     near it, of its category) is asked: for the others no answer changes the partition, so their own
-    leaf name stands."""
-    asked = [c for c, j in zip(chains, joinable) if j]
-    verdicts = iter(ask(oracle, [device_name_question(c.leaf, device_names(c)) for c in asked], "group merging", progress))
-    return [(next(verdicts).answer or c.leaf) if j else c.leaf for c, j in zip(chains, joinable)]
+    leaf name stands. The chains of one device by structure (`devices`, frames of one body) are one device,
+    so the first that could join another is asked for all of them."""
+    names = [c.leaf for c in chains]
+    asked = [next(i for i in members if joinable[i]) for members in devices if any(joinable[i] for i in members)]
+    verdicts = ask(oracle, [device_name_question(chains[i].leaf, device_names(chains[i])) for i in asked],
+                   "group merging", progress)
+    for i, verdict in zip(asked, verdicts):
+        for j in next(members for members in devices if i in members):
+            names[j] = verdict.answer or chains[i].leaf
+    return names
 
 
 def _one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
