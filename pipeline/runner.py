@@ -17,7 +17,7 @@ from urdfkb.pipeline.llm.base import Backend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
 from urdfkb.pipeline.population import stamp
-from urdfkb.pipeline.reasoning import Reasoner, classify_together
+from urdfkb.pipeline.reasoning import Placer, Reasoner, classify_together, placements
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.tree import KinematicTree
@@ -125,7 +125,8 @@ def _verification_log(trace: TextIO) -> Callable[[str], None]:
 
 def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
         trace: TextIO | None = None, timings: Timings | None = None,
-        backends: Callable[[Settings], Backend] | None = None, reasoner: Reasoner = classify_together) -> Abstraction:
+        backends: Callable[[Settings], Backend] | None = None, reasoner: Reasoner = classify_together,
+        placer: Placer = placements) -> Abstraction:
     """Abstract a robot's sensors and end-effectors (nothing when structure_only).
 
     `backend` overrides the one the settings name (tests inject a scripted one); `backends` gives the
@@ -134,8 +135,8 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     the backend is closed after use. The provenance always carries population.stamp(tree) for this
     run; when the result cache answers, the counts and seconds are those of the run that computed it,
     and result_cache=hit. `timings` receives the model load's and every step's timing records (else
-    the steps' go to the trace). `reasoner` stands in for HermiT (tests inject one that agrees with it:
-    it is no part of the cache key).
+    the steps' go to the trace). `reasoner` and `placer` stand in for HermiT (tests inject ones that agree
+    with it: they are no part of the cache key).
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only", **stamp(tree)})
@@ -157,7 +158,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
         started = time.monotonic()
         log = _verification_log(trace) if trace else None
-        abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None, reasoner)
+        abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None, reasoner, placer)
         components, body = abstractor.run(tree), abstractor.body
         stats = oracle.stats
         provenance = {
