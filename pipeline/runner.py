@@ -18,6 +18,7 @@ from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
 from urdfkb.pipeline.population import stamp
 from urdfkb.pipeline.reasoning import Placer, Reasoner, classify_together, placements
+from urdfkb.pipeline.screen import screen
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.tree import KinematicTree
@@ -123,6 +124,13 @@ def _verification_log(trace: TextIO) -> Callable[[str], None]:
     return log
 
 
+def _trace_writer(trace: TextIO) -> Callable[[dict], None]:
+    """Records written to the trace as JSON lines."""
+    def write(record: dict) -> None:
+        trace.write(json.dumps(record) + "\n")
+    return write
+
+
 def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
         trace: TextIO | None = None, timings: Timings | None = None,
         backends: Callable[[Settings], Backend] | None = None, reasoner: Reasoner = classify_together,
@@ -136,7 +144,8 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     run; when the result cache answers, the counts and seconds are those of the run that computed it,
     and result_cache=hit. `timings` receives the model load's and every step's timing records (else
     the steps' go to the trace). `reasoner` and `placer` stand in for HermiT (tests inject ones that agree
-    with it: they are no part of the cache key).
+    with it: they are no part of the cache key). Components and body parts that break the SHACL shapes are
+    held back for review (pipeline.screen), each recorded in the trace.
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only", **stamp(tree)})
@@ -147,7 +156,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     model_file = _model_file(settings) if backend is None else {}  # its digest keys the cache: a replaced file misses
     digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
-        return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)}, hit.body)
+        return hit.with_provenance({"result_cache": "hit", **stamp(tree)})
     owned = backend is None and backends is None
     if backend is None:
         loading = time.perf_counter()
@@ -172,7 +181,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     finally:
         if owned:
             backend.close()
-    result = Abstraction(tuple(components), provenance, tuple(body))
+    result = screen(tree, Abstraction(tuple(components), provenance, tuple(body)), _trace_writer(trace) if trace else None)
     if settings.use_cache:
         cache.store(digest, result)
-    return Abstraction(tuple(components), {**provenance, **stamp(tree)}, tuple(body))
+    return result.with_provenance(stamp(tree))
