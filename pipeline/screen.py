@@ -42,16 +42,14 @@ def screen(tree: KinematicTree, abstraction: Abstraction, record: Record | None 
     for violation in found:
         if isinstance(violation.focus, rdflib.URIRef) and (whose := owner(local_name(violation.focus))):
             by_owner.setdefault(whose, []).append(violation)
-    candidates: list[tuple[str, str | None, str, tuple[str, ...], tuple[str, str]]] = [
-        (c.name, c.kind, c.cls, c.links, ("component", escape(c.name))) for c in abstraction.components]
-    candidates += [(p.name, None, p.cls, p.links, ("body", escape(p.name))) for p in abstraction.body]
-    held = []
-    for name, kind, cls, links, whose in candidates:
-        if whose in by_owner:
-            held.append(Held(name, kind, cls, links, tuple(sorted(map(str, by_owner[whose])))))
-            if record is not None:
-                record({"key": "held", "name": name, "kind": kind, "class": cls,
-                        "shapes": sorted({v.shape for v in by_owner[whose]}), "violations": list(held[-1].violations)})
+    held = [Held(c.name, c.kind, c.cls, c.links, _lines(vs)) for c in abstraction.components
+            if (vs := by_owner.get(("component", escape(c.name))))]
+    held += [Held(p.name, None, p.cls, p.links, _lines(vs)) for p in abstraction.body
+             if (vs := by_owner.get(("body", escape(p.name))))]
+    if record is not None:
+        for h in held:
+            record({"key": "held", "name": h.name, "kind": h.kind, "class": h.cls,
+                    "shapes": sorted({line.split(":", 1)[0] for line in h.violations}), "violations": list(h.violations)})
     if not held:
         return abstraction
     parts, comps = {h.name for h in held if h.kind is None}, {h.name for h in held if h.kind is not None}
@@ -60,3 +58,8 @@ def screen(tree: KinematicTree, abstraction: Abstraction, record: Record | None 
                                     for c in abstraction.components if c.name not in comps),
                    body=tuple(p if p.parent not in parts else replace(p, parent=None)
                               for p in abstraction.body if p.name not in parts))
+
+
+def _lines(violations: list[Violation]) -> tuple[str, ...]:
+    """One line each, the shape first, as shacl.violations gives them."""
+    return tuple(sorted(map(str, violations)))
