@@ -133,6 +133,9 @@ def cmd_populate(args: argparse.Namespace) -> int:
     print(f"{name}: {len(tree.links)} links, {len(tree.edges)} joints, {what} in {seconds:.1f} s -> {Path(out).resolve()}")
     for c in abstraction.components:
         print(f"  {c.kind:12} {c.cls:20} on {c.root:30} {c.confidence:.2f}  {', '.join(c.links)}")
+    for h in abstraction.held:
+        print(f"  held back, not written (it breaks the shapes): {h.cls} {h.name} on {', '.join(h.links)}\n    "
+              + "\n    ".join(h.violations))
     if args.timings:
         print(timings.table())
     return 0

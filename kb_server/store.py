@@ -228,7 +228,7 @@ class Store:
         `corrections` says which applied and which no longer fit."""
         check_robot_name(name)
         abstraction = abstraction or Abstraction()
-        model = Abstraction(abstraction.components, {**abstraction.provenance, **(provenance or {})}, abstraction.body)
+        model = abstraction.with_provenance(provenance or {})
         with self._writing() as touched:
             self.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)",
                             (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))

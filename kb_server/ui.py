@@ -32,8 +32,8 @@ def wants_html() -> bool:
 
 
 def robot_page(store: Store, name: str) -> str:
-    """The robot's page: SVG tree, components least confident first, review controls (UnknownRobot if there
-    is no such robot: kb_server.replies answers it as a page)."""
+    """The robot's page: SVG tree, components least confident first, review controls, what the shapes held
+    back (pipeline.screen) (UnknownRobot if there is no such robot: kb_server.replies answers it as a page)."""
     entry = store.require(name)
     tree, model = store.source(name)
     comps = queries.components(store, name)
@@ -70,7 +70,7 @@ def robot_page(store: Store, name: str) -> str:
     addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
     return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, body_view.bands(body)),
-                           stale=stale, links=tree.links, claimed=claimed,
+                           stale=stale, held=model.held, links=tree.links, claimed=claimed,
                            addable=addable, body=body, body_legend=body_view.legend(body), sides=SIDE_CHOICES)
 
 

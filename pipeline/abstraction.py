@@ -26,7 +26,7 @@ from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order
 from urdfkb.pipeline.prompts import NONE, product_text
 from urdfkb.pipeline.stages import tools
 from urdfkb.pipeline.stages.asking import Progress
-from urdfkb.pipeline.stages.attachment import SubChain, detect_roots
+from urdfkb.pipeline.stages.attachment import SubChain, detect_roots, sub_chain
 from urdfkb.pipeline.stages import body as body_stage
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
@@ -72,10 +72,12 @@ class Abstractor:
     """Runs the passes over one robot, keeping what identification learnt between them."""
 
     def __init__(self, oracle: Oracle, tax: Vocabulary, progress: Progress | None = None, log: Log | None = None,
-                 record: Callable[[dict], None] | None = None, reasoner: reasoning.Reasoner = reasoning.classify_together):
+                 record: Callable[[dict], None] | None = None, reasoner: reasoning.Reasoner = reasoning.classify_together,
+                 placer: reasoning.Placer = reasoning.placements):
         """`record` receives each step's timing record (default: the oracle's trace); `reasoner` classifies
-        tools and body candidates from their facts (HermiT; tests inject a stand-in)."""
-        self.oracle, self.tax, self.infer = oracle, tax, reasoner
+        tools and body candidates from their facts, `placer` says which classes a body part rules out for what
+        sits on it (HermiT both; tests inject stand-ins)."""
+        self.oracle, self.tax, self.infer, self.place = oracle, tax, reasoner, placer
         self.progress, self.log = progress, log or (lambda _msg: None)
         self.record = record or self._trace
         self.reasoner_seconds = 0.0  # HermiT's wall time over the run
@@ -307,12 +309,48 @@ class Abstractor:
     def location(self, s: PassState) -> None:
         s.components = [body_stage.locate(s.robot, c, s.body) for c in s.components]
 
+    def placement(self, s: PassState) -> None:
+        """The property-restriction loop: a component whose class says where it may sit (Vocabulary.placement:
+        a bumper on a mobile base or a leg) is checked by the reasoner against the body part it is located on;
+        where its class is inconsistent with that part, it is asked its class question again from its kind
+        down, without the classes the part rules out, and the trace records the restriction that fired.
+        The question is its sub-chain's pre-classification (a device of several frames: its frames together),
+        so only the options change. Its sub-parts stay as typed: a new class that requires other parts is
+        held back for review by the shapes (pipeline.screen)."""
+        sits = {p.name: p.cls for p in s.body}
+        checked = [(c, sits[c.located_on]) for c in s.components if c.located_on is not None and self.tax.placement(c.cls)]
+        if not checked:
+            return
+        placed = tuple(c for kind in self.tax.kinds.values() for c in self.tax.subclasses_below(kind.cls)
+                       if self.tax.placement(c))
+        ruled, seconds = self.place(self.tax.body_classes, placed)
+        self.reasoner_seconds += seconds
+        for comp, part in [(c, part) for c, part in checked if c.cls in ruled[part]]:
+            (typed,) = descend(self.oracle, self.tax, self.tax.kinds[comp.kind].cls,
+                               [self._class_question(s.robot, comp, ruled[part])], "placement", self.progress)
+            restriction = self.tax.placement(comp.cls)
+            self.log(f"placement: {comp.name} is no {comp.cls} on a {part} ({restriction}): asked again, {typed.cls}")
+            self._trace({"key": "placement", "component": comp.name, "class": comp.cls, "located_on": comp.located_on,
+                         "part_class": part, "restriction": restriction, "reasked": typed.cls,
+                         "confidence": round(typed.confidence, 4)})
+            s.components = [replace(c, cls=typed.cls, confidence=round(typed.confidence, 4)) if c is comp else c
+                            for c in s.components]
+
     # --- helpers ----------------------------------------------------------------------------------
 
     def _kind(self, s: PassState) -> Kind:
         if s.kind is None:
             raise ValueError("a step of the device passes ran in a pass that finds no component kind")
         return s.kind
+
+    def _class_question(self, tree: KinematicTree, comp: Component, excluded: frozenset[str]) -> Subject:
+        """A device's class question without `excluded`: its one leaf's pre-classification, or its frames together."""
+        leaves = [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
+        if len(leaves) == 1:
+            asked = self._chain_subject(tree, sub_chain(tree, leaves[0], comp.root), self.tax.kinds[comp.kind].cls)
+            return replace(asked, key=f"placement:{leaves[0]}", exclude=asked.exclude | excluded)
+        return Subject(f"placement:{leaves[0]}", "The frames below form one {concept} device.",
+                       "Frames: " + "; ".join(named(tree.evidence, leaf) for leaf in leaves), excluded)
 
     @staticmethod
     def _mount(tree: KinematicTree, group: Group) -> str:
@@ -461,6 +499,7 @@ BODY_PASS = Pass(BODY, (
     Step("assembly", Abstractor.body_assembly, ("candidates",), ("body",)),
     Step("sides", Abstractor.sides, ("body",), ("body",)),
     Step("location", Abstractor.location, ("body", "components"), ("components",)),
+    Step("placement", Abstractor.placement, ("body", "components"), ("components",)),
 ))
 
 # Run in this order; a device pass is named by the core:componentKind of the components it finds, and

@@ -5,7 +5,7 @@ These plain records are the one hand-over between the stages and everything down
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 SENSOR = "sensor"
 END_EFFECTOR = "end_effector"
@@ -72,12 +72,25 @@ class BodyPart:
 
 
 @dataclass(frozen=True)
+class Held:
+    """A component or body part that broke the SHACL shapes before population (pipeline.screen): not written,
+    listed for review with the violations, one line each ("CameraShape: comp_x hasOpticalFrame: ...")."""
+
+    name: str
+    kind: str | None                  # its component kind; None: a body part
+    cls: str
+    links: tuple[str, ...]
+    violations: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class Abstraction:
-    """All components found in one robot, with how they were found."""
+    """All components found in one robot, with how they were found, and those held back for review."""
 
     components: tuple[Component, ...] = ()
     provenance: dict[str, str] = field(default_factory=dict)
     body: tuple[BodyPart, ...] = ()
+    held: tuple[Held, ...] = ()
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -92,7 +105,13 @@ class Abstraction:
         )
         body = tuple(BodyPart(**{**b, "joints": tuple(b["joints"]), "links": tuple(b["links"])})
                      for b in data.get("body", ()))
-        return cls(comps, dict(data.get("provenance", {})), body)
+        held = tuple(Held(**{**h, "links": tuple(h["links"]), "violations": tuple(h["violations"])})
+                     for h in data.get("held", ()))
+        return cls(comps, dict(data.get("provenance", {})), body, held)
+
+    def with_provenance(self, notes: dict[str, str]) -> "Abstraction":
+        """The same abstraction, its provenance updated with `notes`."""
+        return replace(self, provenance={**self.provenance, **notes})
 
 
 def _finger(data: dict) -> FingerFact:

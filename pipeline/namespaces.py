@@ -79,3 +79,16 @@ def finger_chain_local(component: str, chain: str) -> str:
 def capability_local(component: str, prop: str | None = None) -> str:
     """A sensor's SSN system capability (`cap_<c>`), or one of its system properties (`cap_<c>.frequency`)."""
     return f"cap_{escape(component)}" + (f".{prop}" if prop else "")
+
+
+def owner(local: str) -> tuple[str, str] | None:
+    """Whose an individual is, from its local name: ("component", escaped name) for `comp_<c>` and the
+    `sub_<c>.<l>`, `finger_<c>.<chain>` and `cap_<c>...` it owns, ("body", escaped name) for `body_<b>`;
+    None for the robot, its links and joints."""
+    prefix, _, rest = local.partition("_")
+    if not rest or prefix not in _OWNED:
+        return None
+    return _OWNED[prefix], rest.split(".", 1)[0]
+
+
+_OWNED = {"comp": "component", "sub": "component", "finger": "component", "cap": "component", "body": "body"}

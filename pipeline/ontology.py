@@ -3,7 +3,7 @@
 `ontologies/urdfkb.owl` and `ontologies/shapes.ttl` are the single source of truth; `Vocabulary` is a
 read-only view of them (classes, labels, definitions, examples, answer phrases, the component kinds
 and their sub-part branches, sub-parts excluded or required, joint-type and simulator alignments,
-the body's classes), and holds the two parsed graphs that export and SHACL validation reuse.
+the body's classes, where a component may sit), and holds the two parsed graphs that export and SHACL validation reuse.
 """
 from __future__ import annotations
 
@@ -114,6 +114,7 @@ class Vocabulary:
         self._units: set[str] = set()  # classes marked core:numberedUnits
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
+        self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
         for name in self._order:
             node = CORE[name]
             parents = sorted(filter(None, map(_local, graph.objects(node, RDFS.subClassOf))),
@@ -128,6 +129,8 @@ class Vocabulary:
             self._excluded[name] = _restricted_parts(graph, node, complement=True)
             if (views := _viewpoint_range(graph, node)) is not None:
                 self._views[name] = views
+            if (placement := _placement(graph, node)) is not None:
+                self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
                 self._declared_by.setdefault(str(sim_type).strip().lower(), set()).add(name)
             for joint_type in graph.objects(node, CORE.urdfJointType):
@@ -329,6 +332,13 @@ class Vocabulary:
                        for low, high in [self._views.get(c, (0, float("inf")))])
         return frozenset(c for c in self.subclasses_below(below) if not allows(c))
 
+    def placement(self, name: str) -> str | None:
+        """Where a `name` component may sit, as the restriction on it or its nearest ancestor that says so
+        ("Bumper ⊑ ∀isLocatedOn.(MobileBase ⊔ Leg)"), or None: what the body pass's placement step has a
+        reasoner check against the body part the component is located on."""
+        return next((self._placements[c] for c in (self._check(name), *self.ancestors(name)) if c in self._placements),
+                    None)
+
     def disagreeing(self, declared: frozenset[str], below: str) -> frozenset[str]:
         """Classes under `below` that agree with none of `declared` (neither above nor below one of them):
         what a declaration rules out. Empty when nothing is declared or nothing declared lies under `below`."""
@@ -369,6 +379,27 @@ def _viewpoint_range(graph: rdflib.Graph, node: rdflib.URIRef) -> tuple[float, f
                     raise OntologyError(f"{_local(node)}: viewpointCount facet {kind} is not minInclusive or maxInclusive")
         return low, high
     return None
+
+
+def _placement(graph: rdflib.Graph, node: rdflib.URIRef) -> str | None:
+    """X, as text, from `node ⊑ ∀isLocatedOn.X`; None without such an axiom."""
+    fillers = [graph.value(r, OWL.allValuesFrom) for r in graph.objects(node, RDFS.subClassOf)
+               if graph.value(r, OWL.onProperty) == CORE.isLocatedOn]
+    if len(fillers) > 1:
+        raise OntologyError(f"{_local(node)} says twice where it is located (∀isLocatedOn)")
+    return _expression(graph, fillers[0]) if fillers else None
+
+
+def _expression(graph: rdflib.Graph, node: rdflib.term.Node | None) -> str:
+    """An OWL class expression in DL notation: a named class, or a union, intersection or complement of them."""
+    if (local := _local(node)) is not None:
+        return local
+    for prop, joiner in ((OWL.unionOf, " ⊔ "), (OWL.intersectionOf, " ⊓ ")):
+        if (members := graph.value(node, prop)) is not None:
+            return "(" + joiner.join(_expression(graph, m) for m in Collection(graph, members)) + ")"
+    if (negated := graph.value(node, OWL.complementOf)) is not None:
+        return "¬" + _expression(graph, negated)
+    raise OntologyError(f"a class expression urdfkb cannot read: {node!r}")
 
 
 def _local(node: rdflib.term.Node | None) -> str | None:

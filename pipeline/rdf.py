@@ -25,8 +25,9 @@ from __future__ import annotations
 
 import io
 import sqlite3
+import types
 from pathlib import Path
-from typing import Iterable
+from typing import Any, Iterable
 
 import owlready2
 import rdflib
@@ -132,6 +133,14 @@ def class_iris(entity: Thing) -> list[str]:
 def all_different(individuals: list) -> None:
     """State that `individuals` are pairwise different (owl:AllDifferent), in the ontology in `with`."""
     owlready2.AllDifferent(individuals)
+
+
+def complement_class(name: str, cls: object) -> str:
+    """The IRI of a new class `name`, in the ontology in `with`, defined as everything that is not a `cls`
+    (owl:complementOf): HermiT puts in it each individual that cannot be a `cls` (see class_iris)."""
+    negation: Any = types.new_class(name, (Thing,))
+    negation.equivalent_to = [owlready2.Not(cls)]
+    return negation.iri
 
 
 def hermit(world: World) -> str | None:

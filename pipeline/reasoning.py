@@ -11,6 +11,8 @@ tool of a robot pass, and with them the body pass's candidate parts (classify_to
 costs 1-4 s. A tool without finger chains is left to the model: the URDF does not say
 whether a rigid tool holds by suction, a magnet, or fingers written as fixed links.
 Candidate body parts (PartFacts) are classified by the BodyPart classes' sufficient conditions.
+`placements` says which component classes a body part rules out for what sits on it (the ontology's
+∀isLocatedOn restrictions: a bumper sits on a mobile base or a leg).
 """
 from __future__ import annotations
 
@@ -165,6 +167,41 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
         part.deviceCount = len(facts.devices)
         part.endEffectorCount = sum(cls.startswith(TOOL_REF) or tax.is_a(cls, tool) for cls in facts.devices)
     return individuals
+
+
+# placements' contract: HermiT by default; Abstractor and runner.run take another (tests/scripted_reasoner.py).
+Placer = Callable[[tuple[str, ...], tuple[str, ...]], tuple[dict[str, frozenset[str]], float]]
+_PLACEMENTS: dict[tuple[tuple[str, ...], tuple[str, ...]], dict[str, frozenset[str]]] = {}
+
+
+def placements(parts: tuple[str, ...], classes: tuple[str, ...]) -> tuple[dict[str, frozenset[str]], float]:
+    """For each body-part class of `parts`, the `classes` a component located on such a part cannot be, and
+    the reasoner's wall time: one individual located on a part of each class, and for each class C a class
+    defined as ¬C; HermiT places the individual in ¬C where being a C is inconsistent with where it sits.
+    The answer depends on the ontology alone, so a process asks HermiT once (later calls take 0 s); without
+    Java nothing is ruled out."""
+    key = (parts, classes)
+    if key in _PLACEMENTS:
+        return _PLACEMENTS[key], 0.0
+    world = rdf.new_world()
+    try:
+        core = load_core(world)
+        onto = world.get_ontology("urn:urdfkb:placement#")
+        with onto:
+            located = {}
+            for i, part in enumerate(parts):  # a component of no known kind on a part of each class
+                located[part] = core[vocabulary().component](f"on{i}")
+                located[part].isLocatedOn = core[part](f"part{i}")  # a functional property: one value
+            negations = {cls: rdf.complement_class(f"not{i}", core[cls]) for i, cls in enumerate(classes)}
+        ran, seconds = _hermit(world, "placements are")
+        if not ran:
+            return {part: frozenset() for part in parts}, seconds
+        table = {part: frozenset(cls for cls, negation in negations.items() if negation in rdf.class_iris(individual))
+                 for part, individual in located.items()}
+    finally:
+        world.close()
+    _PLACEMENTS[key] = table
+    return table, seconds
 
 
 def _part_class(part) -> str | None:

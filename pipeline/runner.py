@@ -17,7 +17,8 @@ from urdfkb.pipeline.llm.base import Backend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle, check_voting
 from urdfkb.pipeline.population import stamp
-from urdfkb.pipeline.reasoning import Reasoner, classify_together
+from urdfkb.pipeline.reasoning import Placer, Reasoner, classify_together, placements
+from urdfkb.pipeline.screen import screen
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.tree import KinematicTree
@@ -123,9 +124,17 @@ def _verification_log(trace: TextIO) -> Callable[[str], None]:
     return log
 
 
+def _trace_writer(trace: TextIO) -> Callable[[dict], None]:
+    """Records written to the trace as JSON lines."""
+    def write(record: dict) -> None:
+        trace.write(json.dumps(record) + "\n")
+    return write
+
+
 def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None, progress: Progress | None = None,
         trace: TextIO | None = None, timings: Timings | None = None,
-        backends: Callable[[Settings], Backend] | None = None, reasoner: Reasoner = classify_together) -> Abstraction:
+        backends: Callable[[Settings], Backend] | None = None, reasoner: Reasoner = classify_together,
+        placer: Placer = placements) -> Abstraction:
     """Abstract a robot's sensors and end-effectors (nothing when structure_only).
 
     `backend` overrides the one the settings name (tests inject a scripted one); `backends` gives the
@@ -134,8 +143,9 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     the backend is closed after use. The provenance always carries population.stamp(tree) for this
     run; when the result cache answers, the counts and seconds are those of the run that computed it,
     and result_cache=hit. `timings` receives the model load's and every step's timing records (else
-    the steps' go to the trace). `reasoner` stands in for HermiT (tests inject one that agrees with it:
-    it is no part of the cache key).
+    the steps' go to the trace). `reasoner` and `placer` stand in for HermiT (tests inject ones that agree
+    with it: they are no part of the cache key). Components and body parts that break the SHACL shapes are
+    held back for review (pipeline.screen), each recorded in the trace.
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only", **stamp(tree)})
@@ -146,7 +156,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     model_file = _model_file(settings) if backend is None else {}  # its digest keys the cache: a replaced file misses
     digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
-        return Abstraction(hit.components, {**hit.provenance, "result_cache": "hit", **stamp(tree)}, hit.body)
+        return hit.with_provenance({"result_cache": "hit", **stamp(tree)})
     owned = backend is None and backends is None
     if backend is None:
         loading = time.perf_counter()
@@ -157,7 +167,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         oracle = Oracle(backend, vote=settings.vote, votes=settings.votes, trace=trace)
         started = time.monotonic()
         log = _verification_log(trace) if trace else None
-        abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None, reasoner)
+        abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None, reasoner, placer)
         components, body = abstractor.run(tree), abstractor.body
         stats = oracle.stats
         provenance = {
@@ -171,7 +181,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     finally:
         if owned:
             backend.close()
-    result = Abstraction(tuple(components), provenance, tuple(body))
+    result = screen(tree, Abstraction(tuple(components), provenance, tuple(body)), _trace_writer(trace) if trace else None)
     if settings.use_cache:
         cache.store(digest, result)
-    return Abstraction(tuple(components), {**provenance, **stamp(tree)}, tuple(body))
+    return result.with_provenance(stamp(tree))

@@ -5,6 +5,8 @@ RDFS inference pass is needed. Both graphs are the Vocabulary's own (parsed once
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import pyshacl
 import rdflib
 from rdflib.namespace import RDF, RDFS, SH
@@ -20,19 +22,38 @@ def validate(data: rdflib.Graph, vocab: Vocabulary | None = None) -> tuple[bool,
     return conforms, text
 
 
+@dataclass(frozen=True)
+class Violation:
+    """One constraint `focus` breaks: the node shape it falls under, the property path, the message."""
+
+    shape: str
+    focus: rdflib.term.Node | None
+    path: rdflib.term.Node | None
+    message: str
+
+    def __str__(self) -> str:
+        """As violations() lists it: "CameraShape: comp_x hasComponent: a camera needs ..." """
+        where = " ".join(local_name(n) for n in (self.focus, self.path) if isinstance(n, rdflib.URIRef))
+        return f"{self.shape}: {where}: {self.message}"
+
+
 def violations(data: rdflib.Graph, vocab: Vocabulary | None = None) -> list[str]:
     """One line per violation, naming the shape, the node and why ("CameraShape: comp_x hasComponent: a camera
     needs ..."); empty when `data` conforms."""
+    return sorted(map(str, broken(data, vocab)))
+
+
+def broken(data: rdflib.Graph, vocab: Vocabulary | None = None) -> list[Violation]:
+    """Every violation of `vocab`'s shapes in `data` (none when it conforms)."""
     vocab = vocab or vocabulary()
     conforms, results, _ = _run(data, vocab)
-    lines = []
+    found = []
     for result in [] if conforms else results.subjects(RDF.type, SH.ValidationResult):
         source = results.value(result, SH.sourceShape)
         shape = vocab.shapes.value(predicate=SH.property, object=source) or source  # a property shape's node shape
-        where = [results.value(result, SH.focusNode), results.value(result, SH.resultPath)]
-        lines.append(f"{local_name(str(shape))}: {' '.join(local_name(n) for n in where if isinstance(n, rdflib.URIRef))}: "
-                     f"{results.value(result, SH.resultMessage)}")
-    return sorted(lines)
+        found.append(Violation(local_name(str(shape)), results.value(result, SH.focusNode),
+                               results.value(result, SH.resultPath), str(results.value(result, SH.resultMessage))))
+    return found
 
 
 def _run(data: rdflib.Graph, vocab: Vocabulary) -> tuple[bool, rdflib.Graph, str]:

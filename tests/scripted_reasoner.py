@@ -1,8 +1,9 @@
-"""A stand-in for HermiT with pipeline.reasoning.classify_together's contract, so pipeline tests run
-without a JVM: the ontology's definitions of the end-effector kinds, ThumbChain and the body-part
+"""Stand-ins for HermiT with pipeline.reasoning.classify_together's and placements' contracts, so pipeline
+tests run without a JVM: the ontology's definitions of the end-effector kinds, ThumbChain and the body-part
 conditions (ontologies/urdfkb.owl) written out as rules over the facts the code asserts, and the
-facts closed as pipeline.reasoning closes them. Inject it as `reasoner=scripted_reasoner`
-(Abstractor, runner.run), as tests inject a ScriptedBackend for the model.
+facts closed as pipeline.reasoning closes them; and its ∀isLocatedOn restrictions (PLACEMENTS). Inject them as
+`reasoner=scripted_reasoner, placer=scripted_placements` (Abstractor, runner.run), as tests inject a
+ScriptedBackend for the model.
 
 test_reasoner_agreement checks it against HermiT on every input the fast lane's robots give it and on
 generated robots, so a change to the ontology's definitions that it misses fails there.
@@ -14,6 +15,7 @@ from urdfkb.pipeline.reasoning import TOOL_REF, Inference, PartFacts
 from urdfkb.pipeline.structure import ToolStructure
 
 TOOL = "EndEffector"
+PLACEMENTS = {"Bumper": ("MobileBase", "Leg")}  # class → the body parts it may be located on
 
 
 def scripted_reasoner(tools: list[ToolStructure], parts: list[PartFacts]) -> tuple[list[Inference], list[str | None], float]:
@@ -75,3 +77,11 @@ def _part(f: PartFacts, wheels: list[bool]) -> str | None:
     }
     settled = [cls for cls, holds in held.items() if holds]
     return settled[0] if len(settled) == 1 else None
+
+
+def scripted_placements(parts: tuple[str, ...], classes: tuple[str, ...]) -> tuple[dict[str, frozenset[str]], float]:
+    """Each body-part class → those of `classes` under a restricted class whose allowed parts it is none of; 0 s."""
+    tax = vocabulary()
+    return {part: frozenset(c for c in classes for restricted, allowed in PLACEMENTS.items()
+                            if tax.is_a(c, restricted) and not any(tax.is_a(part, a) for a in allowed))
+            for part in parts}, 0.0

@@ -12,6 +12,7 @@ import pytest
 import rdflib
 
 from urdfkb.kb_server.cli import main
+from urdfkb.pipeline.components import Abstraction, Held
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = REPO / "tests" / "data" / "toy_robot.urdf"
@@ -63,6 +64,15 @@ def test_an_existing_output_survives_a_failed_populate(tmp_path):
     missing = tmp_path / "missing.urdf"
     assert main(["populate", str(missing), "--structure-only", "-o", str(out)]) == 2
     assert out.read_text() == "earlier result"
+
+
+def test_populate_names_what_the_shapes_held_back(tmp_path, capsys, monkeypatch):
+    held = Held("mast_cam", "sensor", "MonocularCamera", ("claw_status_light",), ("CameraShape: comp_mast_cam: why",))
+    monkeypatch.setattr("urdfkb.pipeline.runner.run", lambda *_args, **_kw: Abstraction(held=(held,)))
+    assert main(["populate", str(TOY), "-o", str(tmp_path / "toy.owl")]) == 0
+    out = capsys.readouterr().out
+    assert "held back, not written (it breaks the shapes): MonocularCamera mast_cam on claw_status_light" in out
+    assert "    CameraShape: comp_mast_cam: why" in out
 
 
 def test_validate_reports_conformance_and_violations(tmp_path, capsys):

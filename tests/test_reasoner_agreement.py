@@ -1,6 +1,7 @@
 """The scripted reasoner (tests/scripted_reasoner.py) answers as HermiT does: on the toy's pipeline run,
 on generated hands and grippers, on generated bodies (their candidates carrying class names, and
-carrying tools of the same run) and on candidates either side of each body-part condition."""
+carrying tools of the same run) and on candidates either side of each body-part condition; and its
+placements (what each body part rules out for what sits on it) over every body class and component class."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -9,14 +10,14 @@ import pytest
 
 from tests.body_robots import legged, wheeled
 from tests.hand_robots import build
-from tests.scripted_reasoner import scripted_reasoner
+from tests.scripted_reasoner import scripted_placements, scripted_reasoner
 from tests.toy_robot import TAX, TOY, perfect
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import END_EFFECTOR
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.reasoning import TOOL_REF, PartFacts, classify_together
+from urdfkb.pipeline.reasoning import TOOL_REF, PartFacts, classify_together, placements
 from urdfkb.pipeline.stages import body
 from urdfkb.pipeline.structure import ToolStructure, tool_structure
 
@@ -98,3 +99,12 @@ def test_the_scripted_reasoner_agrees_with_hermit(case):
     hermit = classify_together(tools, parts)
     assert scripted_reasoner(tools, parts)[:2] == hermit[:2]
     assert {i.cls for i in hermit[0]} == kinds and set(hermit[1]) == body_classes
+
+
+@pytest.mark.reasoner
+def test_the_scripted_placements_agree_with_hermit():
+    classes = tuple(c for kind in TAX.kinds.values() for c in TAX.subclasses_below(kind.cls))
+    hermit, seconds = placements(TAX.body_classes, classes)
+    assert scripted_placements(TAX.body_classes, classes)[0] == hermit
+    assert seconds > 0 and set().union(*hermit.values()) == {"Bumper"}  # the ontology's one ∀isLocatedOn restriction
+    assert placements(TAX.body_classes, classes) == (hermit, 0.0)  # asked once per process

@@ -1,16 +1,22 @@
-"""The shapes accept a well-populated robot and name what is wrong with a broken one."""
+"""The shapes accept a well-populated robot (every truth robot, populated) and name what is wrong with a broken one."""
+import hashlib
+
 import owlready2
 import pytest
 import rdflib
-from rdflib.namespace import RDF
+from rdflib.namespace import PROV, RDF
 
+from tests.sample_bot import sample_abstraction, sample_tree
+from tests.scripted_reasoner import scripted_placements, scripted_reasoner
+from urdfkb.pipeline import evaluation
 from urdfkb.pipeline.components import Abstraction, Component
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import CORE_IRI
 from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.shacl import validate
-from tests.sample_bot import sample_abstraction, sample_tree
+from urdfkb.pipeline.runner import Settings, run
+from urdfkb.pipeline.shacl import validate, violations
 
 CORE = rdflib.Namespace(CORE_IRI)
 
@@ -53,6 +59,13 @@ def breaks(edit):
     return report
 
 
+def lines(edit) -> list[str]:
+    """The violations of the sample robot once `edit`ed, one line each."""
+    g = populated()
+    edit(g)
+    return violations(g)
+
+
 def test_camera_without_optical_frame():
     """Targets reach subclasses: the RGBDCamera is a Camera through the core's subClassOf triples (no inference)."""
     def edit(g):
@@ -69,6 +82,37 @@ def test_camera_component_typed_without_optical_frame_from_population():
                              camera.subcomponents[:1])
     conforms, report = validate(populated(Abstraction((only_housing,))))
     assert not conforms and "OpticalFrame" in report
+
+
+def test_camera_needs_its_optical_frames_named_and_one_of_a_modality():
+    def unnamed(g):
+        g.remove((None, CORE.hasOpticalFrame, None))
+    assert "CameraShape: comp_head%20camera hasOpticalFrame: a camera needs at least one optical frame " \
+        "(hasOpticalFrame)" in lines(unnamed)
+
+    def no_modality(g):
+        for s in set(g.subjects(RDF.type, CORE.DepthFrame)) | set(g.subjects(RDF.type, CORE.RgbFrame)):
+            g.remove((s, RDF.type, None))
+            g.add((s, RDF.type, CORE.OpticalFrame))
+    assert lines(no_modality) == ["ModalityShape: comp_head%20camera: a camera needs an optical frame of a modality: "
+                                  "RGB, depth or infrared"]
+
+
+def test_a_camera_a_reviewer_wrote_needs_no_modality():
+    """A reviewer names a device's class and links (prov:wasInfluencedBy a correction), not each frame's image."""
+    g = populated(sample_abstraction(rgb_cls="OpticalFrame"))
+    (depth,) = g.subjects(RDF.type, CORE.DepthFrame)
+    g.set((depth, RDF.type, CORE.OpticalFrame))
+    assert violations(g)  # its frames have no modality
+    g.add((node(g, "RGBDCamera"), PROV.wasInfluencedBy, rdflib.URIRef("https://example.org/correction")))
+    conforms, report = validate(g)
+    assert conforms, report
+
+
+def test_sensor_needs_a_reference_frame():
+    assert lines(lambda g: g.remove((None, CORE.hasReferenceFrame, None))) == [
+        "ReferenceFrameShape: comp_head%20camera hasReferenceFrame: a sensor needs a reference frame "
+        "(hasReferenceFrame): the link its measurements are expressed in"]
 
 
 def test_component_with_two_mounts():
@@ -147,3 +191,20 @@ def test_shared_urdfs_conform_structure_only(shared):
         tree = load_urdf(path)
         conforms, report = validate(robot_graph(build_robot(world, tree, tree.robot_name)))
         assert conforms, f"{path.name}: {report}"
+
+
+@pytest.mark.slow
+def test_shared_truth_robots_populated_conform_with_nothing_held(shared):
+    """Every truth robot through the pipeline, a model answering by a hash of each question (another robot
+    each time, as the transcript benchmark's): nothing breaks the shapes, so nothing is held back."""
+    def hashed(q):
+        return q.options[int(hashlib.sha256((q.system + q.user).encode()).hexdigest(), 16) % len(q.options)]
+    paths = sorted((shared / "eval" / "truth").glob("*.yaml"))
+    assert paths, "no truth robot"
+    for path in paths:
+        tree = load_urdf(shared / evaluation.load_truth(path).urdf)
+        abstraction = run(tree, Settings(use_cache=False), backend=ScriptedBackend(hashed), reasoner=scripted_reasoner,
+                          placer=scripted_placements)
+        assert abstraction.held == (), f"{path.stem}: {abstraction.held}"
+        conforms, report = validate(robot_graph(build_robot(owlready2.World(), tree, tree.robot_name, abstraction)))
+        assert conforms, f"{path.stem}: {report}"

@@ -79,6 +79,36 @@ def test_the_camera_rule_comes_from_the_shapes(tmp_path):
     assert vocab.fingerprint != vocabulary().fingerprint and vocab.version == vocabulary().version
 
 
+def test_where_a_component_may_sit_comes_from_its_restriction(tmp_path):
+    """Vocabulary.placement: on the class or its nearest ancestor, any union, intersection or complement."""
+    assert vocabulary().placement("Bumper") == "Bumper ⊑ ∀isLocatedOn.(MobileBase ⊔ Leg)"
+    assert vocabulary().placement("Button") is None and vocabulary().placement("ContactSensor") is None
+    bumper = '<owl:Class rdf:about="https://w3id.org/urdfkb/core#Bumper">'
+    contact = '<owl:Class rdf:about="https://w3id.org/urdfkb/core#ContactSensor">'
+    other = ('<owl:intersectionOf rdf:parseType="Collection"><rdf:Description rdf:about="https://w3id.org/urdfkb/core#'
+             'BodyPart"/><owl:Class><owl:complementOf rdf:resource="https://w3id.org/urdfkb/core#Head"/></owl:Class>'
+             '</owl:intersectionOf>')
+
+    def restriction(text: str) -> tuple[int, int]:
+        """Where the Bumper's restriction (its second rdfs:subClassOf) starts and ends."""
+        start = text.index("<rdfs:subClassOf>", text.index(bumper))
+        return start, text.index("</rdfs:subClassOf>", start) + len("</rdfs:subClassOf>")
+
+    def moved(text):  # on ContactSensor instead, with another filler
+        start, end = restriction(text)
+        axiom = text[start:end]
+        axiom = axiom[:axiom.index("<owl:unionOf")] + other + axiom[axiom.index("</owl:unionOf>") + len("</owl:unionOf>"):]
+        return text[:start].replace(contact, contact + axiom) + text[end:]
+
+    def twice(text):
+        start, end = restriction(text)
+        return text.replace(bumper, bumper + text[start:end])
+    vocab = copy_of_core(tmp_path, moved)
+    assert vocab.placement("Bumper") == vocab.placement("Button") == "ContactSensor ⊑ ∀isLocatedOn.(BodyPart ⊓ ¬Head)"
+    with pytest.raises(OntologyError, match="Bumper says twice where it is located"):
+        copy_of_core(tmp_path, twice)
+
+
 def test_a_kind_must_say_its_branch_noun_and_mount_rule(tmp_path):
     def drop_rule(text):
         start = text.index("<core:mountRule")

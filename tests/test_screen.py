@@ -1,0 +1,112 @@
+"""SHACL before population (pipeline.screen): a component or body part that breaks the shapes is held back for
+review, never silently written: the trace records it with the shapes it broke, the review page lists it with
+their messages, and the robot written without it passes the shapes as a whole."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from io import StringIO
+
+import owlready2
+
+from tests.kb_fixtures import client, make_app
+from tests.placement_robot import LABELS, TAX, build, model
+from tests.sample_bot import sample_abstraction, sample_tree
+from tests.scripted_reasoner import scripted_placements, scripted_reasoner
+from urdfkb.pipeline.components import Abstraction, BodyPart, Held
+from urdfkb.pipeline.export import robot_graph
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.runner import Settings, run
+from urdfkb.pipeline.screen import screen
+from urdfkb.pipeline.shacl import validate
+
+HTML = {"Accept": "text/html"}
+
+
+def conforms(tree, abstraction: Abstraction) -> bool:
+    ok, report = validate(robot_graph(build_robot(owlready2.World(), tree, "bot", abstraction)))
+    assert ok, report
+    return ok
+
+
+def populated(trace: StringIO):
+    """The placement robot (tests/placement_robot.py) through runner.run: the loop asks the torso's button again,
+    and this model then calls it a monocular camera, though its one link was typed a sensing element when it
+    was a bumper: a camera without an optical frame."""
+    robot = build(0)
+    rule = model(robot, [])
+
+    def camera_when_asked_again(q):
+        if q.key.startswith(f"placement:{robot.button}@"):
+            return next(o for o in q.options if TAX.is_a("MonocularCamera", LABELS[o]))
+        return rule(q)
+    tree = load_urdf(robot.urdf)
+    abstraction = run(tree, Settings(use_cache=False), backend=ScriptedBackend(camera_when_asked_again), trace=trace,
+                      reasoner=scripted_reasoner, placer=scripted_placements)
+    return robot, tree, abstraction
+
+
+def test_a_camera_without_an_optical_frame_is_held_back_and_traced_not_written():
+    trace = StringIO()
+    robot, tree, abstraction = populated(trace)
+    (held,) = abstraction.held
+    assert (held.kind, held.cls, held.links) == ("sensor", "MonocularCamera", (robot.button,))
+    assert {v.split(":")[0] for v in held.violations} == {"CameraShape", "ModalityShape"}
+    assert f"CameraShape: comp_{held.name} hasOpticalFrame: a camera needs at least one optical frame (hasOpticalFrame)" \
+        in held.violations
+    assert held.name not in {c.name for c in abstraction.components}
+    assert robot.bumper in {link for c in abstraction.components for link in c.links}  # the rest is written
+    records = [json.loads(line) for line in trace.getvalue().splitlines()]
+    assert [(r["name"], r["class"], r["shapes"]) for r in records if r["key"] == "held"] == [
+        (held.name, "MonocularCamera", ["CameraShape", "ModalityShape"])]
+    assert conforms(tree, abstraction)
+
+
+def test_the_review_page_lists_what_was_held_back_with_the_shapes_message(store):
+    _, tree, abstraction = populated(StringIO())
+    store.replace_robot("placed", tree, abstraction)
+    assert store.source("placed")[1].held == abstraction.held
+    app, jobs = make_app(store)
+    try:
+        status, _, body = client(app)("GET", "/robots/placed", headers=HTML)
+    finally:
+        jobs.shutdown()
+    page = body.decode()
+    assert status == 200 and 'id="held"' in page and abstraction.held[0].name in page
+    assert "a camera needs at least one optical frame (hasOpticalFrame)" in page
+
+
+def test_a_camera_whose_optical_frame_has_no_modality_is_held_back():
+    """The model gave no modality (its frame stays an OpticalFrame): held, the gripper written."""
+    tree = sample_tree()
+    abstraction = sample_abstraction(rgb_cls="OpticalFrame")
+    camera = abstraction.components[0]
+    no_modality = replace(abstraction, components=(replace(camera, subcomponents=camera.subcomponents[:1]),
+                                                   abstraction.components[1]))
+    screened = screen(tree, no_modality)
+    assert [(h.name, h.violations) for h in screened.held] == [
+        ("head camera", ("ModalityShape: comp_head%20camera: a camera needs an optical frame of a modality: "
+                         "RGB, depth or infrared",))]
+    assert [c.name for c in screened.components] == ["gripper"] and conforms(tree, screened)
+
+
+def test_a_body_part_without_joints_or_links_is_held_and_what_it_carried_lets_go():
+    """A component located on it loses that location, a part under it hangs from the robot."""
+    tree = sample_tree()
+    empty = BodyPart("head", "Head", 1.0, "base_link", (), ())
+    wheel = BodyPart("wrist", "Wheel", 1.0, "base_link", ("wrist_joint",), ("wrist_link",), parent="head")
+    camera, gripper = sample_abstraction().components
+    abstraction = Abstraction((replace(camera, located_on="head", side="left"), gripper), body=(empty, wheel))
+    screened = screen(tree, abstraction)
+    assert screened.held == (Held("head", None, "Head", (), ("BodyPartShape: body_head: a body part needs at least "
+                                                               "one joint or link",)),)
+    assert screened.body == (replace(wheel, parent=None),)
+    assert (screened.components[0].located_on, screened.components[0].side) == (None, None)
+    assert conforms(tree, screened)
+
+
+def test_a_robot_that_conforms_is_left_as_it_is():
+    abstraction = sample_abstraction()
+    assert screen(sample_tree(), abstraction) is abstraction
