@@ -260,8 +260,9 @@ class JobManager:
             job.error(f"internal error: {type(e).__name__}: {e}")
         finally:
             job.finished = time.time()
-            job.finished_event.set()
+            # logged before waiters are woken: one that reads the log after the job ends finds the line
             log.info("populate %s (job %s): %s %s", job.robot, job.id, job.state, "; ".join(job.errors))
+            job.finished_event.set()
 
     @staticmethod
     def _load(job: Job, load: Callable[[], KinematicTree]) -> KinematicTree:
