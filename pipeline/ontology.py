@@ -114,6 +114,7 @@ class Vocabulary:
         self._units: set[str] = set()  # classes marked core:numberedUnits
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
+        self._rank: dict[str, float] = {}  # class → core:optionRank
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
         for name in self._order:
             node = CORE[name]
@@ -141,6 +142,8 @@ class Vocabulary:
                 if str(role) not in FINGER_CHAIN_ROLES:
                     raise OntologyError(f"{name}: core:fingerChainRole {str(role)!r} is none of {FINGER_CHAIN_ROLES}")
                 self._roles[name] = str(role)
+            if (rank := graph.value(node, CORE.optionRank)) is not None:
+                self._rank[name] = float(str(rank))
             if (question := graph.value(node, CORE.partQuestion)) is not None:
                 self._part_question[name] = str(question)
             if str(graph.value(node, CORE.numberedUnits)).strip().lower() in ("true", "1"):
@@ -185,6 +188,11 @@ class Vocabulary:
     def body_classes(self) -> tuple[str, ...]:
         """The direct subclasses of the body's class (what a body part is), in the file's order."""
         return self.subclasses(self.body_part)
+
+    def offered(self, classes: Iterable[str]) -> tuple[str, ...]:
+        """`classes` in the order they are offered to the model: by core:optionRank, the unranked after, in
+        the file's order."""
+        return tuple(sorted(classes, key=lambda c: (self._rank.get(c, float("inf")), self._order[c])))
 
     def _read_required_parts(self) -> dict[str, str]:
         """Class → the sub-part class a shape requires at least one of (sh:qualifiedValueShape on hasComponent)."""

@@ -148,19 +148,17 @@ def device_name_question(frame: str, prefixes: Sequence[str]) -> Question:
     return Question(system, f"Frame: {frame}", tuple(prefixes), key=f"device:{frame}")
 
 
-BODY_PARTS = ("Arm", "Leg", "Head", "Torso", "Wheel", "MobileBase")
-
-
 def body_choice(tax: Vocabulary, evidence: str, key: str) -> Choice:
     """Which body part (or none) a chain of moving joints is; `evidence` from stages.body."""
+    parts = tax.offered(tax.body_classes)
     system = (
         _PREAMBLE + "Decide which part of the robot's body a chain of moving joints is. Each joint is given with"
         " its type and how it moves the robot at rest (x forward, y left, z up).\nParts:\n"
-        + _definitions(tax, BODY_PARTS)
+        + _definitions(tax, parts)
         + f"\n- {NONE}: none of these: a mechanism of the device it carries (a tilting sensor mount, a bumper's"
         " switch) or a passive linkage.\nReply with the part only."
     )
-    return _class_choice(system, evidence, tax, BODY_PARTS, key, {NONE: NONE})
+    return _class_choice(system, evidence, tax, parts, key, {NONE: NONE})
 
 
 def side_question(label: str, left: Sequence[str], right: Sequence[str]) -> Question:

@@ -186,3 +186,12 @@ def test_taxonomy_is_built_from_the_file(tmp_path):
     copy = tmp_path / "core.owl"
     copy.write_text(text, encoding="utf-8")
     assert Vocabulary(copy, shapes_path()).comment("Microphone").startswith("A lone microphone")
+
+
+def test_options_are_offered_by_their_rank_then_in_the_files_order():
+    """core:optionRank orders the body question's options (limbs before the base, as measured best); classes
+    without a rank follow in the file's order."""
+    tax = vocabulary()
+    assert tax.offered(tax.body_classes) == ("Arm", "Leg", "Head", "Torso", "Wheel", "MobileBase")
+    assert set(tax.offered(tax.body_classes)) == set(tax.body_classes)
+    assert tax.offered(["Camera", "Arm", "Sensor"]) == ("Arm", "Sensor", "Camera")
