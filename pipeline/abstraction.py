@@ -34,8 +34,7 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import (ToolStructure, alike_leaves, feet, frames_of_one_body, hand_mounts, partition,
-                                      viewpoints)
+from urdfkb.pipeline.structure import ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, viewpoints
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -177,8 +176,7 @@ class Abstractor:
         rule out the same classes are asked once, the first standing for all."""
         kind = self._kind(s)
         subjects = {c.leaf: self._chain_subject(s.tree, c, kind.cls) for c in s.chains}
-        sets = [same for alike in alike_leaves(s.tree, list(subjects))
-                for same in partition(alike, lambda a, b: subjects[a].exclude == subjects[b].exclude)]
+        sets = alike_sets(s.tree, list(subjects), lambda a, b: subjects[a].exclude == subjects[b].exclude)
         typed = descend(self.oracle, self.tax, kind.cls, [subjects[leaves[0]] for leaves in sets],
                         "pre-classification", self.progress)
         by_leaf = {leaf: t for leaves, t in zip(sets, typed) for leaf in leaves}
@@ -206,13 +204,13 @@ class Abstractor:
         top = self._kind(s).cls
         typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
         by_start: dict[str, list[Group]] = {}
-        unseen = {id(g): self.tax.unseen(viewpoints(s.tree, g.leaves), top) for g in s.groups}
+        views = {id(g): viewpoints(s.tree, g.leaves) for g in s.groups}
+        unseen = {id(g): self.tax.unseen(views[id(g)], top) for g in s.groups}
         for g in s.groups:
             if len(g.chains) > 1:
                 by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
             elif (cls := s.pre[g.leaves[0]].cls) in unseen[id(g)]:
-                self.log(f"post:{g.leaves[0]}: its frames see from {viewpoints(s.tree, g.leaves)} place(s), "
-                         f"so it is no {cls}")
+                self.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
                 by_start.setdefault(self.tax.parents(cls)[0], []).append(g)
         for start, members in by_start.items():
             results = descend(self.oracle, self.tax, start, [

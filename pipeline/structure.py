@@ -458,6 +458,12 @@ def alike_leaves(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
     return partition(leaves, lambda a, b: _alike(tree, paths[a], paths[b]))
 
 
+def alike_sets(tree: KinematicTree, leaves: list[str], same: Callable[[str, str], bool]) -> list[list[str]]:
+    """alike_leaves, each set split further where `same` (asked of two alike leaves) says their questions differ:
+    the sets a stage asks one question for, the first leaf standing for all."""
+    return [part for alike in alike_leaves(tree, leaves) for part in partition(alike, same)]
+
+
 T = TypeVar("T")
 
 

@@ -17,7 +17,7 @@ from typing import Callable, Mapping
 from urdfkb.pipeline.ontology import Kind
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import root_question
-from urdfkb.pipeline.structure import alike_leaves, body_of, frames_of_one_body, partition
+from urdfkb.pipeline.structure import alike_sets, body_of, frames_of_one_body
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.stages.asking import Progress, ask
 
@@ -88,8 +88,7 @@ def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: K
 def _ask_mounts(oracle: Oracle, tree: KinematicTree, kind: Kind, leaves: list[str], candidates: dict[str, list[str]],
                 chains: dict[str, SubChain], progress: Progress | None) -> None:
     """The mount of each of `leaves`, into `chains`; alike leaves with as many candidates asked once."""
-    sets = [same for alike in alike_leaves(tree, leaves)
-            for same in partition(alike, lambda a, b: len(candidates[a]) == len(candidates[b]))]
+    sets = alike_sets(tree, leaves, lambda a, b: len(candidates[a]) == len(candidates[b]))
     questions = [root_question(kind, group[0], candidates[group[0]]) for group in sets]
     for group, q, v in zip(sets, questions, ask(oracle, questions, "attachment root detection", progress)):
         depth = q.options.index(v.answer) if v.answer in q.options else 0  # an abstention: on its parent

@@ -161,12 +161,13 @@ def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool], 
     leaf name stands. The chains of one device by structure (`devices`, frames of one body) are one device,
     so the first that could join another is asked for all of them."""
     names = [c.leaf for c in chains]
-    asked = [next(i for i in members if joinable[i]) for members in devices if any(joinable[i] for i in members)]
-    verdicts = ask(oracle, [device_name_question(chains[i].leaf, device_names(chains[i])) for i in asked],
+    asked = [(members, first) for members in devices
+             if (first := next((i for i in members if joinable[i]), None)) is not None]
+    verdicts = ask(oracle, [device_name_question(chains[i].leaf, device_names(chains[i])) for _, i in asked],
                    "group merging", progress)
-    for i, verdict in zip(asked, verdicts):
-        for j in next(members for members in devices if i in members):
-            names[j] = verdict.answer or chains[i].leaf
+    for (members, first), verdict in zip(asked, verdicts):
+        for j in members:
+            names[j] = verdict.answer or chains[first].leaf
     return names
 
 

@@ -15,7 +15,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.structure import ToolStructure, alike_leaves, partition
+from urdfkb.pipeline.structure import ToolStructure, alike_sets
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -54,8 +54,7 @@ def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: 
     """Each link's class below `start`; alike links (structure.alike_leaves: the same link of a left and a
     right gripper) asked the same about the same kind of device are asked once, the first standing for all."""
     by_link = dict(subjects)
-    sets = [same for alike in alike_leaves(tree, list(by_link))
-            for same in partition(alike, lambda a, b: _same_question(by_link[a], by_link[b]))]
+    sets = alike_sets(tree, list(by_link), lambda a, b: _same_question(by_link[a], by_link[b]))
     answers = descend(oracle, tax, start, [by_link[links[0]] for links in sets], stage, progress)
     return {link: typed for links, typed in zip(sets, answers) for link in links}
 
