@@ -60,6 +60,16 @@ def whole_pr2_kb(pr2_tree, tmp_path_factory) -> Path:
     return _built(tmp_path_factory.mktemp("whole_pr2_kb"), lambda s: store_whole_pr2(s, pr2_tree))
 
 
+@pytest.fixture(scope="module")
+def whole_pr2_store(whole_pr2_kb, tmp_path_factory):
+    """A module's own store over a copy of whole_pr2_kb, with one query worker: for modules that only read it."""
+    from urdfkb.kb_server.store import Store
+
+    s = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
+    yield s
+    s.close()
+
+
 @pytest.fixture
 def pr2_store(pr2_kb, tmp_path):
     """This test's own store holding PR2 (a copy of pr2_kb), answering in this process: it may write."""

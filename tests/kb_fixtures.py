@@ -147,6 +147,18 @@ def live(app):
         yield f"http://127.0.0.1:{server.effective_port}"
 
 
+@contextmanager
+def served(store, **kw):
+    """The server app over `store` (make_app, `kw` passed on) served live; yields the base URL and shuts the
+    app's jobs down after."""
+    app, jobs = make_app(store, **kw)
+    try:
+        with live(app) as base:
+            yield base
+    finally:
+        jobs.shutdown()
+
+
 def fake_runner(abstractions: dict | None = None, delay: float = 0.0, fail: Exception | None = None):
     """A runner for JobManager: the hand-written abstraction for known robots, none otherwise."""
     import time

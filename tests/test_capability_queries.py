@@ -12,26 +12,16 @@ from html.parser import HTMLParser
 
 import pytest
 
-from tests.kb_fixtures import both_engines, copied, http, live, make_app
+from tests.kb_fixtures import both_engines, http, served
 from urdfkb.client import ArmReach, CameraFrame, KnowledgeBase
-from urdfkb.kb_server.store import Store
 
 HTML = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
 
 
 @pytest.fixture(scope="module")
-def store(whole_pr2_kb, tmp_path_factory):
-    s = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
-    yield s
-    s.close()
-
-
-@pytest.fixture(scope="module")
-def url(store):
-    app, jobs = make_app(store)
-    with live(app) as base:
+def url(whole_pr2_store):
+    with served(whole_pr2_store) as base:
         yield base
-    jobs.shutdown()
 
 
 def rows(url: str, name: str, **args) -> list[dict[str, str]]:
@@ -92,8 +82,8 @@ def test_the_client_has_a_method_each(url):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["camera_frames", "arm_reach", "gripper_opening"])
-def test_oxigraph_agrees_with_rdflib_on_the_export(store, name):
-    variables, got, want = both_engines(store, "pr2", name, {})
+def test_oxigraph_agrees_with_rdflib_on_the_export(whole_pr2_store, name):
+    variables, got, want = both_engines(whole_pr2_store, "pr2", name, {})
 
     def value(text):  # rdflib writes decimals in canonical form ("1.0" for "1"): compare them as numbers
         return Decimal(text) if re.fullmatch(r"-?[0-9]+(\.[0-9]+)?", text) else " ".join(sorted(text.split()))

@@ -5,26 +5,16 @@ import time
 
 import pytest
 
-from tests.kb_fixtures import PR2_ARM, copied, free_port, live, make_app
+from tests.kb_fixtures import PR2_ARM, free_port, live, make_app, served
 from urdfkb.client import (ArmEndEffector, BodyPart, CameraLink, ClientError, Joint, KnowledgeBase, LocatedComponent,
                            QueryFailed, ServerUnavailable, UnknownRobot, class_words)
-from urdfkb.kb_server.store import Store
 
 
 
 @pytest.fixture(scope="module")
-def store(whole_pr2_kb, tmp_path_factory):
-    s = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
-    yield s
-    s.close()
-
-
-@pytest.fixture(scope="module")
-def url(store):
-    app, jobs = make_app(store)
-    with live(app) as base:
+def url(whole_pr2_store):
+    with served(whole_pr2_store) as base:
         yield base
-    jobs.shutdown()
 
 
 @pytest.fixture
@@ -151,9 +141,9 @@ def test_a_server_that_is_down_or_silent():
         assert time.monotonic() - start < 5 and slow in str(e.value)
 
 
-def test_bearer_token(store):
+def test_bearer_token(whole_pr2_store):
     """Behind a proxy that wants a token: sent when given, and a refusal is a QueryFailed with the proxy's reason."""
-    app, jobs = make_app(store)
+    app, jobs = make_app(whole_pr2_store)
 
     def proxy(environ, start_response):
         if environ.get("HTTP_AUTHORIZATION") != "Bearer s3cret":

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.kb_fixtures import PR2_WHOLE, copied, free_port, live, make_app
+from tests.kb_fixtures import PR2_WHOLE, copied, free_port, served
 from urdfkb.kb_server.store import Store
 
 pytestmark = pytest.mark.slow  # the example runs in a subprocess
@@ -19,12 +19,10 @@ def url(whole_pr2_kb, pr2_tree, tmp_path_factory):
     store = Store(copied(whole_pr2_kb, tmp_path_factory.mktemp("kb")), workers=1)
     store.replace_robot("pr2_right_arm_only", pr2_tree, replace(PR2_WHOLE, body=tuple(p for p in PR2_WHOLE.body if p.name != "l_arm"),
                                                             components=tuple(c for c in PR2_WHOLE.components if c.name != "l_gripper")))
-    app, jobs = make_app(store)
     try:
-        with live(app) as base:
+        with served(store) as base:
             yield base
     finally:
-        jobs.shutdown()
         store.close()
 
 

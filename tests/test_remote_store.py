@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import rdflib
 
-from tests.kb_fixtures import PR2, free_port, http, live, make_app
+from tests.kb_fixtures import PR2, free_port, http, live, make_app, served
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
@@ -61,10 +61,8 @@ def graph_has_kinect(base):
 @pytest.fixture
 def server(oxigraph, tmp_path):
     store = Store(tmp_path / "kb.sqlite3", workers=0)
-    app, jobs = make_app(store, token=TOKEN, remote=RemoteStore(oxigraph + "/store"))
-    with live(app) as base:
+    with served(store, token=TOKEN, remote=RemoteStore(oxigraph + "/store")) as base:
         yield base
-    jobs.shutdown()
     store.close()
 
 

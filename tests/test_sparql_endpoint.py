@@ -10,7 +10,7 @@ import rdflib
 from rdflib.plugins.stores.sparqlstore import SPARQLStore
 from SPARQLWrapper import JSON, POST, POSTDIRECTLY, TURTLE, XML, SPARQLWrapper
 
-from tests.kb_fixtures import PR2, copied, http, live, make_app
+from tests.kb_fixtures import PR2, copied, http, served
 from urdfkb.kb_server.store import Store
 
 P = "PREFIX core: <https://w3id.org/urdfkb/core#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
@@ -22,10 +22,8 @@ TOKEN = "s3cret"
 @pytest.fixture(scope="module")
 def url(pr2_kb, tmp_path_factory):
     store = Store(copied(pr2_kb, tmp_path_factory.mktemp("kb")))
-    app, jobs = make_app(store, token=TOKEN, query_timeout=1.0)
-    with live(app) as base:
+    with served(store, token=TOKEN, query_timeout=1.0) as base:
         yield base + "/sparql"
-    jobs.shutdown()
     store.close()
 
 
