@@ -34,7 +34,8 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, viewpoints
+from urdfkb.pipeline.structure import (ToolStructure, alike_sets, beside_hands, feet, frames_of_one_body, hand_mounts,
+                                      limb_goes_on, viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -88,6 +89,7 @@ class Abstractor:
         self.hand_tips: frozenset[str] = frozenset()  # leaves of hands and grippers: the end-effector pass's (shape step)
         self.hand_mounts: dict[str, str] = {}  # each of those leaves → its hand's mount
         self.feet: frozenset[str] = frozenset()  # limb tips the robot stands on: never tools (shape step)
+        self.off_ends: frozenset[str] = frozenset()  # leaves at no limb's end: never tools (shape step)
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -110,12 +112,16 @@ class Abstractor:
     def shape(self, s: PassState) -> None:
         """What the robot's shape settles before any question (pipeline.structure): the leaves of hands and
         grippers (their fingers, a hand's drive, tool centre points) belong to the end-effector pass unless a
-        simulator declares a sensor on them, and limb tips the robot stands on are feet, never tools."""
+        simulator declares a sensor on them, limb tips the robot stands on are feet, never tools, and neither are
+        leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk), or bodies
+        beside a hand on the link it is mounted on."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
         self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(s.robot).items() if leaf not in declared}
         self.hand_tips = frozenset(self.hand_mounts)
         self.feet = feet(s.robot)
-        self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet)})
+        self.off_ends = beside_hands(s.robot) | {leaf for leaf in s.robot.leaves() if limb_goes_on(s.robot, leaf)}
+        self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
+                     "off_ends": sorted(self.off_ends)})
 
     def identification(self, s: PassState) -> None:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
@@ -125,7 +131,9 @@ class Abstractor:
             if tools and leaf in self.hand_tips and leaf not in self.claims:
                 self.claims[leaf], self.shares[leaf] = tools, 1.0
         unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
-        for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress, self.log).items():
+        ruled = {leaf: frozenset({tools}) for leaf in unasked if tools and leaf in self.off_ends}
+        for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress, self.log,
+                                            ruled).items():
             if kind == tools and leaf in self.feet:  # the tip of a leg: part of the body, as the body pass will find
                 self.log(f"{leaf}: a foot the robot stands on, not a tool")
                 body = self.tax.body_part  # what identification calls a leaf of the body
@@ -461,8 +469,8 @@ class Abstractor:
 
 
 SENSOR_PASS = Pass(SENSOR, (
-    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet")),
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet"),
+    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends")),
+    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends"),
          ("leaves", "claims")),
     Step("mimic veto", Abstractor.mimic_veto, ("leaves", "claims"), ("claims",)),
     Step("sensor check", Abstractor.sensor_check, ("leaves", "claims"), ("claims",)),
@@ -477,7 +485,7 @@ SENSOR_PASS = Pass(SENSOR, (
 ))
 
 END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet"),
+    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends"),
          ("leaves", "claims")),
     Step("attachment", Abstractor.attachment, ("leaves", "claims"), ("chains",)),
     Step("group merging", Abstractor.group_merging, ("chains",), ("groups",)),

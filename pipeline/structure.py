@@ -319,14 +319,19 @@ def hand_leaves(tree: KinematicTree) -> frozenset[str]:
 
 
 def hand_mounts(tree: KinematicTree) -> dict[str, str]:
-    """Each leaf of every hand or gripper the tree's shape shows → the hand's mount, read before anything is asked, so that they
-    go to the end-effector pass and not to the sensors. A hand is a fork (tool_structure) with two finger
-    chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
+    """Each leaf of every hand or gripper the tree's shape shows (hands) → the hand's mount, read before anything
+    is asked, so that they go to the end-effector pass and not to the sensors."""
+    return {leaf: structure.mount for structure, leaves in hands(tree) for leaf in leaves}
+
+
+def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
+    """Every hand or gripper the tree's shape shows, with its leaves. A hand is a fork (tool_structure) with two
+    finger chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
     range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
     finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
     the pure frames fixed to its body that lie out among the fingertips (_among_tips): tool centre points.
     A joint that spins freely (continuous, following no other) is a wheel's or a caster's, never a finger's."""
-    found: dict[str, str] = {}
+    found = []
     for fork in tree.links:
         small = [c for c in _moving_children(tree, fork) if _hand_sized(tree, fork, c)]
         if len(small) < 2:
@@ -336,8 +341,21 @@ def hand_mounts(tree: KinematicTree) -> dict[str, str]:
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
             continue
-        found.update(dict.fromkeys([*leaves, *_tool_points(tree, structure.fork, fingers)], structure.mount))
+        found.append((structure, list(dict.fromkeys([*leaves, *_tool_points(tree, structure.fork, fingers)]))))
     return found
+
+
+def beside_hands(tree: KinematicTree) -> frozenset[str]:
+    """Bodies fixed beside a hand rather than in it: leaves with geometry on the body the hand is mounted on,
+    not below where its fingers part (a range sensor or a camera on the wrist a gripper is bolted to). A pure
+    frame there may mark the hand's tool point, so frames are not among them."""
+    found = set()
+    for structure, leaves in hands(tree):
+        mount = set(rigid_body(tree, structure.mount))
+        below = {structure.fork, *tree.descendants(structure.fork)}
+        found.update(leaf for link in mount for leaf in tree.children(link)
+                     if tree.is_leaf(leaf) and leaf not in below and leaf not in leaves and not is_frame(tree, leaf))
+    return frozenset(found)
 
 
 def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:
@@ -380,6 +398,36 @@ def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
     ranged = all(e.mimic is not None or (e.limits is not None and e.joint_type != "continuous") for e in edges)
     return (len(edges) <= MAX_FINGER_JOINTS and ranged
             and all(_norm(tree.position_in(link, fork)) <= HAND_REACH for link in links))
+
+
+def rigid_body(tree: KinematicTree, link: str) -> tuple[str, ...]:
+    """The links fixed rigidly to `link`: up through fixed joints to the first link a movable joint moves (or
+    the root), and every link fixed below that one."""
+    top = link
+    while (parent := tree.parent(top)) is not None and not tree.edge_to(top).movable:
+        top = parent
+    body, stack = [], [top]
+    while stack:
+        body.append(current := stack.pop())
+        stack.extend(c for c in tree.children(current) if not tree.edge_to(c).movable)
+    return tuple(body)
+
+
+def limb_goes_on(tree: KinematicTree, leaf: str) -> bool:
+    """A limb goes on from the body the leaf is fixed to: a moving subtree of that body has more movable joints
+    than a hand's finger (MAX_FINGER_JOINTS) or reaches beyond HAND_REACH. The leaf sits along a limb or on the
+    trunk it leaves from, not at a limb's end, where an end effector is."""
+    for link in rigid_body(tree, leaf):
+        for child in tree.children(link):
+            if tree.edge_to(child).movable and _limb(tree, link, child):
+                return True
+    return False
+
+
+def _limb(tree: KinematicTree, fork: str, child: str) -> bool:
+    links = (child, *tree.descendants(child))
+    joints = sum(tree.edge_to(link).movable for link in links)
+    return joints > MAX_FINGER_JOINTS or any(_norm(tree.position_in(link, fork)) > HAND_REACH for link in links)
 
 
 def feet(tree: KinematicTree) -> frozenset[str]:

@@ -15,7 +15,8 @@ from structure alone. An arm of 4-7 revolute joints ends in one of:
 Fingers have 1-4 joints; joints of one finger are sometimes coupled to its first flexion joint by
 <mimic> (multipliers 0.8, 1, 1.2). Fingers hang on a palm (bolted to the flange, or to an adapter
 plate on it) or straight on the arm's last moving link; fingertip frames (fixed links at the tips)
-and a TCP frame are optional.
+and a TCP frame are optional. `asides=True` also bolts a small box on the arm's first moving link and, where
+the hand has a palm, one on the link the palm is bolted to, beside the hand: bodies at no limb's end.
 
 The truth (`Built`) follows pipeline/structure.py's definitions and the ontology's class
 definitions: the mount is the link the palm is bolted to (the flange, or the adapter), or the
@@ -62,17 +63,20 @@ class Built:
     description: str = ""
     thumb: str | None = None   # first link of the thumb chain
     notes: list[str] = field(default_factory=list)
+    asides: list[str] = field(default_factory=list)  # boxes along the arm and beside the hand (asides=True)
 
 
-def build(seed: int, alone: bool = False) -> Built:
+def build(seed: int, alone: bool = False, asides: bool = False) -> Built:
     """One random arm and end-effector (or, `alone`, the end-effector only); the same seed builds the
-    same robot."""
+    same robot (`asides` adds boxes, and changes nothing else)."""
     rng = random.Random(seed)
     w = Writer(rng)
     # the arm
     link = w.link()
+    arm = [link]
     for i in range(0 if alone else rng.randint(4, 7)):
         child = w.link()
+        arm.append(child)
         w.joint("revolute", link, child, (0.0, 0.0, rng.uniform(0.08, 0.3)),
                 (0.0, 0.0, 1.0) if i % 2 == 0 else (0.0, 1.0, 0.0), (-2.5, 2.5))
         link = child
@@ -214,6 +218,15 @@ def build(seed: int, alone: bool = False) -> Built:
         tcp = w.link()
         w.joint("fixed", base, tcp, (0.0, 0.0, base_z + 0.1))
         tool_links.add(tcp)
+    boxes = []
+    if asides:
+        box = '<box size="0.03 0.02 0.01"/>'
+        if len(arm) > 2:
+            boxes.append(w.link(box))
+            w.joint("fixed", arm[1], boxes[-1], (0.05, 0.0, 0.02))
+        if on_palm:
+            boxes.append(w.link(box))
+            w.joint("fixed", mount, boxes[-1], (0.06, 0.0, 0.0))
     urdf = w.urdf()
     parent_of = {}
     for j in w.joints:
@@ -222,4 +235,4 @@ def build(seed: int, alone: bool = False) -> Built:
     has_child = set(parent_of.values())
     leaves = sorted(x for x in tool_links if x not in has_child)
     return Built(urdf, layout, kind, mount, base, tool_links, leaves, chains, flange,
-                 f"{description}, {'on a palm' if on_palm else 'on the flange'}", thumb)
+                 f"{description}, {'on a palm' if on_palm else 'on the flange'}", thumb, asides=boxes)

@@ -17,7 +17,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import detect_roots
-from urdfkb.pipeline.structure import alike_leaves, feet, hand_leaves, hand_mounts
+from urdfkb.pipeline.structure import alike_leaves, beside_hands, feet, hand_leaves, hand_mounts, limb_goes_on
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -104,6 +104,24 @@ def test_feet_the_model_takes_for_tools_are_no_tools():
         tool = {TAX.answer(TOOL_CLS): 0.7, NONE: 0.3}
         claims = _identified(built.urdf, lambda q: tool if _leaf(q) in tips else NONE)
         assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, "BodyPart"), seed
+
+
+def test_leaves_at_no_limbs_end_are_never_tools():
+    """A box bolted along the arm (a limb goes on from it) and one bolted beside the hand on the link its palm is
+    bolted to are at no limb's end; the hand's own leaves are. The erring model calls the boxes end effectors at
+    0.6: structure rules that out, so they get the model's next answer, and the hand's leaves stay the tool's."""
+    seen = 0
+    for seed in range(0, 300, 7):
+        built = build(seed, asides=True)
+        tree = load_urdf(built.urdf)
+        off = beside_hands(tree) | {leaf for leaf in tree.leaves() if limb_goes_on(tree, leaf)}
+        assert set(built.asides) <= off and not off & set(built.leaves), (seed, built.layout)
+        options = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
+        claims = _identified(built.urdf, lambda q: options if _leaf(q) in built.asides else NONE)
+        assert {a: claims[a] for a in built.asides} == dict.fromkeys(built.asides, SENSOR_CLS), seed
+        assert {claims[leaf] for leaf in built.leaves} == {TOOL_CLS}, seed
+        seen += len(built.asides)
+    assert seen >= 40
 
 
 def test_alike_limbs_are_asked_once_and_answered_alike():

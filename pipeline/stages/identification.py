@@ -3,7 +3,10 @@
 Alike leaves (pipeline.structure.alike_leaves: the fingers of a hand, mirrored limbs, a quadruped's feet)
 are asked once, the first standing for all, and all get its answer: four
 identical fingers can no longer become four different things, and fewer questions are asked. A leaf
-that names a catalogue product which is no component (a fiducial marker) is settled without a question."""
+that names a catalogue product which is no component (a fiducial marker) is settled without a question.
+Where the robot's structure rules a kind out for a leaf (no end effector where a limb goes on from the leaf's
+body: structure.limb_goes_on), the question stays the same for every leaf, so its system text is shared, and
+the answer is the option with the most votes among those left."""
 from __future__ import annotations
 
 from typing import Callable
@@ -11,8 +14,9 @@ from typing import Callable
 from urdfkb.pipeline.catalogue import Product, catalogue
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import Vocabulary
-from urdfkb.pipeline.prompts import NONE, kind_choice
-from urdfkb.pipeline.structure import alike_leaves
+from urdfkb.pipeline.oracle import Verdict
+from urdfkb.pipeline.prompts import NONE, Choice, kind_choice
+from urdfkb.pipeline.structure import alike_sets
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.stages.asking import Progress, ask
 
@@ -30,13 +34,16 @@ def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
 
 
 def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str],
-             progress: Progress | None = None, log: Callable[[str], None] | None = None) -> dict[str, tuple[str, float]]:
+             progress: Progress | None = None, log: Callable[[str], None] | None = None,
+             ruled_out: dict[str, frozenset[str]] | None = None) -> dict[str, tuple[str, float]]:
     """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention), with
     the share of the votes the answer had. A leaf naming a catalogue product that the ontology does not
-    place under Component (a fiducial marker) is part of none, unasked: no kind is left to offer."""
+    place under Component (a fiducial marker) is part of none, unasked: no kind is left to offer.
+    `ruled_out`: leaf → the kinds its structure rules out (never answered for it)."""
     kinds = tax.subclasses(tax.component)
+    ruled = ruled_out or {}
     groups, settled = [], {}
-    for group in alike_leaves(tree, leaves):
+    for group in alike_sets(tree, leaves, lambda a, b: ruled.get(a) == ruled.get(b)):
         product = named_product(tree, [group[0]])
         if product is not None and product.cls in tax and not tax.is_a(product.cls, tax.component):
             if log:
@@ -49,5 +56,21 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
         for group, product in groups
     ]
     verdicts = ask(oracle, [c.question for c in choices], "identification", progress)
-    return settled | {leaf: (c.meant(v.answer, NONE), v.confidence)
-                      for (group, _), c, v in zip(groups, choices, verdicts) for leaf in group}
+    answers = dict(settled)
+    for (group, _), c, v in zip(groups, choices, verdicts):
+        kind, share = _allowed(c, v, ruled.get(group[0], frozenset()))
+        if log and kind != c.meant(v.answer, NONE):
+            log(f"{group}: {c.meant(v.answer, NONE)} ruled out by structure: {kind} ({share:.2f})")
+        answers.update({leaf: (kind, share) for leaf in group})
+    return answers
+
+
+def _allowed(choice: Choice, verdict: Verdict, ruled: frozenset[str]) -> tuple[str, float]:
+    """The answer the votes give among the options not `ruled` out, with its share."""
+    shares = {choice.meant(option, NONE): share for option, share in verdict.distribution.items()}
+    answer = choice.meant(verdict.answer, NONE)
+    if answer not in ruled:
+        return answer, verdict.confidence
+    left = {kind: share for kind, share in shares.items() if kind not in ruled}
+    best = max(left, key=left.__getitem__, default=NONE)
+    return best, left.get(best, 0.0)
