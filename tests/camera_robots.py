@@ -3,7 +3,8 @@
 A mount link carries 1-4 camera housings (a box each), fixed at random places and facing random
 directions at least 45 degrees apart, or, sometimes, a stereo pair: two housings side by side
 (0.05-0.2 m apart) facing the same way. Each housing carries 1-4 optical frames (pure frames, the
-leaves). Every frame's name is one shared stem plus a meaningless word, so a model that reads names
+leaves); with `bare=True` each housing is a bare frame instead (no geometry: a device's own frame that its
+optical frames hang from, as many lidars and cameras are written). Every frame's name is one shared stem plus a meaningless word, so a model that reads names
 could call every frame one device: what keeps devices apart here is structure alone.
 """
 from __future__ import annotations
@@ -25,8 +26,8 @@ class Built:
     description: str
 
 
-def build(seed: int) -> Built:
-    """One random camera head; the same seed builds the same robot."""
+def build(seed: int, bare: bool = False) -> Built:
+    """One random camera head; the same seed builds the same robot (`bare`: with bare-frame housings)."""
     rng = random.Random(seed)
     w = Writer(rng)
     mount = w.link("<box size=\"0.3 0.3 0.1\"/>")
@@ -42,7 +43,7 @@ def build(seed: int) -> Built:
     housing: dict[str, str] = {}
 
     def camera(xyz, yaw) -> list[str]:
-        body = w.link("<box size=\"0.03 0.1 0.03\"/>")
+        body = w.link("" if bare else "<box size=\"0.03 0.1 0.03\"/>")
         w.joint("fixed", mount, body, xyz, rpy=(0.0, 0.0, yaw))
         frames = []
         for _ in range(rng.randint(1, 4)):
@@ -64,5 +65,5 @@ def build(seed: int) -> Built:
         left = camera(tuple(c + s for c, s in zip(centre, side)), yaw)
         right = camera(tuple(c - s for c, s in zip(centre, side)), yaw)
         devices.append(left + right)
-    description = f"{count} camera(s)" + (" and a stereo pair" if stereo else "")
+    description = f"{count} camera(s)" + (" and a stereo pair" if stereo else "") + (", bare housings" if bare else "")
     return Built(w.urdf(), mount, stem, devices, housing, description)

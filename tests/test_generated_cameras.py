@@ -21,9 +21,12 @@ TAX = vocabulary()
 
 
 @pytest.mark.slow  # many generated robots
+@pytest.mark.parametrize("bare", [False, True])
 @pytest.mark.parametrize("seed", SEEDS)
-def test_each_housing_is_one_device_whatever_the_names_share(seed):
-    built = build(seed)
+def test_each_housing_is_one_device_whatever_the_names_share(seed, bare):
+    """Housings facing apart are separate devices though every frame names one; a bare frame that a device's
+    frames hang from is its housing as a box is (two lidars' own frames on one head)."""
+    built = build(seed, bare)
     tree = load_urdf(built.urdf)
     frames = [frame for device in built.devices for frame in device]
     chains = [sub_chain(tree, frame, built.mount) for frame in frames]

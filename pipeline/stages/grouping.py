@@ -8,8 +8,8 @@ and is not offered. Sub-chains near each other in the
 tree (sharing links, or on the same mount), with the same device name and pre-classes in the same
 sensor category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and
 an accelerometer on one palm are not) form one device. Two sub-chains that share only their mount,
-each with a body of its own (its first link with geometry, the housing), are near only if the two
-housings face the same way and lie within DEVICE_SPAN of each other: housings pointing apart or far apart are separate devices
+each with a body of its own (its first link with geometry, the housing, or failing one the device's own bare
+frame that its frames hang from), are near only if the two housings face the same way and lie within DEVICE_SPAN of each other: housings pointing apart or far apart are separate devices
 whatever their names share, while a stereo pair's two housings look the same way side by side. A sub-chain with no such neighbour is a device of its own whatever its
 name, so it is not asked.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
@@ -85,8 +85,11 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 
 
 def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
-    """The sub-chain's first link with geometry: its body, where it has one."""
-    return next((link for link in chain.links if link in tree.evidence and not is_frame(tree, link)), None)
+    """The sub-chain's first link with geometry: its body, where it has one; else its first link below the mount
+    when that is not the leaf: the device's own bare frame, which its other frames hang from."""
+    body = next((link for link in chain.links if link in tree.evidence and not is_frame(tree, link)), None)
+    own = chain.links[0] if len(chain.links) > 1 else None  # links run from the mount's child down to the leaf
+    return body or own
 
 
 def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
