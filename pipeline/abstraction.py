@@ -90,6 +90,7 @@ class Abstractor:
         self.hand_mounts: dict[str, str] = {}  # each of those leaves → its hand's mount
         self.feet: frozenset[str] = frozenset()  # limb tips the robot stands on: never tools (shape step)
         self.off_ends: frozenset[str] = frozenset()  # leaves at no limb's end: never tools (shape step)
+        self.moving_feet: frozenset[str] = frozenset()  # feet that are a leg's own last link: body, unasked
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -112,32 +113,39 @@ class Abstractor:
     def shape(self, s: PassState) -> None:
         """What the robot's shape settles before any question (pipeline.structure): the leaves of hands and
         grippers (their fingers, a hand's drive, tool centre points) belong to the end-effector pass unless a
-        simulator declares a sensor on them, limb tips the robot stands on are feet, never tools, and neither are
+        simulator declares a sensor on them, limb tips the robot stands on are feet, never tools (a foot that moves
+        on its own joint is the leg's last link: part of the body, unasked), and neither are
         leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk), or bodies
         beside a hand on the link it is mounted on."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
         self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(s.robot).items() if leaf not in declared}
         self.hand_tips = frozenset(self.hand_mounts)
         self.feet = feet(s.robot)
+        self.moving_feet = frozenset(f for f in self.feet if s.robot.edge_to(f).movable and f not in declared)
         self.off_ends = beside_hands(s.robot) | {leaf for leaf in s.robot.leaves() if limb_goes_on(s.robot, leaf)}
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
+                     "moving_feet": sorted(self.moving_feet),
                      "off_ends": sorted(self.off_ends)})
 
     def identification(self, s: PassState) -> None:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
         s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
         tools = self.tax.kinds[END_EFFECTOR].cls if END_EFFECTOR in self.tax.kinds else None
+        body = self.tax.body_part  # what identification calls a leaf of the body
+        body = body if body in self.tax.subclasses(self.tax.component) else NONE
         for leaf in s.leaves:
             if tools and leaf in self.hand_tips and leaf not in self.claims:
                 self.claims[leaf], self.shares[leaf] = tools, 1.0
+            elif leaf in self.moving_feet and leaf not in self.claims:
+                self.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
+                self.claims[leaf], self.shares[leaf] = body, 1.0
         unasked = [leaf for leaf in s.leaves if leaf not in self.claims]
         ruled = {leaf: frozenset({tools}) for leaf in unasked if tools and leaf in self.off_ends}
         for leaf, (kind, share) in identify(self.oracle, self.tax, s.tree, unasked, self.progress, self.log,
                                             ruled).items():
             if kind == tools and leaf in self.feet:  # the tip of a leg: part of the body, as the body pass will find
                 self.log(f"{leaf}: a foot the robot stands on, not a tool")
-                body = self.tax.body_part  # what identification calls a leaf of the body
-                kind = body if body in self.tax.subclasses(self.tax.component) else NONE
+                kind = body
             self.claims[leaf], self.shares[leaf] = kind, share
         self._one_kind_per_body(s)
 

@@ -395,7 +395,7 @@ def is_frame(tree: KinematicTree, link: str) -> bool:
 def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
     links = (child, *tree.descendants(child))
     edges = [e for link in links if (e := tree.edge_to(link)).movable]
-    ranged = all(e.mimic is not None or (e.limits is not None and e.joint_type != "continuous") for e in edges)
+    ranged = not any(e.spins for e in edges)
     return (len(edges) <= MAX_FINGER_JOINTS and ranged
             and all(_norm(tree.position_in(link, fork)) <= HAND_REACH for link in links))
 

@@ -55,6 +55,13 @@ class Edge:
         """Moves of its own: movable and following no other joint through <mimic>."""
         return self.movable and self.mimic is None
 
+    @property
+    def spins(self) -> bool:
+        """Turns without bound, following no other joint: continuous, or revolute with no range given (the
+        URDF spec would read such a joint as locked at 0; files write wheels so, meaning continuous)."""
+        return self.mimic is None and (self.joint_type == "continuous"
+                                       or (self.joint_type == "revolute" and self.limits is None))
+
 
 class TreeError(URDFError, ValueError):
     """Links and joints that do not form one rooted tree; `element` names the culprit."""

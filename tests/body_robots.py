@@ -94,8 +94,9 @@ def wheeled(seed: int) -> Built:
     return built
 
 
-def legged(seed: int) -> Built:
-    """Two or four legs of 2-4 joints reaching the ground, and sometimes an arm on the back."""
+def legged(seed: int, bare_feet: bool = False) -> Built:
+    """Two or four legs of 2-4 joints reaching the ground, and sometimes an arm on the back; `bare_feet`: no
+    foot link fixed at the tips, so each leg's last moving link is its foot (a humanoid's ankle roll link)."""
     rng = random.Random(seed)
     w = Writer(rng)
     built = Built(b"", [], [])
@@ -110,8 +111,9 @@ def legged(seed: int) -> Built:
             joints.append(w.joint("revolute", parent, child, (x, y, 0) if not i else (0, 0, -0.2),
                                   (1, 0, 0) if not i else (0, 1, 0)))
             parent = child
-        foot = w.link('<sphere radius="0.02"/>')
-        w.joint("fixed", parent, foot, (0, 0, -0.2))
+        if not bare_feet:
+            foot = w.link('<sphere radius="0.02"/>')
+            w.joint("fixed", parent, foot, (0, 0, -0.2))
         built.parts.append(Part("Leg", joints, side))
     if rng.random() < 0.5:
         _arm(w, built, trunk, 0.0, 0.1, None)

@@ -2,10 +2,13 @@
 hundreds of seeds (structure only), and whole passes with the scripted reasoner and a scripted model."""
 from __future__ import annotations
 
+import random
+
 import pytest
 
 from tests.body_robots import Built, legged, wheeled
 from tests.scripted_reasoner import scripted_reasoner
+from tests.urdf_writer import Writer
 from urdfkb.pipeline.abstraction import BODY_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -31,6 +34,27 @@ def test_candidate_chains_are_the_parts_over_many_seeds(make):
         expected = {tuple(p.joints) for p in built.parts if p.cls != "MobileBase"}
         expected |= {(j,) for p in built.parts if p.cls == "MobileBase" for j in p.joints}
         assert _candidates(built) == expected, seed
+
+
+def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
+    """Files write wheels as revolute joints with a <limit> that gives no range ("actually continuous"): such a
+    joint spins, so a wheel at the end of a leg is a wheel candidate of its own, as a continuous one is."""
+    w = Writer(random.Random(5))
+    trunk = parent = w.link('<box size="0.5 0.3 0.1"/>')
+    leg = []
+    for i in range(3):
+        child = w.link('<box size="0.03 0.03 0.2"/>')
+        leg.append(w.joint("revolute", parent, child, (0.2, 0.1, 0) if not i else (0, 0, -0.2), (0, 1, 0)))
+        parent = child
+    wheel = w.link('<cylinder radius="0.08" length="0.04"/>')
+    w.joints.append(f'<joint name="spin" type="revolute"><parent link="{parent}"/><child link="{wheel}"/>'
+                    '<origin xyz="0 0 -0.2" rpy="1.5708 0 0"/><axis xyz="0 0 1"/><limit effort="35" velocity="20"/></joint>')
+    tree = load_urdf(w.urdf())
+    assert tree.edge_to(wheel).spins and not any(tree.edge_to(link).spins for link in tree.links if link not in (trunk, wheel))
+    found = body.chains(tree, set(), set())
+    assert {tuple(e.joint for e in c.joints) for c in found} == {tuple(leg), ("spin",)}
+    told = {tuple(e.joint for e in c.joints): f.joint_types for c, f in zip(found, body.findings(tree, found, []).facts)}
+    assert told[("spin",)] == ("continuous",) and set(told[tuple(leg)]) == {"revolute"}  # the reasoner's Wheel axiom applies
 
 
 def test_device_joints_are_the_fingers():

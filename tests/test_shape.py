@@ -124,6 +124,24 @@ def test_leaves_at_no_limbs_end_are_never_tools():
     assert seen >= 40
 
 
+def test_a_legs_last_link_on_the_ground_is_part_of_the_body_unasked():
+    """Where no foot frame is fixed at a leg's tip, the leaf the robot stands on is the leg's last moving link.
+    The erring model calls it a sensor at 0.6 (a humanoid's ankle roll links became touch sensors, taking the
+    ankle joints out of the legs): it is part of the body, and it is not asked."""
+    for seed in range(0, 300, 7):
+        built = legged(seed, bare_feet=True)
+        tree = load_urdf(built.urdf)
+        tips = _leg_tips(built, tree)
+        assert tips == set(feet(tree)) and all(tree.edge_to(t).movable for t in tips), seed
+        asked = []
+
+        def erring(q):
+            asked.append(_leaf(q))
+            return {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4} if _leaf(q) in tips else NONE
+        claims = _identified(built.urdf, erring)
+        assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, "BodyPart") and not tips & set(asked), seed
+
+
 def test_alike_limbs_are_asked_once_and_answered_alike():
     """The feet of a generated legged robot are one set of alike leaves: one identification question, whose
     answer all of them get, even from a model that would have told them apart (by a meaningless name)."""

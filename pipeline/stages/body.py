@@ -2,8 +2,8 @@
 
 Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
 joints between branch points (a link from which two or more chains go on), cut after a sliding
-joint that lifts turning ones, with a trailing rolling joint that carries nothing split off as a
-wheel candidate. The code asserts what structure says of
+joint that lifts turning ones, with a trailing joint that spins (continuous, or revolute with no range) and
+carries nothing split off as a wheel candidate. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
 the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
 (a part carrying an end-effector off the ground is an arm, ...). The model classifies the
@@ -108,11 +108,17 @@ def _split_lifts(run: list[Edge]) -> list[list[Edge]]:
     return pieces
 
 
+def _motion(edge: Edge) -> str:
+    """The joint type the reasoner is told: what the joint does, so a joint that spins (Edge.spins) is continuous
+    whatever the file wrote."""
+    return "continuous" if edge.spins else edge.joint_type
+
+
 def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
-    """A trailing continuous joint that carries nothing (no further joint, no device) is its own candidate."""
+    """A trailing joint that spins (Edge.spins) and carries nothing (no further joint, no device) is its own candidate."""
     last = run[-1]
     carries = {last.child, *tree.descendants(last.child)} & owned_links
-    if len(run) > 1 and last.joint_type == "continuous" and not below.get(last.joint) and not carries:
+    if len(run) > 1 and last.spins and not below.get(last.joint) and not carries:
         return [Chain(run[:-1], []), Chain([last], [])]
     return [Chain(run, [])]
 
@@ -193,7 +199,7 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
     carries = [[i for i, other in enumerate(found) if other is not chain and other.mount in chain.links] for chain in found]
     grounded = [_reaches_ground(tree, chain, lowest) for chain in found]
-    facts = [reasoning.PartFacts(tuple(e.joint_type for e in chain.joints), tuple(c.cls for c in held),
+    facts = [reasoning.PartFacts(tuple(_motion(e) for e in chain.joints), tuple(c.cls for c in held),
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     return Findings(devices, carries, grounded, facts)
