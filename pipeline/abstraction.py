@@ -32,7 +32,7 @@ from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
 from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
-from urdfkb.pipeline.stages.subparts import type_subparts
+from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
 from urdfkb.pipeline.structure import (ToolStructure, alike_sets, beside_hands, feet, frames_of_one_body, hand_mounts,
                                       limb_goes_on, viewpoints)
@@ -229,14 +229,36 @@ class Abstractor:
                 self.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
                 by_start.setdefault(self.tax.parents(cls)[0], []).append(g)
         for start, members in by_start.items():
+            unfit = self._frames_first(s, [g for g in members if len(g.chains) > 1], start)
             results = descend(self.oracle, self.tax, start, [
                 Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                         "Frames: " + "; ".join(f"{leaf} ({self.tax.label(s.pre[leaf].cls)})" for leaf in g.leaves),
-                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}") | unseen[id(g)])
+                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}") | unseen[id(g)]
+                        | unfit.get(id(g), frozenset()))
                 for g in members
             ], "post-classification", self.progress)
             typed.update({id(g): t for g, t in zip(members, results)})
         s.post = [typed[id(g)] for g in s.groups]
+
+    def _frames_first(self, s: PassState, groups: list[Group], start: str) -> dict[int, frozenset[str]]:
+        """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
+        each leaf of `groups` first (into `s.parts`), and each group is not offered the classes under `start`
+        that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
+        camera, a depth frame no monocular camera)."""
+        if not groups:
+            return {}
+        leaves = [leaf for g in groups for leaf in g.leaves]
+        frames = required_parts_first(self.oracle, self.tax, s.tree, leaves, start, self.progress)
+        if not frames:
+            return {}
+        s.parts.update(frames)
+        unfit = {}
+        for g in groups:
+            kinds = frozenset(frames[leaf].cls for leaf in g.leaves)
+            unfit[id(g)] = self.tax.unfit(kinds, start)
+            if unfit[id(g)]:
+                self.log(f"post:{g.leaves[0]}: frames {sorted(kinds)}, so no {', '.join(sorted(unfit[id(g)]))}")
+        return unfit
 
     def numbered_units(self, s: PassState) -> None:
         """Numbered units of one type given one device name are separate devices unless the
@@ -297,7 +319,7 @@ class Abstractor:
 
     def subpart_typing(self, s: PassState) -> None:
         s.parts = type_subparts(self.oracle, self.tax, s.tree, self._kind(s), s.groups, s.post, s.structures,
-                                self.progress)
+                                self.progress, s.parts)
 
     def assembly(self, s: PassState) -> None:
         s.found = [self._device(s, i, g, t, s.parts) for i, (g, t) in enumerate(zip(s.groups, s.post))]
@@ -486,9 +508,9 @@ SENSOR_PASS = Pass(SENSOR, (
     Step("pre-classification", Abstractor.pre_classification, ("chains",), ("pre",)),
     Step("group merging", Abstractor.group_merging, ("chains", "pre"), ("groups",)),
     Step("verification", Abstractor.verification, ("groups", "claims"), ("groups",)),
-    Step("post-classification", Abstractor.post_classification, ("groups", "pre"), ("post",)),
+    Step("post-classification", Abstractor.post_classification, ("groups", "pre"), ("post", "parts")),
     Step("numbered units", Abstractor.numbered_units, ("groups", "pre", "post"), ("groups", "post")),
-    Step("sub-part typing", Abstractor.subpart_typing, ("groups", "post"), ("parts",)),
+    Step("sub-part typing", Abstractor.subpart_typing, ("groups", "post", "parts"), ("parts",)),
     Step("assembly", Abstractor.assembly, ("groups", "post", "parts"), ("found", "components")),
 ))
 

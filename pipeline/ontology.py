@@ -107,6 +107,7 @@ class Vocabulary:
         self._comment: dict[str, str] = {}
         self._example: dict[str, str] = {}
         self._excluded: dict[str, set[str]] = {}
+        self._needed: dict[str, list[frozenset[str]]] = {}  # class → for each ∃hasComponent.(X ⊔ …): {X, …}
         self._declared_by: dict[str, set[str]] = {}  # SDF sensor type → classes aligned to it
         self._joint_class: dict[str, str] = {}  # URDF joint type → its class
         self._chain_class: dict[str, str] = {}  # a finger chain's drive motion → its class
@@ -128,6 +129,7 @@ class Vocabulary:
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
             self._excluded[name] = _restricted_parts(graph, node, complement=True)
+            self._needed[name] = _needed_parts(graph, node)
             if (views := _viewpoint_range(graph, node)) is not None:
                 self._views[name] = views
             if (placement := _placement(graph, node)) is not None:
@@ -278,6 +280,18 @@ class Vocabulary:
         direct = set().union(*(self._excluded[c] for c in (self._check(name), *self.ancestors(name))))
         return frozenset(c for c in self._order if any(self.is_a(c, x) for x in direct))
 
+    def unfit(self, parts: frozenset[str], below: str) -> frozenset[str]:
+        """Classes under `below` that a device whose sub-parts are all of `parts` (and nothing else) cannot be:
+        one of the parts is excluded from them (∀hasComponent.¬X), or they need a part none of `parts` is
+        (∃hasComponent.X on them or a class above them: an RGB-D camera has a colour frame and a depth or
+        infrared one)."""
+        def fits(name: str) -> bool:
+            if parts & self.excluded_parts(name):
+                return False
+            needs = [n for c in (name, *self.ancestors(name)) for n in self._needed.get(c, [])]
+            return all(any(self.is_a(p, x) for p in parts for x in need) for need in needs)
+        return frozenset(c for c in self.subclasses_below(below) if not fits(c))
+
     def required_part(self, name: str) -> str | None:
         """The sub-part class a `name` device must have one of (a qualified shape on it or an
         ancestor, ontologies/shapes.ttl), or None."""
@@ -367,6 +381,21 @@ def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool
         part = graph.value(filler, OWL.complementOf) if complement else filler
         if part is not None and (local := _local(part)):
             out.add(local)
+    return out
+
+
+def _needed_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> list[frozenset[str]]:
+    """For each `node ⊑ ∃hasComponent.X` axiom, {X}, or the members of X where X is a union."""
+    out = []
+    for restriction in graph.objects(node, RDFS.subClassOf):
+        if graph.value(restriction, OWL.onProperty) != CORE.hasComponent:
+            continue
+        filler = graph.value(restriction, OWL.someValuesFrom)
+        if filler is None:
+            continue
+        union = graph.value(filler, OWL.unionOf)
+        members = list(Collection(graph, union)) if union is not None else [filler]
+        out.append(frozenset(filter(None, map(_local, members))))
     return out
 
 

@@ -4,6 +4,8 @@ Structure only, over hundreds of seeds: merge is called as the pipeline calls it
 on the head."""
 from __future__ import annotations
 
+import random
+
 import pytest
 from tests.camera_robots import build
 
@@ -15,6 +17,7 @@ from urdfkb.pipeline.stages.attachment import detect_roots, sub_chain
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.structure import viewpoints
 
 SEEDS = range(200)
 TAX = vocabulary()
@@ -164,3 +167,43 @@ def test_the_frames_of_one_housing_are_mounted_by_one_question():
                               lambda _link: False, rigid=True)
         assert {c.root for c in chains} == {built.mount}, seed
         assert len(asked) == len(set(built.housing.values())), (seed, built.description)
+
+
+MODALITY = {"rgb": "RgbFrame", "depth": "DepthFrame", "ir": "InfraredFrame"}
+
+
+@pytest.mark.slow  # many generated robots
+def test_the_frames_say_the_camera_whatever_the_model_names_it():
+    """The model labels each frame's modality right but names every camera a depth camera where it may and
+    monocular otherwise. The frames are typed first, and the ontology's definitions of the camera classes say
+    which the device can be: colour and depth frames an RGB-D camera, depth frames alone a depth camera,
+    colour frames seen from two places a stereo camera, from one a monocular camera."""
+    depth, mono = TAX.answer("DepthCamera"), TAX.answer("MonocularCamera")
+    seen = set()
+    for seed in range(0, 200, 3):
+        built = build(seed)
+        tree = load_urdf(built.urdf)
+        rng = random.Random(seed)
+        devices = [d for d in built.devices if len(d) > 1 and len({built.housing[f] for f in d}) == 1]
+        modality = {}
+        for d in devices:
+            mix = rng.choice([("rgb", "depth"), ("depth",), ("rgb",)])
+            modality.update({f: mix[k % len(mix)] for k, f in enumerate(d)})
+
+        def rule(q):
+            leaf = q.key.split(":", 1)[1].split("@")[0]
+            if q.key.startswith("part:"):
+                return TAX.answer(MODALITY[modality[leaf]])
+            return next((o for o in (depth, mono) if o in q.options), q.options[0])
+        groups = [Group([sub_chain(tree, f, built.mount) for f in d]) for d in devices]
+        state = PassState(TAX.kinds["sensor"], tree, tree, [], groups=groups)
+        state.pre = {f: Typed("MonocularCamera", 0.9) for d in devices for f in d}
+        Abstractor(Oracle(ScriptedBackend(rule)), TAX).post_classification(state)
+        for d, typed in zip(devices, state.post):
+            kinds = {modality[f] for f in d}
+            expected = ("RGBDCamera" if kinds == {"rgb", "depth"} else "DepthCamera" if kinds == {"depth"}
+                        else "StereoCamera" if viewpoints(tree, d) > 1 else "MonocularCamera")
+            assert typed.cls == expected, (seed, built.description, kinds)
+            assert {f: state.parts[f].cls for f in d} == {f: MODALITY[modality[f]] for f in d}, seed
+            seen.add(expected)
+    assert seen == {"RGBDCamera", "DepthCamera", "StereoCamera"}

@@ -79,6 +79,22 @@ def test_the_camera_rule_comes_from_the_shapes(tmp_path):
     assert vocab.fingerprint != vocabulary().fingerprint and vocab.version == vocabulary().version
 
 
+def test_what_a_cameras_frames_rule_out_comes_from_its_restrictions(tmp_path):
+    """Vocabulary.unfit: ∀hasComponent.¬X and ∃hasComponent.(X ⊔ …) on the camera classes, read from the core."""
+    vocab = vocabulary()
+
+    def left(*frames):
+        return set(vocab.subclasses_below("Camera")) - vocab.unfit(frozenset(frames), "Camera")
+    assert left("RgbFrame", "DepthFrame") == {"RGBDCamera"}
+    assert left("DepthFrame") == left("DepthFrame", "InfraredFrame") == {"DepthCamera"}
+    assert left("RgbFrame") == {"MonocularCamera", "StereoCamera"}
+    assert left("RgbFrame", "InfraredFrame") == {"MonocularCamera", "StereoCamera", "RGBDCamera"}
+    needs = '<owl:someValuesFrom rdf:resource="https://w3id.org/urdfkb/core#RgbFrame"/>'
+    assert needs in core_path().read_text(encoding="utf-8")
+    vocab = copy_of_core(tmp_path, lambda text: text.replace(needs, needs.replace("RgbFrame", "InfraredFrame")))
+    assert "RGBDCamera" in vocab.unfit(frozenset({"RgbFrame", "DepthFrame"}), "Camera")  # it now needs an IR frame
+
+
 def test_where_a_component_may_sit_comes_from_its_restriction(tmp_path):
     """Vocabulary.placement: on the class or its nearest ancestor, any union, intersection or complement."""
     assert vocabulary().placement("Bumper") == "Bumper ⊑ ∀isLocatedOn.(MobileBase ⊔ Leg)"

@@ -6,6 +6,9 @@ from its mount to the frame its measurements are expressed in, and nothing hangs
 Those leaves are refined below the required part (core:partQuestion asks which kind, where it has
 kinds); the device's other links are typed with that part's branch ruled out, and a tool's links
 with what its finger chains rule out (core:fingerChainRole). Alike links asked the same are asked once.
+A device of several sub-chains has its required parts typed first (required_parts_first), before its own
+class, which they then narrow (the frames say the camera, not the camera the frames); those answers are
+kept here where the class the device got still allows them.
 """
 from __future__ import annotations
 
@@ -21,32 +24,53 @@ from urdfkb.pipeline.tree import KinematicTree
 
 def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
                   classes: list[Typed], structures: list[ToolStructure] | None = None,
-                  progress: Progress | None = None) -> dict[str, Typed]:
+                  progress: Progress | None = None, known: dict[str, Typed] | None = None) -> dict[str, Typed]:
     """Each member link of `groups` (devices of `kind`, classified as `classes`) → its sub-part class;
-    `structures`: the tools' structures (end-effectors only)."""
-    required = _required_links(tax, groups, classes)
+    `structures`: the tools' structures (end-effectors only); `known`: required parts typed before the device
+    was (required_parts_first), kept."""
+    needed = _required_links(tax, groups, classes)
+    kept = {link: t for link, t in (known or {}).items()
+            if link in needed and t.cls not in tax.excluded_parts(needed[link])}  # still fits its device's class
+    required = {link: cls for link, cls in needed.items() if link not in kept}
     framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
     structural = _structural_parts(tax, tree, kind, groups, structures)
     rest = [
         (link, Subject(f"part:{link}", framing,
                        f"Link: {named(tree.evidence, link)}\nDevice: {tax.label(t.cls)}",
                        tax.excluded_parts(t.cls) | _required_branch(tax, t.cls) | structural.get(link, frozenset())))
-        for g, t in zip(groups, classes) for link in g.members if link not in required
+        for g, t in zip(groups, classes) for link in g.members if link not in needed
     ]
     frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
     for link, device in required.items():
-        part, requiring = tax.required_part(device), tax.requiring_class(device)
-        if part is None or requiring is None:
+        part = tax.required_part(device)
+        if part is None:
             raise ValueError(f"{device} requires no sub-part, yet {link} is typed as its required one")
-        holder = tax.label(requiring)
-        frames.setdefault(part, []).append((link, Subject(
-            f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
-            f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}",
-            tax.excluded_parts(device))))
+        frames.setdefault(part, []).append((link, _required_subject(tax, tree, link, device, part,
+                                                                     tax.excluded_parts(device))))
     typed = _descend_alike(oracle, tax, tree, kind.subparts, rest, "sub-part classification", progress)
     for part, subjects in frames.items():
         typed.update(_descend_alike(oracle, tax, tree, part, subjects, "required parts", progress))
-    return typed
+    return typed | kept
+
+
+def required_parts_first(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str], device: str,
+                         progress: Progress | None = None) -> dict[str, Typed]:
+    """The kind of the part a `device` class requires (a camera: an optical frame) at each of `leaves`, asked
+    before the device's own class, with nothing ruled out: what the frames are then says which classes the
+    device can be (Vocabulary.unfit). Empty when that part has no kinds to choose among."""
+    part = tax.required_part(device)
+    if part is None or not tax.subclasses(part):
+        return {}
+    subjects = [(leaf, _required_subject(tax, tree, leaf, device, part, frozenset())) for leaf in leaves]
+    return _descend_alike(oracle, tax, tree, part, subjects, "required parts", progress)
+
+
+def _required_subject(tax: Vocabulary, tree: KinematicTree, link: str, device: str, part: str,
+                      exclude: frozenset[str]) -> Subject:
+    """Which kind of `part` (the part a `device` requires) `link` is."""
+    holder = tax.label(tax.requiring_class(device) or device)
+    return Subject(f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
+                   f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}", exclude)
 
 
 def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: str,
