@@ -349,7 +349,7 @@ def beside_hands(tree: KinematicTree) -> frozenset[str]:
     """Bodies fixed beside a hand rather than in it: leaves with geometry on the body the hand is mounted on,
     not below where its fingers part (a range sensor or a camera on the wrist a gripper is bolted to). A pure
     frame there may mark the hand's tool point, so frames are not among them."""
-    found = set()
+    found: set[str] = set()
     for structure, leaves in hands(tree):
         mount = set(rigid_body(tree, structure.mount))
         below = {structure.fork, *tree.descendants(structure.fork)}
