@@ -244,7 +244,9 @@ class Abstractor:
         """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
         each leaf of `groups` first (into `s.parts`), and each group is not offered the classes under `start`
         that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
-        camera, a depth frame no monocular camera)."""
+        camera, a depth frame no monocular camera). Only for devices of several frames: a lone link may stand
+        for a whole camera (a RealSense written as one link), and its one answer cannot show colour and depth
+        together (asked of lone frames too, eval r14g, Centauro's and G1's D435s came out monocular)."""
         if not groups:
             return {}
         leaves = [leaf for g in groups for leaf in g.leaves]
