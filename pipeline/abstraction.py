@@ -23,7 +23,7 @@ from urdfkb.pipeline.evidence import LinkEvidence, named
 from urdfkb.pipeline.ontology import Kind, Vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order
-from urdfkb.pipeline.prompts import NONE, product_text
+from urdfkb.pipeline.prompts import NONE, RIGID_TOOL, product_text
 from urdfkb.pipeline.stages import tools
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots, sub_chain
@@ -35,7 +35,7 @@ from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
 from urdfkb.pipeline.structure import (ToolStructure, alike_sets, beside_hands, feet, frames_of_one_body, hand_mounts,
-                                      limb_goes_on, viewpoints)
+                                      limb_goes_on, nothing_moves, viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -308,12 +308,15 @@ class Abstractor:
 
     def tool_classification(self, s: PassState) -> None:
         """The model is asked the kind of the tools whose structure settles none, seeing what each is mounted
-        on (a fingerless tool on a link whose mesh is a hand is a hand)."""
+        on (a fingerless tool on a link whose mesh is a hand is a hand). A tool in which nothing moves
+        (structure.nothing_moves) may also stay a plain end effector (prompts.RIGID_TOOL: a probe, a ball), which the
+        ontology allows and no kind below it fits."""
         open_groups = [(g, st) for g, st, i in zip(s.groups, s.structures or [], s.inferred) if not i.settled]
         asked = descend(self.oracle, self.tax, self._kind(s).cls, [
             Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
                     f"Links: {', '.join(g.leaves)}\nOn: {named(s.tree.evidence, self._mount(s.tree, g))}"
-                    f"\nStructure: {st.describe()}")
+                    f"\nStructure: {st.describe()}",
+                    stay=RIGID_TOOL if nothing_moves(s.tree, st, self._mount(s.tree, g)) else None)
             for g, st in open_groups
         ], "end-effector classification", self.progress)
         by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}

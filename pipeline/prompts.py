@@ -122,15 +122,20 @@ def level_options(tax: Vocabulary, concept: str, exclude: frozenset[str] = froze
 
 
 def level_choice(tax: Vocabulary, concept: str, framing: str, evidence: str, key: str,
-                 exclude: frozenset[str] = frozenset()) -> Choice:
-    """Pick among the allowed direct subclasses of `concept` for one subject (a sub-chain, a link, a group)."""
+                 exclude: frozenset[str] = frozenset(), stay: tuple[str, str] | None = None) -> Choice:
+    """Pick among the allowed direct subclasses of `concept` for one subject (a sub-chain, a link, a group);
+    `stay`: (answer, definition) of one more option, meaning `concept` itself (none of its kinds)."""
     options = level_options(tax, concept, exclude)
     label = tax.label(concept)
     system = (
         _PREAMBLE + framing.format(concept=label) + f" Choose the most fitting kind of {label}:\n"
-        + _definitions(tax, options) + "\nReply with the kind only."
+        + _definitions(tax, options) + (f"\n- {stay[0]}: {stay[1]}" if stay else "") + "\nReply with the kind only."
     )
-    return _class_choice(system, evidence, tax, options, f"{key}@{concept}")
+    return _class_choice(system, evidence, tax, options, f"{key}@{concept}", {stay[0]: concept} if stay else None)
+
+
+RIGID_TOOL = ("rigid tool", "End effector in which nothing moves, that neither grasps nor has a hand's shape: a probe,"
+              " a ball, a pointer, a plate.")  # offered for a tool whose structure shows no moving part
 
 
 def device_name_question(frame: str, prefixes: Sequence[str]) -> Question:

@@ -89,6 +89,16 @@ class ToolStructure:
         return ", ".join(words)
 
 
+def nothing_moves(tree: KinematicTree, structure: ToolStructure, mount: str) -> bool:
+    """Nothing in the tool moves: no finger or mechanism below its fork, and no movable joint between `mount`
+    (where the tool is fixed) and the fork."""
+    if structure.fingers or structure.mechanisms:
+        return False
+    path = tree.chain_to_root(structure.fork)
+    between = path[:path.index(mount)] if mount in path else path
+    return not any(tree.edge_to(link).movable for link in between)
+
+
 def fork_of(tree: KinematicTree, leaves: list[str]) -> str:
     """The lowest common ancestor of `leaves` (a lone leaf is its own fork)."""
     common = list(tree.chain_to_root(leaves[0]))

@@ -184,3 +184,42 @@ def test_without_a_reasoner_the_model_is_asked_the_kinds(rack, monkeypatch):
     monkeypatch.setattr(owlready2, "sync_reasoner_hermit", no_java)
     inferred, _ = classify([tool_structure(rack, VISE), tool_structure(rack, MITT)])
     assert [i.settled for i in inferred] == [False, False]
+
+
+def _arm_with(end: str) -> bytes:
+    """A 3-joint arm whose flange carries `end`: a rigid ball with a tip frame, or a one-jaw gripper."""
+    joints = "".join(
+        f'<joint name="j{i}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
+        f'<origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'
+        for i in range(3))
+    links = "".join(f'<link name="l{i}"><visual><geometry><box size="0.05 0.05 0.2"/></geometry></visual></link>'
+                    for i in range(4))
+    if end == "ball":
+        tool = ('<link name="ball"><visual><geometry><sphere radius="0.05"/></geometry></visual></link><link name="tip"/>'
+                '<joint name="f" type="fixed"><parent link="l3"/><child link="ball"/><origin xyz="0 0 0.1"/></joint>'
+                '<joint name="t" type="fixed"><parent link="ball"/><child link="tip"/><origin xyz="0 0 0.07"/></joint>')
+    else:
+        tool = ('<link name="jaw"><visual><geometry><box size="0.01 0.02 0.06"/></geometry></visual></link><link name="tip"/>'
+                '<joint name="m" type="revolute"><parent link="l3"/><child link="jaw"/><origin xyz="0.02 0 0.1"/>'
+                '<axis xyz="0 1 0"/><limit lower="0" upper="0.8" effort="1" velocity="1"/></joint>'
+                '<joint name="t" type="fixed"><parent link="l3"/><child link="tip"/><origin xyz="0 0 0.15"/></joint>')
+    return f'<robot name="r">{links}{joints}{tool}</robot>'.encode()
+
+
+@pytest.mark.parametrize("end,offered", [("ball", True), ("jaw", False)])
+def test_a_tool_in_which_nothing_moves_may_stay_a_plain_end_effector(end, offered):
+    """Below EndEffector the ontology has grippers and hands only; a rigid ball on a flange is neither, and the
+    model answering "rigid tool" keeps it a plain EndEffector. A one-jaw gripper moves: it is not offered that."""
+    asked = []
+
+    def rule(q: Question):
+        if q.key.startswith("identify:"):
+            return "end effector" if q.key.endswith(("tip", "jaw")) else NONE
+        if q.key.startswith("post:"):
+            asked.append(q.options)
+            return "rigid tool" if "rigid tool" in q.options else "gripper"
+        return q.options[0]
+    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(_arm_with(end)))
+    (tool,) = [c for c in comps if c.kind == "end_effector"]
+    assert asked and ("rigid tool" in asked[0]) is offered
+    assert (tool.cls == "EndEffector") is offered

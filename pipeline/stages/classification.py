@@ -24,6 +24,7 @@ class Subject:
     framing: str
     evidence: str
     exclude: frozenset[str] = frozenset()  # classes the schema rules out for this subject
+    stay: tuple[str, str] | None = None  # (answer, definition): an option to stay at the start class, offered there
 
 
 @dataclass(frozen=True)
@@ -41,7 +42,8 @@ def descend(oracle: Oracle, tax: Vocabulary, start: str, subjects: list[Subject]
     active = [i for i in range(len(subjects)) if level_options(tax, typed[i].cls, subjects[i].exclude)]
     while active:
         choices = [
-            level_choice(tax, typed[i].cls, subjects[i].framing, subjects[i].evidence, subjects[i].key, subjects[i].exclude)
+            level_choice(tax, typed[i].cls, subjects[i].framing, subjects[i].evidence, subjects[i].key, subjects[i].exclude,
+                         subjects[i].stay if typed[i].cls == start else None)
             for i in active
         ]
         verdicts = ask(oracle, [c.question for c in choices], stage, progress)
