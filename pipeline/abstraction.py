@@ -34,8 +34,8 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import (ToolStructure, alike_sets, beside_hands, feet, frames_of_one_body, hand_mounts,
-                                      limb_goes_on, nothing_moves, viewpoints)
+from urdfkb.pipeline.structure import (ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, hands,
+                                      nothing_moves, off_limb_ends, viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -118,11 +118,12 @@ class Abstractor:
         leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk), or bodies
         beside a hand on the link it is mounted on."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
-        self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(s.robot).items() if leaf not in declared}
+        found = hands(s.robot)
+        self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(found).items() if leaf not in declared}
         self.hand_tips = frozenset(self.hand_mounts)
         self.feet = feet(s.robot)
         self.moving_feet = frozenset(f for f in self.feet if s.robot.edge_to(f).movable and f not in declared)
-        self.off_ends = beside_hands(s.robot) | {leaf for leaf in s.robot.leaves() if limb_goes_on(s.robot, leaf)}
+        self.off_ends = off_limb_ends(s.robot, found)
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
                      "moving_feet": sorted(self.moving_feet),
                      "off_ends": sorted(self.off_ends)})

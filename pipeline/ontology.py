@@ -12,7 +12,7 @@ import hashlib
 import importlib.resources
 import pathlib
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, Iterator
 
 import rdflib
 from rdflib.collection import Collection
@@ -371,13 +371,19 @@ class Vocabulary:
                          if not any(self.is_a(c, d) or self.is_a(d, c) for d in declared))
 
 
+def _on_components(graph: rdflib.Graph, node: rdflib.URIRef, quantifier: rdflib.URIRef) -> Iterator[rdflib.term.Node]:
+    """X for each `node ⊑ Q hasComponent.X` axiom whose quantifier Q is `quantifier` (owl:allValuesFrom or
+    owl:someValuesFrom)."""
+    for restriction in graph.objects(node, RDFS.subClassOf):
+        if graph.value(restriction, OWL.onProperty) == CORE.hasComponent:
+            if (filler := graph.value(restriction, quantifier)) is not None:
+                yield filler
+
+
 def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool) -> set[str]:
     """X for each `node ⊑ ∀hasComponent.¬X` axiom (complement), or for each `node ⊑ ∀hasComponent.X`."""
     out = set()
-    for restriction in graph.objects(node, RDFS.subClassOf):
-        if graph.value(restriction, OWL.onProperty) != CORE.hasComponent:
-            continue
-        filler = graph.value(restriction, OWL.allValuesFrom)
+    for filler in _on_components(graph, node, OWL.allValuesFrom):
         part = graph.value(filler, OWL.complementOf) if complement else filler
         if part is not None and (local := _local(part)):
             out.add(local)
@@ -387,12 +393,7 @@ def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool
 def _needed_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> list[frozenset[str]]:
     """For each `node ⊑ ∃hasComponent.X` axiom, {X}, or the members of X where X is a union."""
     out = []
-    for restriction in graph.objects(node, RDFS.subClassOf):
-        if graph.value(restriction, OWL.onProperty) != CORE.hasComponent:
-            continue
-        filler = graph.value(restriction, OWL.someValuesFrom)
-        if filler is None:
-            continue
+    for filler in _on_components(graph, node, OWL.someValuesFrom):
         union = graph.value(filler, OWL.unionOf)
         members = list(Collection(graph, union)) if union is not None else [filler]
         out.append(frozenset(filter(None, map(_local, members))))

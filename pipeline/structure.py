@@ -325,13 +325,13 @@ STANCE = 0.15  # m: how far above its lowest points the root of a robot that sta
 
 def hand_leaves(tree: KinematicTree) -> frozenset[str]:
     """The leaves of every hand or gripper the tree's shape shows (hand_mounts)."""
-    return frozenset(hand_mounts(tree))
+    return frozenset(hand_mounts(hands(tree)))
 
 
-def hand_mounts(tree: KinematicTree) -> dict[str, str]:
-    """Each leaf of every hand or gripper the tree's shape shows (hands) → the hand's mount, read before anything
-    is asked, so that they go to the end-effector pass and not to the sensors."""
-    return {leaf: structure.mount for structure, leaves in hands(tree) for leaf in leaves}
+def hand_mounts(found: list[tuple[ToolStructure, list[str]]]) -> dict[str, str]:
+    """Each leaf of the hands `found` (hands) → the hand's mount, read before anything is asked, so that they
+    go to the end-effector pass and not to the sensors."""
+    return {leaf: structure.mount for structure, leaves in found for leaf in leaves}
 
 
 def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
@@ -340,7 +340,7 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
     finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
     the pure frames fixed to its body that lie out among the fingertips (_among_tips): tool centre points.
-    A joint that spins freely (continuous, following no other) is a wheel's or a caster's, never a finger's."""
+    A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
     found = []
     for fork in tree.links:
         small = [c for c in _moving_children(tree, fork) if _hand_sized(tree, fork, c)]
@@ -355,12 +355,12 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     return found
 
 
-def beside_hands(tree: KinematicTree) -> frozenset[str]:
-    """Bodies fixed beside a hand rather than in it: leaves with geometry on the body the hand is mounted on,
-    not below where its fingers part (a range sensor or a camera on the wrist a gripper is bolted to). A pure
-    frame there may mark the hand's tool point, so frames are not among them."""
+def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
+    """Bodies fixed beside one of the hands found (hands) rather than in it: leaves with geometry on the body the
+    hand is mounted on, not below where its fingers part (a range sensor or a camera on the wrist a gripper is
+    bolted to). A pure frame there may mark the hand's tool point, so frames are not among them."""
     found: set[str] = set()
-    for structure, leaves in hands(tree):
+    for structure, leaves in hands_found:
         mount = set(rigid_body(tree, structure.mount))
         below = {structure.fork, *tree.descendants(structure.fork)}
         found.update(leaf for link in mount for leaf in tree.children(link)
@@ -403,10 +403,15 @@ def is_frame(tree: KinematicTree, link: str) -> bool:
 
 
 def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
+    """The moving subtree `child` of `fork` could be a finger: within a hand's size (_within_hand), with no
+    joint that spins (a wheel's, a caster's)."""
     links = (child, *tree.descendants(child))
-    edges = [e for link in links if (e := tree.edge_to(link)).movable]
-    ranged = not any(e.spins for e in edges)
-    return (len(edges) <= MAX_FINGER_JOINTS and ranged
+    return _within_hand(tree, fork, links) and not any(tree.edge_to(link).spins for link in links)
+
+
+def _within_hand(tree: KinematicTree, fork: str, links: tuple[str, ...]) -> bool:
+    """At most MAX_FINGER_JOINTS movable joints among `links`, each within HAND_REACH of `fork`."""
+    return (sum(tree.edge_to(link).movable for link in links) <= MAX_FINGER_JOINTS
             and all(_norm(tree.position_in(link, fork)) <= HAND_REACH for link in links))
 
 
@@ -427,17 +432,14 @@ def limb_goes_on(tree: KinematicTree, leaf: str) -> bool:
     """A limb goes on from the body the leaf is fixed to: a moving subtree of that body has more movable joints
     than a hand's finger (MAX_FINGER_JOINTS) or reaches beyond HAND_REACH. The leaf sits along a limb or on the
     trunk it leaves from, not at a limb's end, where an end effector is."""
-    for link in rigid_body(tree, leaf):
-        for child in tree.children(link):
-            if tree.edge_to(child).movable and _limb(tree, link, child):
-                return True
-    return False
+    return any(tree.edge_to(child).movable and not _within_hand(tree, link, (child, *tree.descendants(child)))
+               for link in rigid_body(tree, leaf) for child in tree.children(link))
 
 
-def _limb(tree: KinematicTree, fork: str, child: str) -> bool:
-    links = (child, *tree.descendants(child))
-    joints = sum(tree.edge_to(link).movable for link in links)
-    return joints > MAX_FINGER_JOINTS or any(_norm(tree.position_in(link, fork)) > HAND_REACH for link in links)
+def off_limb_ends(tree: KinematicTree, found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
+    """Leaves at no limb's end, so never an end effector: where a limb goes on from their body (limb_goes_on),
+    or bodies beside one of the hands `found` (beside_hands)."""
+    return beside_hands(tree, found) | {leaf for leaf in tree.leaves() if limb_goes_on(tree, leaf)}
 
 
 def feet(tree: KinematicTree) -> frozenset[str]:

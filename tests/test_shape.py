@@ -17,7 +17,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import detect_roots
-from urdfkb.pipeline.structure import alike_leaves, beside_hands, feet, hand_leaves, hand_mounts, limb_goes_on
+from urdfkb.pipeline.structure import alike_leaves, feet, hand_leaves, hand_mounts, hands, off_limb_ends
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -114,7 +114,7 @@ def test_leaves_at_no_limbs_end_are_never_tools():
     for seed in range(0, 300, 7):
         built = build(seed, asides=True)
         tree = load_urdf(built.urdf)
-        off = beside_hands(tree) | {leaf for leaf in tree.leaves() if limb_goes_on(tree, leaf)}
+        off = off_limb_ends(tree, hands(tree))
         assert set(built.asides) <= off and not off & set(built.leaves), (seed, built.layout)
         options = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
         claims = _identified(built.urdf, lambda q: options if _leaf(q) in built.asides else NONE)
@@ -179,7 +179,7 @@ def test_a_hands_leaves_are_mounted_where_its_shape_says_unasked():
     for seed in range(0, 300, 5):
         built = build(seed, False)
         tree = load_urdf(built.urdf)
-        mounts = hand_mounts(tree)
+        mounts = hand_mounts(hands(tree))
         assert set(mounts.values()) == {built.mount}, (seed, built.layout)
         asked: list[str] = []
         chains = detect_roots(Oracle(ScriptedBackend(lambda q: asked.append(q.key) or q.options[-1])), tree,

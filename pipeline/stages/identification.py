@@ -12,9 +12,8 @@ from __future__ import annotations
 from typing import Callable
 
 from urdfkb.pipeline.catalogue import Product, catalogue
-from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.oracle import Oracle, Verdict
 from urdfkb.pipeline.ontology import Vocabulary
-from urdfkb.pipeline.oracle import Verdict
 from urdfkb.pipeline.prompts import NONE, Choice, kind_choice
 from urdfkb.pipeline.structure import alike_sets
 from urdfkb.pipeline.tree import KinematicTree
@@ -67,10 +66,10 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
 
 def _allowed(choice: Choice, verdict: Verdict, ruled: frozenset[str]) -> tuple[str, float]:
     """The answer the votes give among the options not `ruled` out, with its share."""
-    shares = {choice.meant(option, NONE): share for option, share in verdict.distribution.items()}
     answer = choice.meant(verdict.answer, NONE)
     if answer not in ruled:
         return answer, verdict.confidence
+    shares = {choice.meant(option, NONE): share for option, share in verdict.distribution.items()}
     left = {kind: share for kind, share in shares.items() if kind not in ruled}
     best = max(left, key=left.__getitem__, default=NONE)
     return best, left.get(best, 0.0)
