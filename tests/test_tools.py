@@ -7,6 +7,7 @@ motor joint, and a hand of four digits and an opposing digit hung straight on it
 """
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 import owlready2
@@ -14,6 +15,7 @@ import pytest
 import rdflib
 
 from tests.scripted_reasoner import scripted_reasoner
+from tests.urdf_writer import Writer
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.export import robot_graph
@@ -186,24 +188,25 @@ def test_without_a_reasoner_the_model_is_asked_the_kinds(rack, monkeypatch):
     assert [i.settled for i in inferred] == [False, False]
 
 
-def _arm_with(end: str) -> bytes:
-    """A 3-joint arm whose flange carries `end`: a rigid ball with a tip frame, or a one-jaw gripper."""
-    joints = "".join(
-        f'<joint name="j{i}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
-        f'<origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'
-        for i in range(3))
-    links = "".join(f'<link name="l{i}"><visual><geometry><box size="0.05 0.05 0.2"/></geometry></visual></link>'
-                    for i in range(4))
+def _arm_with(end: str) -> tuple[bytes, set[str]]:
+    """A 3-joint arm whose flange carries `end` (a rigid ball with a tip frame, or a one-jaw gripper beside a
+    tip frame), and the tool's leaves."""
+    w = Writer(random.Random(7))
+    link = w.link('<box size="0.05 0.05 0.2"/>')
+    for _ in range(3):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0), (-2.0, 2.0))
+        link = child
+    tip = w.link()
     if end == "ball":
-        tool = ('<link name="ball"><visual><geometry><sphere radius="0.05"/></geometry></visual></link><link name="tip"/>'
-                '<joint name="f" type="fixed"><parent link="l3"/><child link="ball"/><origin xyz="0 0 0.1"/></joint>'
-                '<joint name="t" type="fixed"><parent link="ball"/><child link="tip"/><origin xyz="0 0 0.07"/></joint>')
-    else:
-        tool = ('<link name="jaw"><visual><geometry><box size="0.01 0.02 0.06"/></geometry></visual></link><link name="tip"/>'
-                '<joint name="m" type="revolute"><parent link="l3"/><child link="jaw"/><origin xyz="0.02 0 0.1"/>'
-                '<axis xyz="0 1 0"/><limit lower="0" upper="0.8" effort="1" velocity="1"/></joint>'
-                '<joint name="t" type="fixed"><parent link="l3"/><child link="tip"/><origin xyz="0 0 0.15"/></joint>')
-    return f'<robot name="r">{links}{joints}{tool}</robot>'.encode()
+        ball = w.link('<sphere radius="0.05"/>')
+        w.joint("fixed", link, ball, (0.0, 0.0, 0.1))
+        w.joint("fixed", ball, tip, (0.0, 0.0, 0.07))
+        return w.urdf(), {tip}
+    jaw = w.link('<box size="0.01 0.02 0.06"/>')
+    w.joint("revolute", link, jaw, (0.02, 0.0, 0.1), (0.0, 1.0, 0.0), (0.0, 0.8))
+    w.joint("fixed", link, tip, (0.0, 0.0, 0.15))
+    return w.urdf(), {tip, jaw}
 
 
 @pytest.mark.parametrize("end,offered", [("ball", True), ("jaw", False)])
@@ -212,14 +215,16 @@ def test_a_tool_in_which_nothing_moves_may_stay_a_plain_end_effector(end, offere
     model answering "rigid tool" keeps it a plain EndEffector. A one-jaw gripper moves: it is not offered that."""
     asked = []
 
+    urdf, tool_leaves = _arm_with(end)
+
     def rule(q: Question):
         if q.key.startswith("identify:"):
-            return "end effector" if q.key.endswith(("tip", "jaw")) else NONE
+            return "end effector" if q.key.split(":", 1)[1] in tool_leaves else NONE
         if q.key.startswith("post:"):
             asked.append(q.options)
             return "rigid tool" if "rigid tool" in q.options else "gripper"
         return q.options[0]
-    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(_arm_with(end)))
+    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(urdf))
     (tool,) = [c for c in comps if c.kind == "end_effector"]
     assert asked and ("rigid tool" in asked[0]) is offered
     assert (tool.cls == "EndEffector") is offered
