@@ -199,6 +199,24 @@ class Abstractor:
         by_leaf = {leaf: t for leaves, t in zip(sets, typed) for leaf in leaves}
         s.pre = {c.leaf: by_leaf[c.leaf] for c in s.chains}
 
+    def built_in_frames(self, s: PassState) -> None:
+        """A frame of a kind that devices of other kinds carry inside (Vocabulary.built_in: a lidar's or a
+        camera's own IMU), alone below a housing link of its chain, is a part of the device that housing is:
+        the housing is classified as a link of its own, and a sensor kind that is not built in becomes the
+        chain's pre-class (the ontology spec: a device's own inertial frames belong to it)."""
+        kind = self._kind(s)
+        hosted = [c for c in s.chains if len(c.links) > 1 and self.tax.built_in(s.pre[c.leaf].cls)
+                  and [link for link in s.tree.descendants(c.links[-2]) if s.tree.is_leaf(link)] == [c.leaf]]
+        if not hosted:
+            return
+        housings = [SubChain(c.links[-2], c.root, c.links[:-1]) for c in hosted]
+        typed = descend(self.oracle, self.tax, kind.cls, [self._chain_subject(s.tree, h, kind.cls) for h in housings],
+                        "pre-classification", self.progress)
+        for c, h, t in zip(hosted, housings, typed):
+            if t.cls != kind.cls and not self.tax.built_in(t.cls):
+                self.log(f"pre:{c.leaf}: the built-in {self.tax.label(s.pre[c.leaf].cls)} of {h.leaf}, a {t.cls}")
+                s.pre[c.leaf] = t
+
     def group_merging(self, s: PassState) -> None:
         kind = self._kind(s)
         categories = {leaf: self._category(t.cls, kind.cls) for leaf, t in s.pre.items()}
@@ -512,6 +530,7 @@ SENSOR_PASS = Pass(SENSOR, (
     Step("sensor check", Abstractor.sensor_check, ("leaves", "claims"), ("claims",)),
     Step("attachment", partial(Abstractor.attachment, rigid=True), ("leaves", "claims"), ("chains",)),
     Step("pre-classification", Abstractor.pre_classification, ("chains",), ("pre",)),
+    Step("built-in frames", Abstractor.built_in_frames, ("chains", "pre"), ("pre",)),
     Step("group merging", Abstractor.group_merging, ("chains", "pre"), ("groups",)),
     Step("verification", Abstractor.verification, ("groups", "claims"), ("groups",)),
     Step("post-classification", Abstractor.post_classification, ("groups", "pre"), ("post", "parts")),

@@ -113,6 +113,7 @@ class Vocabulary:
         self._chain_class: dict[str, str] = {}  # a finger chain's drive motion → its class
         self._roles: dict[str, str] = {}  # class → its core:fingerChainRole
         self._units: set[str] = set()  # classes marked core:numberedUnits
+        self._built_in: set[str] = set()  # classes marked core:builtIn
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
         self._rank: dict[str, float] = {}  # class → core:optionRank
@@ -150,6 +151,8 @@ class Vocabulary:
                 self._part_question[name] = str(question)
             if str(graph.value(node, CORE.numberedUnits)).strip().lower() in ("true", "1"):
                 self._units.add(name)
+            if str(graph.value(node, CORE.builtIn)).strip().lower() in ("true", "1"):
+                self._built_in.add(name)
         for kids in self._children.values():
             kids.sort(key=self._order.__getitem__)
         self.kinds = self._read_kinds()
@@ -323,6 +326,10 @@ class Vocabulary:
     def has_numbered_units(self, name: str) -> bool:
         """A `name` device is made of numbered units read as one (core:numberedUnits on it or an ancestor)."""
         return any(c in self._units for c in (self._check(name), *self.ancestors(name)))
+
+    def built_in(self, name: str) -> bool:
+        """Devices of other kinds often carry a `name` inside (core:builtIn on it or an ancestor: an IMU)."""
+        return any(c in self._built_in for c in (self._check(name), *self.ancestors(name)))
 
     def finger_chain_role(self, role: str) -> frozenset[str]:
         """Classes carrying core:fingerChainRole `role`, with their subclasses."""

@@ -80,7 +80,8 @@ def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Seq
     return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
 
 
-DRIVE_PART = "mechanism"  # the sensor check's one answer that takes a leaf off the sensors
+DRIVE_PART = "mechanism"  # the sensor check's answers that take a leaf off the sensors: a drive's part,
+PASSIVE_PART = "passive part"  # or a part that senses nothing and that others locate or power
 
 
 def sensor_check(link: str, shown: str, ancestors: Sequence[str]) -> Question:
@@ -95,10 +96,13 @@ def sensor_check(link: str, shown: str, ancestors: Sequence[str]) -> Question:
         f"\n- {DRIVE_PART}: a part of a motor or drive: screw, gear, slider, spring, linkage, dummy or helper link"
         " of an actuator."
         "\n- reference frame: a virtual point used for looking, grasping or planning, with no device of its own."
-        f"\nReply with one of: sensor, emitter, {DRIVE_PART}, reference frame."
+        f"\n- {PASSIVE_PART}: a part that measures nothing itself: battery, fiducial marker or tag, reflector that"
+        " other sensors locate."
+        f"\nReply with one of: sensor, emitter, {DRIVE_PART}, reference frame, {PASSIVE_PART}."
     )
     user = f"Leaf link: {shown}\nParents: {chain_text(ancestors)}"
-    return Question(system, user, ("sensor", "emitter", DRIVE_PART, "reference frame"), key=f"check:{link}")
+    return Question(system, user, ("sensor", "emitter", DRIVE_PART, "reference frame", PASSIVE_PART),
+                    key=f"check:{link}")
 
 
 def root_question(kind: Kind, link: str, candidates: Sequence[str]) -> Question:

@@ -61,13 +61,14 @@ def test_confidence_is_the_product_along_the_descent(toy):
     assert lidar.cls == "Lidar" and lidar.confidence == pytest.approx(0.48, abs=1e-3)
 
 
-def test_a_leaf_the_sensor_check_calls_a_drive_part_is_no_sensor(toy):
+@pytest.mark.parametrize("answer", ["mechanism", "passive part"])
+def test_a_leaf_the_sensor_check_calls_a_drive_part_or_a_passive_part_is_no_sensor(toy, answer):
     def screw_scanner(q):
-        return "mechanism" if q.key == "check:front_scanner" else perfect(q)
+        return answer if q.key == "check:front_scanner" else perfect(q)
     assert "Lidar" not in {c.cls for c in abstract(toy, screw_scanner)}
     # the other answers of the check are traced but overrule nothing
-    for answer in ("emitter", "reference frame"):
-        kept = abstract(toy, lambda q: answer if q.key == "check:front_scanner" else perfect(q))
+    for other in ("emitter", "reference frame"):
+        kept = abstract(toy, lambda q: other if q.key == "check:front_scanner" else perfect(q))
         assert "Lidar" in {c.cls for c in kept}
 
 

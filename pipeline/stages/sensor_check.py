@@ -4,11 +4,11 @@
   (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools keep
   every finger chain.
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
-  drive part or reference frame?), unless the file declares a simulator sensor on it; alike leaves
-  (structure.alike_leaves) once for all. "Part of a
-  motor or drive" overrules identification: over the truth robots it went to motor screws, rotors
-  and an actuator's dummy link and to no true sensor, while 'emitter' and 'reference frame' alone
-  also took laser scanners and optical frames, so they are traced but change nothing. And a leaf
+  drive part, reference frame or passive part?), unless the file declares a simulator sensor on it;
+  alike leaves (structure.alike_leaves) once for all. "Part of a motor or drive" and "passive part"
+  overrule identification: over the truth robots they went to motor screws, rotors, an actuator's
+  dummy link, a battery and a reflector, and to no true sensor, while 'emitter' and 'reference frame'
+  alone also took laser scanners and optical frames, so they are traced but change nothing. And a leaf
   that neither question calls a sensor with a majority of its votes (identification chose 'sensor'
   only as the largest minority, and the check gives it under half), with the two shares averaging
   below half by more than LAYOUT_NOISE, is not one: the model leans against it twice over, framed
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from urdfkb.pipeline.evidence import named
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.prompts import DRIVE_PART, sensor_check
+from urdfkb.pipeline.prompts import DRIVE_PART, PASSIVE_PART, sensor_check
 from urdfkb.pipeline.stages.asking import Progress, ask
 from urdfkb.pipeline.stages.verification import Log
 from urdfkb.pipeline.structure import alike_leaves
@@ -45,7 +45,7 @@ LAYOUT_NOISE = 0.1
 def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors: dict[str, float], log: Log,
                 progress: Progress | None = None) -> list[str]:
     """The leaves among `sensors` (leaf → share of identification's votes for 'sensor') with no declared
-    simulator sensor that the check calls a part of a motor or drive, or that neither question calls a
+    simulator sensor that the check calls a part of a motor or drive or a passive part, or that neither question calls a
     sensor with a majority while both lean clearly against it."""
     checked = [leaf for leaf in leaves if leaf in sensors and not _declared(tree, leaf)]
     alike = alike_leaves(tree, checked)  # asked once, the first standing for all, as in identification
@@ -54,9 +54,10 @@ def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors:
     found = []
     for group, verdict in zip(alike, ask(oracle, questions, "sensor check", progress)):
         leaf, checked_share = group[0], verdict.distribution.get("sensor", 0.0)
-        if verdict.answer == DRIVE_PART:
+        if verdict.answer in (DRIVE_PART, PASSIVE_PART):
             found += group
-            log(f"not a sensor: {', '.join(group)} is a part of a motor or drive ({verdict.confidence:.2f})")
+            what = "a part of a motor or drive" if verdict.answer == DRIVE_PART else "a passive part"
+            log(f"not a sensor: {', '.join(group)} is {what} ({verdict.confidence:.2f})")
         elif (max(sensors[leaf], checked_share) <= MAJORITY
               and (sensors[leaf] + checked_share) / 2 <= MAJORITY - LAYOUT_NOISE):
             found += group
