@@ -150,7 +150,8 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert tools["ParallelGripper"].root == "left_flange" and tools["AnthropomorphicHand"].root == "mid_wrist"
     assert "cuff_cam_optical" not in {link for c in tools.values() for link in c.links}
     hand = {s.link: s.cls for s in tools["AnthropomorphicHand"].subcomponents}
-    assert hand["mitt_opposer_end"] in ("Finger", "ContactSurface")  # a finger chain's link: nothing else offered
+    assert hand["mitt_opposer_end"] == "ContactSurface"  # a leaf fixed to a finger: its tip, not a finger,
+    assert not any(key.startswith("part:mitt_opposer_end@") for key in OFFERED)  # and nothing else to ask
     assert hand["mitt_drive"] != "Finger"  # the motor joint's link is no finger
     assert "palm" in OFFERED["part:vise_body@EndEffectorSubpart"]  # the jaws hang from it
     assert not {"palm", "finger"} & set(OFFERED["part:vise_grip_point@EndEffectorSubpart"])

@@ -103,21 +103,31 @@ def _required_branch(tax: Vocabulary, cls: str) -> frozenset[str]:
 def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
                       structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
     """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
-    a finger chain is a finger or its contact surface; any other link is no finger, nor a palm if
-    the tool has fingers and none hangs from it. (Nothing for sensors.)"""
+    a finger chain is a finger or its contact surface, and only the latter where it is a leaf fixed to the
+    finger (a pad or tip frame: a finger is jointed); so is a link that moves in a tool with no finger
+    chain (the jaw of a one-jaw gripper, closing against the fixed body); any other link is no finger,
+    nor a palm if the tool has fingers and none hangs from it. (Nothing for sensors.)"""
     if structures is None:
         return {}
-    finger, carrier = tax.finger_chain_role("link"), tax.finger_chain_role("carrier")
-    on_finger = frozenset(set(tax.subclasses_below(kind.subparts)) - finger - tax.finger_chain_role("tip"))
+    finger, carrier, tip = (tax.finger_chain_role(role) for role in ("link", "carrier", "tip"))
+    on_finger = frozenset(set(tax.subclasses_below(kind.subparts)) - finger - tip)
     excluded = {}
     for group, structure in zip(groups, structures):
         fingers = {link for f in structure.fingers for link in f.links}
+        jaws = set() if fingers else {link for link in group.members if _moves_in(tree, link, structure.mount)}
         carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
         for link in group.members:
-            if link in fingers:
-                excluded[link] = on_finger
+            if link in fingers or link in jaws:
+                fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable
+                excluded[link] = on_finger | (finger - tip if fixed_tip else frozenset())
             elif fingers and link not in carriers:
                 excluded[link] = finger | carrier
             else:
                 excluded[link] = finger
     return excluded
+
+
+def _moves_in(tree: KinematicTree, link: str, mount: str) -> bool:
+    """A movable joint lies between `mount` and `link`."""
+    path = tree.chain_to_root(link)
+    return mount in path and any(tree.edge_to(x).movable for x in path[:path.index(mount)])

@@ -1,0 +1,76 @@
+"""What a tool's structure leaves open for its links' sub-part classes (stages.subparts): a leaf fixed to
+a finger is its contact surface, never a finger itself (a finger is jointed), on generated grippers and
+hands; a one-jaw gripper (a lone moving jaw against the fixed body it hangs from) is mounted where that
+body is bolted, and its jaw is a finger or contact surface like any finger's link."""
+from __future__ import annotations
+
+import random
+
+import pytest
+from tests.hand_robots import build
+from tests.urdf_writer import Writer
+
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.grouping import Group
+from urdfkb.pipeline.stages.subparts import _structural_parts
+from urdfkb.pipeline.structure import tool_structure
+
+TAX = vocabulary()
+TOOLS = TAX.kinds["end_effector"]
+SUBPARTS = set(TAX.subclasses_below(TOOLS.subparts))
+
+
+def allowed(tree, leaves: list[str], mount: str) -> dict[str, set[str]]:
+    """Each tool link → the sub-part classes structure leaves offered."""
+    group = Group([sub_chain(tree, leaf, mount) for leaf in leaves])
+    excluded = _structural_parts(TAX, tree, TOOLS, [group], [tool_structure(tree, leaves)])
+    return {link: SUBPARTS - out for link, out in excluded.items()}
+
+
+@pytest.mark.parametrize("seed", range(200))
+def test_a_leaf_fixed_to_a_finger_is_its_contact_surface(seed):
+    built = build(seed)
+    tree = load_urdf(built.urdf)
+    offered = allowed(tree, built.leaves, built.mount)
+    for chain in built.chains:
+        for link in chain.links:
+            fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable
+            assert offered[link] == ({"ContactSurface"} if fixed_tip else {"Finger", "ContactSurface"}), \
+                (built.description, link)
+
+
+def one_jaw(seed: int, tcp: bool):
+    """An arm whose flange carries a fixed jaw (a box) and, on a revolute joint, a moving jaw; `tcp`: with a
+    tool frame fixed on the fixed jaw too (else the moving jaw is the tool's lone leaf)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    link = w.link()
+    for _ in range(rng.randint(3, 6)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0))
+        link = child
+    stator = w.link('<box size="0.04 0.06 0.1"/>')
+    w.joint("fixed", link, stator, (0.0, 0.0, 0.05))
+    jaw = w.link('<box size="0.01 0.02 0.08"/>')
+    w.joint("revolute", stator, jaw, (0.0, 0.02, 0.05), (1.0, 0.0, 0.0), (-0.2, 1.0))
+    leaves = [jaw]
+    if tcp:
+        leaves.append(w.link())
+        w.joint("fixed", stator, leaves[-1], (0.0, 0.0, 0.12))
+    return load_urdf(w.urdf()), link, stator, jaw, leaves
+
+
+@pytest.mark.parametrize("tcp", [False, True])
+@pytest.mark.parametrize("seed", range(20))
+def test_a_one_jaw_gripper_is_mounted_above_its_fixed_jaw_and_its_jaw_is_a_finger(seed, tcp):
+    tree, flange, stator, jaw, leaves = one_jaw(seed, tcp)
+    structure = tool_structure(tree, leaves)
+    assert structure.fingers == ()  # one moving chain opposes nothing: no finger chain
+    assert structure.mount == flange  # a lone moving jaw closes against the body it hangs from: the tool's
+    offered = allowed(tree, leaves, flange)
+    assert offered[jaw] == {"Finger", "ContactSurface"}
+    assert "Finger" not in offered[stator] and "Palm" in offered[stator]  # the jaw hangs from it
+    assert not tcp or "Finger" not in offered[leaves[-1]]
+
