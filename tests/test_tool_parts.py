@@ -1,7 +1,7 @@
 """What a tool's structure leaves open for its links' sub-part classes (stages.subparts): a leaf fixed to
 a finger is its contact surface, never a finger itself (a finger is jointed), on generated grippers and
 hands; a one-jaw gripper (a lone moving jaw against the fixed body it hangs from) is mounted where that
-body is bolted, and its jaw is a finger or contact surface like any finger's link."""
+body is bolted, and its jaw is a finger or contact surface like any finger's link; no leaf is a palm."""
 from __future__ import annotations
 
 import random
@@ -72,5 +72,14 @@ def test_a_one_jaw_gripper_is_mounted_above_its_fixed_jaw_and_its_jaw_is_a_finge
     offered = allowed(tree, leaves, flange)
     assert offered[jaw] == {"Finger", "ContactSurface"}
     assert "Finger" not in offered[stator] and "Palm" in offered[stator]  # the jaw hangs from it
-    assert not tcp or "Finger" not in offered[leaves[-1]]
+    assert not tcp or not {"Finger", "Palm"} & offered[leaves[-1]]
 
+
+def test_no_leaf_is_a_palm_nothing_extends_from_it():
+    """A rigid tool (a ball with a tip frame, no finger): its body may be a palm, its leaf may not."""
+    w = Writer(random.Random(1))
+    flange, ball, tip = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<sphere radius="0.05"/>'), w.link()
+    w.joint("fixed", flange, ball, (0.0, 0.0, 0.1))
+    w.joint("fixed", ball, tip, (0.0, 0.0, 0.05))
+    offered = allowed(load_urdf(w.urdf()), [tip], flange)
+    assert "Palm" in offered[ball] and "Palm" not in offered[tip] and "ToolCenterPoint" in offered[tip]

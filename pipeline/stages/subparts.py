@@ -106,7 +106,8 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
     a finger chain is a finger or its contact surface, and only the latter where it is a leaf fixed to the
     finger (a pad or tip frame: a finger is jointed); so is a link that moves in a tool with no finger
     chain (the jaw of a one-jaw gripper, closing against the fixed body); any other link is no finger,
-    nor a palm if the tool has fingers and none hangs from it. (Nothing for sensors.)"""
+    nor a palm if it is a leaf (nothing extends from it) or the tool has fingers and none hangs from it.
+    (Nothing for sensors.)"""
     if structures is None:
         return {}
     finger, carrier, tip = (tax.finger_chain_role(role) for role in ("link", "carrier", "tip"))
@@ -120,7 +121,7 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
             if link in fingers or link in jaws:
                 fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable
                 excluded[link] = on_finger | (finger - tip if fixed_tip else frozenset())
-            elif fingers and link not in carriers:
+            elif (fingers and link not in carriers) or tree.is_leaf(link):
                 excluded[link] = finger | carrier
             else:
                 excluded[link] = finger
