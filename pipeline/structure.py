@@ -24,8 +24,9 @@
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
 - The *mount* is the link the tool is bolted to: the fork's parent when the fork is rigidly fixed
   to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
-  link), or the parent of a lone leaf; a lone leaf that moves is a jaw closing against the body it
-  hangs from, the tool's fixed jaw, whose own mount is the tool's (a one-jaw gripper's stator).
+  link). A lone leaf is a point, pad or jaw of the body it hangs from, which belongs to the tool: the
+  tool is mounted where that body is (a ball's tip frame: where the ball is bolted; a one-jaw
+  gripper's moving jaw: where its fixed jaw is).
 
 What these facts mean (parallel gripper, thumb, hand...) is not decided here: the ontology's class
 definitions do that, applied by a reasoner (pipeline.reasoning).
@@ -114,11 +115,9 @@ def mount_of(tree: KinematicTree, fork: str) -> str:
     edge = tree.parent_edge(fork)
     if edge is None:
         return fork
-    if tree.is_leaf(fork) and edge.movable:
+    if tree.is_leaf(fork):
         return mount_of(tree, edge.parent)
-    if tree.is_leaf(fork) or not edge.movable:
-        return edge.parent
-    return fork
+    return edge.parent if not edge.movable else fork
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:

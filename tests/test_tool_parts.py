@@ -75,11 +75,14 @@ def test_a_one_jaw_gripper_is_mounted_above_its_fixed_jaw_and_its_jaw_is_a_finge
     assert not tcp or not {"Finger", "Palm"} & offered[leaves[-1]]
 
 
-def test_no_leaf_is_a_palm_nothing_extends_from_it():
-    """A rigid tool (a ball with a tip frame, no finger): its body may be a palm, its leaf may not."""
+def test_a_lone_tip_takes_its_body_into_the_tool_and_no_leaf_is_a_palm():
+    """A rigid tool (a ball with a tip frame, no finger) is mounted where the ball is bolted; its body may be
+    a palm, its leaf may not (nothing extends from it)."""
     w = Writer(random.Random(1))
     flange, ball, tip = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<sphere radius="0.05"/>'), w.link()
     w.joint("fixed", flange, ball, (0.0, 0.0, 0.1))
     w.joint("fixed", ball, tip, (0.0, 0.0, 0.05))
-    offered = allowed(load_urdf(w.urdf()), [tip], flange)
+    tree = load_urdf(w.urdf())
+    assert tool_structure(tree, [tip]).mount == flange  # the ball its tip hangs from belongs to the tool
+    offered = allowed(tree, [tip], flange)
     assert "Palm" in offered[ball] and "Palm" not in offered[tip] and "ToolCenterPoint" in offered[tip]
