@@ -31,7 +31,7 @@ from urdfkb.pipeline.stages import body as body_stage
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
 from urdfkb.pipeline.stages.identification import identify, named_product
-from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
+from urdfkb.pipeline.stages.sensor_check import MAJORITY, coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
 from urdfkb.pipeline.structure import (ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, hands,
@@ -202,8 +202,9 @@ class Abstractor:
     def built_in_frames(self, s: PassState) -> None:
         """A frame of a kind that devices of other kinds carry inside (Vocabulary.built_in: a lidar's or a
         camera's own IMU), alone below a housing link of its chain, is a part of the device that housing is:
-        the housing is classified as a link of its own, and a sensor kind that is not built in becomes the
-        chain's pre-class (the ontology spec: a device's own inertial frames belong to it)."""
+        the housing is classified as a link of its own, and a sensor kind that is not built in, reached with
+        the majority of the votes, becomes the chain's pre-class (the ontology spec: a device's own inertial
+        frames belong to it; a bracket the model cannot place leaves the frame an IMU of its own)."""
         kind = self._kind(s)
         hosted = [c for c in s.chains if len(c.links) > 1 and self.tax.built_in(s.pre[c.leaf].cls)
                   and [link for link in s.tree.descendants(c.links[-2]) if s.tree.is_leaf(link)] == [c.leaf]]
@@ -213,7 +214,7 @@ class Abstractor:
         typed = descend(self.oracle, self.tax, kind.cls, [self._chain_subject(s.tree, h, kind.cls) for h in housings],
                         "pre-classification", self.progress)
         for c, h, t in zip(hosted, housings, typed):
-            if t.cls != kind.cls and not self.tax.built_in(t.cls):
+            if t.cls != kind.cls and not self.tax.built_in(t.cls) and t.confidence > MAJORITY:
                 self.log(f"pre:{c.leaf}: the built-in {self.tax.label(s.pre[c.leaf].cls)} of {h.leaf}, a {t.cls}")
                 s.pre[c.leaf] = t
 
