@@ -54,7 +54,7 @@ def build(seed: int):
 
 def reads_frames(head: str, truth: dict[str, str], frame_of: dict[str, str]):
     """A model that knows each housing, and types every IMU frame an IMU, whatever carries it."""
-    def answer(q: Question) -> str:
+    def answer(q: Question) -> str | dict[str, float]:
         stage, _, subject = q.key.partition(":")
         subject = subject.partition("@")[0]
         if stage == "identify":
