@@ -24,9 +24,11 @@
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
 - The *mount* is the link the tool is bolted to: the fork's parent when the fork is rigidly fixed
   to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
-  link). A lone leaf is a point, pad or jaw of the body it hangs from, which belongs to the tool: the
-  tool is mounted where that body is (a ball's tip frame: where the ball is bolted; a one-jaw
-  gripper's moving jaw: where its fixed jaw is).
+  link). A lone leaf is a point, pad or jaw of the body it hangs from; where nothing else moves from
+  that body, the body is the tool's and the tool is mounted where the body would be (a ball's tip
+  frame: where the ball is bolted; a one-jaw gripper's moving jaw: where its fixed jaw is; a frame
+  on a link that moves on its own joint: on that link), else on the body itself (a frame on a
+  torso that carries an arm).
 
 What these facts mean (parallel gripper, thumb, hand...) is not decided here: the ontology's class
 definitions do that, applied by a reasoner (pipeline.reasoning).
@@ -116,7 +118,9 @@ def mount_of(tree: KinematicTree, fork: str) -> str:
     if edge is None:
         return fork
     if tree.is_leaf(fork):
-        return mount_of(tree, edge.parent)
+        body = edge.parent
+        beside = [link for child in tree.children(body) if child != fork for link in (child, *tree.descendants(child))]
+        return body if any(tree.edge_to(link).movable for link in beside) else mount_of(tree, body)
     return edge.parent if not edge.movable else fork
 
 

@@ -68,7 +68,7 @@ def test_a_one_jaw_gripper_is_mounted_above_its_fixed_jaw_and_its_jaw_is_a_finge
     tree, flange, stator, jaw, leaves = one_jaw(seed, tcp)
     structure = tool_structure(tree, leaves)
     assert structure.fingers == ()  # one moving chain opposes nothing: no finger chain
-    assert structure.mount == flange  # a lone moving jaw closes against the body it hangs from: the tool's
+    assert structure.mount == flange  # the body a lone moving jaw closes against is the tool's
     offered = allowed(tree, leaves, flange)
     assert offered[jaw] == {"Finger", "ContactSurface"}
     assert "Finger" not in offered[stator] and "Palm" in offered[stator]  # the jaw hangs from it
@@ -86,3 +86,32 @@ def test_a_lone_tip_takes_its_body_into_the_tool_and_no_leaf_is_a_palm():
     assert tool_structure(tree, [tip]).mount == flange  # the ball its tip hangs from belongs to the tool
     offered = allowed(tree, [tip], flange)
     assert "Palm" in offered[ball] and "Palm" not in offered[tip] and "ToolCenterPoint" in offered[tip]
+
+
+def test_a_lone_leaf_on_a_body_that_carries_an_arm_stays_on_that_body():
+    """A frame on a torso from which an arm moves: the torso is no part of a tool made of that frame."""
+    w = Writer(random.Random(2))
+    base, torso, frame = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.3 0.3 0.5"/>'), w.link()
+    w.joint("fixed", base, torso, (0.0, 0.0, 0.3))
+    w.joint("fixed", torso, frame, (0.1, 0.0, 0.2))
+    link = torso
+    for _ in range(4):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0))
+        link = child
+    assert tool_structure(load_urdf(w.urdf()), [frame]).mount == torso
+
+
+def test_a_spinning_spindle_of_a_fingerless_tool_is_no_jaw():
+    """A drill on a flange: its spindle spins (a continuous joint), so it is offered no finger's classes."""
+    w = Writer(random.Random(3))
+    flange, body, spindle, bit = (w.link('<box size="0.05 0.05 0.1"/>') for _ in range(4))
+    tcp = w.link()
+    w.joint("fixed", flange, body, (0.0, 0.0, 0.05))
+    w.joint("continuous", body, spindle, (0.0, 0.0, 0.1))
+    w.joint("fixed", spindle, bit, (0.0, 0.0, 0.05))
+    w.joint("fixed", body, tcp, (0.0, 0.0, 0.2))
+    tree = load_urdf(w.urdf())
+    assert tool_structure(tree, [bit, tcp]).mount == flange
+    offered = allowed(tree, [bit, tcp], flange)
+    assert "Finger" not in offered[spindle] and "ToolHousing" in offered[spindle]

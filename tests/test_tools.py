@@ -74,7 +74,7 @@ def test_hand_on_the_wrist_is_mounted_on_the_wrist_and_its_digits_move_together(
     opposer = next(f for f in mitt.fingers if f.name == "mitt_opposer_base")
     assert len(opposer.opposes) == 4
     assert all(len(f.moves_with) == 3 for f in mitt.fingers if f is not opposer)
-    assert mount_of(rack, "vise_grip_point") == "left_flange"  # a lone leaf: its body is the tool's, bolted there
+    assert mount_of(rack, "vise_grip_point") == "vise_body"  # a lone leaf on a body its jaws move from: on it
 
 
 @pytest.mark.reasoner

@@ -7,8 +7,9 @@
   drive part, reference frame or passive part?), unless the file declares a simulator sensor on it;
   alike leaves (structure.alike_leaves) once for all. "Part of a motor or drive" and "passive part"
   overrule identification: over the truth robots they went to motor screws, rotors, an actuator's
-  dummy link, a battery and a reflector, and to no true sensor, while 'emitter' and 'reference frame'
-  alone also took laser scanners and optical frames, so they are traced but change nothing. And a leaf
+  dummy link, a battery, a reflector and links the truth ignores, and to no true sensor, while 'emitter'
+  and 'reference frame' alone also took laser scanners and optical frames, so they are traced but change
+  nothing. And a leaf
   that neither question calls a sensor with a majority of its votes (identification chose 'sensor'
   only as the largest minority, and the check gives it under half), with the two shares averaging
   below half by more than LAYOUT_NOISE, is not one: the model leans against it twice over, framed

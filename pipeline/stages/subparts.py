@@ -104,8 +104,9 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
                       structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
     """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
     a finger chain is a finger or its contact surface, and only the latter where it is a leaf fixed to the
-    finger (a pad or tip frame: a finger is jointed); so is a link that moves in a tool with no finger
-    chain (the jaw of a one-jaw gripper, closing against the fixed body); any other link is no finger,
+    finger (a pad or tip frame: a finger is jointed); so is a link moved by a joint that does not spin in a
+    tool with no finger chain (the jaw of a one-jaw gripper, closing against the fixed body; a spindle or
+    rotor spins: Edge.spins); any other link is no finger,
     nor a palm if it is a leaf (nothing extends from it) or the tool has fingers and none hangs from it.
     (Nothing for sensors.)"""
     if structures is None:
@@ -115,12 +116,12 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
     excluded = {}
     for group, structure in zip(groups, structures):
         fingers = {link for f in structure.fingers for link in f.links}
-        jaws = set() if fingers else {link for link in group.members if _moves_in(tree, link, structure.mount)}
+        jaws = set() if fingers else {link for link in group.members if _jaw(tree, link, structure.mount)}
         carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
         for link in group.members:
             if link in fingers or link in jaws:
                 fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable
-                excluded[link] = on_finger | (finger - tip if fixed_tip else frozenset())
+                excluded[link] = on_finger | (finger if fixed_tip else frozenset())
             elif (fingers and link not in carriers) or tree.is_leaf(link):
                 excluded[link] = finger | carrier
             else:
@@ -128,7 +129,7 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
     return excluded
 
 
-def _moves_in(tree: KinematicTree, link: str, mount: str) -> bool:
-    """A movable joint lies between `mount` and `link`."""
+def _jaw(tree: KinematicTree, link: str, mount: str) -> bool:
+    """A movable joint that does not spin lies between `mount` and `link`."""
     path = tree.chain_to_root(link)
-    return mount in path and any(tree.edge_to(x).movable for x in path[:path.index(mount)])
+    return mount in path and any((e := tree.edge_to(x)).movable and not e.spins for x in path[:path.index(mount)])
