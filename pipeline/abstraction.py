@@ -468,7 +468,7 @@ class Abstractor:
         with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
         shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
         between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
-        product = product_text(self.tax, named_product(tree, list(reversed(chain.links))))
+        product = product_text(self.tax, named_product(tree, list(reversed(chain.links))), cls)
         return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
     def _ruled_out(self, tree: KinematicTree, links, below: str, key: str) -> frozenset[str]:

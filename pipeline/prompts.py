@@ -60,9 +60,19 @@ def chain_text(chain: Sequence[str]) -> str:
     return " < ".join(shown) + (" < ..." if len(chain) > MAX_CHAIN else "")
 
 
-def product_text(tax: Vocabulary, product: Product | None) -> str:
-    """The catalogue product a link names, as a line of evidence ('' for none)."""
-    return f"\nProduct: {product.label} ({tax.label(product.cls)})" if product else ""
+def product_text(tax: Vocabulary, product: Product | None, below: str | None = None) -> str:
+    """The catalogue product a link names, as a line of evidence ('' for none). `below`: the class a descent
+    starts from; the product's kinds from there down are named in the words the questions offer (a
+    microphone array is an "audio sensor > microphone array"), so the first answer is there to read."""
+    if not product:
+        return ""
+    if below is None or product.cls == below or not tax.is_a(product.cls, below):
+        return f"\nProduct: {product.label} ({tax.label(product.cls)})"
+    path, cls = [], product.cls
+    while cls != below:
+        path.append(cls)
+        cls = next(p for p in tax.parents(cls) if tax.is_a(p, below))
+    return f"\nProduct: {product.label} ({' > '.join(tax.answer(c) for c in reversed(path))})"
 
 
 def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str,

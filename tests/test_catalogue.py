@@ -9,7 +9,7 @@ from urdfkb.pipeline.catalogue import Catalogue, Product, catalogue, load
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.namespaces import CORE
 from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.prompts import kind_choice
+from urdfkb.pipeline.prompts import kind_choice, level_options, product_text
 
 TAX = vocabulary()
 
@@ -74,3 +74,16 @@ def test_the_identification_question_shows_a_named_product():
     assert shown.question.user.endswith("Product: Livox Mid-360 (" + TAX.label("Lidar") + ")")
     assert "Product" not in plain.question.user and shown.question.system == plain.question.system
     assert Catalogue([product]).match(["x_mid360"]) == product
+
+
+def test_a_descent_shows_the_products_kinds_in_the_words_it_offers():
+    """Below the class a descent starts from, the product's kinds are named path-wise in the answer phrases the
+    questions offer: each product's first kind is one of the first question's options."""
+    mics = Product("ReSpeaker", "MicrophoneArray", ("respeaker",), "Seeed, ReSpeaker Mic Array")
+    assert product_text(TAX, mics, "Sensor") == "\nProduct: ReSpeaker (audio sensor > microphone array)"
+    assert product_text(TAX, mics) == "\nProduct: ReSpeaker (" + TAX.label("MicrophoneArray") + ")"
+    for product in catalogue().products:
+        for kind in TAX.kinds.values():
+            if TAX.is_a(product.cls, kind.cls) and product.cls != kind.cls:
+                first = product_text(TAX, product, kind.cls).split("(", 1)[1].split(" > ")[0].rstrip(")")
+                assert first in {TAX.answer(c) for c in level_options(TAX, kind.cls)}, product.label
