@@ -236,12 +236,15 @@ class Abstractor:
         Where a device's optical frames see from (structure.viewpoints) rules classes out by the
         ontology's core:viewpointCount definitions (a monocular camera sees from one place, a stereo camera
         from two), they are not offered; a lone chain's pre-class so ruled out descends again from its parent.
+        Nor are the classes the number of its sensing frames rules out (core:elementCount: a tactile sensor is
+        one pad, a microphone one capsule; several read as one device are an array).
         """
         top = self._kind(s).cls
         typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
         by_start: dict[str, list[Group]] = {}
         views = {id(g): viewpoints(s.tree, g.leaves) for g in s.groups}
-        unseen = {id(g): self.tax.unseen(views[id(g)], top) for g in s.groups}
+        unseen = {id(g): self.tax.unseen(views[id(g)], top) | self.tax.miscounted(len(g.chains), top)
+                  for g in s.groups}
         for g in s.groups:
             if len(g.chains) > 1:
                 by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)

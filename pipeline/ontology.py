@@ -116,6 +116,7 @@ class Vocabulary:
         self._built_in: set[str] = set()  # classes marked core:builtIn
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
+        self._elements: dict[str, tuple[float, float]] = {}  # sensor class → the sensing-frame counts it allows
         self._rank: dict[str, float] = {}  # class → core:optionRank
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
         for name in self._order:
@@ -131,8 +132,10 @@ class Vocabulary:
             self._example[name] = str(graph.value(node, SKOS.example) or "")
             self._excluded[name] = _restricted_parts(graph, node, complement=True)
             self._needed[name] = _needed_parts(graph, node)
-            if (views := _viewpoint_range(graph, node)) is not None:
+            if (views := _count_range(graph, node, CORE.viewpointCount)) is not None:
                 self._views[name] = views
+            if (elements := _count_range(graph, node, CORE.elementCount)) is not None:
+                self._elements[name] = elements
             if (placement := _placement(graph, node)) is not None:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
@@ -356,9 +359,17 @@ class Vocabulary:
     def unseen(self, count: int, below: str) -> frozenset[str]:
         """Classes under `below` that a device whose optical frames see from `count` places cannot be
         (core:viewpointCount restrictions on them or on a class above them: a stereo camera sees from two)."""
+        return self._outside(self._views, count, below)
+
+    def miscounted(self, count: int, below: str) -> frozenset[str]:
+        """Classes under `below` that a device written with `count` sensing frames cannot be (core:elementCount
+        restrictions on them or on a class above them: a tactile sensor is one pad, several are an array)."""
+        return self._outside(self._elements, count, below)
+
+    def _outside(self, ranges: dict[str, tuple[float, float]], count: int, below: str) -> frozenset[str]:
         def allows(name: str) -> bool:
             return all(low <= count <= high for c in (name, *self.ancestors(name))
-                       for low, high in [self._views.get(c, (0, float("inf")))])
+                       for low, high in [ranges.get(c, (0, float("inf")))])
         return frozenset(c for c in self.subclasses_below(below) if not allows(c))
 
     def placement(self, name: str) -> str | None:
@@ -407,10 +418,10 @@ def _needed_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> list[frozenset[st
     return out
 
 
-def _viewpoint_range(graph: rdflib.Graph, node: rdflib.URIRef) -> tuple[float, float] | None:
-    """(least, most) from `node ⊑ ∀viewpointCount.integer[>= least, <= most]`, None without such an axiom."""
+def _count_range(graph: rdflib.Graph, node: rdflib.URIRef, prop: rdflib.URIRef) -> tuple[float, float] | None:
+    """(least, most) from `node ⊑ ∀prop.integer[>= least, <= most]`, None without such an axiom."""
     for restriction in graph.objects(node, RDFS.subClassOf):
-        if graph.value(restriction, OWL.onProperty) != CORE.viewpointCount:
+        if graph.value(restriction, OWL.onProperty) != prop:
             continue
         low, high = 0.0, float("inf")
         facets = graph.value(graph.value(restriction, OWL.allValuesFrom), OWL.withRestrictions)
@@ -421,7 +432,7 @@ def _viewpoint_range(graph: rdflib.Graph, node: rdflib.URIRef) -> tuple[float, f
                 elif kind == XSD.maxInclusive:
                     high = float(str(value))
                 else:
-                    raise OntologyError(f"{_local(node)}: viewpointCount facet {kind} is not minInclusive or maxInclusive")
+                    raise OntologyError(f"{_local(node)}: {_local(prop)} facet {kind} is not minInclusive or maxInclusive")
         return low, high
     return None
 

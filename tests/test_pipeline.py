@@ -266,3 +266,35 @@ def test_post_classification_starts_from_what_the_members_share_and_the_frames_d
     assert not [k for k in asked if k.startswith("post:mast")]
     assert {s.link: s.cls for s in comps["RGBDCamera"].subcomponents if s.link.endswith("optical")} == {
         "mast_rgbd_color_optical": "RgbFrame", "mast_rgbd_depth_optical": "DepthFrame"}
+
+
+def test_several_touch_pads_read_as_one_device_are_an_array():
+    """Three touch frames on a head named as one device: a tactile sensor is one pad (core:elementCount), so the
+    device is not offered "touch sensor", though the model calls each frame one."""
+    pads = ["headtouch_front_frame", "headtouch_middle_frame", "headtouch_rear_frame"]
+    urdf = ('<robot name="toucher"><link name="base"><visual><geometry><box size="0.3 0.3 0.3"/></geometry></visual>'
+            '</link><link name="head"><visual><geometry><sphere radius="0.1"/></geometry></visual></link>'
+            '<joint name="neck" type="revolute"><parent link="base"/><child link="head"/><axis xyz="0 0 1"/>'
+            '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+            + "".join(f'<link name="{p}"/><joint name="{p}_joint" type="fixed"><parent link="head"/><child link="{p}"/>'
+                      f'<origin xyz="{0.05 * (1 - i)} 0 0.1"/></joint>' for i, p in enumerate(pads)) + '</robot>')
+    offered = {}
+
+    def reads_pads(q):
+        stage, _, subject = q.key.partition(":")
+        offered[q.key] = q.options
+        if stage == "identify":
+            return "sensor" if subject in pads else q.options[-1]
+        if stage in ("check",):
+            return "sensor"
+        if stage == "device":
+            return "headtouch"
+        if q.key.startswith("post:") and "touch sensor array" in q.options:
+            return "touch sensor array"
+        if stage in ("pre", "post"):
+            return next(o for o in ("contact sensor", "touch sensor") if o in q.options)
+        return q.options[0]
+    comps = Abstractor(Oracle(ScriptedBackend(reads_pads)), TAX, reasoner=scripted_reasoner).run(load_urdf(urdf.encode()))
+    touch = [c for c in comps if c.kind == "sensor"]
+    assert [(c.cls, sorted(s.link for s in c.subcomponents if s.link in pads)) for c in touch] == [("TactileArray", pads)]
+    assert all("touch sensor" not in options for key, options in offered.items() if key.startswith("post:"))

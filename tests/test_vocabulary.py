@@ -60,6 +60,7 @@ def test_the_vocabulary_reads_the_schema_from_the_ontology_and_shapes():
     assert "image" in vocab.part_question("OpticalFrame") and vocab.part_question("SensingElement") is None
     assert vocab.has_numbered_units("TactileArray") and not vocab.has_numbered_units("Sonar")
     assert vocab.built_in("Accelerometer") and not vocab.built_in("Lidar") and not vocab.built_in("Sensor")
+    assert vocab.miscounted(3, "Sensor") == {"TactileSensor", "Microphone"} and not vocab.miscounted(1, "Sensor")
     assert vocab.finger_chain_role("link") == {"Finger"} and vocab.finger_chain_role("tip") == {"ContactSurface"}
     assert vocab.finger_chain_role("carrier") == {"Palm"}
     assert vocab.joint_class("continuous") == "ContinuousJoint" and vocab.joint_class("planar") == "PlanarJoint"
