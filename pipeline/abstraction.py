@@ -243,12 +243,12 @@ class Abstractor:
         typed = {id(g): s.pre[g.leaves[0]] for g in s.groups}
         by_start: dict[str, list[Group]] = {}
         views = {id(g): viewpoints(s.tree, g.leaves) for g in s.groups}
-        unseen = {id(g): self.tax.unseen(views[id(g)], top) | self.tax.miscounted(len(g.chains), top)
-                  for g in s.groups}
+        counted_out = {id(g): self.tax.unseen(views[id(g)], top) | self.tax.miscounted(len(g.chains), top)
+                       for g in s.groups}  # by where its frames see from, and by how many there are
         for g in s.groups:
             if len(g.chains) > 1:
                 by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
-            elif (cls := s.pre[g.leaves[0]].cls) in unseen[id(g)]:
+            elif (cls := s.pre[g.leaves[0]].cls) in counted_out[id(g)]:
                 self.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
                 by_start.setdefault(self.tax.parents(cls)[0], []).append(g)
         for start, members in by_start.items():
@@ -256,7 +256,7 @@ class Abstractor:
             results = descend(self.oracle, self.tax, start, [
                 Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                         "Frames: " + "; ".join(f"{leaf} ({self.tax.label(s.pre[leaf].cls)})" for leaf in g.leaves),
-                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}") | unseen[id(g)]
+                        self._ruled_out(s.tree, g.members, start, f"post:{g.leaves[0]}") | counted_out[id(g)]
                         | unfit.get(id(g), frozenset()))
                 for g in members
             ], "post-classification", self.progress)
