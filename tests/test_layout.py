@@ -1,5 +1,5 @@
 """One import name per module (docs/layout.md): absolute imports only, no sys.path edits, a mapped folder
-refuses its bare name, and the type checker's view of the package (.import-root) matches package-dir."""
+refuses its bare name, and urdfkb/ reaches each sub-package's folder through a committed symlink."""
 import ast
 import functools
 import subprocess
@@ -8,7 +8,9 @@ import tomllib
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGE_DIR = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+PACKAGES = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
+# urdfkb.<folder> -> <folder>/ for every sub-package with a folder of its own at the top level
+PACKAGE_DIR = {"urdfkb": "urdfkb", **{p: p.split(".")[1] for p in PACKAGES if p.count(".") == 1}}
 SOURCES = sorted(p for folder in [*PACKAGE_DIR.values(), "tests", "benchmarks", "examples"]
                  for p in (REPO / folder).rglob("*.py"))
 
@@ -35,17 +37,23 @@ def test_a_mapped_folder_refuses_its_own_name():
         assert proc.returncode == 1 and f"{folder}/ is the package urdfkb.{folder}" in proc.stderr, proc.stderr
 
 
-def test_import_root_lays_out_the_installed_package():
-    root = REPO / ".import-root"
+def test_urdfkb_links_each_folder_it_ships():
+    """urdfkb/<folder> is a relative symlink to the top-level folder, and nothing else in urdfkb/ is a link."""
     for package, folder in PACKAGE_DIR.items():
         if package != "urdfkb":
-            link = root.joinpath(*package.split("."))
-            assert link.is_symlink() and link.resolve() == (REPO / folder).resolve(), package
-    modules = {p.name for p in (REPO / "urdfkb").glob("*.py")}
-    for name in modules:
-        assert (root / "urdfkb" / name).resolve() == REPO / "urdfkb" / name
-    assert {p.name for p in (root / "urdfkb").iterdir()} == {
-        *modules, *(p.split(".", 1)[1] for p in PACKAGE_DIR if p != "urdfkb")}
+            link = REPO / "urdfkb" / folder
+            assert link.is_symlink() and str(link.readlink()) == f"../{folder}", package
+    links = {p.name for p in (REPO / "urdfkb").iterdir() if p.is_symlink()}
+    assert links == {folder for package, folder in PACKAGE_DIR.items() if package != "urdfkb"}
+
+
+def test_a_plain_checkout_imports_the_package():
+    """No install and no site packages' import hook: the checkout alone resolves urdfkb.pipeline.runner to its file."""
+    proc = subprocess.run([sys.executable, "-S", "-c",
+                           "import importlib.util as u; print(u.find_spec('urdfkb.pipeline.runner').origin)"],
+                          cwd=REPO, env={"PYTHONPATH": str(REPO)}, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert Path(proc.stdout.strip()).resolve() == REPO / "pipeline" / "runner.py"
 
 
 # --- one RDF seam (pipeline/rdf.py, docs/layout.md) ------------------------------------------------

@@ -1,1 +1,0 @@
-../../urdfkb/__init__.py

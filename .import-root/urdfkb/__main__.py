@@ -1,1 +1,0 @@
-../../urdfkb/__main__.py

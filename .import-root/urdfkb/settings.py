@@ -1,1 +1,0 @@
-../../urdfkb/settings.py
