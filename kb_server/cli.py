@@ -233,6 +233,17 @@ def cmd_query(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_mcp(args: argparse.Namespace) -> int:
+    from urdfkb.kb_server.mcp_tools import serve_stdio
+    from urdfkb.kb_server.store import Store
+    store = Store(args.store, workers=1)  # as `urdfkb query`: one worker process, so the query timeout is enforced
+    try:
+        serve_stdio(store)
+    finally:
+        store.close()
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="urdfkb", description="Turn a robot's URDF into a populated, queryable OWL ontology of its sensors and end-effectors.")
     parser.add_argument("--version", action="version", version=f"urdfkb {__version__}")
@@ -329,6 +340,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=("table", *RESULTS_BY_NAME), default="table",
                    help="output format: an aligned table (the default) or SPARQL results as JSON, XML, CSV or TSV")
     p.set_defaults(func=cmd_query)
+
+    p = sub.add_parser("mcp", help="serve the bundled queries as MCP tools over stdio (for an LLM agent's host)",
+                       description="A Model Context Protocol server on stdin/stdout: one tool per bundled query, "
+                                   "plus robots and a read-only sparql, and each robot's export as a resource.")
+    p.add_argument("--store", help="the quadstore file (default: the server's default store)")
+    p.set_defaults(func=cmd_mcp)
     return parser
 
 
