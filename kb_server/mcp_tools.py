@@ -13,7 +13,6 @@ A bad argument, an unknown robot or an update is a tool error (`isError`) whose 
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -26,7 +25,8 @@ from mcp.shared.exceptions import MCPError
 
 from urdfkb import __version__
 from urdfkb.kb_server.queries import NamedQuery, load_queries, run_named
-from urdfkb.kb_server.sparql import Result, tokens
+from urdfkb.kb_server.rows import table, units
+from urdfkb.kb_server.sparql import tokens
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import N_TRIPLES, TURTLE
@@ -34,11 +34,6 @@ from urdfkb.pipeline.namespaces import CORE_IRI
 from urdfkb.settings import QUERY_TIMEOUT
 
 JSON_TYPES = {"string": "string", "decimal": "number", "integer": "integer"}
-NUMBERS = {"integer", "int", "long", "short", "nonNegativeInteger", "positiveInteger", "decimal", "double", "float"}
-XSD = "http://www.w3.org/2001/XMLSchema#"
-# A data property of the core whose name ends in a unit gives its values in that unit (reachMetres...).
-UNIT_SUFFIXES = {"Metres": "m", "Radians": "rad", "Pixels": "px"}
-_UNIT_PROPERTY = re.compile(r"core:\w+?(" + "|".join(UNIT_SUFFIXES) + r")\s+\?(\w+)")
 QUERY_FORMS = ("SELECT", "ASK", "CONSTRUCT", "DESCRIBE")
 RESOURCE_SCHEME = "urdfkb://robots/"
 ROBOT_ARG = {"type": "string", "description": "the stored robot's name (the `robots` tool lists them)"}
@@ -68,32 +63,6 @@ def input_schema(query: NamedQuery) -> dict:
         props[p.name] = prop
     return {"type": "object", "properties": props, "additionalProperties": False,
             "required": ["robot"] + [p.name for p in query.params if p.default is None]}
-
-
-def units(text: str) -> dict[str, str]:
-    """{column: unit} for the columns a query binds to a core property whose name ends in a unit."""
-    return {var: UNIT_SUFFIXES[suffix] for suffix, var in _UNIT_PROPERTY.findall(text)}
-
-
-def typed(term: Mapping[str, str]) -> object:
-    """A SPARQL JSON term as a JSON value: numbers and booleans typed, IRIs and other literals as their text."""
-    datatype = term.get("datatype", "")
-    value = term["value"]
-    if datatype.startswith(XSD) and datatype[len(XSD):] in NUMBERS:
-        try:
-            number = float(value)
-        except ValueError:
-            return value
-        return int(number) if datatype[len(XSD):] not in ("decimal", "double", "float") and number.is_integer() else number
-    if datatype == XSD + "boolean":
-        return value in ("true", "1")
-    return value
-
-
-def table(result: Result, unit_of: Mapping[str, str] | None = None) -> dict:
-    """A SELECT answer as {columns, rows, units}: one object a row, unbound cells left out."""
-    rows = [{var: typed(term) for var, term in row.items()} for row in result.bindings()]
-    return {"columns": result.vars, "rows": rows, "units": {c: u for c, u in (unit_of or {}).items() if c in result.vars}}
 
 
 def check_arguments(name: str, schema: dict, arguments: Mapping[str, Any]) -> None:
