@@ -80,8 +80,8 @@ class Menu:
         links = [link for hits, _, link in named[:MAX_LINKS] if hits]
         choices = self.choices + tuple(Choice(f"{q.name} {link}", q.name, (("link", link),))
                                        for q in self.link_queries for link in links)
-        user = f"Question: {text.strip()}\nAnswer with one query and its values, or {NONE}."
-        return Question(self.system, user, tuple(c.option for c in choices), key=f"ask:{self.robot}"), choices
+        user = text.strip()
+        return Question(self.system, text.strip(), tuple(c.option for c in choices), key=f"ask:{self.robot}"), choices
 
 
 def _facts(store: Store, robot: str) -> tuple[list[str], list[tuple[str, str, str]], list[str]]:
@@ -137,7 +137,8 @@ def build_menu(store: Store, robot: str) -> Menu:
               f"The robot's body parts: {', '.join(sorted(set(labels.values()))) or 'none known'}. "
               f"Its sides: {', '.join(sides) or 'none'}.\n"
               f"Its sensors and end-effectors: {', '.join(components) or 'none known'}.\n"
-              "Queries:\n" + "\n".join(lines) + f"\n{NONE}: anything else")
+              "Queries:\n" + "\n".join(lines) + f"\n{NONE}: anything else\n"
+              f"Answer with one query and its values, or {NONE}.")
     return Menu(robot, system, tuple(choices), tuple(links), tuple(link_queries))
 
 
