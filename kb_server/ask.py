@@ -80,7 +80,6 @@ class Menu:
         links = [link for hits, _, link in named[:MAX_LINKS] if hits]
         choices = self.choices + tuple(Choice(f"{q.name} {link}", q.name, (("link", link),))
                                        for q in self.link_queries for link in links)
-        user = text.strip()
         return Question(self.system, text.strip(), tuple(c.option for c in choices), key=f"ask:{self.robot}"), choices
 
 

@@ -142,3 +142,18 @@ def test_small_real_model(kb):
         backend.close()
     assert 0 < reply["confidence"] <= 1 and isinstance(reply["answer"], str) and reply["answer"]
     assert reply["refused"] == (reply["query"] is None)
+
+
+def test_dialogue_example(kb, capsys):
+    import importlib.util
+    from pathlib import Path
+    spec = importlib.util.spec_from_file_location("dialogue", Path(__file__).resolve().parents[1] / "examples" / "dialogue.py")
+    assert spec and spec.loader
+    dialogue = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(dialogue)
+    with served(kb, asker=scripted("none")[0]) as base:
+        assert dialogue.main(["--url", base, "--robot", "turtlebot3", "Will it rain?"]) == 0
+        assert dialogue.main(["--url", base, "--robot", "r2d2", "Will it rain?"]) == 1
+    out = capsys.readouterr()
+    assert "> Will it rain?\nThat question is outside what I, turtlebot3, know about my body." in out.out
+    assert "no robot 'r2d2'" in out.err
