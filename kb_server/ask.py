@@ -118,9 +118,10 @@ def build_menu(store: Store, robot: str) -> Menu:
             continue
         if "part" in names:
             for cls in sorted(part_sides):
-                for side in ([ANY, *sorted(part_sides[cls])] if "side" in names and part_sides[cls] else [None]):
-                    params = (("part", cls),) + ((("side", side),) if side else ())
-                    choices.append(Choice(" ".join([q.name, labels[cls]] + ([side] if side else [])), q.name, params))
+                part_values: list[str] = [ANY, *sorted(part_sides[cls])] if "side" in names and part_sides[cls] else [""]
+                for value in part_values:
+                    params = (("part", cls),) + ((("side", value),) if value else ())
+                    choices.append(Choice(" ".join([q.name, labels[cls]] + ([value] if value else [])), q.name, params))
             lines.append(f"{q.name} PART{' SIDE' if 'side' in names else ''}: {q.title} "
                          f"(PART: {', '.join(labels[c] for c in sorted(part_sides))})")
         elif "side" in names and sides:
