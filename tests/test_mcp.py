@@ -91,7 +91,7 @@ def test_http(live_store):
 
 
 def _with_headers(url: str, headers: dict) -> Client:
-    return Client(streamable_http_client(url, http_client=httpx2.AsyncClient(headers=headers)))
+    return Client(streamable_http_client(url, http_client=httpx2.AsyncClient(headers=headers, timeout=60)))
 
 
 def test_http_needs_the_token_where_the_server_has_one(live_store):
