@@ -22,7 +22,8 @@ from werkzeug.exceptions import HTTPException
 
 from urdfkb.kb_server.jobs import JobManager
 from urdfkb.kb_server.replies import handle_error
-from urdfkb.kb_server.routes import BLUEPRINTS
+from urdfkb.kb_server.ask import Asker
+from urdfkb.kb_server.routes import BLUEPRINTS, ask
 from urdfkb.kb_server.security import Policy
 from urdfkb.kb_server.services import EXTENSION, Services
 from urdfkb.kb_server.store import Store
@@ -33,19 +34,21 @@ from urdfkb.settings import MAX_BYTES, MAX_LINKS, QUERY_TIMEOUT, THREADS, XACRO_
 def create_app(store: Store, jobs: JobManager, token: str | None = None, max_body: int = MAX_BYTES,
                query_timeout: float = QUERY_TIMEOUT, policy: Policy | None = None, max_links: int = MAX_LINKS,
                max_waiters: int = job_waiters(THREADS), package_paths: Mapping[str, Path] | None = None,
-               trust_xacro: bool = False, xacro_timeout: float = XACRO_TIMEOUT) -> Flask:
+               trust_xacro: bool = False, xacro_timeout: float = XACRO_TIMEOUT, asker: Asker | None = None) -> Flask:
     """The Flask app over `store`; populate jobs go to `jobs`; bodies over `max_body` bytes get 413.
 
     `policy` (default: a loopback server with nothing opened) checks every request; at most
     `max_waiters` clients wait on a job at once (GET /jobs/<id>?wait=1), so waits never hold
     every server thread. Uploaded xacro files may include only from `package_paths` (none: they
     read no server file), inside the sandbox of pipeline.sandbox unless `trust_xacro`; expansion
-    is the job's first step, never the request's, and fails past `xacro_timeout` seconds."""
+    is the job's first step, never the request's, and fails past `xacro_timeout` seconds. Questions in words
+    (GET /ask) go to `asker`, by default one on the jobs' model thread."""
     app = Flask(__name__)
     app.config["MAX_CONTENT_LENGTH"] = max_body
     kb = Services(store, jobs, policy or Policy(), token, max_body, query_timeout, max_links, max_waiters,
                   threading.BoundedSemaphore(max_waiters), package_paths, trust_xacro, xacro_timeout)
     app.extensions[EXTENSION] = kb
+    app.extensions[ask.EXTENSION] = asker
     kb.policy.install(app)
     app.register_error_handler(UrdfkbError, handle_error)
     app.register_error_handler(HTTPException, handle_error)

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
-from urdfkb import __version__
+from urdfkb import __version__, local_name
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
 from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
@@ -233,6 +233,43 @@ def cmd_query(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_mcp(args: argparse.Namespace) -> int:
+    from urdfkb.kb_server.mcp_tools import serve_stdio
+    from urdfkb.kb_server.store import Store
+    store = Store(args.store, workers=1)  # as `urdfkb query`: one worker process, so the query timeout is enforced
+    try:
+        serve_stdio(store)
+    finally:
+        store.close()
+    return 0
+
+
+def cmd_ask(args: argparse.Namespace) -> int:
+    from urdfkb.kb_server.ask import Asker, direct
+    from urdfkb.kb_server.store import Store
+    from urdfkb.pipeline.runner import Settings, make_backend
+    store = Store(args.store, workers=1)
+    try:
+        store.require(args.robot)  # before the model loads
+        backend = make_backend(Settings(model=args.model))
+        try:
+            reply = Asker(direct(backend)).ask(store, args.robot, args.question)
+        finally:
+            backend.close()
+    finally:
+        store.close()
+    if args.json:
+        print(json.dumps(reply, indent=2))
+        return 0
+    columns = list(dict.fromkeys(k for row in reply["rows"] for k in row))
+    cells = [[local_name(str(row.get(c, ""))) for c in columns] for row in reply["rows"]]
+    widths = [max([len(c)] + [len(r[i]) for r in cells]) for i, c in enumerate(columns)]
+    for line in ([columns] if cells else []) + cells:
+        print("  ".join(v.ljust(w) for v, w in zip(line, widths)).rstrip())
+    print(("\n" if cells else "") + reply["answer"])
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="urdfkb", description="Turn a robot's URDF into a populated, queryable OWL ontology of its sensors and end-effectors.")
     parser.add_argument("--version", action="version", version=f"urdfkb {__version__}")
@@ -329,6 +366,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=("table", *RESULTS_BY_NAME), default="table",
                    help="output format: an aligned table (the default) or SPARQL results as JSON, XML, CSV or TSV")
     p.set_defaults(func=cmd_query)
+
+    p = sub.add_parser("mcp", help="serve the bundled queries as MCP tools over stdio (for an LLM agent's host)",
+                       description="A Model Context Protocol server on stdin/stdout: one tool per bundled query, "
+                                   "plus robots and a read-only sparql, and each robot's export as a resource.")
+    p.add_argument("--store", help="the quadstore file (default: the server's default store)")
+    p.set_defaults(func=cmd_mcp)
+
+    p = sub.add_parser("ask", help="ask a stored robot a question in words; one bundled query answers it, or it is refused",
+                       description="The embedded model chooses the bundled query and its values among the options the "
+                                   "knowledge base offers for the robot, or none of them; the rows and one sentence "
+                                   "composed from them are printed (no generated text).")
+    p.add_argument("robot", help="robot name")
+    p.add_argument("question", help="the question, in English")
+    p.add_argument("--store", help="the quadstore file (default: the server's default store)")
+    p.add_argument("--json", action="store_true", help="print the whole reply as JSON (query, params, rows, answer, "
+                                                       "confidence, refused)")
+    p.add_argument("--model", metavar="GGUF", help="a GGUF model file (default: Qwen2.5-Coder-1.5B-Instruct, fetched once)")
+    p.set_defaults(func=cmd_ask)
     return parser
 
 

@@ -43,3 +43,9 @@ class TooManyRequests(UrdfkbError):
     @property
     def headers(self) -> dict[str, str]:
         return {"Retry-After": str(self.retry_after)}
+
+
+class ServiceUnavailable(UrdfkbError):
+    """Something this request needs that the server does not run (the embedded model, for a question in words)."""
+
+    status = 503

@@ -25,7 +25,7 @@ import uuid
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, TypeVar
 
 from urdfkb.kb_server.errors import TooManyRequests
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 
 Runner = Callable[[KinematicTree, Settings, Progress], Abstraction]
 Source = KinematicTree | Callable[[], KinematicTree]
+T = TypeVar("T")
 
 
 class QueueFull(TooManyRequests):
@@ -99,15 +100,25 @@ class ModelWorker:
             return run(tree, settings, progress=progress)  # no embedded model
         return run(tree, settings, progress=progress, backends=self._warm)
 
+    def use(self, task: Callable[[Backend], T]) -> T:
+        """task(the default model) on the model thread, after the runs queued before it; the model keeps its
+        state (questions in words reuse their prompt states)."""
+        return self._submit(lambda: task(self._loaded(Settings())))
+
     def _warm(self, settings: Settings) -> Backend:
         """The backend for `settings`' model file, loaded unless it is the warm one, as a fresh one answers."""
+        backend = self._loaded(settings)
+        backend.fresh()
+        return backend
+
+    def _loaded(self, settings: Settings) -> Backend:
+        """The backend for `settings`' model file, loaded unless it is the warm one."""
         model = settings.model or ""
         if self._backend is not None and self._model != model:
             self._close()
         if self._backend is None:
             self._backend, self._model = self._make(settings), model
             self.loads += 1
-        self._backend.fresh()
         return self._backend
 
     def _close(self) -> None:

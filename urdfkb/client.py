@@ -29,12 +29,12 @@ import urllib.request
 from dataclasses import dataclass
 
 from urdfkb import __version__, local_name
-from urdfkb.settings import CLIENT_TIMEOUT
+from urdfkb.settings import ASK_TIMEOUT, CLIENT_TIMEOUT
 
 __all__ = [
     "KnowledgeBase", "ClientError", "ServerUnavailable", "UnknownRobot", "QueryFailed",
     "CameraLink", "Sensor", "MountedComponent", "EndEffector", "ReviewItem", "SubPart", "Component",
-    "BodyPart", "Joint", "LocatedComponent", "ArmEndEffector", "CameraFrame", "ArmReach", "GripperOpening", "class_words",
+    "BodyPart", "Joint", "LocatedComponent", "ArmEndEffector", "CameraFrame", "ArmReach", "GripperOpening", "Reply", "class_words",
 ]
 
 SIDES = ("left", "right")
@@ -219,6 +219,19 @@ class GripperOpening:
 
 # --- the client ------------------------------------------------------------------------------------
 
+@dataclass(frozen=True)
+class Reply:
+    """The answer to a question in words: the query chosen (None when refused), its parameters, its rows (JSON
+    values: numbers as numbers), one sentence made from them by code, the choice's probability, and whether
+    the question was refused (outside what the robot knows about its body, or not understood)."""
+    query: str | None
+    params: dict
+    rows: list[dict]
+    answer: str
+    confidence: float
+    refused: bool
+
+
 class _NoRedirect(urllib.request.HTTPRedirectHandler):
     """Refuses every redirect: urllib then raises the 3xx answer as an HTTPError."""
 
@@ -265,6 +278,20 @@ class KnowledgeBase:
             return [{var: cell["value"] for var, cell in row.items()} for row in answer["results"]["bindings"]]
         except (KeyError, TypeError) as e:
             raise QueryFailed(name, 200, f"the answer is not SPARQL JSON results ({e!r})", self.url) from None
+
+    def ask(self, robot: str, question: str, timeout: float | None = None) -> Reply:
+        """A question in words (`GET /ask`): the bundled query the server's model chose, its rows and a sentence
+        made from them, or a refusal saying what the robot can answer. `timeout` (default ASK_TIMEOUT seconds)
+        leaves room for the server's first question about a robot, which reads its menu into the model."""
+        if not robot:
+            raise ValueError("give the robot's name")
+        path = f"/ask?{urllib.parse.urlencode({'robot': robot, 'q': question})}"
+        answer = self._get(path, "ask", robot, ASK_TIMEOUT if timeout is None else timeout)
+        try:
+            return Reply(answer["query"], answer["params"], answer["rows"], answer["answer"], answer["confidence"],
+                         answer["refused"])
+        except (KeyError, TypeError) as e:
+            raise QueryFailed("ask", 200, f"the answer is not a reply to a question ({e!r})", self.url) from None
 
     # --- the bundled queries ---------------------------------------------------------------------
 
@@ -371,15 +398,16 @@ class KnowledgeBase:
 
     # --- HTTP ------------------------------------------------------------------------------------
 
-    def _get(self, path: str, what: str, robot: str | None = None):
-        """The JSON answer of GET `path`; the errors above otherwise."""
+    def _get(self, path: str, what: str, robot: str | None = None, timeout: float | None = None):
+        """The JSON answer of GET `path` (within `timeout` seconds, default the client's); the errors above otherwise."""
+        timeout = self.timeout if timeout is None else timeout
         headers = {"Accept": "application/sparql-results+json, application/json;q=0.9",
                    "User-Agent": f"urdfkb-client/{__version__}"}
         if self.token:
             headers["Authorization"] = f"Bearer {self.token}"
         request = urllib.request.Request(self.url + path, headers=headers)
         try:
-            with _OPENER.open(request, timeout=self.timeout) as response:
+            with _OPENER.open(request, timeout=timeout) as response:
                 body = response.read()
         except urllib.error.HTTPError as e:
             message = _redirect(e) if 300 <= e.code < 400 else _message(e)
@@ -389,7 +417,7 @@ class KnowledgeBase:
         except urllib.error.URLError as e:
             raise ServerUnavailable(self.url, _reason(e.reason)) from None
         except TimeoutError:
-            raise ServerUnavailable(self.url, f"no answer within {self.timeout:g} s") from None
+            raise ServerUnavailable(self.url, f"no answer within {timeout:g} s") from None
         except (http.client.HTTPException, OSError) as e:
             raise ServerUnavailable(self.url, _reason(e)) from None
         try:

@@ -62,11 +62,16 @@ MAX_LLM_REPLY = 10_000_000  # bytes of its answer (a chat completion of a few sh
 PREFIX_CACHE_BYTES = 512 << 20  # the prompt-state cache's size bound (the sixteen truth robots leave 27 states,
 # 150 MB; Qwen2.5-1.5B: 28 KB a token)
 
+# Questions in words (kb_server.ask)
+ASK_THRESHOLD = 0.5  # probability the chosen query's options must hold together; less is a refusal
+MAX_QUESTION = 500  # characters of a question: 400
+
 # Review
 REVIEW_THRESHOLD = 0.5  # confidence below which a component or sub-component is shown for review
 
 # The client (urdfkb.client)
 CLIENT_TIMEOUT = 10.0  # seconds the client waits for the server's answer
+ASK_TIMEOUT = 60.0  # seconds it waits for the answer to a question in words (the first reads the robot's menu)
 
 
 def job_waiters(threads: int) -> int:

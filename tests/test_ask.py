@@ -1,0 +1,159 @@
+"""Questions in words (kb_server.ask) with the scripted backend standing in for the model: the options the
+knowledge base offers, the choice and its threshold, the reply and its sentence, GET /ask and the client;
+and once with the small real model."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.ask_robots import store_ask_robots
+from tests.kb_fixtures import client, copied, make_app, served
+from urdfkb.client import KnowledgeBase
+from urdfkb.kb_server.ask import Asker, QuestionError, build_menu, direct
+from urdfkb.kb_server.store import Store, UnknownRobot
+from urdfkb.pipeline.llm.base import Question
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+
+
+@pytest.fixture(scope="module")
+def ask_kb(pr2_tree, tmp_path_factory):
+    s = Store(tmp_path_factory.mktemp("ask") / "kb.sqlite3", workers=0)
+    store_ask_robots(s, pr2_tree)
+    s.close()
+    return s.path
+
+
+@pytest.fixture(scope="module")
+def kb(ask_kb, tmp_path_factory):
+    s = Store(copied(ask_kb, tmp_path_factory.mktemp("kb")), workers=0)
+    yield s
+    s.close()
+
+
+def scripted(answer):
+    """An Asker whose model answers `answer` (an option, or a distribution), and the questions it was asked."""
+    asked: list[Question] = []
+
+    def rule(q: Question):
+        asked.append(q)
+        return answer
+    return Asker(direct(ScriptedBackend(rule))), asked
+
+
+def test_options_come_from_the_robot(kb):
+    pr2 = [c.option for c in build_menu(kb, "pr2").choices]
+    assert {"arm_reach left", "arm_reach right", "arm_reach any", "located_on head", "body_part_joints arm left",
+            "cameras", "none"} <= set(pr2)
+    turtlebot = build_menu(kb, "turtlebot3")
+    options = [c.option for c in turtlebot.choices]
+    assert "located_on wheel left" in options and not any(o.startswith("located_on arm") for o in options)
+    assert "lidar" in turtlebot.system and "mobile base" in turtlebot.system
+    question, _ = turtlebot.question("what is mounted on your base_scan link?")
+    assert "mounted_below base_scan" in question.options
+    assert not any(o.startswith("mounted_below") for o in turtlebot.question("what can you see?")[0].options)
+
+
+def test_a_question_is_answered_by_its_query(kb):
+    asker, asked = scripted("arm_reach left")
+    reply = asker.ask(kb, "pr2", "How far can you reach with your left arm?")
+    assert reply["query"] == "arm_reach" and reply["params"] == {"side": "left"} and not reply["refused"]
+    (row,) = reply["rows"]
+    assert row["side"] == "left" and row["degreesOfFreedom"] == 7 and reply["units"] == {"reach": "m"}
+    assert reply["answer"] == ("How far each arm reaches: l_arm (side left, mount torso_lift_link, degrees of freedom 7, "
+                               f"reach {row['reach']} m).")
+    assert reply["confidence"] == 1.0
+    asker.ask(kb, "pr2", "which of your links are cameras?")
+    assert asked[0].system == asked[1].system  # one menu a robot: its prompt state is reused
+    assert asked[0].user == "How far can you reach with your left arm?"
+
+
+def test_cameras_answer_names_them(kb):
+    reply = scripted("cameras")[0].ask(kb, "pr2", "which of your links are cameras?")
+    assert {"r_forearm_cam_optical_frame", "head_mount_kinect_rgb_optical_frame"} <= {r["link"] for r in reply["rows"]}
+    assert reply["answer"].startswith("Which of my links are cameras: head_mount_kinect_ir_link")
+
+
+def test_none_of_these_is_a_refusal(kb):
+    reply = scripted("none")[0].ask(kb, "turtlebot3", "Will it rain tomorrow?")
+    assert reply["refused"] and reply["query"] is None and reply["rows"] == []
+    assert "outside what I, turtlebot3, know about my body" in reply["answer"]
+    assert "how far each arm reaches" in reply["answer"]
+
+
+def test_probability_is_counted_per_query(kb):
+    reply = scripted({"arm_reach left": 0.3, "arm_reach any": 0.25, "cameras": 0.45})[0].ask(kb, "pr2", "reach?")
+    assert reply["query"] == "arm_reach" and reply["params"] == {"side": "left"} and reply["confidence"] == 0.55
+    unsure = scripted({"cameras": 0.45, "sensors": 0.35, "none": 0.2})[0].ask(kb, "pr2", "what is that?")
+    assert unsure["refused"] and unsure["confidence"] == 0.45
+
+
+def test_an_empty_robot_answer_says_none(kb):
+    reply = scripted("arm_reach any")[0].ask(kb, "turtlebot3", "how far can your arm reach?")
+    assert reply["rows"] == [] and reply["answer"] == "How far each arm reaches: none."
+
+
+def test_bad_questions(kb):
+    asker, asked = scripted("none")
+    with pytest.raises(QuestionError, match="empty"):
+        asker.ask(kb, "pr2", "  ")
+    with pytest.raises(QuestionError, match="longer than"):
+        asker.ask(kb, "pr2", "why " * 200)
+    with pytest.raises(UnknownRobot):
+        asker.ask(kb, "r2d2", "hello?")
+    assert not asked
+
+
+def test_ask_route(kb):
+    app, jobs = make_app(kb, asker=scripted("located_on head")[0])
+    try:
+        call = client(app)
+        status, _, body = call("GET", "/ask?robot=pr2&q=what%20is%20on%20your%20head%3F")
+        reply = json.loads(body)
+        assert status == 200 and reply["query"] == "located_on" and reply["params"] == {"part": "Head"}
+        assert {"comp_kinect", "comp_prosilica", "comp_wide_stereo"} <= {r["component"].rsplit("#")[-1] for r in reply["rows"]}
+        assert call("GET", "/ask?robot=pr2")[0] == 400
+        assert call("GET", "/ask?robot=nobody&q=hi")[0] == 404
+    finally:
+        jobs.shutdown()
+    app, jobs = make_app(kb)  # a fake pipeline runner: no model to read with
+    try:
+        status, _, body = client(app)("GET", "/ask?robot=pr2&q=hi")
+        assert status == 503 and b"no embedded model" in body
+    finally:
+        jobs.shutdown()
+
+
+def test_client_ask(kb):
+    with served(kb, asker=scripted("gripper_opening")[0]) as base:
+        reply = KnowledgeBase(base).ask("pr2", "How wide do your grippers open?")
+    assert reply.query == "gripper_opening" and not reply.refused and len(reply.rows) == 2
+    assert reply.answer.startswith("How wide each gripper opens: ")
+
+
+@pytest.mark.model
+def test_small_real_model(kb):
+    from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
+    from urdfkb.pipeline.llm.llama import LlamaBackend
+    backend = LlamaBackend(ensure_model(TEST_MODEL, progress=False), prefix_cache=False)
+    try:
+        reply = Asker(direct(backend)).ask(kb, "pr2", "Which of your links are cameras?")
+    finally:
+        backend.close()
+    assert 0 < reply["confidence"] <= 1 and isinstance(reply["answer"], str) and reply["answer"]
+    assert reply["refused"] == (reply["query"] is None)
+
+
+def test_dialogue_example(kb, capsys):
+    import importlib.util
+    from pathlib import Path
+    spec = importlib.util.spec_from_file_location("dialogue", Path(__file__).resolve().parents[1] / "examples" / "dialogue.py")
+    assert spec and spec.loader
+    dialogue = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(dialogue)
+    with served(kb, asker=scripted("none")[0]) as base:
+        assert dialogue.main(["--url", base, "--robot", "turtlebot3", "Will it rain?"]) == 0
+        assert dialogue.main(["--url", base, "--robot", "r2d2", "Will it rain?"]) == 1
+    out = capsys.readouterr()
+    assert "> Will it rain?\nThat question is outside what I, turtlebot3, know about my body." in out.out
+    assert "no robot 'r2d2'" in out.err
