@@ -34,7 +34,7 @@ class Robot:
     components: list[dict] = field(default_factory=list)
     body: list[dict] = field(default_factory=list)
     ignore_joints: list[str] = field(default_factory=list)
-    comments: list[str] = field(default_factory=list)
+    mounted: list[tuple[Instance, str]] = field(default_factory=list)  # each part instance and the link it is fixed to
 
     def link(self, name: str, **body) -> str:
         self.links.append(link_element(name, body))
@@ -65,6 +65,12 @@ class Robot:
         self.gazebo += [gazebo_elements(g) for g in inst.gazebo]
         self.components += [{**c, "roots": [parent if r == "{mount}" else r for r in c["roots"]]} for c in inst.truth]
         self.ignore_joints += inst.ignore_joints
+        self.mounted.append((inst, parent))
+
+    def part_components(self) -> list[dict]:
+        """The truth components of the mounted parts (not the host's own devices)."""
+        ids = {c["id"] for inst, _ in self.mounted for c in inst.truth}
+        return [c for c in self.components if c["id"] in ids]
 
     def urdf(self) -> bytes:
         robot = ET.Element("robot", name=self.name)

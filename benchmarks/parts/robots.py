@@ -10,6 +10,13 @@ from benchmarks.parts.hosts import BUILD, Robot, hosts_for
 from benchmarks.parts.library import Part
 
 
+class _Dumper(yaml.SafeDumper):
+    """Writes repeated lists out in full (no YAML anchors) so a truth file reads as the hand-written ones."""
+
+    def ignore_aliases(self, data) -> bool:
+        return True
+
+
 def robots(parts: Iterable[Part], hosts: Iterable[str] | None = None) -> Iterator[tuple[Part, str, Robot]]:
     """Each part on each of its hosts (only those in `hosts`, when given)."""
     wanted = set(hosts) if hosts is not None else None
@@ -31,5 +38,5 @@ def write(robot: Robot, part: Part, folder: Path) -> Path:
             f"{src['repo']}@{src['commit'][:7]} : {src['file']} ({src['licence']}), described in "
             f"benchmarks/parts/data/{part.key}.yaml.\n")
     truth = folder / "eval" / "truth" / f"{robot.name}.yaml"
-    truth.write_text(head + yaml.safe_dump(robot.truth(urdf), sort_keys=False, default_flow_style=None, width=140))
+    truth.write_text(head + yaml.dump(robot.truth(urdf), Dumper=_Dumper, sort_keys=False, default_flow_style=None, width=140))
     return truth
