@@ -3,8 +3,7 @@
 Usage: python -m benchmarks.parts [--parts NAME ...] [--hosts HOST ...] [--limit N] [--out DIR]
                                   [--structure-only] [--model GGUF | --llm-url URL [--llm-model NAME]] [--no-cache]
 
-Runs the default model unless told otherwise (about two minutes a robot on two cores: the whole library is
-the lead's run). --out keeps the generated URDFs and truth files, so `urdfkb eval DIR/eval/truth` scores the
+Runs the default model unless told otherwise (minutes a robot: the whole library is a long run). --out keeps the generated URDFs and truth files, so `urdfkb eval DIR/eval/truth` scores the
 same robots. The last line reads `parts P, makers M, hosts per part >= H, typed F1 X.XX`.
 """
 from __future__ import annotations
