@@ -162,3 +162,17 @@ def test_each_tool_part_is_one_tool_of_its_own_links_on_the_flange(key):
             assert structure.mount in roots, (key, host, structure.mount)
             expected = set(inst.link_names) - {structure.mount}  # the part's own first frame, where it is read as the mount
             assert set(tool.members) == expected, (key, host, expected ^ set(tool.members))
+
+
+def test_the_benchmark_runs_a_subset_and_ends_with_its_summary_line(tmp_path, capsys):
+    """--structure-only runs the pipeline without a model (nothing found, so F1 0); the robots it wrote stay."""
+    from benchmarks.parts.__main__ import main
+    assert main(["--structure-only", "--parts", "hokuyo_utm30lx", "franka_hand", "--hosts", "wrist", "pair",
+                 "--out", str(tmp_path)]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last == "parts 2, makers 2, hosts per part >= 2, typed F1 0.00"
+    assert sorted(p.name for p in (tmp_path / "eval" / "truth").iterdir()) == [
+        "franka_hand__pair.yaml", "franka_hand__wrist.yaml", "hokuyo_utm30lx__pair.yaml", "hokuyo_utm30lx__wrist.yaml"]
+    with pytest.raises(SystemExit):
+        main(["--structure-only", "--parts", "no_such_part"])
+    assert "no part no_such_part" in capsys.readouterr().err
