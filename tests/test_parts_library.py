@@ -1,0 +1,178 @@
+"""The parts library (benchmarks/parts): every part description is valid, every part x host robot is a valid URDF
+whose truth agrees with it and loads in the scorer, and the pipeline's structural stages group, delimit and mount
+the parts right on a representative set, with a scripted model that errs as the real one does (every frame named
+a device of its own, or every frame one device; frames mounted on the part's own housing)."""
+from __future__ import annotations
+
+from functools import cache
+
+import pytest
+
+from benchmarks.parts.hosts import BUILD, HOSTS, hosts_for
+from benchmarks.parts.library import DATA, PartError, load, load_all
+from benchmarks.parts.robots import robots, write
+from urdfkb.pipeline import evaluation
+from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.stages.attachment import sub_chain
+from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.stages.tools import settle
+
+PARTS = {p.key: p for p in load_all()}
+CAMERAS = ("RGBDCamera", "StereoCamera", "MonocularCamera", "DepthCamera", "InfraredCamera")
+CATEGORY = {**dict.fromkeys(CAMERAS, "VisionSensor"), "Lidar": "RangingSensor", "IMU": "InertialSensor",
+            "ForceTorqueSensor": "ForceTorqueSensor"}
+SENSORS = ["realsense_d435i", "realsense_d455", "luxonis_oakd", "stereolabs_zed2", "orbbec_femto_bolt",
+           "microsoft_kinect", "ouster_os1", "velodyne_vlp16", "sick_tim571", "microstrain_3dm"]
+TOOLS = ["robotiq_2f85", "robotiq_2f140", "robotiq_hande", "robotiq_epick", "franka_hand", "wonik_allegro_right",
+         "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282"]
+
+# Where the pipeline gets a part wrong today: the failure class, for the lead (strict: a fix shows as XPASS).
+SIBLING_LEAVES = ("one device, many components: a part whose housing or built-in sensor frames are leaves beside its "
+                  "optical or scan frames (OAK-D's model frame, ZED 2's magnetometer/barometer/temperature frames, "
+                  "the OS1's thermal cap) is split when the model names frames apart: no body binds them")
+KNOWN = {
+    ("group", "luxonis_oakd"): SIBLING_LEAVES, ("group", "stereolabs_zed2"): SIBLING_LEAVES,
+    ("group", "ouster_os1"): SIBLING_LEAVES,
+    ("mount", "luxonis_oakd"): "mount: " + SIBLING_LEAVES, ("mount", "stereolabs_zed2"): "mount: " + SIBLING_LEAVES,
+    ("mount", "ouster_os1"): "mount: " + SIBLING_LEAVES,
+    ("tool", "robotiq_epick"): ("tool extent: a suction tool with no moving joint is delimited at its cup "
+                                "(mount epick_suction_cup), its body and base frame left out"),
+}
+
+
+def marked(check: str, keys) -> list:
+    """`keys` as parameters, those of a known pipeline failure marked xfail with its class."""
+    return [pytest.param(k, marks=pytest.mark.xfail(reason=KNOWN[check, k], strict=True)) if (check, k) in KNOWN else k
+            for k in keys]
+
+
+@cache
+def built(key: str, host: str):
+    robot = BUILD[host](PARTS[key])
+    return robot, load_urdf(robot.urdf())
+
+
+def test_the_library_holds_thirty_parts_of_twelve_makers_each_on_three_hosts():
+    assert len(PARTS) >= 30
+    assert len({p.maker for p in PARTS.values()}) >= 12
+    assert all(len(hosts_for(p)) >= 3 for p in PARTS.values())
+    kinds = {c["classes"][0] for p in PARTS.values() for c in p.truth}
+    assert {"RGBDCamera", "StereoCamera", "Lidar", "IMU", "ForceTorqueSensor", "ParallelGripper", "SuctionGripper",
+            "AnthropomorphicHand", "MultiFingerGripper"} <= kinds
+
+
+@pytest.mark.parametrize("key", sorted(PARTS))
+def test_each_part_records_its_source_and_its_truth_covers_its_leaves(key):
+    part = PARTS[key]
+    assert len(part.source["commit"]) == 40 and part.source["licence"] and "/" in part.source["repo"]
+    inst = part.instance()
+    assert sorted(x for c in inst.truth for x in c["leaves"]) == sorted(inst.leaves())
+
+
+def test_a_part_whose_truth_misses_a_leaf_is_refused(tmp_path):
+    text = (DATA / "hokuyo_utm30lx.yaml").read_text()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace('joints: []', 'joints: [{child: "{n}_extra", parent: "{n}_frame"}]'))
+    with pytest.raises(PartError, match=r"bad.yaml: .*leaves in no truth component: \['laser_extra'\]"):
+        load(bad)
+
+
+@pytest.mark.parametrize("key,host", [(k, h) for k in sorted(PARTS) for h in hosts_for(PARTS[k])])
+def test_each_robot_is_a_valid_urdf_and_its_truth_names_its_links(key, host):
+    robot, tree = built(key, host)
+    leaves, links = set(tree.leaves()), set(tree.links)
+    for c in robot.components:
+        assert set(c["leaves"]) <= leaves, (c["id"], set(c["leaves"]) - leaves)
+        assert set(c["roots"]) <= links - leaves, (c["id"], c["roots"])
+    owned = [x for c in robot.components for x in c["leaves"]]
+    assert len(owned) == len(set(owned))
+    moving = {e.joint for e in tree.edges if e.joint_type != "fixed"}
+    for part in robot.body:
+        assert set(part["joints"]) <= moving and set(part.get("links", ())) <= links, part["id"]
+
+
+def test_the_pair_host_names_two_copies_left_and_right(tmp_path):
+    for key in ("realsense_d435", "robotiq_2f85"):
+        robot, tree = built(key, "pair")
+        ids = [c["id"] for c in robot.components]
+        assert any(i.startswith("left_") for i in ids) and any(i.startswith("right_") for i in ids), ids
+    assert "pair" not in hosts_for(PARTS["wonik_allegro_right"])  # its URDF takes no name
+    assert set(HOSTS) == {"wrist", "head", "base", "pair"}
+
+
+def test_the_written_robots_load_in_the_scorer(tmp_path):
+    """What `python -m benchmarks.parts --out DIR` writes, `urdfkb eval DIR/eval/truth` reads."""
+    for part, _host, robot in robots(PARTS.values()):
+        truth = evaluation.load_truth(write(robot, part, tmp_path))
+        assert (tmp_path / truth.urdf).is_file() and truth.body is not None
+        assert {c.id for c in truth.components} == {c["id"] for c in robot.components}
+
+
+def _sensors(robot, tree):
+    """Every sensor leaf of the robot, chained from its truth mount, with its category."""
+    comps = [c for c in robot.components if c["kind"] == "sensor"]
+    chains = [sub_chain(tree, leaf, c["roots"][0]) for c in comps for leaf in c["leaves"]]
+    categories = {leaf: CATEGORY[c["classes"][0]] for c in comps for leaf in c["leaves"]}
+    return comps, chains, categories
+
+
+@pytest.mark.parametrize("naming", ["apart", "together"])
+@pytest.mark.parametrize("key", SENSORS)
+def test_each_sensor_part_is_one_device_whatever_the_model_names_its_frames(key, naming, request):
+    """The model names every frame a device of its own (its whole name), or every frame one device: the part's
+    frames still make one device, apart from the host's own sensors beside it."""
+    if naming == "apart" and ("group", key) in KNOWN:
+        request.applymarker(pytest.mark.xfail(reason=KNOWN["group", key], strict=True))
+    rule = (lambda q: q.options[-1]) if naming == "apart" else (lambda q: q.options[0])
+    for host in hosts_for(PARTS[key]):
+        robot, tree = built(key, host)
+        comps, chains, categories = _sensors(robot, tree)
+        groups = merge(Oracle(ScriptedBackend(rule)), tree, chains, "sensor", categories)
+        assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(c["leaves"]) for c in comps), (key, host)
+
+
+@pytest.mark.parametrize("key", marked("mount", [k for k in SENSORS if len(PARTS[k].instance().leaves()) > 1]))
+def test_frames_of_a_sensor_part_mounted_apart_share_the_host_mount(key):
+    """The model mounts some of a part's frames on the part's own first link, the others on the host link it is
+    fixed to: they all get the host link."""
+    for host in hosts_for(PARTS[key]):
+        robot, tree = built(key, host)
+        for inst, mount in robot.mounted:
+            leaves = inst.leaves()
+            chains = [sub_chain(tree, leaf, mount if k % 2 else inst.root) for k, leaf in enumerate(leaves)]
+            assert {ch.root for ch in one_mount(tree, chains)} == {mount}, (key, host, inst.name)
+
+
+@pytest.mark.parametrize("key", marked("tool", TOOLS))
+def test_each_tool_part_is_one_tool_of_its_own_links_on_the_flange(key):
+    """The model mounts the tool's leaves two links up the arm: structure finds the tool's extent (every link of
+    the part, no arm link) and its mount (the flange, or the arm's last link)."""
+    for host in hosts_for(PARTS[key]):
+        robot, tree = built(key, host)
+        for inst, flange in robot.mounted:
+            (c,) = inst.truth
+            above = tree.parent(tree.parent(flange))
+            group = Group([sub_chain(tree, leaf, above) for leaf in c["leaves"]])
+            result = settle(tree, [group], lambda leaf: leaf in c["leaves"], lambda _note: None)
+            assert len(result) == 1, (key, host, [g.leaves for g, _ in result])
+            tool, structure = result[0]
+            roots = next(t["roots"] for t in robot.part_components() if t["id"] == c["id"])
+            assert structure.mount in roots, (key, host, structure.mount)
+            expected = set(inst.link_names) - {structure.mount}  # the part's own first frame, where it is read as the mount
+            assert set(tool.members) == expected, (key, host, expected ^ set(tool.members))
+
+
+def test_the_benchmark_runs_a_subset_and_ends_with_its_summary_line(tmp_path, capsys):
+    """--structure-only runs the pipeline without a model (nothing found, so F1 0); the robots it wrote stay."""
+    from benchmarks.parts.__main__ import main
+    assert main(["--structure-only", "--parts", "hokuyo_utm30lx", "franka_hand", "--hosts", "wrist", "pair",
+                 "--out", str(tmp_path)]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last == "parts 2, makers 2, hosts per part >= 2, typed F1 0.00"
+    assert sorted(p.name for p in (tmp_path / "eval" / "truth").iterdir()) == [
+        "franka_hand__pair.yaml", "franka_hand__wrist.yaml", "hokuyo_utm30lx__pair.yaml", "hokuyo_utm30lx__wrist.yaml"]
+    with pytest.raises(SystemExit):
+        main(["--structure-only", "--parts", "no_such_part"])
+    assert "no part no_such_part" in capsys.readouterr().err
