@@ -345,7 +345,8 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     finger chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
     range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
     finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
-    the pure frames fixed to its body that lie out among the fingertips (_among_tips): tool centre points.
+    the pure frames fixed to its rigid body that lie out among the fingertips (_among_tips): tool centre points,
+    on the hand itself or on the flange it is bolted to.
     A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
     found = []
     for fork in tree.links:
@@ -375,16 +376,16 @@ def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, lis
 
 
 def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:
-    tips = [tree.position_in(max(f.links, key=lambda link: len(tree.chain_to_root(link))), fork) for f in fingers]
+    body = rigid_body(tree, fork)  # positions in its top link's frame, from the fork
+    fork_at = tree.position_in(fork, body[0])
+
+    def at(link: str) -> Vector:
+        return tuple(p - o for p, o in zip(tree.position_in(link, body[0]), fork_at))  # type: ignore[return-value]
+    tips = [at(max(f.links, key=lambda link: len(tree.chain_to_root(link)))) for f in fingers]
     centre = (sum(p[0] for p in tips) / len(tips), sum(p[1] for p in tips) / len(tips), sum(p[2] for p in tips) / len(tips))
     span = max(math.dist(p, centre) for p in tips)
-    body, stack = [], list(tree.children(fork))
-    while stack:
-        link = stack.pop()
-        if not tree.edge_to(link).movable and is_frame(tree, link):
-            body.append(link)
-            stack.extend(tree.children(link))
-    return [link for link in body if tree.is_leaf(link) and _among_tips(tree.position_in(link, fork), centre, span)]
+    frames = [link for link in body if link != fork and tree.is_leaf(link) and is_frame(tree, link)]
+    return [link for link in frames if _among_tips(at(link), centre, span)]
 
 
 def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
