@@ -475,15 +475,21 @@ class Abstractor:
         return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
     def _ruled_out(self, tree: KinematicTree, links, below: str, key: str) -> frozenset[str]:
-        """Classes under `below` that the simulator sensors declared on `links` rule out (the
-        ontology's core:simulatorSensorType alignment); each narrowing is counted and traced."""
-        types = {s.type for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors}
+        """Classes under `below` that the simulator sensors declared on `links` rule out: by their type (the
+        ontology's core:simulatorSensorType alignment) and by the span a ray sensor sweeps
+        (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar); each narrowing is
+        counted and traced."""
+        sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
+        types = {s.type for s in sensors}
         declared = self.tax.declared_classes(types)
         ruled_out = self.tax.disagreeing(declared, below)
-        if ruled_out:
+        spans = [s.fov for s in sensors if s.fov is not None and s.samples is not None]  # ray sensors' sweeps
+        narrow = self.tax.too_narrow(max(spans), below) - ruled_out if spans else frozenset()
+        if ruled_out or narrow:
             self.declared += 1
-            self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
-        return ruled_out
+            self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}"
+                     + (f"; sweeping {max(spans):.2f} rad, not {sorted(narrow)}" if narrow else ""))
+        return ruled_out | narrow
 
     def _counters(self) -> dict[str, float]:
         """Running totals of the work a step does, for its timing record (pipeline.timings)."""
