@@ -136,6 +136,12 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     motions = {a: _joint_motions(tree, fork, drive, tip, pose) for a, (_, drive, tip) in chains.items()}
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
+    for a in [a for a in chains if not opposes[a]]:  # a hand written open: its thumb closes on fingers that
+        if (thumb := _thumb_closing(a, motions[a], closing)) is not None:  # curl side by side into the palm
+            closing[a], fingers = thumb
+            opposes[a] = tuple(dict.fromkeys([*opposes[a], *fingers]))
+            for b in fingers:
+                opposes[b] = tuple(dict.fromkeys([*opposes[b], a]))
     finger_names = [a for a in chains if opposes[a]]
     alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
     joint_owner = {tree.edge_to(link).joint: a for a in finger_names for link in chains[a][0]}
@@ -154,6 +160,29 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         for links, drive, _ in [chains[a]]
     )
     return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names))
+
+
+def _thumb_closing(a: str, own: list[Motion], closing: dict[str, Motion | None]) -> tuple[Motion, tuple[str, ...]] | None:
+    """The motion by which chain `a`'s tip closes on two or more chains whose tips move together, and those
+    chains: a thumb (the ontology's ThumbChain closes against two or more chains moving together). Fingers
+    written open curl into the palm, across the line to the thumb's tip, so they do not oppose it tip to tip
+    (_approach); the thumb still closes on each of them (_converging). None where no motion of `a` does."""
+    for motion in own:
+        closes_on = [b for b, m in closing.items() if b != a and _converging(motion, m)]
+        together = tuple(b for b in closes_on if any(_alongside(closing[b], closing[c]) for c in closes_on if c != b))
+        if len(together) >= 2:
+            return motion, together
+    return None
+
+
+def _converging(a: Motion | None, b: Motion | None) -> bool:
+    """Tip `a` closes on tip `b`: their relative motion shortens the gap between them at APPROACH or more of a
+    tip's speed, and they do not move alongside each other."""
+    if a is None or b is None or _alongside(a, b):
+        return False
+    (pa, va), (pb, vb) = a, b
+    line = _unit((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]))
+    return line is not None and _dot((va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]), line) >= APPROACH
 
 
 def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
