@@ -90,6 +90,28 @@ def test_frames_of_one_body_mounted_apart_share_the_highest_mount_and_one_device
     assert mounted_apart  # some housing's frames were mounted apart
 
 
+@pytest.mark.slow  # many generated robots
+def test_frames_all_mounted_on_their_bare_housing_are_mounted_on_its_parent_as_one_device():
+    """The model mounts every frame of a bare-frame housing on that frame itself (a camera's own camera_link), where
+    no device name can join them (the names they share begin the mount's): the bare frame is the device's own,
+    so they are mounted on the link it is fixed to, and the housing binds them into one device."""
+    for seed in SEEDS:
+        built = build(seed, bare=True)
+        tree = load_urdf(built.urdf)
+        frames = [frame for device in built.devices for frame in device]
+        chains = one_mount(tree, [sub_chain(tree, frame, built.housing[frame]) for frame in frames])
+        by_housing: dict[str, list[str]] = {}
+        for frame in frames:
+            by_housing.setdefault(built.housing[frame], []).append(frame)
+        for fs in by_housing.values():
+            if len(fs) > 1:
+                assert {c.root for c in chains if c.leaf in fs} == {built.mount}, (seed, built.description)
+        groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                       dict.fromkeys(frames, "VisionSensor"))
+        assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(fs) for fs in by_housing.values()), \
+            (seed, built.description)
+
+
 def _answer(prefer):
     """A scripted model that picks the first of `prefer` it is offered, else the first option."""
     def rule(q):
