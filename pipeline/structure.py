@@ -522,14 +522,30 @@ def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]
 def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
     """How many places a device's frames see from: their positions at the zero pose, those within VIEWPOINT
     of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
-    along the x axis of the link they hang from), only those count: a camera's inertial frames see nothing."""
-    optical = [leaf for leaf in leaves if _optical(tree, leaf)] or leaves
-    places: list[Vector] = []
-    for leaf in optical:
+    along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
+    and two of them see from one place when they lie within VIEWPOINT across their line of sight."""
+    optical = [leaf for leaf in leaves if _optical(tree, leaf)]
+    places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
+    for leaf in optical or leaves:
         point = tree.position_in(leaf, tree.root)
-        if all(math.dist(point, p) > VIEWPOINT for p in places):
-            places.append(point)
+        sight = _unit(_sub(tree.position_in(leaf, tree.root, (0.0, 0.0, 1.0)), point)) if optical else None
+        if all(_apart(point, p, axis) > VIEWPOINT for p, axis in places):
+            places.append((point, sight))
     return len(places)
+
+
+def _apart(a: Vector, b: Vector, sight: Vector | None) -> float:
+    """How far apart two frames see from: across `sight`, the line of sight through `b` (a frame further along
+    it, as optical frames are often written a centimetre ahead of the lens, sees from the same place)."""
+    gap = _sub(a, b)
+    if sight is None:
+        return _norm(gap)
+    along = _dot(gap, sight)
+    return math.sqrt(max(_dot(gap, gap) - along * along, 0.0))
+
+
+def _sub(a: Vector, b: Vector) -> Vector:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
 def _optical(tree: KinematicTree, leaf: str) -> bool:

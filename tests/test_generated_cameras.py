@@ -4,10 +4,12 @@ Structure only, over hundreds of seeds: merge is called as the pipeline calls it
 on the head."""
 from __future__ import annotations
 
+import math
 import random
 
 import pytest
 from tests.camera_robots import build
+from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
@@ -229,3 +231,25 @@ def test_the_frames_say_the_camera_whatever_the_model_names_it():
             assert {f: state.parts[f].cls for f in d} == {f: MODALITY[modality[f]] for f in d}, seed
             seen.add(expected)
     assert seen == {"RGBDCamera", "DepthCamera", "StereoCamera"}
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_a_frame_further_along_the_line_of_sight_sees_from_the_same_place(seed):
+    """Optical frames written at the lens and a centimetre ahead of it (an eye's two frames) are one viewpoint; two
+    eyes side by side, across their lines of sight, are two, however the head is turned."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    head = w.link('<box size="0.2 0.2 0.2"/>')
+    yaw, baseline = rng.uniform(-math.pi, math.pi), rng.uniform(0.03, 0.12)
+    eyes = []
+    for side in (1.0, -1.0):
+        eye = w.link()
+        w.joint("fixed", head, eye, (0.1 * math.cos(yaw) - side * baseline / 2 * math.sin(yaw),
+                                     0.1 * math.sin(yaw) + side * baseline / 2 * math.cos(yaw), 0.05), rpy=(0.0, 0.0, yaw))
+        lens, ahead = w.link(), w.link()
+        w.joint("fixed", eye, lens, (0.0, 0.0, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        w.joint("fixed", eye, ahead, (rng.uniform(0.008, 0.03), 0.0, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        eyes.append([lens, ahead])
+    tree = load_urdf(w.urdf())
+    assert [viewpoints(tree, frames) for frames in eyes] == [1, 1]
+    assert viewpoints(tree, eyes[0] + eyes[1]) == 2
