@@ -35,7 +35,7 @@ from urdfkb.pipeline.stages.sensor_check import MAJORITY, coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
 from urdfkb.pipeline.structure import (ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, hands,
-                                      nothing_moves, off_limb_ends, viewpoints)
+                                      loop_closures, nothing_moves, off_limb_ends, viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -91,6 +91,7 @@ class Abstractor:
         self.feet: frozenset[str] = frozenset()  # limb tips the robot stands on: never tools (shape step)
         self.off_ends: frozenset[str] = frozenset()  # leaves at no limb's end: never tools (shape step)
         self.moving_feet: frozenset[str] = frozenset()  # feet that are a leg's own last link: body, unasked
+        self.loop_frames: frozenset[str] = frozenset()  # frames a closed kinematic loop is cut at: no component, unasked
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -116,7 +117,8 @@ class Abstractor:
         simulator declares a sensor on them, limb tips the robot stands on are feet, never tools (a foot that moves
         on its own joint is the leg's last link: part of the body, unasked), and neither are
         leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk), or bodies
-        beside a hand on the link it is mounted on."""
+        beside a hand on the link it is mounted on. Frames where a closed loop is cut (structure.loop_closures)
+        are part of no component."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
         found = hands(s.robot)
         self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(found).items() if leaf not in declared}
@@ -124,9 +126,10 @@ class Abstractor:
         self.feet = feet(s.robot)
         self.moving_feet = frozenset(f for f in self.feet if s.robot.edge_to(f).movable and f not in declared)
         self.off_ends = off_limb_ends(s.robot, found)
+        self.loop_frames = loop_closures(s.robot) - declared
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
                      "moving_feet": sorted(self.moving_feet),
-                     "off_ends": sorted(self.off_ends)})
+                     "off_ends": sorted(self.off_ends), "loop_frames": sorted(self.loop_frames)})
 
     def identification(self, s: PassState) -> None:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
@@ -135,7 +138,10 @@ class Abstractor:
         body = self.tax.body_part  # what identification calls a leaf of the body
         body = body if body in self.tax.subclasses(self.tax.component) else NONE
         for leaf in s.leaves:
-            if tools and leaf in self.hand_tips and leaf not in self.claims:
+            if leaf in self.loop_frames and leaf not in self.claims:
+                self.log(f"{leaf}: where a closed kinematic loop is cut (it coincides with a frame across a moving joint)")
+                self.claims[leaf], self.shares[leaf] = NONE, 1.0
+            elif tools and leaf in self.hand_tips and leaf not in self.claims:
                 self.claims[leaf], self.shares[leaf] = tools, 1.0
             elif leaf in self.moving_feet and leaf not in self.claims:
                 self.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
@@ -533,8 +539,8 @@ class Abstractor:
 
 
 SENSOR_PASS = Pass(SENSOR, (
-    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends")),
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends"),
+    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends", "loops")),
+    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends", "loops"),
          ("leaves", "claims")),
     Step("mimic veto", Abstractor.mimic_veto, ("leaves", "claims"), ("claims",)),
     Step("sensor check", Abstractor.sensor_check, ("leaves", "claims"), ("claims",)),
@@ -550,7 +556,7 @@ SENSOR_PASS = Pass(SENSOR, (
 ))
 
 END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends"),
+    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends", "loops"),
          ("leaves", "claims")),
     Step("attachment", Abstractor.attachment, ("leaves", "claims"), ("chains",)),
     Step("group merging", Abstractor.group_merging, ("chains",), ("groups",)),

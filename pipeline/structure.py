@@ -378,11 +378,14 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     on the hand itself or on the flange it is bolted to.
     A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
     found = []
+    standing = feet(tree)
     for fork in tree.links:
         small = [c for c in _moving_children(tree, fork) if _hand_sized(tree, fork, c)]
         if len(small) < 2:
             continue
         leaves = [link for c in small for link in (c, *tree.descendants(c)) if tree.is_leaf(link)]
+        if standing & set(leaves):  # short legs the robot stands on, not fingers
+            continue
         structure = tool_structure(tree, leaves)
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
@@ -618,3 +621,35 @@ def _alike(tree: KinematicTree, a: tuple[str, ...], b: tuple[str, ...]) -> bool:
         return facts_a is facts_b
     return (facts_a.shape, round(facts_a.mass or 0.0, 3), facts_a.is_pure_frame) == \
         (facts_b.shape, round(facts_b.mass or 0.0, 3), facts_b.is_pure_frame)
+
+
+LOOP_GAP = 0.001  # m: the two frames a closed kinematic loop is cut at coincide within this at the zero pose
+
+
+def loop_closures(tree: KinematicTree) -> frozenset[str]:
+    """Leaf frames where a closed kinematic loop is cut to make a tree (a Stewart platform's rods, a linkage's
+    bars): bare frames fixed to their links that coincide with another such frame at the zero pose, across a
+    joint that moves (the path between them passes through one). They mark a constraint for a solver, not a
+    device; a camera's frame and its optical twin on one link coincide with nothing between them."""
+    frames = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None
+              and not tree.edge_to(leaf).movable and is_frame(tree, leaf)]
+    cells: dict[tuple[int, int, int], list[tuple[str, Vector]]] = {}
+    for leaf in frames:
+        point = tree.position_in(leaf, tree.root)
+        cells.setdefault(tuple(round(x / LOOP_GAP) for x in point), []).append((leaf, point))  # type: ignore[arg-type]
+    found: set[str] = set()
+    for (i, j, k), members in cells.items():
+        near = [m for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
+                for m in cells.get((i + di, j + dj, k + dk), ())]
+        for a, pa in members:
+            for b, pb in near:
+                if a != b and math.dist(pa, pb) <= LOOP_GAP and _moves_between(tree, a, b):
+                    found.update((a, b))
+    return frozenset(found)
+
+
+def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:
+    """A joint that moves lies on the tree's path between links `a` and `b`."""
+    meet = fork_of(tree, [a, b])
+    return any(tree.edge_to(link).movable for leaf in (a, b)
+               for link in tree.chain_to_root(leaf)[:tree.chain_to_root(leaf).index(meet)])
