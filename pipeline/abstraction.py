@@ -34,8 +34,8 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import MAJORITY, coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import (ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, hands,
-                                      loop_closures, nothing_moves, off_limb_ends, viewpoints)
+from urdfkb.pipeline.structure import (ToolStructure, alike_sets, body_of, feet, frames_of_one_body, hand_mounts,
+                                      hands, loop_closures, nothing_moves, off_limb_ends, palm, viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -92,6 +92,7 @@ class Abstractor:
         self.off_ends: frozenset[str] = frozenset()  # leaves at no limb's end: never tools (shape step)
         self.moving_feet: frozenset[str] = frozenset()  # feet that are a leg's own last link: body, unasked
         self.loop_frames: frozenset[str] = frozenset()  # frames a closed kinematic loop is cut at: no component, unasked
+        self.palms: frozenset[str] = frozenset()  # the bodies of the hands found: they carry tool frames and sensors
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -127,6 +128,7 @@ class Abstractor:
         self.moving_feet = frozenset(f for f in self.feet if s.robot.edge_to(f).movable and f not in declared)
         self.off_ends = off_limb_ends(s.robot, found)
         self.loop_frames = loop_closures(s.robot) - declared
+        self.palms = frozenset(link for structure, _ in found for link in palm(s.robot, structure.fork))
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
                      "moving_feet": sorted(self.moving_feet),
                      "off_ends": sorted(self.off_ends), "loop_frames": sorted(self.loop_frames)})
@@ -159,10 +161,13 @@ class Abstractor:
     def _one_kind_per_body(self, s: PassState) -> None:
         """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
         split them between the device passes' kinds, the kind with the larger sum of vote shares over them
-        takes them all (a hand's leaf, known from structure, counts one)."""
+        takes them all (a hand's leaf, known from structure, counts one). Not on a hand's palm, which carries
+        its tool frames beside its sensors' frames (an IMU)."""
         devices = {self.tax.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in self.tax.kinds}
         claimed = [leaf for leaf in s.leaves if self.claims.get(leaf) in devices]
         for frames in frames_of_one_body(s.tree, claimed):
+            if len(frames) > 1 and body_of(s.tree, frames[0], frames[1]) in self.palms:
+                continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
             totals: dict[str, float] = {}
             for leaf in frames:
                 totals[self.claims[leaf]] = totals.get(self.claims[leaf], 0.0) + self.shares[leaf]
@@ -539,9 +544,9 @@ class Abstractor:
 
 
 SENSOR_PASS = Pass(SENSOR, (
-    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends", "loops")),
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends", "loops"),
-         ("leaves", "claims")),
+    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends", "loops", "palms")),
+    Step("identification", Abstractor.identification,
+         ("tree", "components", "hands", "feet", "limb ends", "loops", "palms"), ("leaves", "claims")),
     Step("mimic veto", Abstractor.mimic_veto, ("leaves", "claims"), ("claims",)),
     Step("sensor check", Abstractor.sensor_check, ("leaves", "claims"), ("claims",)),
     Step("attachment", partial(Abstractor.attachment, rigid=True), ("leaves", "claims"), ("chains",)),
@@ -556,8 +561,8 @@ SENSOR_PASS = Pass(SENSOR, (
 ))
 
 END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends", "loops"),
-         ("leaves", "claims")),
+    Step("identification", Abstractor.identification,
+         ("tree", "components", "hands", "feet", "limb ends", "loops", "palms"), ("leaves", "claims")),
     Step("attachment", Abstractor.attachment, ("leaves", "claims"), ("chains",)),
     Step("group merging", Abstractor.group_merging, ("chains",), ("groups",)),
     Step("verification", Abstractor.verification, ("groups", "claims"), ("groups",)),

@@ -467,6 +467,15 @@ def rigid_body(tree: KinematicTree, link: str) -> tuple[str, ...]:
     return tuple(body)
 
 
+def palm(tree: KinematicTree, fork: str) -> tuple[str, ...]:
+    """A hand's own body: its fork and the links bolted below it (not the wrist above, whose camera is no hand's)."""
+    body, stack = [], [fork]
+    while stack:
+        body.append(current := stack.pop())
+        stack.extend(c for c in tree.children(current) if not tree.edge_to(c).movable)
+    return tuple(body)
+
+
 def limb_goes_on(tree: KinematicTree, leaf: str) -> bool:
     """A limb goes on from the body the leaf is fixed to: a moving subtree of that body has more movable joints
     than a hand's finger (MAX_FINGER_JOINTS) or reaches beyond HAND_REACH. The leaf sits along a limb or on the
