@@ -93,6 +93,7 @@ class Abstractor:
         self.moving_feet: frozenset[str] = frozenset()  # feet that are a leg's own last link: body, unasked
         self.loop_frames: frozenset[str] = frozenset()  # frames a closed kinematic loop is cut at: no component, unasked
         self.palms: frozenset[str] = frozenset()  # the bodies of the hands found: they carry tool frames and sensors
+        self.declared_sensors: frozenset[str] = frozenset()  # leaves the file declares a measuring sensor on: sensors
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -129,6 +130,7 @@ class Abstractor:
         self.off_ends = off_limb_ends(s.robot, found)
         self.loop_frames = loop_closures(s.robot) - declared
         self.palms = frozenset(link for structure, _ in found for link in palm(s.robot, structure.fork))
+        self.declared_sensors = frozenset(leaf for leaf in s.robot.leaves() if self._measures(s.robot, leaf))
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
                      "moving_feet": sorted(self.moving_feet),
                      "off_ends": sorted(self.off_ends), "loop_frames": sorted(self.loop_frames)})
@@ -137,6 +139,7 @@ class Abstractor:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
         s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
         tools = self.tax.kinds[END_EFFECTOR].cls if END_EFFECTOR in self.tax.kinds else None
+        sensors = self.tax.kinds[SENSOR].cls if SENSOR in self.tax.kinds else None
         body = self.tax.body_part  # what identification calls a leaf of the body
         body = body if body in self.tax.subclasses(self.tax.component) else NONE
         for leaf in s.leaves:
@@ -145,6 +148,9 @@ class Abstractor:
                 self.claims[leaf], self.shares[leaf] = NONE, 1.0
             elif tools and leaf in self.hand_tips and leaf not in self.claims:
                 self.claims[leaf], self.shares[leaf] = tools, 1.0
+            elif leaf in self.declared_sensors and leaf not in self.claims and sensors:
+                self.log(f"{leaf}: the file declares a simulator sensor on it: a sensor")
+                self.claims[leaf], self.shares[leaf] = sensors, 1.0
             elif leaf in self.moving_feet and leaf not in self.claims:
                 self.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
                 self.claims[leaf], self.shares[leaf] = body, 1.0
@@ -157,6 +163,16 @@ class Abstractor:
                 kind = body
             self.claims[leaf], self.shares[leaf] = kind, share
         self._one_kind_per_body(s)
+
+    def _measures(self, tree: KinematicTree, leaf: str) -> bool:
+        """The file declares on `leaf` a simulator sensor the ontology aligns to a sensor class other than a contact
+        sensor's: a camera, ranging, inertial, force-torque... declaration is made for what measures. (A contact
+        declaration also reports collisions of feet and fingertips, so those are left to the model.)"""
+        if SENSOR not in self.tax.kinds:
+            return False
+        top, contact = self.tax.kinds[SENSOR].cls, self.tax.declared_classes(["contact"])  # SDF's sensor type
+        declared = self.tax.declared_classes(s.type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
+        return any(self.tax.is_a(c, top) and not any(self.tax.is_a(c, k) for k in contact) for c in declared)
 
     def _one_kind_per_body(self, s: PassState) -> None:
         """Frames of one body are one device (grouping binds them), so they are of one kind: where the model

@@ -139,7 +139,8 @@ def _rover_model(seen: dict[str, Question]):
 def test_meshes_and_shapes_reach_classification_but_declarations_only_narrow(bot):
     seen: dict[str, Question] = {}
     Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX).run(bot)
-    assert "(" not in seen["identify:nose_scanner"].user  # identification reads names and structure
+    # the file declares a measuring sensor on every sensor leaf of this rover: identification asks none of them
+    assert not any(k.startswith("identify:") for k in seen)
     eye = next(q.user for k, q in seen.items() if k.startswith("pre:mast_eye_optical@"))
     assert "Link: mast_eye_optical (no geometry, massless)" in eye  # its chain below the mount the model chose
     assert "simulated" not in eye  # the camera declaration narrowed the options instead
@@ -208,3 +209,20 @@ def test_a_declared_span_rules_out_the_ranging_kinds_it_is_too_narrow_for(seed):
     assert found[beam] == "RangingSensor" and found[cone] == "Sonar" and found[scanner] == "Lidar"
     assert seen[f"pre:{wide}@RangingSensor"].options == ("lidar", "sonar")  # both kinds fit a 60-degree sweep
     assert not any(k.startswith((f"pre:{beam}@", f"pre:{cone}@RangingSensor")) for k in seen)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_leaf_the_file_declares_a_measuring_sensor_on_is_a_sensor_unasked(seed):
+    """The erring model calls every leaf a body part (TurtleBot 4's cliff sensors, declared gpu_lidar, were lost so):
+    a declared ray, camera or IMU sensor makes its leaf a sensor without a question; a contact declaration (also
+    made for feet and fingertips that report collisions) leaves the leaf to the model."""
+    urdf, leaves = _rangers(seed, [("gpu_lidar", 5), ("ray", 40), ("contact", 0)])
+    asked: list[str] = []
+
+    def rule(q: Question):
+        asked.append(q.key)
+        return "body part" if q.key.startswith("identify:") else q.options[0]
+    abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
+    found = {c.subcomponents[-1].link for c in abstractor.run(load_urdf(urdf)) if c.kind == "sensor"}
+    assert found == set(leaves[:2])
+    assert [k for k in asked if k.startswith("identify:")] == [f"identify:{leaves[2]}"]
