@@ -460,14 +460,18 @@ class Abstractor:
         return body_stage.findings(s.robot, found, components).facts if found else []
 
     def _device(self, s: PassState, i: int, g: Group, t: Typed, parts: dict[str, Typed] | None = None) -> Component:
-        """The pass's i-th device, group `g` classified `t`; each link typed by `parts` (None: left untyped)."""
+        """The pass's i-th device, group `g` classified `t`; each link typed by `parts` (None: left untyped). Its
+        confidence is that of its class times that of its kind: the mean share of the votes by which its leaves were
+        identified as this kind (1 where the shape or a declaration decided, as the class is 1 where the reasoner
+        did), so a device structure settles on leaves the model hardly took for it still goes to review."""
         kind = self._kind(s)
         links = [parts[link] if parts is not None else Typed("", 0.0) for link in g.members]
+        of_kind = sum(self.shares.get(leaf, 1.0) for leaf in g.leaves) / len(g.leaves)
         return Component(
             name=f"{kind.name}_{i}_{g.leaves[0]}",
             kind=kind.name,
             cls=t.cls,
-            confidence=round(t.confidence, 4),
+            confidence=round(t.confidence * of_kind, 4),
             root=self._mount(s.tree, g),
             subcomponents=tuple(SubComponent(link, p.cls, round(p.confidence, 4)) for link, p in zip(g.members, links)),
             fingers=s.fingers[i] if s.fingers else (),
