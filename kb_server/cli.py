@@ -202,6 +202,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         extra["declared"][robot] = prov.get("declared_constraints", "?")
         extra["seconds"][robot] = f"{result.seconds:.1f}"
     print(evaluation.format_table(per_robot, extra, folds))
+    if per_robot:
+        print(evaluation.review_queue(evaluation.mean_scores(per_robot)))
     if args.json:
         Path(args.json).write_text(json.dumps({"robots": per_robot, "mean": evaluation.mean_scores(per_robot),
                                                "folds": evaluation.fold_means(per_robot, folds), "run": extra}, indent=2))

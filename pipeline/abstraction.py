@@ -34,8 +34,8 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import MAJORITY, coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import (ToolStructure, alike_sets, feet, frames_of_one_body, hand_mounts, hands,
-                                      nothing_moves, off_limb_ends, viewpoints)
+from urdfkb.pipeline.structure import (ToolStructure, alike_sets, body_of, feet, frames_of_one_body, hand_mounts,
+                                      hands, loop_closures, nothing_moves, off_limb_ends, palm, viewpoints)
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -91,6 +91,9 @@ class Abstractor:
         self.feet: frozenset[str] = frozenset()  # limb tips the robot stands on: never tools (shape step)
         self.off_ends: frozenset[str] = frozenset()  # leaves at no limb's end: never tools (shape step)
         self.moving_feet: frozenset[str] = frozenset()  # feet that are a leg's own last link: body, unasked
+        self.loop_frames: frozenset[str] = frozenset()  # frames a closed kinematic loop is cut at: no component, unasked
+        self.palms: frozenset[str] = frozenset()  # the bodies of the hands found: they carry tool frames and sensors
+        self.declared_sensors: frozenset[str] = frozenset()  # leaves the file declares a measuring sensor on: sensors
         if missing := [k for k in tax.kinds if k not in {p.name for p in PASSES}]:
             raise OntologyError(f"no pass declared for component kind(s) {missing} (pipeline.abstraction.PASSES)")
 
@@ -116,7 +119,8 @@ class Abstractor:
         simulator declares a sensor on them, limb tips the robot stands on are feet, never tools (a foot that moves
         on its own joint is the leg's last link: part of the body, unasked), and neither are
         leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk), or bodies
-        beside a hand on the link it is mounted on."""
+        beside a hand on the link it is mounted on. Frames where a closed loop is cut (structure.loop_closures)
+        are part of no component."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
         found = hands(s.robot)
         self.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(found).items() if leaf not in declared}
@@ -124,19 +128,29 @@ class Abstractor:
         self.feet = feet(s.robot)
         self.moving_feet = frozenset(f for f in self.feet if s.robot.edge_to(f).movable and f not in declared)
         self.off_ends = off_limb_ends(s.robot, found)
+        self.loop_frames = loop_closures(s.robot) - declared
+        self.palms = frozenset(link for structure, _ in found for link in palm(s.robot, structure.fork))
+        self.declared_sensors = frozenset(leaf for leaf in s.robot.leaves() if self._measures(s.robot, leaf))
         self._trace({"key": "shape", "hands": sorted(self.hand_tips), "feet": sorted(self.feet),
                      "moving_feet": sorted(self.moving_feet),
-                     "off_ends": sorted(self.off_ends)})
+                     "off_ends": sorted(self.off_ends), "loop_frames": sorted(self.loop_frames)})
 
     def identification(self, s: PassState) -> None:
         mounts = {c.root for c in s.components}  # where earlier passes condensed their devices
         s.leaves = [leaf for leaf in s.tree.leaves() if leaf not in mounts]
         tools = self.tax.kinds[END_EFFECTOR].cls if END_EFFECTOR in self.tax.kinds else None
+        sensors = self.tax.kinds[SENSOR].cls if SENSOR in self.tax.kinds else None
         body = self.tax.body_part  # what identification calls a leaf of the body
         body = body if body in self.tax.subclasses(self.tax.component) else NONE
         for leaf in s.leaves:
-            if tools and leaf in self.hand_tips and leaf not in self.claims:
+            if leaf in self.loop_frames and leaf not in self.claims:
+                self.log(f"{leaf}: where a closed kinematic loop is cut (it coincides with a frame across a moving joint)")
+                self.claims[leaf], self.shares[leaf] = NONE, 1.0
+            elif tools and leaf in self.hand_tips and leaf not in self.claims:
                 self.claims[leaf], self.shares[leaf] = tools, 1.0
+            elif leaf in self.declared_sensors and leaf not in self.claims and sensors:
+                self.log(f"{leaf}: the file declares a simulator sensor on it: a sensor")
+                self.claims[leaf], self.shares[leaf] = sensors, 1.0
             elif leaf in self.moving_feet and leaf not in self.claims:
                 self.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
                 self.claims[leaf], self.shares[leaf] = body, 1.0
@@ -150,13 +164,26 @@ class Abstractor:
             self.claims[leaf], self.shares[leaf] = kind, share
         self._one_kind_per_body(s)
 
+    def _measures(self, tree: KinematicTree, leaf: str) -> bool:
+        """The file declares on `leaf` a simulator sensor the ontology aligns to a sensor class other than a contact
+        sensor's: a camera, ranging, inertial, force-torque... declaration is made for what measures. (A contact
+        declaration also reports collisions of feet and fingertips, so those are left to the model.)"""
+        if SENSOR not in self.tax.kinds:
+            return False
+        top, contact = self.tax.kinds[SENSOR].cls, self.tax.declared_classes(["contact"])  # SDF's sensor type
+        declared = self.tax.declared_classes(s.type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
+        return any(self.tax.is_a(c, top) and not any(self.tax.is_a(c, k) for k in contact) for c in declared)
+
     def _one_kind_per_body(self, s: PassState) -> None:
         """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
         split them between the device passes' kinds, the kind with the larger sum of vote shares over them
-        takes them all (a hand's leaf, known from structure, counts one)."""
+        takes them all (a hand's leaf, known from structure, counts one). Not on a hand's palm, which carries
+        its tool frames beside its sensors' frames (an IMU)."""
         devices = {self.tax.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in self.tax.kinds}
         claimed = [leaf for leaf in s.leaves if self.claims.get(leaf) in devices]
         for frames in frames_of_one_body(s.tree, claimed):
+            if len(frames) > 1 and body_of(s.tree, frames[0], frames[1]) in self.palms:
+                continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
             totals: dict[str, float] = {}
             for leaf in frames:
                 totals[self.claims[leaf]] = totals.get(self.claims[leaf], 0.0) + self.shares[leaf]
@@ -433,14 +460,18 @@ class Abstractor:
         return body_stage.findings(s.robot, found, components).facts if found else []
 
     def _device(self, s: PassState, i: int, g: Group, t: Typed, parts: dict[str, Typed] | None = None) -> Component:
-        """The pass's i-th device, group `g` classified `t`; each link typed by `parts` (None: left untyped)."""
+        """The pass's i-th device, group `g` classified `t`; each link typed by `parts` (None: left untyped). Its
+        confidence is that of its class times that of its kind: the mean share of the votes by which its leaves were
+        identified as this kind (1 where the shape or a declaration decided, as the class is 1 where the reasoner
+        did), so a device structure settles on leaves the model hardly took for it still goes to review."""
         kind = self._kind(s)
         links = [parts[link] if parts is not None else Typed("", 0.0) for link in g.members]
+        of_kind = sum(self.shares.get(leaf, 1.0) for leaf in g.leaves) / len(g.leaves)
         return Component(
             name=f"{kind.name}_{i}_{g.leaves[0]}",
             kind=kind.name,
             cls=t.cls,
-            confidence=round(t.confidence, 4),
+            confidence=round(t.confidence * of_kind, 4),
             root=self._mount(s.tree, g),
             subcomponents=tuple(SubComponent(link, p.cls, round(p.confidence, 4)) for link, p in zip(g.members, links)),
             fingers=s.fingers[i] if s.fingers else (),
@@ -475,15 +506,21 @@ class Abstractor:
         return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
     def _ruled_out(self, tree: KinematicTree, links, below: str, key: str) -> frozenset[str]:
-        """Classes under `below` that the simulator sensors declared on `links` rule out (the
-        ontology's core:simulatorSensorType alignment); each narrowing is counted and traced."""
-        types = {s.type for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors}
+        """Classes under `below` that the simulator sensors declared on `links` rule out: by their type (the
+        ontology's core:simulatorSensorType alignment) and by the span a ray sensor sweeps
+        (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar); each narrowing is
+        counted and traced."""
+        sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
+        types = {s.type for s in sensors}
         declared = self.tax.declared_classes(types)
         ruled_out = self.tax.disagreeing(declared, below)
-        if ruled_out:
+        spans = [s.fov for s in sensors if s.fov is not None and s.samples is not None]  # ray sensors' sweeps
+        narrow = self.tax.too_narrow(max(spans), below) - ruled_out if spans else frozenset()
+        if ruled_out or narrow:
             self.declared += 1
-            self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}")
-        return ruled_out
+            self.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}"
+                     + (f"; sweeping {max(spans):.2f} rad, not {sorted(narrow)}" if narrow else ""))
+        return ruled_out | narrow
 
     def _counters(self) -> dict[str, float]:
         """Running totals of the work a step does, for its timing record (pipeline.timings)."""
@@ -527,9 +564,9 @@ class Abstractor:
 
 
 SENSOR_PASS = Pass(SENSOR, (
-    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends")),
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends"),
-         ("leaves", "claims")),
+    Step("shape", Abstractor.shape, ("robot",), ("hands", "feet", "limb ends", "loops", "palms")),
+    Step("identification", Abstractor.identification,
+         ("tree", "components", "hands", "feet", "limb ends", "loops", "palms"), ("leaves", "claims")),
     Step("mimic veto", Abstractor.mimic_veto, ("leaves", "claims"), ("claims",)),
     Step("sensor check", Abstractor.sensor_check, ("leaves", "claims"), ("claims",)),
     Step("attachment", partial(Abstractor.attachment, rigid=True), ("leaves", "claims"), ("chains",)),
@@ -544,8 +581,8 @@ SENSOR_PASS = Pass(SENSOR, (
 ))
 
 END_EFFECTOR_PASS = Pass(END_EFFECTOR, (
-    Step("identification", Abstractor.identification, ("tree", "components", "hands", "feet", "limb ends"),
-         ("leaves", "claims")),
+    Step("identification", Abstractor.identification,
+         ("tree", "components", "hands", "feet", "limb ends", "loops", "palms"), ("leaves", "claims")),
     Step("attachment", Abstractor.attachment, ("leaves", "claims"), ("chains",)),
     Step("group merging", Abstractor.group_merging, ("chains",), ("groups",)),
     Step("verification", Abstractor.verification, ("groups", "claims"), ("groups",)),

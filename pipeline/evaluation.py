@@ -39,6 +39,7 @@ from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.namespaces import CORE
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.settings import REVIEW_THRESHOLD
 
 ALL = "all"
 SCOPES = (ALL, *KINDS)
@@ -48,7 +49,7 @@ METRICS = (
     "typed_precision", "typed_recall", "typed_f1",
     "root_accuracy", "subpart_accuracy",
 )
-COUNTS = ("n_predicted", "n_truth", "n_matched", "n_subparts")
+COUNTS = ("n_predicted", "n_truth", "n_matched", "n_subparts", "n_wrong", "n_queued", "n_wrong_queued")
 BODY = "body"
 BODY_METRICS = (
     "part_precision", "part_recall", "part_f1",
@@ -128,6 +129,7 @@ class PredictedComponent:
     root: str | None
     leaves: frozenset[str]
     subparts: Mapping[str, str | None] = field(default_factory=dict, hash=False)
+    confidence: float | None = None  # its core:confidence, None where the graph gives none
 
 
 def _truth_component(d: dict) -> TruthComponent:
@@ -258,6 +260,7 @@ def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[Pr
                 sub_types.setdefault(leaf, set()).update(graph.objects(sub, RDF.type))
         leaves &= urdf_leaves
         mounts = {str(n) for link in graph.objects(comp, CORE.isMountedOn) for n in graph.objects(link, CORE.urdfName)}
+        confidence = graph.value(comp, CORE.confidence)
         out.append(PredictedComponent(
             node=str(comp),
             kind=kinds.pop() if len(kinds) == 1 else None,
@@ -265,6 +268,7 @@ def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[Pr
             root=mounts.pop() if len(mounts) == 1 else None,
             leaves=frozenset(leaves),
             subparts={leaf: tax.most_specific(ts) for leaf, ts in sub_types.items() if leaf in leaves},
+            confidence=float(confidence) if confidence is not None else None,
         ))
     return out
 
@@ -371,7 +375,24 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
     listed = any(t.subparts for t in truths)
     out["subpart_accuracy"] = (fmean(sub) if sub else 0.0) if listed else None
     out.update(n_predicted=len(preds), n_truth=len(truths), n_matched=len(pairs), n_subparts=len(sub))
+    # The review queue: components below REVIEW_THRESHOLD; wrong: matching no truth component, or typed short of it
+    right = {p.node for p, t in pairs if tax.credit(p.cls, t.classes, _kind_roots().values()) == 1.0}
+    wrong = [p for p in preds if p.node not in right]
+    queued = [p for p in preds if p.confidence is not None and p.confidence < REVIEW_THRESHOLD]
+    out.update(n_wrong=len(wrong), n_queued=len(queued), n_wrong_queued=len({p.node for p in queued} & {p.node for p in wrong}))
     return out
+
+
+def review_queue(means: Mapping[str, object]) -> str:
+    """One line on the review queue over the robots summed in `means` (mean_scores' counts): the share of wrong
+    components it holds and the share of all predicted components it takes."""
+    counts = means[ALL]
+    assert isinstance(counts, Mapping)
+    wrong, queued, caught, predicted = (counts[c] for c in ("n_wrong", "n_queued", "n_wrong_queued", "n_predicted"))
+    held = f"{caught / wrong:.0%}" if wrong else "-"
+    takes = f"{queued / predicted:.0%}" if predicted else "-"
+    return (f"review queue (confidence < {REVIEW_THRESHOLD}): holds {held} of the {wrong} wrong components "
+            f"({caught}), takes {takes} of the {predicted} predicted ({queued})")
 
 
 def score(truth: Truth, graph: rdflib.Graph, urdf_leaves: set[str], tree: KinematicTree | None = None) -> dict:

@@ -117,6 +117,7 @@ class Vocabulary:
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
         self._elements: dict[str, tuple[float, float]] = {}  # sensor class → the sensing-frame counts it allows
+        self._fields: dict[str, tuple[float, float]] = {}  # ray sensor class → the declared spans (rad) it allows
         self._rank: dict[str, float] = {}  # class → core:optionRank
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
         for name in self._order:
@@ -136,6 +137,8 @@ class Vocabulary:
                 self._views[name] = views
             if (elements := _count_range(graph, node, CORE.elementCount)) is not None:
                 self._elements[name] = elements
+            if (field := _count_range(graph, node, CORE.horizontalFieldOfViewRadians)) is not None:
+                self._fields[name] = field
             if (placement := _placement(graph, node)) is not None:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
@@ -366,7 +369,12 @@ class Vocabulary:
         restrictions on them or on a class above them: a tactile sensor is one pad, several are an array)."""
         return self._outside(self._elements, count, below)
 
-    def _outside(self, ranges: dict[str, tuple[float, float]], count: int, below: str) -> frozenset[str]:
+    def too_narrow(self, span: float, below: str) -> frozenset[str]:
+        """Classes under `below` that a sensor declared to sweep `span` radians cannot be
+        (core:horizontalFieldOfViewRadians restrictions: a lidar sweeps a wide field, a sonar a cone)."""
+        return self._outside(self._fields, span, below)
+
+    def _outside(self, ranges: dict[str, tuple[float, float]], count: float, below: str) -> frozenset[str]:
         def allows(name: str) -> bool:
             return all(low <= count <= high for c in (name, *self.ancestors(name))
                        for low, high in [ranges.get(c, (0, float("inf")))])
@@ -419,7 +427,7 @@ def _needed_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> list[frozenset[st
 
 
 def _count_range(graph: rdflib.Graph, node: rdflib.URIRef, prop: rdflib.URIRef) -> tuple[float, float] | None:
-    """(least, most) from `node ⊑ ∀prop.integer[>= least, <= most]`, None without such an axiom."""
+    """(least, most) from `node ⊑ ∀prop.integer[>= least, <= most]` (or decimal), None without such an axiom."""
     for restriction in graph.objects(node, RDFS.subClassOf):
         if graph.value(restriction, OWL.onProperty) != prop:
             continue

@@ -136,6 +136,12 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     motions = {a: _joint_motions(tree, fork, drive, tip, pose) for a, (_, drive, tip) in chains.items()}
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
+    for a in [a for a in chains if not opposes[a]]:  # a hand written open: its thumb closes on fingers that
+        if (thumb := _thumb_closing(a, motions[a], closing)) is not None:  # curl side by side into the palm
+            closing[a], fingers = thumb
+            opposes[a] = tuple(dict.fromkeys([*opposes[a], *fingers]))
+            for b in fingers:
+                opposes[b] = tuple(dict.fromkeys([*opposes[b], a]))
     finger_names = [a for a in chains if opposes[a]]
     alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
     joint_owner = {tree.edge_to(link).joint: a for a in finger_names for link in chains[a][0]}
@@ -154,6 +160,29 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         for links, drive, _ in [chains[a]]
     )
     return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names))
+
+
+def _thumb_closing(a: str, own: list[Motion], closing: dict[str, Motion | None]) -> tuple[Motion, tuple[str, ...]] | None:
+    """The motion by which chain `a`'s tip closes on two or more chains whose tips move together, and those
+    chains: a thumb (the ontology's ThumbChain closes against two or more chains moving together). Fingers
+    written open curl into the palm, across the line to the thumb's tip, so they do not oppose it tip to tip
+    (_approach); the thumb still closes on each of them (_converging). None where no motion of `a` does."""
+    for motion in own:
+        closes_on = [b for b, m in closing.items() if b != a and _converging(motion, m)]
+        together = tuple(b for b in closes_on if any(_alongside(closing[b], closing[c]) for c in closes_on if c != b))
+        if len(together) >= 2:
+            return motion, together
+    return None
+
+
+def _converging(a: Motion | None, b: Motion | None) -> bool:
+    """Tip `a` closes on tip `b`: their relative motion shortens the gap between them at APPROACH or more of a
+    tip's speed, and they do not move alongside each other."""
+    if a is None or b is None or _alongside(a, b):
+        return False
+    (pa, va), (pb, vb) = a, b
+    line = _unit((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]))
+    return line is not None and _dot((va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]), line) >= APPROACH
 
 
 def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
@@ -345,14 +374,18 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     finger chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
     range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
     finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
-    the pure frames fixed to its body that lie out among the fingertips (_among_tips): tool centre points.
+    the pure frames fixed to its rigid body that lie out among the fingertips (_among_tips): tool centre points,
+    on the hand itself or on the flange it is bolted to.
     A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
     found = []
+    standing = feet(tree)
     for fork in tree.links:
         small = [c for c in _moving_children(tree, fork) if _hand_sized(tree, fork, c)]
         if len(small) < 2:
             continue
         leaves = [link for c in small for link in (c, *tree.descendants(c)) if tree.is_leaf(link)]
+        if standing & set(leaves):  # short legs the robot stands on, not fingers
+            continue
         structure = tool_structure(tree, leaves)
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
@@ -375,16 +408,16 @@ def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, lis
 
 
 def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:
-    tips = [tree.position_in(max(f.links, key=lambda link: len(tree.chain_to_root(link))), fork) for f in fingers]
+    body = rigid_body(tree, fork)  # positions in its top link's frame, from the fork
+    fork_at = tree.position_in(fork, body[0])
+
+    def at(link: str) -> Vector:
+        return tuple(p - o for p, o in zip(tree.position_in(link, body[0]), fork_at))  # type: ignore[return-value]
+    tips = [at(max(f.links, key=lambda link: len(tree.chain_to_root(link)))) for f in fingers]
     centre = (sum(p[0] for p in tips) / len(tips), sum(p[1] for p in tips) / len(tips), sum(p[2] for p in tips) / len(tips))
     span = max(math.dist(p, centre) for p in tips)
-    body, stack = [], list(tree.children(fork))
-    while stack:
-        link = stack.pop()
-        if not tree.edge_to(link).movable and is_frame(tree, link):
-            body.append(link)
-            stack.extend(tree.children(link))
-    return [link for link in body if tree.is_leaf(link) and _among_tips(tree.position_in(link, fork), centre, span)]
+    frames = [link for link in body if link != fork and tree.is_leaf(link) and is_frame(tree, link)]
+    return [link for link in frames if _among_tips(at(link), centre, span)]
 
 
 def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
@@ -428,6 +461,15 @@ def rigid_body(tree: KinematicTree, link: str) -> tuple[str, ...]:
     while (parent := tree.parent(top)) is not None and not tree.edge_to(top).movable:
         top = parent
     body, stack = [], [top]
+    while stack:
+        body.append(current := stack.pop())
+        stack.extend(c for c in tree.children(current) if not tree.edge_to(c).movable)
+    return tuple(body)
+
+
+def palm(tree: KinematicTree, fork: str) -> tuple[str, ...]:
+    """A hand's own body: its fork and the links bolted below it (not the wrist above, whose camera is no hand's)."""
+    body, stack = [], [fork]
     while stack:
         body.append(current := stack.pop())
         stack.extend(c for c in tree.children(current) if not tree.edge_to(c).movable)
@@ -492,14 +534,30 @@ def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]
 def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
     """How many places a device's frames see from: their positions at the zero pose, those within VIEWPOINT
     of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
-    along the x axis of the link they hang from), only those count: a camera's inertial frames see nothing."""
-    optical = [leaf for leaf in leaves if _optical(tree, leaf)] or leaves
-    places: list[Vector] = []
-    for leaf in optical:
+    along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
+    and two of them see from one place when they lie within VIEWPOINT across their line of sight."""
+    optical = [leaf for leaf in leaves if _optical(tree, leaf)]
+    places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
+    for leaf in optical or leaves:
         point = tree.position_in(leaf, tree.root)
-        if all(math.dist(point, p) > VIEWPOINT for p in places):
-            places.append(point)
+        sight = _unit(_sub(tree.position_in(leaf, tree.root, (0.0, 0.0, 1.0)), point)) if optical else None
+        if all(_apart(point, p, axis) > VIEWPOINT for p, axis in places):
+            places.append((point, sight))
     return len(places)
+
+
+def _apart(a: Vector, b: Vector, sight: Vector | None) -> float:
+    """How far apart two frames see from: across `sight`, the line of sight through `b` (a frame further along
+    it, as optical frames are often written a centimetre ahead of the lens, sees from the same place)."""
+    gap = _sub(a, b)
+    if sight is None:
+        return _norm(gap)
+    along = _dot(gap, sight)
+    return math.sqrt(max(_dot(gap, gap) - along * along, 0.0))
+
+
+def _sub(a: Vector, b: Vector) -> Vector:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
 def _optical(tree: KinematicTree, leaf: str) -> bool:
@@ -572,3 +630,35 @@ def _alike(tree: KinematicTree, a: tuple[str, ...], b: tuple[str, ...]) -> bool:
         return facts_a is facts_b
     return (facts_a.shape, round(facts_a.mass or 0.0, 3), facts_a.is_pure_frame) == \
         (facts_b.shape, round(facts_b.mass or 0.0, 3), facts_b.is_pure_frame)
+
+
+LOOP_GAP = 0.001  # m: the two frames a closed kinematic loop is cut at coincide within this at the zero pose
+
+
+def loop_closures(tree: KinematicTree) -> frozenset[str]:
+    """Leaf frames where a closed kinematic loop is cut to make a tree (a Stewart platform's rods, a linkage's
+    bars): bare frames fixed to their links that coincide with another such frame at the zero pose, across a
+    joint that moves (the path between them passes through one). They mark a constraint for a solver, not a
+    device; a camera's frame and its optical twin on one link coincide with nothing between them."""
+    frames = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None
+              and not tree.edge_to(leaf).movable and is_frame(tree, leaf)]
+    cells: dict[tuple[int, int, int], list[tuple[str, Vector]]] = {}
+    for leaf in frames:
+        point = tree.position_in(leaf, tree.root)
+        cells.setdefault(tuple(round(x / LOOP_GAP) for x in point), []).append((leaf, point))  # type: ignore[arg-type]
+    found: set[str] = set()
+    for (i, j, k), members in cells.items():
+        near = [m for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
+                for m in cells.get((i + di, j + dj, k + dk), ())]
+        for a, pa in members:
+            for b, pb in near:
+                if a != b and math.dist(pa, pb) <= LOOP_GAP and _moves_between(tree, a, b):
+                    found.update((a, b))
+    return frozenset(found)
+
+
+def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:
+    """A joint that moves lies on the tree's path between links `a` and `b`."""
+    meet = fork_of(tree, [a, b])
+    return any(tree.edge_to(link).movable for leaf in (a, b)
+               for link in tree.chain_to_root(leaf)[:tree.chain_to_root(leaf).index(meet)])

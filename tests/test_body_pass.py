@@ -10,6 +10,7 @@ from tests.body_robots import Built, legged, wheeled
 from tests.scripted_reasoner import scripted_reasoner
 from tests.urdf_writer import Writer
 from urdfkb.pipeline.abstraction import BODY_PASS, Abstractor, PassState
+from urdfkb.pipeline.components import Component, SubComponent
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
@@ -119,3 +120,33 @@ def test_a_robot_without_body_joints_has_no_parts():
                      b'<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>')
     oracle = Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected")))
     assert body_pass(oracle, tree, []) == ([], [])
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_an_arm_whose_gripper_points_below_its_base_is_an_arm(seed):
+    """A fixed arm written at a zero pose that points its gripper down past the plane it stands on (xArm6's): the
+    gripper's links are the lowest of the robot, but they are the tool's, not the arm's, so the arm does not reach
+    the ground and the reasoner's Arm axiom applies; the model (asked nothing) cannot make it a head."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    world, base = w.link(), w.link('<cylinder radius="0.06" length="0.1"/>')
+    w.joint("fixed", world, base)
+    link, joints = base, []
+    for z in (0.25, 0.3, -0.3, -0.3):  # up, up, then folded back down past the base's plane
+        child = w.link('<box size="0.05 0.05 0.1"/>')
+        joints.append(w.joint("revolute", link, child, (0.08 if z < 0 else 0.0, 0.0, z), (0.0, 1.0, 0.0)))
+        link = child
+    palm, fingers = w.link(), []
+    w.joint("fixed", link, palm, (0.0, 0.0, -0.05))
+    for side in (1.0, -1.0):
+        jaw = w.link()
+        w.joint("prismatic", palm, jaw, (0.0, side * 0.03, -0.05), (0.0, -side, 0.0), (0.0, 0.03))
+        fingers.append(jaw)
+    tree = load_urdf(w.urdf())
+    gripper = Component("gripper", "end_effector", "ParallelGripper", 1.0, link,
+                        tuple(SubComponent(x, "Finger", 1.0) for x in (palm, *fingers)))
+
+    def rule(question):
+        raise AssertionError(f"unexpected question {question.key}")
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [gripper])
+    assert [(p.cls, list(p.joints)) for p in parts] == [("Arm", joints)]

@@ -8,7 +8,8 @@ import yaml
 from rdflib import RDF, RDFS
 
 from urdfkb.pipeline.evaluation import (
-    CORE, METRICS, SCOPES, failed_scores, fold_means, format_table, load_truth, mean_scores, read_prediction, score,
+    CORE, METRICS, SCOPES, failed_scores, fold_means, format_table, load_truth, mean_scores, read_prediction,
+    review_queue, score,
 )
 
 HIERARCHY = {
@@ -288,3 +289,15 @@ def test_the_folds_split_every_truth_robot_by_family(shared):
     assert sorted(robots) == sorted(p.stem for p in (shared / "eval" / "truth").glob("*.yaml"))
     families = [{family for family in fold.values()} for fold in data.values()]
     assert not set.intersection(*families)
+
+
+def test_the_review_queue_is_measured_against_what_is_wrong(truth):
+    """A wrong component (a stereo camera typed Camera: half credit) below the threshold and a right one above it:
+    the queue holds every wrong component and takes one of three."""
+    g = graph([("Camera", "head", STEREO[2]), ARRAY, GRIPPER])
+    for node, confidence in ((CORE.c0, 0.3), (CORE.c1, 0.9), (CORE.c2, 0.8)):
+        g.add((node, CORE.confidence, rdflib.Literal(confidence)))
+    s = score(truth, g, URDF_LEAVES)
+    assert (s["all"]["n_wrong"], s["all"]["n_queued"], s["all"]["n_wrong_queued"]) == (1, 1, 1)
+    line = review_queue(mean_scores({"toy": s, "again": s}))
+    assert "holds 100% of the 2 wrong components (2), takes 33% of the 6 predicted (2)" in line

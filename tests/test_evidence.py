@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import random
 from pathlib import Path
 
 import pytest
@@ -16,6 +17,7 @@ from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.runner import Settings, run
+from tests.urdf_writer import Writer
 
 BOT = Path(__file__).parent / "data" / "sensor_bot.urdf"
 TAX = vocabulary()
@@ -137,7 +139,8 @@ def _rover_model(seen: dict[str, Question]):
 def test_meshes_and_shapes_reach_classification_but_declarations_only_narrow(bot):
     seen: dict[str, Question] = {}
     Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX).run(bot)
-    assert "(" not in seen["identify:nose_scanner"].user  # identification reads names and structure
+    # the file declares a measuring sensor on every sensor leaf of this rover: identification asks none of them
+    assert not any(k.startswith("identify:") for k in seen)
     eye = next(q.user for k, q in seen.items() if k.startswith("pre:mast_eye_optical@"))
     assert "Link: mast_eye_optical (no geometry, massless)" in eye  # its chain below the mount the model chose
     assert "simulated" not in eye  # the camera declaration narrowed the options instead
@@ -172,3 +175,54 @@ def test_provenance_reports_how_many_decisions_a_declaration_constrained(bot):
     seen: dict[str, Question] = {}
     result = run(bot, Settings(use_cache=False), backend=ScriptedBackend(_rover_model(seen)))
     assert int(result.provenance["declared_constraints"]) >= 4
+
+
+def _rangers(seed: int, spans: list[tuple[str, float]]) -> tuple[bytes, list[str]]:
+    """A base with one ray sensor per (SDF type, span in degrees), each a bare frame of meaningless name."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    leaves, gazebo = [], []
+    for i, (kind, degrees) in enumerate(spans):
+        leaf = w.link()
+        w.joint("fixed", base, leaf, xyz=(0.2, 0.05 * i, 0.05))
+        half = math.radians(degrees) / 2
+        gazebo.append(f'<gazebo reference="{leaf}"><sensor name="s{i}" type="{kind}"><ray><scan><horizontal>'
+                      f'<samples>5</samples><min_angle>{-half}</min_angle><max_angle>{half}</max_angle>'
+                      f'</horizontal></scan><range><min>0.02</min><max>2</max></range></ray></sensor></gazebo>')
+        leaves.append(leaf)
+    return w.urdf().replace(b"</robot>", "".join(gazebo).encode() + b"</robot>"), leaves
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_declared_span_rules_out_the_ranging_kinds_it_is_too_narrow_for(seed):
+    """core:horizontalFieldOfViewRadians restrictions: a lidar sweeps at least 0.6 rad, a sonar's cone spans at least
+    0.2 rad; a 10-degree laser beam (a cliff or proximity sensor) is a ranging sensor of no more specific kind."""
+    urdf, (beam, cone, wide, scanner) = _rangers(seed, [("gpu_lidar", 10), ("ray", 30), ("ray", 60), ("gpu_ray", 270)])
+    seen: dict[str, Question] = {}
+
+    def rule(q: Question):
+        seen[q.key] = q
+        stage = q.key.partition(":")[0]
+        return {"check": "sensor", "identify": "sensor"}.get(stage, q.options[0])
+
+    found = {c.subcomponents[-1].link: c.cls for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(load_urdf(urdf))}
+    assert found[beam] == "RangingSensor" and found[cone] == "Sonar" and found[scanner] == "Lidar"
+    assert seen[f"pre:{wide}@RangingSensor"].options == ("lidar", "sonar")  # both kinds fit a 60-degree sweep
+    assert not any(k.startswith((f"pre:{beam}@", f"pre:{cone}@RangingSensor")) for k in seen)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_leaf_the_file_declares_a_measuring_sensor_on_is_a_sensor_unasked(seed):
+    """The erring model calls every leaf a body part (TurtleBot 4's cliff sensors, declared gpu_lidar, were lost so):
+    a declared ray, camera or IMU sensor makes its leaf a sensor without a question; a contact declaration (also
+    made for feet and fingertips that report collisions) leaves the leaf to the model."""
+    urdf, leaves = _rangers(seed, [("gpu_lidar", 5), ("ray", 40), ("contact", 0)])
+    asked: list[str] = []
+
+    def rule(q: Question):
+        asked.append(q.key)
+        return "body part" if q.key.startswith("identify:") else q.options[0]
+    abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
+    found = {c.subcomponents[-1].link for c in abstractor.run(load_urdf(urdf)) if c.kind == "sensor"}
+    assert found == set(leaves[:2])
+    assert [k for k in asked if k.startswith("identify:")] == [f"identify:{leaves[2]}"]

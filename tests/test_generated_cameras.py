@@ -4,10 +4,12 @@ Structure only, over hundreds of seeds: merge is called as the pipeline calls it
 on the head."""
 from __future__ import annotations
 
+import math
 import random
 
 import pytest
 from tests.camera_robots import build
+from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
@@ -88,6 +90,28 @@ def test_frames_of_one_body_mounted_apart_share_the_highest_mount_and_one_device
             if {c.root for c in chains if c.leaf in fs} == {built.mount}:
                 assert sorted(fs) in [sorted(g.leaves) for g in groups], (seed, built.description)
     assert mounted_apart  # some housing's frames were mounted apart
+
+
+@pytest.mark.slow  # many generated robots
+def test_frames_all_mounted_on_their_bare_housing_are_mounted_on_its_parent_as_one_device():
+    """The model mounts every frame of a bare-frame housing on that frame itself (a camera's own camera_link), where
+    no device name can join them (the names they share begin the mount's): the bare frame is the device's own,
+    so they are mounted on the link it is fixed to, and the housing binds them into one device."""
+    for seed in SEEDS:
+        built = build(seed, bare=True)
+        tree = load_urdf(built.urdf)
+        frames = [frame for device in built.devices for frame in device]
+        chains = one_mount(tree, [sub_chain(tree, frame, built.housing[frame]) for frame in frames])
+        by_housing: dict[str, list[str]] = {}
+        for frame in frames:
+            by_housing.setdefault(built.housing[frame], []).append(frame)
+        for fs in by_housing.values():
+            if len(fs) > 1:
+                assert {c.root for c in chains if c.leaf in fs} == {built.mount}, (seed, built.description)
+        groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                       dict.fromkeys(frames, "VisionSensor"))
+        assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(fs) for fs in by_housing.values()), \
+            (seed, built.description)
 
 
 def _answer(prefer):
@@ -207,3 +231,25 @@ def test_the_frames_say_the_camera_whatever_the_model_names_it():
             assert {f: state.parts[f].cls for f in d} == {f: MODALITY[modality[f]] for f in d}, seed
             seen.add(expected)
     assert seen == {"RGBDCamera", "DepthCamera", "StereoCamera"}
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_a_frame_further_along_the_line_of_sight_sees_from_the_same_place(seed):
+    """Optical frames written at the lens and a centimetre ahead of it (an eye's two frames) are one viewpoint; two
+    eyes side by side, across their lines of sight, are two, however the head is turned."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    head = w.link('<box size="0.2 0.2 0.2"/>')
+    yaw, baseline = rng.uniform(-math.pi, math.pi), rng.uniform(0.03, 0.12)
+    eyes = []
+    for side in (1.0, -1.0):
+        eye = w.link()
+        w.joint("fixed", head, eye, (0.1 * math.cos(yaw) - side * baseline / 2 * math.sin(yaw),
+                                     0.1 * math.sin(yaw) + side * baseline / 2 * math.cos(yaw), 0.05), rpy=(0.0, 0.0, yaw))
+        lens, ahead = w.link(), w.link()
+        w.joint("fixed", eye, lens, (0.0, 0.0, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        w.joint("fixed", eye, ahead, (rng.uniform(0.008, 0.03), 0.0, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        eyes.append([lens, ahead])
+    tree = load_urdf(w.urdf())
+    assert [viewpoints(tree, frames) for frames in eyes] == [1, 1]
+    assert viewpoints(tree, eyes[0] + eyes[1]) == 2

@@ -9,7 +9,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from tests.hand_robots import Built, build
+from tests.hand_robots import Built, build, build_open_hand
 from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.ingest import load_urdf
@@ -17,7 +17,7 @@ from urdfkb.pipeline.reasoning import classify
 from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group
 from urdfkb.pipeline.stages.tools import settle
-from urdfkb.pipeline.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.structure import ToolStructure, hands, tool_structure
 
 SEEDS = range(400)
 REASONED = list(range(0, 400, 25))  # one reasoner run over every layout
@@ -101,6 +101,16 @@ def test_a_gripper_or_hand_on_its_own_is_one_tool(seed):
     assert problems(built) == [], built.description
 
 
+@pytest.mark.parametrize("seed", range(60))
+def test_a_hand_written_open_is_found_by_its_thumb(seed):
+    """Fingers curling side by side into the palm and a thumb beside it that closes on them (no fingertip moves
+    towards the thumb's tip at the zero pose): the shape shows a hand, its thumb opposes every finger."""
+    built = build_open_hand(seed)
+    assert problems(built) == [], built.description
+    found = hands(load_urdf(built.urdf))
+    assert found and set(found[0][1]) == set(built.leaves), built.description
+
+
 def test_the_generator_covers_every_layout():
     builds = [build(seed) for seed in SEEDS]
     assert {b.layout for b in builds} == {"gripper", "radial", "thumbed"}
@@ -110,7 +120,7 @@ def test_the_generator_covers_every_layout():
 
 @pytest.mark.reasoner
 def test_the_reasoner_infers_each_kind():
-    builds = [build(seed) for seed in REASONED]
+    builds = [build(seed) for seed in REASONED] + [build_open_hand(seed) for seed in range(4)]
     structures = [settled(b)[1][0][1] for b in builds]
     inferred, _ = classify(structures)
     assert [i.cls for i in inferred] == [b.kind for b in builds]

@@ -3,6 +3,7 @@ robots with known truth, and with a scripted model that makes the small model's 
 for sensors, and a quadruped's feet for tools. Names are meaningless, so only structure can correct it."""
 from __future__ import annotations
 
+import math
 import random
 
 import pytest
@@ -17,7 +18,8 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import detect_roots
-from urdfkb.pipeline.structure import alike_leaves, feet, hand_leaves, hand_mounts, hands, off_limb_ends
+from urdfkb.pipeline.structure import (alike_leaves, feet, hand_leaves, hand_mounts, hands, loop_closures,
+                                      off_limb_ends)
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -185,3 +187,48 @@ def test_a_hands_leaves_are_mounted_where_its_shape_says_unasked():
         chains = detect_roots(Oracle(ScriptedBackend(lambda q: asked.append(q.key) or q.options[-1])), tree,
                               sorted(mounts), TAX.kinds["end_effector"], lambda _link: False, settled=mounts)
         assert not asked and {c.root for c in chains} == {built.mount}, (seed, built.layout)
+
+
+def _platform(seed: int) -> tuple[bytes, list[str], list[str]]:
+    """A base carrying a head by 3-6 rods of two ball-like revolute joints each (a Stewart platform): the tree is
+    cut where each rod meets the head, leaving a frame on the rod's end and one on the head at the same point; and
+    a camera on the head with a frame and its optical twin (they coincide with nothing moving between them)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base, lift, head = w.link('<box size="0.2 0.2 0.05"/>'), w.link(), w.link('<box size="0.15 0.15 0.03"/>')
+    height = rng.uniform(0.35, 0.5)  # rods longer than a hand's fingers
+    w.joint("prismatic", base, lift, axis=(0.0, 0.0, 1.0), limits=(0.0, 0.02))
+    w.joint("fixed", lift, head, (0.0, 0.0, height))
+    cuts = []
+    for i in range(rng.randint(3, 6)):
+        angle = 2 * math.pi * i / 6 + rng.uniform(-0.2, 0.2)
+        foot = (0.08 * math.cos(angle), 0.08 * math.sin(angle), 0.03)
+        top = (0.05 * math.cos(angle + 0.4), 0.05 * math.sin(angle + 0.4), height)
+        arm, rod, rod_end, head_end = w.link(), w.link('<cylinder radius="0.003" length="0.4"/>'), w.link(), w.link()
+        w.joint("revolute", base, arm, foot, axis=(0.0, 0.0, 1.0), limits=(-1.0, 1.0))
+        w.joint("revolute", arm, rod, (0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0), limits=(-1.0, 1.0))
+        w.joint("fixed", rod, rod_end, tuple(t - f for t, f in zip(top, foot)))
+        w.joint("fixed", head, head_end, (top[0], top[1], 0.0))
+        cuts += [rod_end, head_end]
+    camera, frame, optical = w.link('<box size="0.02 0.06 0.02"/>'), w.link(), w.link()
+    w.joint("fixed", head, camera, (0.07, 0.0, 0.02))
+    w.joint("fixed", camera, frame)
+    w.joint("fixed", camera, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+    return w.urdf(), cuts, [frame, optical]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_frames_where_a_closed_loop_is_cut_are_no_component_and_not_asked(seed):
+    """The erring model calls every leaf a sensor (Reachy Mini's Stewart-platform closing frames became buttons):
+    the frames that coincide across a moving joint are part of no component and are not asked; the camera's two
+    coinciding frames, on one link, are asked as ever."""
+    urdf, cuts, camera = _platform(seed)
+    assert loop_closures(load_urdf(urdf)) == set(cuts)
+    asked = []
+
+    def erring(q):
+        asked.append(_leaf(q))
+        return {TAX.answer(SENSOR_CLS): 0.7, NONE: 0.3}
+    claims = _identified(urdf, erring)
+    assert {claims[c] for c in cuts} == {NONE} and not set(cuts) & set(asked)
+    assert {claims[c] for c in camera} == {SENSOR_CLS}

@@ -198,7 +198,8 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
     devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
     carries = [[i for i, other in enumerate(found) if other is not chain and other.mount in chain.links] for chain in found]
-    grounded = [_reaches_ground(tree, chain, lowest) for chain in found]
+    tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
+    grounded = [_reaches_ground(tree, chain, lowest, tools) for chain in found]
     facts = [reasoning.PartFacts(tuple(_motion(e) for e in chain.joints), tuple(c.cls for c in held),
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
@@ -233,10 +234,14 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
         found[i].confidence = verdict.confidence
 
 
-def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float) -> bool:
+def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float, tools: set[str]) -> bool:
     """What the chain moves comes down to the robot's lowest frame, below where it hangs from (an arm on a
-    fixed base holds the lowest frames too, but above its mount)."""
-    reach = min(_height(tree, link) for e in chain.joints for link in (e.child, *tree.descendants(e.child)))
+    fixed base holds the lowest frames too, but above its mount). An end-effector's links (`tools`) do not count:
+    a gripper an arm points down below its own base at the zero pose does not make the arm a leg."""
+    moved = [link for e in chain.joints for link in (e.child, *tree.descendants(e.child)) if link not in tools]
+    if not moved:
+        return False
+    reach = min(_height(tree, link) for link in moved)
     return reach <= lowest + GROUND_EPS and reach < _height(tree, chain.mount) - GROUND_EPS
 
 

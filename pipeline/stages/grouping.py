@@ -112,7 +112,9 @@ def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
     """Frames of one body (structure.body_of) that the model mounted apart, some on a link above the body and some on
     the body or below it, all mounted on the highest of those mounts above the body: the body is then
-    inside every chain, and group merging binds them into one device."""
+    inside every chain, and group merging binds them into one device. Where the model mounted them all on the body
+    or below it and the body is a bare frame fixed to its parent (a camera's own `camera_link` with colour, depth
+    and infrared frames below it), that frame is the device's own: they are mounted on its parent."""
     out = {c.leaf: c for c in chains}
     bodies = [(a.leaf, b.leaf, body) for i, a in enumerate(chains) for b in chains[:i]
               if (body := body_of(tree, a.leaf, b.leaf)) is not None]
@@ -126,6 +128,11 @@ def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
                 top = max(mounts, key=above.index)
                 out[a], out[b] = sub_chain(tree, a, top), sub_chain(tree, b, top)
                 moved = True
+    for body in dict.fromkeys(body for _, _, body in bodies):  # a bare frame the device's frames all hang from
+        bound = {leaf for a, b, on in bodies if on == body for leaf in (a, b)}
+        if is_frame(tree, body) and tree.parent(body) is not None and not tree.edge_to(body).movable \
+                and all(body in tree.chain_to_root(out[leaf].root) for leaf in bound):
+            out.update((leaf, sub_chain(tree, leaf, tree.parent(body))) for leaf in bound)  # type: ignore[arg-type]
     return [out[c.leaf] for c in chains]
 
 
