@@ -228,7 +228,8 @@ def allowed_classes(comp: Component) -> tuple[str, ...]:
 
 def mount_options(tree: KinematicTree, links: tuple[str, ...]) -> tuple[str, ...]:
     """Links above every one of `links` (nearest first): where such a group may be mounted."""
-    return tuple(a for a in tree.chain_to_root(fork_of(tree, list(links))) if a not in links)
+    own = set(links)
+    return tuple(a for a in tree.chain_to_root(fork_of(tree, list(links))) if a not in own)
 
 
 def _find(comps: list[Component], links: tuple[str, ...]) -> int:
@@ -325,8 +326,20 @@ def _new_parts(tree: KinematicTree, corr: Correction) -> tuple[SubComponent, ...
     camera's optical frame), as the pipeline types it; the other links, and all of a class requiring none, Subpart."""
     tax = vocabulary()
     required = tax.required_part(corr.cls or "")
-    ends = {link for link in corr.links if not any(o != link and link in tree.chain_to_root(o) for o in corr.links)}
+    above = _ancestors(tree, corr.links)
+    ends = {link for link in corr.links if link not in above}
     return tuple(SubComponent(link, required if required and link in ends else tax.subpart, 1.0) for link in corr.links)
+
+
+def _ancestors(tree: KinematicTree, links: tuple[str, ...]) -> set[str]:
+    """The links above any of `links` (each walked up only until a link already seen): linear in the tree."""
+    above: set[str] = set()
+    for link in links:
+        parent = tree.parent(link)
+        while parent is not None and parent not in above:
+            above.add(parent)
+            parent = tree.parent(parent)
+    return above
 
 
 # --- the named graph ---------------------------------------------------------------------------
