@@ -439,6 +439,8 @@ class Store:
         outside the store lock from a snapshot, once per write of the robot (clients asking meanwhile wait
         for it), and kept until a write touches the robot."""
         key = (name, ext)
+        if self.robot(name) is None:  # before a lock is made for the name
+            return None
         with self._export_guard:
             making = self._exporting.setdefault(key, threading.Lock())
         with making:
