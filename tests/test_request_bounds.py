@@ -54,14 +54,15 @@ def test_the_fork_is_the_lowest_common_ancestor_on_random_trees():
         assert fork_of(tree, leaves) == common[0]
 
 
+@pytest.mark.slow
 def test_an_added_component_over_a_whole_chain_has_one_end(store):
     """The ends of an added component (its links above none of the others) come from one walk up the tree:
     over every link of a chain, only the tip gets the part the class requires."""
-    store.replace_robot("chain", chain(60), None)
-    links = [f"l{i}" for i in range(1, 60)]
+    store.replace_robot("chain", chain(20), None)
+    links = [f"l{i}" for i in range(1, 20)]
     store.add_correction("chain", Correction.new({"action": "add", "class": "MonocularCamera", "links": links}, "ann"))
     (added,) = store.reviewed("chain").corrected.components
-    assert added.root == "l0" and [s.link for s in added.subcomponents if s.cls != "Subpart"] == ["l59"]
+    assert added.root == "l0" and [s.link for s in added.subcomponents if s.cls != "Subpart"] == ["l19"]
 
 
 def test_a_correction_names_at_most_as_many_links_as_a_robot_may_have():
@@ -118,6 +119,7 @@ def test_pages_and_corrections_routes_never_compute_again(pr2_store, monkeypatch
     assert calls == []
 
 
+@pytest.mark.slow
 def test_exports_are_made_outside_the_lock_once_per_write(pr2_store, monkeypatch):
     made: list[bool] = []
     export_graph = store_module.export_graph
@@ -155,6 +157,7 @@ def test_a_dropped_robots_corrections_graph_refuses_writers_and_survives_a_resta
         store.close()
 
 
+@pytest.mark.slow
 def test_an_update_row_for_a_corrections_graph_is_dropped_at_open(pr2_kb, tmp_path):
     """A store where an earlier version let an update write a dropped robot's corrections graph: the row, which
     the index showed only after a restart, goes, and the world's corrections are what SPARQL shows."""
