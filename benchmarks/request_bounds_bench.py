@@ -1,10 +1,10 @@
 """Bounded work per request (issue 39, cases 5-8): what a large correction, a hostile parameter and exports of
 a large robot cost the server, and what they cost other clients.
 
-Usage: python -m benchmarks.request_bounds_bench [--arms 50] [--chain 1500] [--clients 8] [--seconds 20]
+Usage: python -m benchmarks.request_bounds_bench [--links 5000] [--chain 1500] [--clients 8] [--seconds 20]
 
 Starts `urdfkb serve --token` (a fresh store) on a free loopback port, populates structure only a robot of
-ARMS arms of 100 links (5,000 links by default), a chain of CHAIN links and a 10-link robot, then prints:
+LINKS links (a base and 50 arms), a chain of CHAIN links and a 10-link robot, then prints:
 - `/queries/low_confidence?threshold=1e999999999`: its status, time and the server's memory growth;
 - an `add` correction over every link of the chain but its root, while another client exports the large
   robot (.ttl, made afresh): both times;
@@ -47,12 +47,13 @@ def call(url: str, data: bytes | None = None, headers: dict | None = None, timeo
         return e.code, e.read(), time.perf_counter() - started
 
 
-def robot(name: str, arms: int, length: int) -> bytes:
-    """A URDF: a base with `arms` chains of `length` revolute links."""
+def robot(name: str, arms: int, links_in_all: int) -> bytes:
+    """A URDF of `links_in_all` links: a base with `arms` chains of revolute links, as long as each other."""
     links, joints = ['<link name="base"/>'], []
+    length, longer = divmod(links_in_all - 1, arms)
     for a in range(arms):
         parent = "base"
-        for i in range(length):
+        for i in range(length + (a < longer)):
             link = f"a{a}_l{i}"
             links.append(f'<link name="{link}"/>')
             joints.append(f'<joint name="a{a}_j{i}" type="revolute"><parent link="{parent}"/><child link="{link}"/>'
@@ -97,7 +98,7 @@ def correction(base: str, name: str, body: dict) -> tuple[int, bytes, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--arms", type=int, default=50, help="arms of 100 links of the large robot")
+    parser.add_argument("--links", type=int, default=5000, help="links of the large robot")
     parser.add_argument("--chain", type=int, default=1500, help="links of the chain")
     parser.add_argument("--clients", type=int, default=8, help="clients exporting the large robot at once")
     parser.add_argument("--seconds", type=float, default=20.0, help="how long they export")
@@ -115,9 +116,8 @@ def main() -> None:
                         break
                 except OSError:
                     time.sleep(0.3)
-            big_links = 1 + 100 * args.arms
-            print(f"populate (structure only): big ({big_links:,} links) {populate(base, 'big', robot('big', args.arms, 100)):.1f} s, "
-                  f"chain ({args.chain:,} links) {populate(base, 'chain', robot('chain', 1, args.chain - 1)):.1f} s")
+            print(f"populate (structure only): big ({args.links:,} links) {populate(base, 'big', robot('big', 50, args.links)):.1f} s, "
+                  f"chain ({args.chain:,} links) {populate(base, 'chain', robot('chain', 1, args.chain)):.1f} s")
 
             before = rss_mb(server.pid)
             status, _, took = call(f"{base}/queries/low_confidence?robot=chain&threshold=1e999999999")
@@ -150,7 +150,7 @@ def main() -> None:
             for t in clients:
                 t.start()
             time.sleep(min(2.0, args.seconds / 4))
-            small = populate(base, "small", robot("small", 1, 9))
+            small = populate(base, "small", robot("small", 1, 10))
             ask = call(base + "/sparql?" + urllib.parse.urlencode({"query": "ASK {}"}),
                        headers={"Accept": "application/sparql-results+json"})[2]
             for t in clients:

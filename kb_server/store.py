@@ -134,7 +134,7 @@ class Reviewed:
         return review.to_graph(name, list(self.corrections)) if self.corrections else None
 
 
-def corrections_graph_name(graph: str) -> bool:
+def is_corrections_graph(graph: str) -> bool:
     """True for the IRI of a robot's corrections graph, whether or not that robot is stored."""
     return bool((m := _ROBOT_GRAPH.fullmatch(graph)) and m.group(2))
 
@@ -172,10 +172,10 @@ class Store:
             for e in self.robots():
                 graphs[e.ontology_iri] = rdf.ntriples(self._ontology(e.ontology_iri))
             for iri, onto in list(self.world.ontologies.items()):  # a robot's, or left by an update that dropped it
-                if corrections_graph_name(iri):
+                if is_corrections_graph(iri):
                     graphs[iri] = rdf.ntriples(onto)
             for graph, data in self.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall():
-                if corrections_graph_name(graph):  # no longer written (`update` refuses them): the world holds them
+                if is_corrections_graph(graph):  # no longer written (`update` refuses them): the world holds them
                     self.db.execute("DELETE FROM kb_graphs WHERE graph=?", (graph,))
                 else:
                     graphs[graph] = data
@@ -259,7 +259,7 @@ class Store:
         row = self.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row:
             return rdf.ntriples(self._ontology(graph))
-        if corrections_graph_name(graph):  # a robot's corrections, kept in the world only
+        if is_corrections_graph(graph):  # a robot's corrections, kept in the world only
             onto = self.world.ontologies.get(graph)
             return rdf.ntriples(onto) if onto is not None else None
         row = self.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
@@ -485,7 +485,7 @@ class Store:
                         raise QueryTimeout(f"the store kept changing under this update for its {timeout:g} s timeout")
                     continue
                 accepted = set(changes)
-                protected = {g for g in accepted if g == CORE_GRAPH or corrections_graph_name(g)}
+                protected = {g for g in accepted if g == CORE_GRAPH or is_corrections_graph(g)}
                 if protected:
                     found = scan(text, update=True).keywords
                     if not (found & {"CLEAR", "DROP"} and found & {"ALL", "NAMED"}):

@@ -37,7 +37,12 @@ def chain(n: int) -> KinematicTree:
 def lock_free(store: Store) -> bool:
     """True when another thread may take the store lock at once (this thread does not hold it)."""
     got: list[bool] = []
-    t = threading.Thread(target=lambda: got.append(store.lock.acquire(timeout=1) and (store.lock.release() or True)))
+
+    def take() -> None:
+        got.append(store.lock.acquire(timeout=1))
+        if got[0]:
+            store.lock.release()
+    t = threading.Thread(target=take)
     t.start()
     t.join()
     return got == [True]
