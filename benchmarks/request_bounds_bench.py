@@ -2,12 +2,15 @@
 a large robot cost the server, and what they cost other clients.
 
 Usage: python -m benchmarks.request_bounds_bench [--links 5000] [--chain 1500] [--clients 8] [--seconds 20]
+       [--store PATH]
 
-Starts `urdfkb serve --token` (a fresh store) on a free loopback port, populates structure only a robot of
-LINKS links (a base and 50 arms), a chain of CHAIN links and a 10-link robot, then prints:
+Starts `urdfkb serve --token` on a free loopback port (over --store, kept, or a fresh store), populates
+structure only, where the store lacks them, a robot of LINKS links (a base and 50 arms) and a chain of
+CHAIN links, then prints:
 - `/queries/low_confidence?threshold=1e999999999`: its status, time and the server's memory growth;
+- the large robot's first export (.owl: made, then kept) and a second one;
 - an `add` correction over every link of the chain but its root, while another client exports the large
-  robot (.ttl, made afresh): both times;
+  robot (.owl, as kept, and .nt, made afresh): their times;
 - the chain's corrections (`GET /robots/chain/corrections`) and its page, twice each;
 - a correction naming a million made-up links: its status, time and reply size;
 - a populate of the small robot (POST to its job's end) and `ASK {}` while CLIENTS clients export the large
@@ -37,7 +40,7 @@ AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
 def call(url: str, data: bytes | None = None, headers: dict | None = None, timeout: float = 300.0) -> tuple[int, bytes, float]:
-    """(status, body, seconds) of one request."""
+    """(status, body, seconds) of one request; status 0 if it timed out."""
     started = time.perf_counter()
     req = urllib.request.Request(url, data=data, headers=headers or {})
     try:
@@ -45,6 +48,8 @@ def call(url: str, data: bytes | None = None, headers: dict | None = None, timeo
             return resp.status, resp.read(), time.perf_counter() - started
     except urllib.error.HTTPError as e:
         return e.code, e.read(), time.perf_counter() - started
+    except TimeoutError:
+        return 0, b"", time.perf_counter() - started
 
 
 def robot(name: str, arms: int, links_in_all: int) -> bytes:
@@ -102,11 +107,12 @@ def main() -> None:
     parser.add_argument("--chain", type=int, default=1500, help="links of the chain")
     parser.add_argument("--clients", type=int, default=8, help="clients exporting the large robot at once")
     parser.add_argument("--seconds", type=float, default=20.0, help="how long they export")
+    parser.add_argument("--store", type=Path, help="a store to keep (populated once: a 5,000-link robot takes minutes)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         port = free_port()
         base = f"http://127.0.0.1:{port}"
-        server = subprocess.Popen([str(URDFKB), "serve", "--store", str(Path(tmp) / "kb.sqlite3"), "--port", str(port),
+        server = subprocess.Popen([str(URDFKB), "serve", "--store", str(args.store or Path(tmp) / "kb.sqlite3"), "--port", str(port),
                                    "--token", TOKEN], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env={**os.environ})
         try:
             deadline = time.monotonic() + 60
@@ -116,22 +122,30 @@ def main() -> None:
                         break
                 except OSError:
                     time.sleep(0.3)
-            print(f"populate (structure only): big ({args.links:,} links) {populate(base, 'big', robot('big', 50, args.links)):.1f} s, "
-                  f"chain ({args.chain:,} links) {populate(base, 'chain', robot('chain', 1, args.chain)):.1f} s")
+            stored = {r["name"] for r in json.loads(call(base + "/robots")[1])}
+            for name, urdf in (("big", lambda: robot("big", 50, args.links)), ("chain", lambda: robot("chain", 1, args.chain))):
+                if name not in stored:
+                    print(f"populate {name} (structure only): {populate(base, name, urdf()):.1f} s")
 
             before = rss_mb(server.pid)
             status, _, took = call(f"{base}/queries/low_confidence?robot=chain&threshold=1e999999999")
             print(f"threshold=1e999999999: {status} in {took:.3f} s, server memory +{rss_mb(server.pid) - before:.0f} MB")
 
-            exported: list[tuple[int, float]] = []
-            other = threading.Thread(target=lambda: exported.append(call(f"{base}/robots/big.ttl")[::2]))
-            other.start()
-            time.sleep(0.2)  # the export under way
+            for which in ("first", "second"):
+                status, body, took = call(f"{base}/robots/big.owl")
+                print(f"{which} export of big.owl: {status} in {took:.2f} s, {len(body):,} bytes")
+
+            exported: dict[str, tuple[int, float]] = {}
+            others = [threading.Thread(target=lambda ext=ext: exported.update({ext: call(f"{base}/robots/big.{ext}")[::2]}))
+                      for ext in ("owl", "nt")]
+            for t in others:
+                t.start()
             status, body, took = correction(base, "chain", {"action": "add", "class": "MonocularCamera",
                                                             "links": [f"a0_l{i}" for i in range(args.chain - 1)]})
-            other.join()
-            print(f"correction over {args.chain - 1:,} links: {status} in {took:.1f} s; "
-                  f"meanwhile big.ttl: {exported[0][0]} in {exported[0][1]:.1f} s")
+            for t in others:
+                t.join()
+            print(f"correction over {args.chain - 1:,} links: {status} in {took:.1f} s; meanwhile "
+                  + ", ".join(f"big.{ext}: {s} in {t:.2f} s" for ext, (s, t) in exported.items()))
             for what in ("/robots/chain/corrections", "/robots/chain"):
                 times = [call(base + what, headers={"Accept": "text/html"})[::2] for _ in range(2)]
                 print(f"GET {what}: " + ", ".join(f"{s} in {t:.2f} s" for s, t in times))
