@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from urdfkb.kb_server.text import cut, listed
 from urdfkb.pipeline.components import SIDES, BodyPart, Component
 from urdfkb.pipeline.errors import CorrectionError
 from urdfkb.pipeline.ontology import vocabulary
@@ -28,13 +29,13 @@ def classes() -> tuple[str, ...]:
 
 def check_class(cls: str) -> str:
     if cls not in classes():
-        raise CorrectionError(f"{cls!r} is not a body-part class of the ontology (one of {', '.join(classes())})")
+        raise CorrectionError(f"{cut(repr(cls), 100)} is not a body-part class of the ontology (one of {', '.join(classes())})")
     return cls
 
 
 def check_side(side: str) -> str:
     if side not in SIDE_CHOICES:
-        raise CorrectionError(f"side must be one of {', '.join(SIDE_CHOICES)}, not {side!r}")
+        raise CorrectionError(f"side must be one of {', '.join(SIDE_CHOICES)}, not {cut(repr(side), 100)}")
     return side
 
 
@@ -42,7 +43,8 @@ def named(parts: list[BodyPart], name: str) -> BodyPart:
     """The part called `name` now; CorrectionError listing the robot's parts if there is none."""
     part = next((p for p in parts if p.name == name), None)
     if part is None:
-        raise CorrectionError(f"no body part {name!r} on this robot (its parts: {', '.join(p.name for p in parts) or 'none'})")
+        raise CorrectionError(f"no body part {cut(repr(name), 100)} on this robot "
+                              f"(its parts: {listed((p.name for p in parts), 50) or 'none'})")
     return part
 
 
@@ -53,7 +55,7 @@ def find(parts: list[BodyPart], joints: tuple[str, ...], links: tuple[str, ...])
         for i, p in enumerate(parts):
             if fits(set(p.joints if joints else p.links)):
                 return i
-    raise CorrectionError(f"no body part with {field}{'s' if len(wanted) > 1 else ''} {', '.join(sorted(wanted))} any more")
+    raise CorrectionError(f"no body part with {field}{'s' if len(wanted) > 1 else ''} {listed(sorted(wanted))} any more")
 
 
 def reclassify(parts: list[BodyPart], comps: list[Component], i: int, cls: str) -> Body:
@@ -68,7 +70,8 @@ def set_side(parts: list[BodyPart], comps: list[Component], i: int, side: str) -
 
 def touching(parts: list[BodyPart], part: BodyPart) -> list[BodyPart]:
     """The parts `part` may merge with: those hanging from one of its links, and the one it hangs from."""
-    return [p for p in parts if p.name != part.name and (p.root in part.links or part.root in p.links)]
+    own = set(part.links)
+    return [p for p in parts if p.name != part.name and (p.root in own or part.root in p.links)]
 
 
 def merge(tree: KinematicTree, parts: list[BodyPart], comps: list[Component], i: int, j: int) -> Body:
@@ -100,7 +103,7 @@ def split(tree: KinematicTree, parts: list[BodyPart], comps: list[Component], i:
     moves and what is located there; the rest keeps the part's name."""
     part = parts[i]
     if at not in part.joints:
-        raise CorrectionError(f"{at} is not a joint of {part.name} (its joints: {', '.join(part.joints) or 'none'})")
+        raise CorrectionError(f"{cut(at, 100)} is not a joint of {part.name} (its joints: {listed(part.joints, 50) or 'none'})")
     (joints, links), (lower_joints, lower_links) = _halves(tree, part, at)
     if not joints and not links:
         raise CorrectionError(f"{part.name} starts at {at}: splitting there leaves nothing above it")
@@ -130,7 +133,8 @@ def relocate(tree: KinematicTree, comp: Component, parts: list[BodyPart]) -> Com
 def _halves(tree: KinematicTree, part: BodyPart, at: str) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
     """((joints, links) above joint `at`, (joints, links) from `at` down) of `part`."""
     moved = set(_moved(tree, at))
-    below = {j for j in part.joints if _edge(tree, j).child in moved}
+    child = {e.joint: e.child for e in tree.edges}
+    below = {j for j in part.joints if child[j] in moved}
     return ((tuple(j for j in part.joints if j not in below), tuple(x for x in part.links if x not in moved)),
             (tuple(j for j in part.joints if j in below), tuple(x for x in part.links if x in moved)))
 
@@ -146,7 +150,10 @@ def _edge(tree: KinematicTree, joint: str):
 
 def _root_first(tree: KinematicTree, joints: tuple[str, ...]) -> tuple[str, ...]:
     """`joints` ordered by their depth in the tree, then as the URDF lists them."""
-    order = {e.joint: (len(tree.chain_to_root(e.child)), k) for k, e in enumerate(tree.edges)}
+    depth = {tree.root: 0}
+    for link in tree.descendants(tree.root):  # each link after its parent
+        depth[link] = depth[tree.edge_to(link).parent] + 1
+    order = {e.joint: (depth[e.child], k) for k, e in enumerate(tree.edges)}
     return tuple(sorted(joints, key=order.__getitem__))
 
 

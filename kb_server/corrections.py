@@ -31,14 +31,14 @@ import rdflib
 from rdflib.namespace import PROV, RDF, RDFS, XSD
 
 from urdfkb.kb_server import body_corrections as body
-from urdfkb.kb_server.text import check_text
+from urdfkb.kb_server.text import check_text, cut, listed
 from urdfkb.pipeline.components import Abstraction, BodyPart, Component, SubComponent
 from urdfkb.pipeline.errors import CorrectionError
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, REVIEW, body_part_local, component_iri, corrections_iri, escape
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.structure import fork_of
 from urdfkb.pipeline.tree import KinematicTree
-from urdfkb.settings import MAX_REVIEWER
+from urdfkb.settings import MAX_LINKS, MAX_REVIEWER
 
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
 BODY_ACTIONS = ("reclassify", "side", "merge", "split", "reject")
@@ -63,10 +63,12 @@ class Correction:
         The reviewer's whitespace runs become one space; other control characters are refused."""
         action = data.get("action")
         if action not in ACTIONS:
-            raise CorrectionError(f"action must be one of {', '.join(ACTIONS)}, not {action!r}")
+            raise CorrectionError(f"action must be one of {', '.join(ACTIONS)}, not {cut(repr(action), 100)}")
         links = data.get("links")
         if not isinstance(links, list) or not links or not all(isinstance(x, str) and x for x in links):
             raise CorrectionError("links must be a non-empty list of URDF link names")
+        if len(links) > MAX_LINKS:
+            raise CorrectionError(f"links must name at most {MAX_LINKS:,} links (a robot has no more), not {len(links):,}")
         klass, mount = _strings(data, "class", "mount")
         if action in ("reclassify", "add") and not klass:
             raise CorrectionError(f"{action} needs a class")
@@ -112,7 +114,8 @@ class BodyCorrection:
         now (`resolve` finds its joints); CorrectionError naming the field if malformed."""
         action = data.get("action")
         if action not in BODY_ACTIONS:
-            raise CorrectionError(f"a body part's action must be one of {', '.join(BODY_ACTIONS)}, not {action!r}")
+            raise CorrectionError(f"a body part's action must be one of {', '.join(BODY_ACTIONS)}, "
+                                  f"not {cut(repr(action), 100)}")
         part, klass, side, at, other = _strings(data, "part", "class", "side", "at", "with")
         if not part:
             raise CorrectionError("part must name the body part (as the robot page and the body_parts query name it)")
@@ -228,7 +231,8 @@ def allowed_classes(comp: Component) -> tuple[str, ...]:
 
 def mount_options(tree: KinematicTree, links: tuple[str, ...]) -> tuple[str, ...]:
     """Links above every one of `links` (nearest first): where such a group may be mounted."""
-    return tuple(a for a in tree.chain_to_root(fork_of(tree, list(links))) if a not in links)
+    own = set(links)
+    return tuple(a for a in tree.chain_to_root(fork_of(tree, list(links))) if a not in own)
 
 
 def _find(comps: list[Component], links: tuple[str, ...]) -> int:
@@ -239,7 +243,7 @@ def _find(comps: list[Component], links: tuple[str, ...]) -> int:
     for i, c in enumerate(comps):
         if wanted <= set(c.links):
             return i
-    raise CorrectionError(f"no component with link{'s' if len(links) > 1 else ''} {', '.join(links)} any more")
+    raise CorrectionError(f"no component with link{'s' if len(links) > 1 else ''} {listed(links)} any more")
 
 
 State = tuple[list[Component], list[BodyPart], str]  # components, body parts, the name of what a correction changed
@@ -248,9 +252,10 @@ State = tuple[list[Component], list[BodyPart], str]  # components, body parts, t
 def _apply_one(tree: KinematicTree, comps: list[Component], parts: list[BodyPart], corr: AnyCorrection) -> State:
     if isinstance(corr, BodyCorrection):
         return _apply_body(tree, comps, parts, corr)
-    missing = [link for link in corr.links if link not in tree.links]
+    known = set(tree.links)
+    missing = [link for link in corr.links if link not in known]
     if missing:
-        raise CorrectionError(f"link {', '.join(missing)} is not in the URDF any more")
+        raise CorrectionError(f"link {listed(missing)} {'is' if len(missing) == 1 else 'are'} not in the URDF any more")
     if corr.action == "add":
         return _add(tree, comps, parts, corr)
     i = _find(comps, corr.links)
@@ -261,12 +266,12 @@ def _apply_one(tree: KinematicTree, comps: list[Component], parts: list[BodyPart
         return comps, parts, comp.name
     if corr.action == "reclassify":
         if corr.cls not in allowed_classes(comp):
-            raise CorrectionError(f"{corr.cls} is not a class the ontology allows for {comp.name} "
+            raise CorrectionError(f"{cut(corr.cls or '', 100)} is not a class the ontology allows for {comp.name} "
                                   f"(allowed: {', '.join(allowed_classes(comp))})")
         new = replace(comp, cls=corr.cls, confidence=1.0, fingers=())  # the chains argued for the old class
     else:
         if corr.mount not in mount_options(tree, comp.links):
-            raise CorrectionError(f"{corr.mount} is not above every link of {comp.name}")
+            raise CorrectionError(f"{cut(corr.mount or '', 100)} is not above every link of {comp.name}")
         new = body.relocate(tree, replace(comp, root=corr.mount), parts)
     return comps[:i] + [new] + comps[i + 1:], parts, comp.name
 
@@ -275,7 +280,7 @@ def _apply_body(tree: KinematicTree, comps: list[Component], parts: list[BodyPar
     known = {e.joint for e in tree.edges}
     missing = [j for j in (*corr.joints, *corr.other_joints, *([corr.at] if corr.at else [])) if j not in known]
     if missing:
-        raise CorrectionError(f"joint {', '.join(missing)} is not in the URDF any more")
+        raise CorrectionError(f"joint {listed(missing)} {'is' if len(missing) == 1 else 'are'} not in the URDF any more")
     i = body.find(parts, corr.joints, corr.links)
     name = parts[i].name
     if corr.action == "reclassify":
@@ -298,13 +303,13 @@ def _add(tree: KinematicTree, comps: list[Component], parts: list[BodyPart], cor
     cls = corr.cls or ""
     kind = kind_of(cls)
     if kind is None:
-        raise CorrectionError(f"{corr.cls} is not a sensor or end-effector class of the ontology")
+        raise CorrectionError(f"{cut(cls, 100)} is not a sensor or end-effector class of the ontology")
     options = mount_options(tree, corr.links)
     if not options:
         raise CorrectionError("the links have no common link above them to mount on")
     mount = corr.mount or options[0]
     if mount not in options:
-        raise CorrectionError(f"{mount} is not above every selected link")
+        raise CorrectionError(f"{cut(mount, 100)} is not above every selected link")
     taken = set(corr.links)
     kept = []
     for c in comps:  # the reviewer's component takes its links from whatever the model put them in
@@ -325,8 +330,20 @@ def _new_parts(tree: KinematicTree, corr: Correction) -> tuple[SubComponent, ...
     camera's optical frame), as the pipeline types it; the other links, and all of a class requiring none, Subpart."""
     tax = vocabulary()
     required = tax.required_part(corr.cls or "")
-    ends = {link for link in corr.links if not any(o != link and link in tree.chain_to_root(o) for o in corr.links)}
+    above = _ancestors(tree, corr.links)
+    ends = {link for link in corr.links if link not in above}
     return tuple(SubComponent(link, required if required and link in ends else tax.subpart, 1.0) for link in corr.links)
+
+
+def _ancestors(tree: KinematicTree, links: tuple[str, ...]) -> set[str]:
+    """The links above any of `links` (each walked up only until a link already seen): linear in the tree."""
+    above: set[str] = set()
+    for link in links:
+        parent = tree.parent(link)
+        while parent is not None and parent not in above:
+            above.add(parent)
+            parent = tree.parent(parent)
+    return above
 
 
 # --- the named graph ---------------------------------------------------------------------------

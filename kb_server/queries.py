@@ -41,6 +41,9 @@ _PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(
 _SETTING = re.compile(r"^\{([A-Z][A-Z0-9_]*)\}$")
 _VAR = re.compile(r"\$(\w+)")
 TYPES = ("string", "decimal", "integer")
+MAX_STRING = 1000  # characters of a string parameter
+MAX_NUMBER = 100  # characters of a numeric parameter as written
+MAX_DIGITS = 40  # digits of a numeric parameter written out, either side of the decimal point
 
 
 class ParamError(UrdfkbError, ValueError):
@@ -63,18 +66,29 @@ class Param:
     doc: str
 
     def term(self, raw: str):
-        """The value as a typed RDF term; ParamError if it does not fit the type."""
+        """The value as a typed RDF term; ParamError if it does not fit the type or its bounds: a string of at
+        most MAX_STRING characters, a number of at most MAX_NUMBER characters whose plain decimal form has
+        at most MAX_DIGITS digits either side of the point (`1e999999999` would be a billion digits)."""
         if self.type == "string":
-            if len(raw) > 1000:
-                raise ParamError(f"parameter {self.name!r} is longer than 1000 characters")
+            if len(raw) > MAX_STRING:
+                raise ParamError(f"parameter {self.name!r} is longer than {MAX_STRING} characters")
             return Literal(raw)
+        kind = "a decimal" if self.type == "decimal" else "an integer"
+        if len(raw) > MAX_NUMBER:
+            raise ParamError(f"parameter {self.name!r} must be {kind} of at most {MAX_NUMBER} characters, "
+                             f"got {len(raw)} characters")
         try:
-            number = Decimal(raw) if self.type == "decimal" else int(raw)
+            number = Decimal(raw) if self.type == "decimal" else Decimal(int(raw))
         except (InvalidOperation, ValueError):
-            raise ParamError(f"parameter {self.name!r} must be {'a decimal' if self.type == 'decimal' else 'an integer'}, got {raw!r}") from None
-        if not Decimal(number).is_finite():
+            raise ParamError(f"parameter {self.name!r} must be {kind}, got {raw!r}") from None
+        if not number.is_finite():
             raise ParamError(f"parameter {self.name!r} must be finite, got {raw!r}")
-        return Literal(str(number), datatype=XSD.decimal if self.type == "decimal" else XSD.integer)
+        exponent = number.as_tuple().exponent
+        assert isinstance(exponent, int)  # finite
+        if not (-MAX_DIGITS <= exponent and number.adjusted() < MAX_DIGITS):
+            raise ParamError(f"parameter {self.name!r} must be written with at most {MAX_DIGITS} digits before "
+                             f"and {MAX_DIGITS} after the decimal point, got {raw!r}")
+        return Literal(format(number, "f"), datatype=XSD.decimal if self.type == "decimal" else XSD.integer)
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,10 @@ store opens. Every write names the graphs it touched; after its transaction (com
 back) `_sync_graphs` copies those graphs from the quadstore into the index, so the index always
 shows what is stored and SPARQL readers (who never take the lock) see the old graph or the new one.
 The robot list (`robots`, `robot`) is a snapshot of table kb_robots taken after each write, read
-without the lock too; exports, sources and corrections read the world under it. Which lock comes
-before which: docs/concurrency.md.
+without the lock too. What a robot's corrections make of it (`reviewed`) and its exports are computed
+outside the lock, from what a short hold of it reads, and kept until a write touches the robot's graphs,
+so a page, a GET of its corrections or an export never waits for a write's whole transaction and
+never computes again what no write changed. Which lock comes before which: docs/concurrency.md.
 """
 from __future__ import annotations
 
@@ -22,8 +24,9 @@ import json
 import re
 import threading
 import time
+from collections.abc import Iterable
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -38,9 +41,9 @@ from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
 from urdfkb.pipeline import rdf
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError, UrdfkbError
-from urdfkb.pipeline.export import export_robot, robot_graph, robot_graph_of
+from urdfkb.pipeline.export import export_graph, robot_graph, robot_graph_of
 from urdfkb.pipeline.formats import BY_EXTENSION
-from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI
+from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI, ROBOT_BASE
 from urdfkb.pipeline.ontology import load_core
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.shacl import violations
@@ -62,6 +65,10 @@ class ReadOnlyGraph(UrdfkbError, PermissionError):
 
 
 ROBOT_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")  # the whole name: `$` would also match before a final "\n"
+# A robot's graph or its corrections graph (namespaces.robot_iri, corrections_iri; a stored name needs no escape).
+_ROBOT_GRAPH = re.compile(re.escape(ROBOT_BASE) + r"([A-Za-z0-9_-]{1,64})(/corrections)?#")
+KEPT_REVIEWS = 16  # robots whose `reviewed` is kept (the most recently computed)
+KEPT_EXPORT_BYTES = 256 << 20  # bytes of exports kept (the most recently made): a 5,000-link robot's .owl is 9.6 MB
 
 
 class RobotNameError(UrdfkbError, ValueError):
@@ -105,6 +112,34 @@ class RobotEntry:
 
 
 @dataclass(frozen=True)
+class Reviewed:
+    """A robot's stored source (tree, the model's abstraction) and corrections, what laying the corrections
+    over the model makes of it (`corrected`, `report`), and the robot's write count it was read at."""
+
+    tree: KinematicTree
+    model: Abstraction
+    corrections: tuple[review.AnyCorrection, ...]
+    corrected: Abstraction
+    report: review.Report
+    version: int
+
+    @classmethod
+    def of(cls, tree: KinematicTree, model: Abstraction, corrections: Iterable[review.AnyCorrection],
+           version: int) -> "Reviewed":
+        items = tuple(corrections)
+        return cls(tree, model, items, *review.apply(tree, model, list(items)), version)
+
+    def graph(self, name: str) -> rdflib.Graph | None:
+        """The corrections as their named graph (review.to_graph), None without any."""
+        return review.to_graph(name, list(self.corrections)) if self.corrections else None
+
+
+def is_corrections_graph(graph: str) -> bool:
+    """True for the IRI of a robot's corrections graph, whether or not that robot is stored."""
+    return bool((m := _ROBOT_GRAPH.fullmatch(graph)) and m.group(2))
+
+
+@dataclass(frozen=True)
 class BuiltRobot(RobotEntry):
     """A robot as the write that built it returns it: its entry, and `corrections`, what laying the stored
     corrections over the model's answer did (review.Report, as a dict)."""
@@ -123,6 +158,12 @@ class Store:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
         self._writes = 0  # writes that touched a graph, counted once the index has their graphs
+        self._versions: dict[str, int] = {}  # robot name -> writes that touched its graphs (what a cache is of)
+        self._reviews: dict[str, Reviewed] = {}  # `reviewed` kept, oldest first
+        self._fresh: dict[str, Reviewed] = {}  # what the write under way made of a robot, kept once it commits
+        self._exports: dict[tuple[str, str], bytes] = {}  # (robot, extension) -> export, oldest first
+        self._exporting: dict[tuple[str, str], threading.Lock] = {}  # one export of each at a time
+        self._export_guard = threading.Lock()  # over _exporting
         self._open()
         self._refuse_robots_without_source()
         with self.lock:
@@ -130,9 +171,15 @@ class Store:
             graphs = {CORE_GRAPH: rdf.ntriples(self.core)}
             for e in self.robots():
                 graphs[e.ontology_iri] = rdf.ntriples(self._ontology(e.ontology_iri))
-                if (corrections := self._graph_data(review.corrections_iri(e.name))) is not None:
-                    graphs[review.corrections_iri(e.name)] = corrections
-            graphs.update(self.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall())
+            for iri, onto in list(self.world.ontologies.items()):  # a robot's, or left by an update that dropped it
+                if is_corrections_graph(iri):
+                    graphs[iri] = rdf.ntriples(onto)
+            for graph, data in self.db.execute("SELECT graph, ntriples FROM kb_graphs").fetchall():
+                if is_corrections_graph(graph):  # no longer written (`update` refuses them): the world holds them
+                    self.db.execute("DELETE FROM kb_graphs WHERE graph=?", (graph,))
+                else:
+                    graphs[graph] = data
+            self.world.save()
         self.index = Index(graphs, workers, limits)
 
     def _open(self) -> None:
@@ -167,9 +214,11 @@ class Store:
         """One write transaction; yields a set the writer adds every graph IRI it touches to."""
         touched: set[str] = set()
         with self.lock:
+            committed = False
             try:
                 yield touched
                 self.world.save()
+                committed = True
             except BaseException:
                 self._discard()
                 raise
@@ -177,6 +226,27 @@ class Store:
                 self._sync_graphs(touched)
                 self._entries = self._read_entries()
                 self._writes += bool(touched)
+                self._forget(touched, committed)
+
+    def _forget(self, graphs: set[str], committed: bool) -> None:
+        """(Under the lock, after a write) drop what is kept of the robots whose graphs the write touched, count
+        the write in their versions, and keep what a committed write made of them (`_fresh`)."""
+        for name in {m.group(1) for g in graphs if (m := _ROBOT_GRAPH.fullmatch(g))}:
+            self._versions[name] = self._versions.get(name, 0) + 1
+            self._reviews.pop(name, None)
+            for ext in BY_EXTENSION:
+                self._exports.pop((name, ext), None)
+        fresh, self._fresh = self._fresh, {}
+        for name, made in fresh.items() if committed else ():
+            self._keep(self._reviews, name, replace(made, version=self._versions.get(name, 0)), KEPT_REVIEWS)
+
+    @staticmethod
+    def _keep(kept: dict, key, value, most: int, size=lambda v: 1) -> None:
+        """(Under the lock) put `value` in `kept` as its newest, dropping the oldest past `most` (in `size`)."""
+        kept.pop(key, None)
+        kept[key] = value
+        while sum(map(size, kept.values())) > most and len(kept) > 1:
+            kept.pop(next(iter(kept)))
 
     def _sync_graphs(self, graphs: set[str]) -> None:
         """Copy `graphs` from the quadstore (as committed) into the SPARQL index."""
@@ -189,8 +259,9 @@ class Store:
         row = self.db.execute("SELECT name FROM kb_robots WHERE ontology_iri=?", (graph,)).fetchone()
         if row:
             return rdf.ntriples(self._ontology(graph))
-        if (onto := self.world.ontologies.get(graph)) is not None:  # a robot's corrections
-            return rdf.ntriples(onto)
+        if is_corrections_graph(graph):  # a robot's corrections, kept in the world only
+            onto = self.world.ontologies.get(graph)
+            return rdf.ntriples(onto) if onto is not None else None
         row = self.db.execute("SELECT ntriples FROM kb_graphs WHERE graph=?", (graph,)).fetchone()
         return row[0] if row else None
 
@@ -229,29 +300,34 @@ class Store:
         check_robot_name(name)
         abstraction = abstraction or Abstraction()
         model = abstraction.with_provenance(provenance or {})
+        source = (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict()))
+        with self.lock:
+            version, items = self._versions.get(name, 0), self._corrections(name)
+        made = Reviewed.of(tree, model, items, version)  # outside the lock
         with self._writing() as touched:
-            self.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)",
-                            (name, json.dumps(tree.to_dict()), json.dumps(model.to_dict())))
-            return self._build(name, tree, model, touched)
+            if self._versions.get(name, 0) != version:  # the corrections changed meanwhile
+                made = Reviewed.of(tree, model, self._corrections(name), version)
+            self.db.execute("INSERT OR REPLACE INTO kb_sources VALUES (?,?,?)", source)
+            return self._build(name, made, touched)
 
-    def _build(self, name: str, tree, model: Abstraction, touched: set[str]) -> BuiltRobot:
-        """(Inside _writing) the robot graph from the model's answer and the stored corrections, checked
-        against the SHACL shapes as the command line checks what it writes: ShapeError (the transaction
-        rolls back) if it breaks them."""
-        corrected, report = review.apply(tree, model, self._corrections(name))
-        onto = build_robot(self.world, tree, name, corrected)
+    def _build(self, name: str, made: Reviewed, touched: set[str]) -> BuiltRobot:
+        """(Inside _writing) the robot graph of `made` (the model's answer with the corrections laid over it),
+        checked against the SHACL shapes as the command line checks what it writes: ShapeError (the
+        transaction rolls back) if it breaks them."""
+        onto = build_robot(self.world, made.tree, name, made.corrected)
         touched.add(onto.base_iri)
         self.db.execute("DELETE FROM kb_graphs WHERE graph=?", (onto.base_iri,))
-        rdf.add_object_triples(onto, str(PROV.wasInfluencedBy), review.influences(onto.base_iri, name, report))
-        broken = violations(robot_graph(onto, self._corrections_graph(name)))
+        rdf.add_object_triples(onto, str(PROV.wasInfluencedBy), review.influences(onto.base_iri, name, made.report))
+        broken = violations(robot_graph(onto, made.graph(name)))
         if broken:
             raise ShapeError(f"robot {name!r} breaks the SHACL shapes, so it was not stored: {'; '.join(broken)}", broken)
         robot_cls = self.world[CORE_IRI + "Robot"]
         (robot,) = [i for i in onto.individuals() if robot_cls in i.is_a]
         entry = BuiltRobot(name, onto.base_iri, robot.iri, datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                           report.to_dict())
+                           made.report.to_dict())
         self.db.execute("INSERT OR REPLACE INTO kb_robots VALUES (?,?,?,?)",
                         (entry.name, entry.ontology_iri, entry.robot_iri, entry.updated))
+        self._fresh[name] = made
         return entry
 
     # --- reviewers' corrections (graph review.corrections_iri(name)) ----------------------------
@@ -260,15 +336,32 @@ class Store:
         """The tree and the model's own abstraction robot `name` was last populated from (kept while an update
         that emptied its graph has it out of robots()); UnknownRobot for a robot never stored, or deleted."""
         with self.lock:
-            row = self.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
+            row = self._source_row(name)
+        return _decoded(row)
+
+    def _source_row(self, name: str) -> tuple[str, str]:
+        row = self.db.execute("SELECT tree, abstraction FROM kb_sources WHERE name=?", (name,)).fetchone()
         if row is None:
             raise UnknownRobot(name)
-        return KinematicTree.from_dict(json.loads(row[0])), Abstraction.from_dict(json.loads(row[1]))
+        return row
 
     def corrections(self, name: str) -> list[review.AnyCorrection]:
         """Robot `name`'s stored corrections, oldest first."""
         with self.lock:
             return self._corrections(name)
+
+    def reviewed(self, name: str) -> Reviewed:
+        """Robot `name` as `source` gives it, its corrections and what they make of it: computed once per write
+        of the robot (the lock held only to read the source and the corrections), then kept."""
+        if (kept := self._reviews.get(name)) is not None:
+            return kept
+        with self.lock:
+            version, row, items = self._versions.get(name, 0), self._source_row(name), self._corrections(name)
+        made = Reviewed.of(*_decoded(row), items, version)
+        with self.lock:
+            if self._versions.get(name, 0) == version:
+                self._keep(self._reviews, name, made, KEPT_REVIEWS)
+        return made
 
     def _corrections(self, name: str) -> list[review.AnyCorrection]:
         onto = self.world.ontologies.get(review.corrections_iri(name))
@@ -288,17 +381,17 @@ class Store:
         CorrectionError if it does not fit the robot as it is now or the robot it would make breaks the SHACL
         shapes, UnknownRobot if the robot is unknown; and rebuild the robot graph with it, in one transaction.
         Writes the robot's graph and its corrections graph."""
+        self.require(name)
+        current = self.reviewed(name)
+        made = _with(current, correction)  # checked and laid over the robot outside the lock
         with self._writing() as touched:
-            touched.add(review.corrections_iri(name))
             self.require(name)
-            tree, model = self.source(name)
-            existing = self._corrections(name)
-            current, _ = review.apply(tree, model, existing)
-            correction = review.resolve(current, correction)
-            review.check(tree, current, correction)
-            self._write_corrections(name, existing + [correction])
+            if self._versions.get(name, 0) != current.version:  # a write of this robot landed meanwhile
+                made = _with(self.reviewed(name), correction)
+            touched.add(review.corrections_iri(name))
+            self._write_corrections(name, list(made.corrections))
             try:
-                return self._build(name, tree, model, touched)
+                return self._build(name, made, touched)
             except ShapeError as e:  # the transaction rolls back: nothing stored changes
                 raise review.CorrectionError("the robot this correction makes breaks the SHACL shapes, so it was not "
                                              f"stored: {'; '.join(e.violations)}") from None
@@ -326,22 +419,42 @@ class Store:
         items = self._corrections(name)
         return review.to_graph(name, items) if items else None
 
+    def _snapshot(self, name: str) -> tuple[int, rdflib.Graph] | None:
+        """Robot `name`'s version and its `robot_graph`, built outside the lock from its N-Triples and
+        corrections read under it; None if there is no such robot."""
+        with self.lock:
+            if (entry := self.robot(name)) is None:
+                return None
+            version, data, extra = self._versions.get(name, 0), rdf.ntriples(self._ontology(entry.ontology_iri)), \
+                self._corrections_graph(name)
+        return version, robot_graph_of(data, entry.ontology_iri, extra)
+
     def graph(self, name: str) -> rdflib.Graph | None:
         """The robot, its corrections and the core as one self-contained in-memory graph (for mirrors)."""
-        with self.lock:
-            entry = self.robot(name)
-            return robot_graph(self._ontology(entry.ontology_iri), self._corrections_graph(name)) if entry else None
+        snapshot = self._snapshot(name)
+        return snapshot[1] if snapshot else None
 
     def export(self, name: str, ext: str) -> bytes | None:
-        """The robot as a file (`ext` a key of formats.BY_EXTENSION) that opens in Protégé offline."""
-        fmt = BY_EXTENSION[ext].name
-        buf = io.BytesIO()
-        with self.lock:
-            entry = self.robot(name)
-            if entry is None:
+        """The robot as a file (`ext` a key of formats.BY_EXTENSION) that opens in Protégé offline: made
+        outside the store lock from a snapshot, once per write of the robot (clients asking meanwhile wait
+        for it), and kept until a write touches the robot."""
+        key = (name, ext)
+        if self.robot(name) is None:  # before a lock is made for the name
+            return None
+        with self._export_guard:
+            making = self._exporting.setdefault(key, threading.Lock())
+        with making:
+            if (kept := self._exports.get(key)) is not None:
+                return kept
+            if (snapshot := self._snapshot(name)) is None:
                 return None
-            export_robot(self._ontology(entry.ontology_iri), buf, fmt, self._corrections_graph(name))
-        return buf.getvalue()
+            buf = io.BytesIO()
+            export_graph(snapshot[1], buf, BY_EXTENSION[ext].name)
+            data = buf.getvalue()
+            with self.lock:
+                if self._versions.get(name, 0) == snapshot[0]:
+                    self._keep(self._exports, key, data, KEPT_EXPORT_BYTES, len)
+        return data
 
     # --- SPARQL -------------------------------------------------------------------------------
 
@@ -354,9 +467,10 @@ class Store:
         """Apply a SPARQL update atomically: Oxigraph evaluates it on one replica, the graphs it changed
         are written to the quadstore in one transaction, and the index then takes them from there.
 
-        The core and the corrections graphs are read-only: an update that would change one raises
-        ReadOnlyGraph, except CLEAR/DROP ALL and NAMED, which mean "every writable graph" and leave them.
-        A robot graph an update empties is no longer a robot (it leaves /robots).
+        The core and the corrections graphs (every robot's, stored or dropped) are read-only: an update that
+        would change one raises ReadOnlyGraph, except CLEAR/DROP ALL and NAMED, which mean "every writable
+        graph" and leave them. A robot graph an update empties is no longer a robot (it leaves /robots); its
+        source and corrections stay, read-only, and apply again when it is populated again.
 
         The evaluation, and the wait for a free worker before it, hold no lock; the transaction then
         checks that no write landed in between, and evaluates again if one did, so the update applies
@@ -371,7 +485,7 @@ class Store:
                         raise QueryTimeout(f"the store kept changing under this update for its {timeout:g} s timeout")
                     continue
                 accepted = set(changes)
-                protected = {CORE_GRAPH, *(review.corrections_iri(e.name) for e in self.robots())} & accepted
+                protected = {g for g in accepted if g == CORE_GRAPH or is_corrections_graph(g)}
                 if protected:
                     found = scan(text, update=True).keywords
                     if not (found & {"CLEAR", "DROP"} and found & {"ALL", "NAMED"}):
@@ -413,3 +527,15 @@ class Store:
                 db.execute("INSERT OR REPLACE INTO kb_graphs VALUES (?, ?)", (graph, b""))
             return
         rdf.load_ntriples(self.world, graph, data)
+
+
+def _decoded(row: tuple[str, str]) -> tuple[KinematicTree, Abstraction]:
+    """A kb_sources row's tree and model abstraction."""
+    return KinematicTree.from_dict(json.loads(row[0])), Abstraction.from_dict(json.loads(row[1]))
+
+
+def _with(current: Reviewed, correction: review.AnyCorrection) -> Reviewed:
+    """`current` with one more correction (resolved: review.resolve); CorrectionError unless it applies."""
+    correction = review.resolve(current.corrected, correction)
+    review.check(current.tree, current.corrected, correction)
+    return Reviewed.of(current.tree, current.model, (*current.corrections, correction), current.version)

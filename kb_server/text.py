@@ -34,3 +34,11 @@ def cut(text: str, limit: int = MAX_ERROR) -> str:
     if len(text) <= limit:
         return text
     return f"{text[:limit]}... [cut: {len(text):,} characters in all]"
+
+
+def listed(names, limit: int = 5) -> str:
+    """The first `limit` of `names` joined by commas, with how many more there are: an error naming what a
+    request got wrong stays short however much it got wrong."""
+    names = list(names)
+    shown = ", ".join(cut(str(n), 100) for n in names[:limit])
+    return shown + (f" and {len(names) - limit:,} more" if len(names) > limit else "")

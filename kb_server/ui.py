@@ -35,9 +35,9 @@ def robot_page(store: Store, name: str) -> str:
     """The robot's page: SVG tree, components least confident first, review controls, what the shapes held
     back (pipeline.screen) (UnknownRobot if there is no such robot: kb_server.replies answers it as a page)."""
     entry = store.require(name)
-    tree, model = store.source(name)
+    reviewed = store.reviewed(name)  # kept between writes of the robot: never computed again for a page
+    tree, model, corrected, report = reviewed.tree, reviewed.model, reviewed.corrected, reviewed.report
     comps = queries.components(store, name)
-    corrected, report = review.apply(tree, model, store.corrections(name))
     body = body_view.rows(tree, corrected, report)
     corrected_comps = {component_iri(entry.ontology_iri, c.name): c for c in corrected.components}
     influenced: dict[str, list[dict]] = {}

@@ -104,12 +104,19 @@ def nothing_moves(tree: KinematicTree, structure: ToolStructure, mount: str) -> 
 
 
 def fork_of(tree: KinematicTree, leaves: list[str]) -> str:
-    """The lowest common ancestor of `leaves` (a lone leaf is its own fork)."""
-    common = list(tree.chain_to_root(leaves[0]))
+    """The lowest common ancestor of `leaves` (a lone leaf is its own fork), each link walked once: linear in
+    the tree, however many leaves."""
+    chain = tree.chain_to_root(leaves[0])
+    joins = {link: i for i, link in enumerate(chain)}  # link -> where on `chain` its own chain meets it
+    lowest = 0
     for leaf in leaves[1:]:
-        above = set(tree.chain_to_root(leaf))
-        common = [link for link in common if link in above]
-    return common[0]
+        walked, link = [], leaf
+        while link not in joins:
+            walked.append(link)
+            link = tree.edge_to(link).parent
+        joins.update(dict.fromkeys(walked, joins[link]))
+        lowest = max(lowest, joins[link])
+    return chain[lowest]
 
 
 def mount_of(tree: KinematicTree, fork: str) -> str:

@@ -118,6 +118,24 @@ def test_parameters_are_typed_and_checked(store):
     assert '"x\\" } UNION' in text
 
 
+def test_numeric_parameters_are_bounded_in_digits_and_exponent(store):
+    """`threshold=1e999999999` would be written into the query as a billion digits: refused, as is any number
+    whose plain decimal form needs more than 40 digits either side of the point, or written in over 100 characters."""
+    for raw in ("1e999999999", "0e-999999999", "1e-41", "1e40", "-1" + "0" * 40):
+        with pytest.raises(ParamError, match="at most 40 digits before and 40 after"):
+            rows(store, "low_confidence", threshold=raw)
+    with pytest.raises(ParamError, match="at most 100 characters"):
+        rows(store, "low_confidence", threshold="0." + "1" * 99)
+    (threshold,) = load_queries()["low_confidence"].params
+    assert threshold.term("1E+2").n3() == '"100"^^<http://www.w3.org/2001/XMLSchema#decimal>'  # plain xsd:decimal
+    assert threshold.term("1e-40").n3().startswith('"0.' + "0" * 39 + '1"')
+    assert len(rows(store, "low_confidence", threshold="31e-2")) == 2
+    app, jobs = make_app(store)
+    status, _, out = client(app)("GET", "/queries/low_confidence?robot=pr2&threshold=1e999999999")
+    assert status == 400 and "at most 40 digits" in json.loads(out)["error"]
+    jobs.shutdown()
+
+
 def test_a_hostile_parameter_value_is_one_literal_that_round_trips(tmp_path):
     """A link name full of SPARQL syntax is matched exactly, as a value: it neither breaks nor widens the query."""
     from urdfkb.pipeline.components import Abstraction, Component, SubComponent

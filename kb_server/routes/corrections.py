@@ -16,9 +16,7 @@ USAGE = ("send the correction as a JSON object: {action, links, class?, mount?, 
 
 @bp.get("/robots/<name>/corrections")
 def list_corrections(name: str):
-    store = services().store
-    _, report = review.apply(*store.source(name), store.corrections(name))
-    return jsonify(report.to_dict())
+    return jsonify(services().store.reviewed(name).report.to_dict())
 
 
 @bp.post("/robots/<name>/corrections")
