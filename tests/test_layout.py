@@ -122,3 +122,13 @@ def test_no_class_outside_the_seam_derives_from_its_types():
                             or isinstance(base, ast.Attribute) and isinstance(base.value, ast.Name) and base.value.id == "rdf"):
                         derived.append(f"{path.relative_to(REPO)}:{node.lineno}")
     assert derived == []
+
+
+def test_the_layout_page_lists_every_module_and_no_other():
+    """docs/layout.md's module table names each .py file of urdfkb/ (its own), pipeline/ and kb_server/ once."""
+    import re
+    listed = re.findall(r"^\| `((?:urdfkb|pipeline|kb_server)/[\w/]+\.py)` \|", (REPO / "docs" / "layout.md").read_text(),
+                        re.MULTILINE)
+    files = sorted(str(p.relative_to(REPO)) for folder in ("pipeline", "kb_server") for p in (REPO / folder).rglob("*.py"))
+    files += sorted(f"urdfkb/{p.name}" for p in (REPO / "urdfkb").glob("*.py"))
+    assert sorted(listed) == sorted(files) and len(listed) == len(set(listed))
