@@ -268,7 +268,7 @@ def _read(graph: rdflib.Graph, tax: _Taxonomy, urdf_leaves: set[str]) -> list[Pr
             root=mounts.pop() if len(mounts) == 1 else None,
             leaves=frozenset(leaves),
             subparts={leaf: tax.most_specific(ts) for leaf, ts in sub_types.items() if leaf in leaves},
-            confidence=float(confidence) if confidence is not None else None,
+            confidence=float(str(confidence)) if confidence is not None else None,
         ))
     return out
 

@@ -145,9 +145,9 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
     for a in [a for a in chains if not opposes[a]]:  # a hand written open: its thumb closes on fingers that
         if (thumb := _thumb_closing(a, motions[a], closing)) is not None:  # curl side by side into the palm
-            closing[a], fingers = thumb
-            opposes[a] = tuple(dict.fromkeys([*opposes[a], *fingers]))
-            for b in fingers:
+            closing[a], closed_on = thumb
+            opposes[a] = tuple(dict.fromkeys([*opposes[a], *closed_on]))
+            for b in closed_on:
                 opposes[b] = tuple(dict.fromkeys([*opposes[b], a]))
     finger_names = [a for a in chains if opposes[a]]
     alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
