@@ -43,3 +43,17 @@ class TooManyRequests(UrdfkbError):
     @property
     def headers(self) -> dict[str, str]:
         return {"Retry-After": str(self.retry_after)}
+
+
+class StorageFault(UrdfkbError):
+    """The store's disk refused a write (a read-only file or disk, an I/O error), so nothing was written; the
+    message names the disk (the store file's directory). An operational fault for whoever runs the server, not
+    a bug: logged without a traceback."""
+
+    status = 503
+
+
+class DiskFull(StorageFault):
+    """The disk holding the store is full, so nothing was written."""
+
+    status = 507
