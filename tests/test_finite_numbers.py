@@ -18,11 +18,12 @@ from tests.test_capabilities import planar_arm
 from urdfkb.kb_server.queries import run_named
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline import capabilities, rdf
-from urdfkb.pipeline.errors import ShapeError
+from urdfkb.pipeline.errors import ShapeError, URDFError
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.namespaces import CORE, robot_iri
 from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.screen import screen
 from urdfkb.pipeline.shacl import violations
 from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
 
@@ -52,7 +53,20 @@ def test_a_revolute_joint_turning_more_than_a_turn_reaches_as_a_continuous_one()
     assert not math.isfinite(capabilities.reach(slide, "rail", "carriage"))  # population's to leave out
 
 
-@pytest.mark.parametrize("limits, origins", [(True, False), (False, True), (True, True)])
+def test_a_number_that_is_not_finite_in_the_urdf_is_refused_naming_the_joint_and_attribute(shared):
+    urdf = extreme_pr2(shared).replace(b'upper="1e308"', b'upper="1e400"', 1)
+    with pytest.raises(URDFError, match=r"<limit> attribute upper='1e400' is not a number \(at joint '"):
+        load_urdf(urdf)
+
+
+def test_the_screen_gives_the_trace_a_record_of_each_number_left_out(shared):
+    records: list[dict] = []
+    screen(load_urdf(extreme_pr2(shared)), PR2_WHOLE, records.append)
+    assert {"key": "left_out", "robot": "pr2", "subject": "body_head", "property": "panRangeRadians", "value": "inf",
+            "why": "not a finite number"} in records
+
+
+@pytest.mark.parametrize("limits, origins", [(True, False), (True, True)])
 def test_population_leaves_out_each_number_without_a_plain_decimal_form_and_records_it(shared, limits, origins):
     tree = load_urdf(extreme_pr2(shared, limits, origins))
     records: list[dict] = []
