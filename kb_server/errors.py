@@ -49,3 +49,17 @@ class ServiceUnavailable(UrdfkbError):
     """Something this request needs that the server does not run (the embedded model, for a question in words)."""
 
     status = 503
+
+
+class StorageFault(UrdfkbError):
+    """The store's disk refused a write (a read-only file or disk, an I/O error), so nothing was written; the
+    message names the disk (the store file's directory). An operational fault for whoever runs the server, not
+    a bug: logged without a traceback."""
+
+    status = 503
+
+
+class DiskFull(StorageFault):
+    """The disk holding the store is full, so nothing was written."""
+
+    status = 507

@@ -5,7 +5,8 @@ The quadstore holds the core ontology, one ontology per robot (its named graph: 
 ontology IRI), and, in table kb_graphs, the exact N-Triples of every other graph SPARQL Update
 wrote (the default graph under ""). owlready2 is not thread-safe, so every access to the world
 goes through `Store.lock`. Writes happen inside that lock in one SQLite transaction committed by
-`world.save()`; a failure rolls back and reopens the world, and a crash leaves the last commit.
+`world.save()`; a failure rolls back and reopens the world, and a crash leaves the last commit. A write
+the disk refuses (full: DiskFull, 507; read-only or failing: StorageFault, 503) names the disk.
 
 SPARQL is answered by the Oxigraph index (kb_server/index.py), rebuilt from the quadstore when the
 store opens. Every write names the graphs it touched; after its transaction (committed or rolled
@@ -21,7 +22,9 @@ from __future__ import annotations
 
 import io
 import json
+import logging
 import re
+import sqlite3
 import threading
 import time
 from collections.abc import Iterable
@@ -35,6 +38,7 @@ from platformdirs import user_data_dir
 from rdflib.namespace import PROV
 
 from urdfkb.kb_server import corrections as review
+from urdfkb.kb_server.errors import DiskFull, StorageFault
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
@@ -49,6 +53,8 @@ from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.shacl import violations
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.settings import QUERY_TIMEOUT, QUERY_WORKERS
+
+log = logging.getLogger(__name__)
 
 # kb_sources: the model's own answer per robot (tree and abstraction as JSON), so reviewers'
 # corrections can be laid over it again whenever they change; the robot graph is model + corrections.
@@ -91,6 +97,20 @@ def check_robot_name(name: str) -> str:
     if not ROBOT_NAME.fullmatch(name or ""):
         raise RobotNameError(f"robot name {name!r} must be 1-64 of A-Z a-z 0-9 _ - (give another name)")
     return name
+
+
+def storage_fault(err: sqlite3.OperationalError, path: Path) -> StorageFault | None:
+    """The named fault for SQLite's refusal `err` to write the store at `path` (disk full, read-only, I/O
+    error), naming the disk as the store file's directory; None for any other error."""
+    code, where = (err.sqlite_errorcode or 0) & 0xFF, path.resolve().parent
+    if code == sqlite3.SQLITE_FULL:
+        return DiskFull(f"the disk holding the store ({where}) is full, so nothing was written: free space there and retry")
+    if code == sqlite3.SQLITE_READONLY:
+        return StorageFault(f"the store {path.name} in {where} is read-only (a read-only disk or file: {err}), "
+                            "so nothing was written")
+    if code == sqlite3.SQLITE_IOERR:
+        return StorageFault(f"the disk holding the store ({where}) failed a write ({err}), so nothing was written")
+    return None
 
 
 def default_store_path() -> Path:
@@ -211,9 +231,10 @@ class Store:
 
     @contextmanager
     def _writing(self):
-        """One write transaction; yields a set the writer adds every graph IRI it touches to."""
+        """One write transaction; yields a set the writer adds every graph IRI it touches to. A write the disk
+        refuses raises its storage_fault."""
         touched: set[str] = set()
-        with self.lock:
+        with self.lock, self._faults_named():
             committed = False
             try:
                 yield touched
@@ -247,6 +268,17 @@ class Store:
         kept[key] = value
         while sum(map(size, kept.values())) > most and len(kept) > 1:
             kept.pop(next(iter(kept)))
+
+    @contextmanager
+    def _faults_named(self):
+        """SQLite's refusal of a write as its storage_fault, logged as the operator's to fix (no traceback)."""
+        try:
+            yield
+        except sqlite3.OperationalError as e:
+            if (fault := storage_fault(e, self.path)) is None:
+                raise
+            log.error("store write refused: %s", fault)
+            raise fault from e
 
     def _sync_graphs(self, graphs: set[str]) -> None:
         """Copy `graphs` from the quadstore (as committed) into the SPARQL index."""

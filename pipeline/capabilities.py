@@ -12,12 +12,14 @@
 - An arm's *reach*: the largest distance from where its first joint sits on its mount (that joint's
   origin) to its tool point (the tool centre point of the end-effector located on it, else the link its
   last joint moves) over its joint space within the URDF's limits (a continuous joint, or a revolute one
-  without limits, over a full turn; a prismatic one without limits stays at 0; a joint with <mimic>
-  follows its joint). The joint space is sampled: SAMPLES configurations drawn uniformly with a fixed
+  without limits or with limits a full turn or more apart, over a full turn; a prismatic one without
+  limits stays at 0; a joint with <mimic> follows its joint). The joint space is sampled: SAMPLES configurations drawn uniformly with a fixed
   seed, every corner of the limits (up to 2^MAX_CORNER_JOINTS of them) and the zero pose clamped into the
   limits; then a coordinate search from the best of them moves one joint at a time by a step starting
   at a quarter of its range, halved whenever no move improves, REFINEMENTS times (_JointSpace.largest).
-  A sample can only fall short of the true largest distance, never exceed it.
+  A sample can only fall short of the true largest distance, never exceed it. Limits so far apart that
+  the arithmetic overflows (a prismatic joint within ±1e308) give a reach or opening that is not finite,
+  which population leaves out.
 - A gripper's *maximum opening*: how far two opposing fingertips (the deepest link of each finger chain,
   pipeline.structure, that is a body rather than a frame) move apart between their closest and widest,
   over the same kind of sample of its finger joints; the widest pair where it has several.
@@ -229,6 +231,13 @@ def _bounds(edge: Edge) -> tuple[float, float]:
     return (min(edge.limits), max(edge.limits))
 
 
+def _sampled(edge: Edge) -> tuple[float, float]:
+    """Where the joint space samples a joint: its bounds, a full turn for a revolute joint whose limits are a full
+    turn or more apart (the same poses, at angles that stay exact where the limits are ±1e308)."""
+    low, high = _bounds(edge)
+    return (-math.pi, math.pi) if edge.joint_type == "revolute" and high - low >= 2 * math.pi else (low, high)
+
+
 class _JointSpace:
     """The joints that move on their own among (or behind the <mimic> of) a path's joints, with their bounds:
     configurations are arrays (N, joints)."""
@@ -242,7 +251,7 @@ class _JointSpace:
             if source is not None:
                 free.setdefault(source.joint)
         self.free = list(free)
-        bounds = np.array([_bounds(self.edges[j]) for j in self.free]).reshape(-1, 2)
+        bounds = np.array([_sampled(self.edges[j]) for j in self.free]).reshape(-1, 2)
         self.low, self.high = bounds[:, 0], bounds[:, 1]
 
     def _source(self, edge: Edge) -> Edge | None:
@@ -283,6 +292,10 @@ class _JointSpace:
         """The largest value of `f` (configurations → values) over the sample, refined by a coordinate search:
         each round moves the best configuration by ± the step along each joint (clipped into its limits) and
         keeps the best move if it is better, else halves the step; REFINEMENTS halvings end it."""
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow's inf or NaN is the caller's to refuse
+            return self._largest(f)
+
+    def _largest(self, f) -> float:
         if not self.free:
             return float(np.max(f(np.zeros((1, 0)))))
         q = self.sample()

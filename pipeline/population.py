@@ -2,11 +2,15 @@
 what each part can do from the URDF (pipeline.capabilities: reference frames, declared specifications, reach...).
 
 The ontology and its individuals are named by pipeline.namespaces (`robot_iri(name)`, `link_<l>`, `comp_<c>`...).
+Every number read or computed is written only where it is storable (_Numbers): one that is not finite or has
+no plain decimal form (joint limits of ±1e308 overflow a reach, an opening or a range) is left out, with a record.
 """
 from __future__ import annotations
 
+import logging
 import math
 from datetime import datetime, timezone
+from typing import Callable
 
 from urdfkb import __version__
 from urdfkb.pipeline import capabilities, rdf
@@ -17,6 +21,11 @@ from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, SCHEMA, SSN_SYSTEM, bod
                                         subcomponent_local)
 from urdfkb.pipeline.ontology import Vocabulary, load_core, vocabulary
 from urdfkb.pipeline.structure import viewpoints
+
+log = logging.getLogger(__name__)
+Record = Callable[[dict], None]
+MAX_DECIMAL = 1e16    # from here Python, so owlready2, writes a float with an exponent, which xsd:decimal has not
+MAX_INTEGER = 2 ** 63  # SQLite's integers are 64-bit
 
 # Provenance keys the pipeline writes (oracle, runner) -> core annotation properties.
 PROVENANCE_ALIASES = {
@@ -42,7 +51,8 @@ def stamp(tree) -> dict[str, str]:
 
 
 def build_robot(world: rdf.World, tree, robot_name: str, abstraction: Abstraction | None = None,
-                provenance: dict[str, str] | None = None, vocab: Vocabulary | None = None) -> rdf.Ontology:
+                provenance: dict[str, str] | None = None, vocab: Vocabulary | None = None,
+                record: Record | None = None) -> rdf.Ontology:
     """Write the robot as ontology `robot_iri(robot_name)` in `world`, replacing any earlier version.
 
     The abstraction is checked first (classes, links, confidences, names), so a bad one raises
@@ -52,6 +62,7 @@ def build_robot(world: rdf.World, tree, robot_name: str, abstraction: Abstractio
     version and generatedAt, softwareVersion and urdfSha256 to `stamp(tree)` (the runner stamps its
     abstractions, so a rebuild for a correction keeps the time of the populate).
     Classes come from `vocab` (the packaged vocabulary by default), which is loaded into `world`.
+    A number left out (_Numbers) gives `record` one {"key": "left_out", ...} record (default: a logged warning).
     """
     vocab = vocab or vocabulary()
     components = abstraction.components if abstraction else ()
@@ -62,20 +73,20 @@ def build_robot(world: rdf.World, tree, robot_name: str, abstraction: Abstractio
              **(provenance or {})}
     load_core(world, vocab)
     onto = _fresh_ontology(world, robot_iri(robot_name))
+    numbers = _Numbers(world, robot_name, record or _warn)
     with onto:
         robot = _new(world, onto, "Robot", ROBOT, robot_name)
         _set(world, "urdfName", robot, tree.robot_name)
-        links, joints = _add_structure(world, onto, robot, tree, vocab)
+        links, joints = _add_structure(world, onto, robot, tree, vocab, numbers)
         parts = _add_body(world, onto, robot, body, links, joints)
         for comp in components:
             individual, subs = _add_component(world, onto, robot, comp, links, joints, parts)
             _add_fingers(world, onto, individual, comp, joints)
             if comp.kind == SENSOR:
-                _add_sensor_facts(world, onto, individual, subs, comp, tree, vocab, links)
+                _add_sensor_facts(world, onto, individual, subs, comp, tree, vocab, links, numbers)
             elif vocab.is_a(comp.cls, vocab.domain("maxOpeningMetres")):
-                if (gap := capabilities.opening(tree, comp.links)) is not None:
-                    _set(world, "maxOpeningMetres", individual, _decimal(gap))
-        _add_body_facts(world, tree, vocab, body, components, parts)
+                numbers.decimal(CORE_IRI + "maxOpeningMetres", individual, capabilities.opening(tree, comp.links))
+        _add_body_facts(world, tree, vocab, body, components, parts, numbers)
         _annotate(world, robot, notes)
     return onto
 
@@ -180,7 +191,7 @@ def _set(world, prop: str, subject, value) -> None:
     world[CORE_IRI + prop][subject].append(value)
 
 
-def _add_structure(world, onto, robot, tree, vocab: Vocabulary) -> tuple[dict, dict]:
+def _add_structure(world, onto, robot, tree, vocab: Vocabulary, numbers: _Numbers) -> tuple[dict, dict]:
     links = {}
     for name in tree.links:
         link = links[name] = _new(world, onto, "Link", link_local(name), name)
@@ -194,14 +205,14 @@ def _add_structure(world, onto, robot, tree, vocab: Vocabulary) -> tuple[dict, d
         _set(world, "hasParentLink", joint, links[edge.parent])
         _set(world, "hasChildLink", joint, links[edge.child])
         _set(world, "hasJoint", robot, joint)
-        _add_joint_facts(world, joint, edge)
+        _add_joint_facts(numbers, joint, edge)
     for edge in tree.edges:
         if edge.mimic is not None and edge.mimic in joints:
             _set(world, "isMimicOf", joints[edge.joint], joints[edge.mimic])
     return links, joints
 
 
-def _add_joint_facts(world, joint, edge) -> None:
+def _add_joint_facts(numbers: _Numbers, joint, edge) -> None:
     """Limits, axis and mimic coefficients: "how far can you turn your head" is one query."""
     facts = {"axisX": edge.axis[0], "axisY": edge.axis[1], "axisZ": edge.axis[2],
              "velocityLimit": edge.velocity, "effortLimit": edge.effort}
@@ -210,8 +221,7 @@ def _add_joint_facts(world, joint, edge) -> None:
     if edge.mimic is not None:
         facts |= {"mimicMultiplier": edge.mimic_multiplier, "mimicOffset": edge.mimic_offset}
     for prop, value in facts.items():
-        if value is not None and math.isfinite(value):
-            _set(world, prop, joint, _decimal(value))
+        numbers.decimal(CORE_IRI + prop, joint, value)
 
 
 def _add_body(world, onto, robot, body: tuple[BodyPart, ...], links: dict, joints: dict) -> dict:
@@ -253,14 +263,14 @@ def _add_component(world, onto, robot, comp: Component, links: dict, joints: dic
     return ind, subs
 
 
-# SensorSpec fields → the core data property each is written as, and the SSN system properties (the field(s)
-# holding its value, or its minimum and maximum; its UN/CEFACT unit code)
-_SPEC_PROPERTIES = {"fov": "horizontalFieldOfViewRadians", "samples": "raySamples"}
+# The SSN system properties of a SensorSpec (the field(s) holding its value, or its minimum and maximum; its
+# UN/CEFACT unit code)
 _SYSTEM_PROPERTIES = (("Frequency", "frequency", ("rate",), "HTZ"), ("MeasurementRange", "range", ("min_range", "max_range"), "MTR"),
                       ("Resolution", "resolution", ("resolution",), "MTR"))
 
 
-def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict) -> None:
+def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict,
+                      numbers: _Numbers) -> None:
     """A camera's viewpoint count (structure.viewpoints over its leaf links, so that a reasoner can check its class
     against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
     specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
@@ -275,12 +285,11 @@ def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab
     spec = capabilities.sensor_spec(tree, vocab, comp)
     for link in spec.reference_frames:
         _set(world, "hasReferenceFrame", ind, links[link])
-    for name, prop in _SPEC_PROPERTIES.items():
-        if (value := getattr(spec, name)) is not None:
-            _set(world, prop, ind, _decimal(value) if isinstance(value, float) else value)
+    numbers.decimal(CORE_IRI + "horizontalFieldOfViewRadians", ind, spec.fov)
+    numbers.integer(CORE_IRI + "raySamples", ind, spec.samples)
     if spec.image is not None:
-        _set(world, "imageWidthPixels", ind, spec.image[0])
-        _set(world, "imageHeightPixels", ind, spec.image[1])
+        numbers.integer(CORE_IRI + "imageWidthPixels", ind, spec.image[0])
+        numbers.integer(CORE_IRI + "imageHeightPixels", ind, spec.image[1])
     stated = [(cls, key, [getattr(spec, f) for f in names], unit) for cls, key, names, unit in _SYSTEM_PROPERTIES]
     stated = [s for s in stated if any(v is not None for v in s[2])]
     if not stated:
@@ -292,25 +301,23 @@ def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab
         world[SSN_SYSTEM.hasSystemProperty][capability].append(prop)
         names = ("value",) if len(values) == 1 else ("minValue", "maxValue")
         for name, value in zip(names, values):
-            if value is not None:
-                world[SCHEMA[name]][prop].append(_decimal(value))
+            numbers.decimal(SCHEMA[name], prop, value)
         world[SCHEMA.unitCode][prop].append(unit)
 
 
 def _add_body_facts(world, tree, vocab: Vocabulary, body: tuple[BodyPart, ...], components: tuple[Component, ...],
-                    parts: dict) -> None:
+                    parts: dict, numbers: _Numbers) -> None:
     """An arm's degrees of freedom and reach, a head's pan and tilt ranges (pipeline.capabilities)."""
     for part in body:
         ind = parts[part.name]
         if vocab.is_a(part.cls, vocab.domain("reachMetres")):
             _set(world, "degreesOfFreedom", ind, capabilities.degrees_of_freedom(tree, part.joints))
             tool = capabilities.tool_point(tree, vocab, part, components)
-            if tool is not None and (far := capabilities.reach(tree, part.joints[0], tool)) is not None:
-                _set(world, "reachMetres", ind, _decimal(far))
+            if tool is not None:
+                numbers.decimal(CORE_IRI + "reachMetres", ind, capabilities.reach(tree, part.joints[0], tool))
         elif vocab.is_a(part.cls, vocab.domain("panRangeRadians")):
             for prop, value in zip(("panRangeRadians", "tiltRangeRadians"), capabilities.head_ranges(tree, part.joints)):
-                if value is not None:
-                    _set(world, prop, ind, _decimal(value))
+                numbers.decimal(CORE_IRI + prop, ind, value)
 
 
 def _add_fingers(world, onto, owner, comp: Component, joints: dict) -> None:
@@ -331,8 +338,43 @@ def _add_fingers(world, onto, owner, comp: Component, joints: dict) -> None:
 
 
 def _decimal(value: float) -> float:
-    """Owlready2 writes floats as xsd:decimal; 4 places keep the lexical form non-exponential."""
+    """Owlready2 writes floats as xsd:decimal; 4 places keep the lexical form non-exponential below MAX_DECIMAL."""
     return round(float(value), 4)
+
+
+class _Numbers:
+    """Writes a robot's numbers, each only where it is storable: a decimal finite and under MAX_DECIMAL in size,
+    an integer under MAX_INTEGER; `record` receives a {"key": "left_out", ...} record for any other, which is
+    left out. None (nothing stated or computed) is left out without a record."""
+
+    def __init__(self, world: rdf.World, robot: str, record: Record):
+        self.world, self.robot, self.record = world, robot, record
+
+    def decimal(self, prop: str, subject, value: float | None) -> None:
+        if value is None:
+            return
+        if not math.isfinite(value) or abs(_decimal(value)) >= MAX_DECIMAL:
+            self._leave_out(prop, subject, value, "not a finite number" if not math.isfinite(value)
+                            else "no plain decimal form: 1e16 or more in size")
+        else:
+            self.world[prop][subject].append(_decimal(value))
+
+    def integer(self, prop: str, subject, value: int | None) -> None:
+        if value is None:
+            return
+        if abs(value) >= MAX_INTEGER:
+            self._leave_out(prop, subject, value, "beyond a 64-bit integer")
+        else:
+            self.world[prop][subject].append(value)
+
+    def _leave_out(self, prop: str, subject, value: float, why: str) -> None:
+        self.record({"key": "left_out", "robot": self.robot, "subject": subject.name, "property": prop.split("#")[-1].split("/")[-1],
+                     "value": f"{value:.6g}", "why": why})
+
+
+def _warn(record: dict) -> None:
+    log.warning("robot %s: %s of %s left out: %s (%s)", record["robot"], record["property"], record["subject"],
+                record["value"], record["why"])
 
 
 def _annotate(world, robot, notes: dict[str, str]) -> None:

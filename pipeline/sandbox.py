@@ -44,6 +44,7 @@ from importlib.util import find_spec
 from pathlib import Path
 
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.settings import MAX_ERROR
 
 HOSTNAME = "sandbox"  # the host name inside: the host's never shows
 NOBODY = 65534  # the uid and gid inside
@@ -191,8 +192,8 @@ def run(program: Path, args: Iterable[str], read_only: Mapping[str, Path], stdin
         max_output: int, packages: Iterable[str] = ()) -> tuple[int, bytes, bytes]:
     """Run `python program args` confined, each of `read_only`'s folders (sandbox path → host folder)
     visible read-only at its sandbox path, and the installed `packages` (import names) importable:
-    (exit status, stdout, stderr), each output cut at `max_output` bytes (the rest is read and
-    dropped, so a flood costs no memory); TimeoutExpired past `timeout` seconds once started (waiting
+    (exit status, stdout, stderr), cut as bounded_run cuts them (the rest is read and dropped, so a
+    flood costs no memory); TimeoutExpired past `timeout` seconds once started (waiting
     for one of the SLOTS is not counted), Unavailable where the machine cannot confine it."""
     bwrap, (user, prefix) = _bwrap(), _user()
     bpf = _seccomp_filter(SETPRIV_CALLS if prefix else ())
@@ -245,24 +246,29 @@ def _mount_args(mounts: Mapping[str, str]) -> list[str]:
 
 
 def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, **popen) -> tuple[int, bytes, bytes]:
-    """subprocess.run with outputs capped at `max_output` bytes each; past `timeout` seconds the child's
-    process group (the child starts one) is killed and TimeoutExpired raised."""
+    """subprocess.run keeping the first `max_output` bytes of stdout (read into one buffer) and the last
+    min(`max_output`, MAX_ERROR) bytes of stderr (where an error's message is), reading and dropping the
+    rest; past `timeout` seconds the child's process group (the child starts one) is killed and
+    TimeoutExpired raised."""
     with subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                           start_new_session=True, **popen) as proc:
         if proc.stdin is None:
             raise RuntimeError("the child has no stdin pipe")
         outputs: dict[str, bytes] = {}
 
-        def drain(name: str, stream) -> None:
-            kept, size = [], 0
-            while chunk := stream.read(65536):
-                if size < max_output:
-                    kept.append(chunk[: max_output - size])
-                size += len(chunk)
-            outputs[name] = b"".join(kept)
+        def head(stream) -> None:
+            outputs["out"] = stream.read(max_output)
+            while stream.read(65536):
+                pass
 
-        readers = [threading.Thread(target=drain, args=(n, s), daemon=True)
-                   for n, s in (("out", proc.stdout), ("err", proc.stderr))]
+        def tail(stream, limit: int = min(max_output, MAX_ERROR)) -> None:
+            kept = b""
+            while chunk := stream.read(65536):
+                kept = (kept + chunk)[-limit:]
+            outputs["err"] = kept
+
+        readers = [threading.Thread(target=read, args=(stream,), daemon=True)
+                   for read, stream in ((head, proc.stdout), (tail, proc.stderr))]
         for t in readers:
             t.start()
         try:

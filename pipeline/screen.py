@@ -32,10 +32,12 @@ Record = Callable[[dict], None]
 
 def screen(tree: KinematicTree, abstraction: Abstraction, record: Record | None = None) -> Abstraction:
     """`abstraction` less the components and body parts that break the shapes, those in its `held`; `record`
-    receives one {"key": "held", ...} record for each, naming it and the shapes it broke."""
+    receives one {"key": "held", ...} record for each, naming it and the shapes it broke, and population's
+    {"key": "left_out", ...} record of each number it could not store."""
     world = rdf.new_world()
     try:
-        found = broken(robot_graph(build_robot(world, tree, tree.robot_name or "robot", abstraction)))
+        found = broken(robot_graph(build_robot(world, tree, tree.robot_name or "robot", abstraction,
+                                               record=record or _ignore)))
     finally:
         world.close()
     by_owner: dict[tuple[str, str], list[Violation]] = {}
@@ -58,6 +60,10 @@ def screen(tree: KinematicTree, abstraction: Abstraction, record: Record | None 
                                     for c in abstraction.components if c.name not in comps),
                    body=tuple(p if p.parent not in parts else replace(p, parent=None)
                               for p in abstraction.body if p.name not in parts))
+
+
+def _ignore(record: dict) -> None:
+    """Left-out numbers where no trace is kept: the store's build of the same robot logs them."""
 
 
 def _lines(violations: list[Violation]) -> tuple[str, ...]:

@@ -24,7 +24,7 @@ from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.tree import KinematicTree
-from urdfkb.settings import MAX_BYTES, MAX_LINKS, XACRO_CPU_SECONDS, XACRO_MEMORY, XACRO_TIMEOUT
+from urdfkb.settings import MAX_BYTES, MAX_ERROR, MAX_LINKS, XACRO_CPU_SECONDS, XACRO_MEMORY, XACRO_TIMEOUT
 
 WORKER = Path(__file__).with_name("xacro_worker.py")
 SANDBOX_PACKAGES = "/packages"  # where package paths are mounted inside the sandbox
@@ -89,7 +89,8 @@ def expand(data: bytes, name: str, *, main_dir: str | os.PathLike | None = None,
     else:
         seen_packages, seen_main = {k: str(v) for k, v in packages.items()}, str(main) if main else None
     request = {"text": data.decode("utf-8", "replace"), "name": name, "main_dir": seen_main,
-               "args": dict(args or {}), "packages": seen_packages, "max_bytes": max_bytes}
+               "args": dict(args or {}), "packages": seen_packages, "max_bytes": max_bytes,
+               "max_error": MAX_ERROR // 2}  # cut in the child; half, so what callers put before it is kept too
     limits = json.dumps({"memory": XACRO_MEMORY, "cpu": XACRO_CPU_SECONDS})
     cap = 2 * max_bytes + 65536  # the JSON answer around an expanded URDF of at most max_bytes
     try:

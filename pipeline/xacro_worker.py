@@ -1,6 +1,7 @@
 """Expand one xacro document inside a bounded child process (run by pipeline.xacro_input, never a shell).
 
-Reads a JSON request on stdin, writes {"urdf": text} or {"error": message} on stdout. The ROS
+Reads a JSON request on stdin, writes {"urdf": text} or {"error": message} on stdout, the message cut to
+the request's `max_error` characters (xacro echoes what it could not evaluate: megabytes). The ROS
 `xacro` package evaluates `${...}` with Python's eval and `$(eval ...)` with full builtins, so it
 cannot be trusted with hostile input in the server's own process. The guards below run in the same
 interpreter as the expressions, so they only help an honest document fail clearly; for documents
@@ -59,6 +60,7 @@ class Request:
         self.args: dict[str, str] = data.get("args", {})
         self.packages = {k: os.path.realpath(v) for k, v in data.get("packages", {}).items()}
         self.max_bytes: int = data["max_bytes"]
+        self.max_error: int = data["max_error"]
         roots = list(self.packages.values()) + ([os.path.realpath(self.main_dir)] if self.main_dir else [])
         self.roots = [r.rstrip(os.sep) + os.sep for r in roots]
         self.bytes_read = len(self.text.encode())
@@ -269,6 +271,15 @@ def describe(e: BaseException) -> str:
     return f"{where[0]}:{where[1]}: {message}" if where else f"{REQ.name}: {message}"
 
 
+def cut(message: str, limit: int) -> str:
+    """`message`, or as much of it as fits in `limit` characters with how long it was (as the server cuts
+    the errors it keeps: kb_server.text.cut), so that a huge one never leaves this process whole."""
+    if len(message) <= limit:
+        return message
+    note = f"... [cut: {len(message):,} characters in all]"
+    return message[:max(limit - len(note), 0)] + note
+
+
 def main() -> int:
     global REQ
     limits = json.loads(sys.argv[1])
@@ -284,7 +295,7 @@ def main() -> int:
     try:
         result = {"urdf": expand(REQ)}
     except Exception as e:  # everything becomes a message for the parent
-        result = {"error": describe(e)}
+        result = {"error": cut(describe(e), REQ.max_error)}
     sys.stdout.buffer.write(json.dumps(result, ensure_ascii=False).encode("utf-8", "replace"))
     return 0
 

@@ -27,6 +27,8 @@ STATUS = {
     "urdfkb.kb_server.errors.NotFound": 404,
     "urdfkb.kb_server.errors.UnsupportedMediaType": 415,
     "urdfkb.kb_server.errors.TooManyRequests": 429,
+    "urdfkb.kb_server.errors.StorageFault": 503,
+    "urdfkb.kb_server.errors.DiskFull": 507,
     "urdfkb.kb_server.jobs.QueueFull": 429,
     "urdfkb.kb_server.remote.RemoteError": 502,
     "urdfkb.kb_server.results.ResultTooLarge": 413,
