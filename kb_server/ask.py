@@ -54,6 +54,8 @@ SELECT DISTINCT ?kind ?value WHERE {
 class QuestionError(ParamError):
     """A question that cannot be asked: empty, or longer than MAX_QUESTION characters."""
 
+    status = 400
+
 
 @dataclass(frozen=True)
 class Choice:
