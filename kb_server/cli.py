@@ -240,7 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("populate", help="abstract a URDF and write the populated ontology to a file",
                        description="Ingest a URDF, run the LLM-guided abstraction (sensors, then end-effectors), check the result against the SHACL shapes and write a self-contained ontology file that opens in Protégé offline.")
-    p.add_argument("urdf", help="the robot's URDF or xacro file (.xacro, or a document declaring the xacro namespace)")
+    p.add_argument("urdf", help="the robot's URDF or xacro file (.xacro, or a document using xacro elements or ${...} substitutions)")
     p.add_argument("-o", "--output", help="output file (default: <urdf stem>.owl/.ttl/.nt in the current directory)")
     p.add_argument("--format", choices=tuple(BY_NAME), default="rdfxml", help="output syntax (default rdfxml)")
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
