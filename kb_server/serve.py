@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from urdfkb.kb_server.app import create_app
-from urdfkb.kb_server.http_deadlines import DeadlineServer
+from urdfkb.kb_server.http_bodies import BodyLimitServer
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.results import ResultLimits
@@ -36,7 +36,7 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS, channel_timeout: int = CHANNEL_TIMEOUT,
                 header_timeout: float = HEADER_TIMEOUT, body_timeout: float = BODY_TIMEOUT,
-                query_memory: int = QUERY_MEMORY) -> tuple[DeadlineServer, Store, JobManager]:
+                query_memory: int = QUERY_MEMORY) -> tuple[BodyLimitServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
@@ -64,13 +64,12 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
                      max_links=max_links, max_waiters=job_waiters(threads), package_paths=package_paths,
                      trust_xacro=trust_xacro, xacro_timeout=xacro_timeout)
-    # waitress buffers a whole request before the app sees it (refusing a body of max_request_body_size
-    # bytes or more), so bodies over max_body are refused before they fill memory or a temporary file;
-    # poll(), unlike select(), takes descriptors past 1023.
-    server = DeadlineServer(app, header_timeout, body_timeout, host=host, port=port, threads=threads,
-                            max_request_header_size=max_header, max_request_body_size=max_body + 1,
-                            connection_limit=connections, channel_timeout=channel_timeout, cleanup_interval=1,
-                            asyncore_use_poll=True)
+    # waitress buffers a whole request before the app sees it, so bodies over max_body are refused (with the
+    # app's 413: kb_server.http_bodies) before they fill memory or a temporary file; poll(), unlike
+    # select(), takes descriptors past 1023.
+    server = BodyLimitServer(app, max_body, header_timeout, body_timeout, host=host, port=port, threads=threads,
+                             max_request_header_size=max_header, connection_limit=connections,
+                             channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True)
     policy.port = int(server.effective_port)  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
     return server, store, jobs
 
