@@ -30,9 +30,9 @@ from waitress.utilities import RequestEntityTooLarge
 from werkzeug.exceptions import RequestEntityTooLarge as AppRequestEntityTooLarge
 
 from urdfkb.kb_server.http_deadlines import DeadlineChannel, DeadlineServer
+from urdfkb.settings import MAX_DISCARD
 
 MAX_BODY_HEADER = "Urdfkb-Max-Body"  # on every answer: the most bytes a request body may have
-MAX_DISCARD = 256 * 2**20  # the most bytes of a refused body read and dropped (64 MiB on loopback: 0.1 s)
 DISCARD_READ = 2**20  # bytes read at once while dropping a refused body
 REFUSED = "urdfkb.refused_body"  # in the WSGI environ of a request whose body was refused
 
