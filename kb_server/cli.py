@@ -279,7 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("populate", help="abstract a URDF and write the populated ontology to a file",
                        description="Ingest a URDF, run the LLM-guided abstraction (sensors, then end-effectors), check the result against the SHACL shapes and write a self-contained ontology file that opens in Protégé offline.")
-    p.add_argument("urdf", help="the robot's URDF or xacro file (.xacro, or a document declaring the xacro namespace)")
+    p.add_argument("urdf", help="the robot's URDF or xacro file (.xacro, or a document using xacro elements or ${...} substitutions)")
     p.add_argument("-o", "--output", help="output file (default: <urdf stem>.owl/.ttl/.nt in the current directory)")
     p.add_argument("--format", choices=tuple(BY_NAME), default="rdfxml", help="output syntax (default rdfxml)")
     p.add_argument("--name", help="robot name in the ontology (default: the URDF's robot name)")
@@ -324,7 +324,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("serve", help="serve the knowledge base: SPARQL endpoint, POST /populate, robots, HRI queries")
     p.add_argument("--store", help="the quadstore file (default: a kb.sqlite3 in the user data directory)")
     p.add_argument("--host", default=HOST, help=f"address to bind (default {HOST})")
-    p.add_argument("--port", type=int, default=PORT, help=f"port (default {PORT})")
+    p.add_argument("--port", type=int, default=PORT, help=f"port, 1-65535 (default {PORT}; 0: any free port)")
     p.add_argument("--token", help="bearer token allowing SPARQL updates and deletions (or env URDFKB_TOKEN)")
     p.add_argument("--remote-store", metavar="URL", help="mirror every robot as a named graph into this SPARQL 1.1 Graph Store endpoint")
     p.add_argument("--populate", metavar="URDF", action="append", default=[], help="populate this URDF into the store before serving (repeatable)")

@@ -7,11 +7,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from urdfkb.kb_server.app import create_app
-from urdfkb.kb_server.http_deadlines import DeadlineServer
+from urdfkb.kb_server.http_bodies import BodyLimitServer
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
+from urdfkb.kb_server.startup import check_port, check_store, listen_error
 from urdfkb.kb_server.store import Store, check_robot_name
 from urdfkb.pipeline import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
@@ -36,7 +37,7 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS, channel_timeout: int = CHANNEL_TIMEOUT,
                 header_timeout: float = HEADER_TIMEOUT, body_timeout: float = BODY_TIMEOUT,
-                query_memory: int = QUERY_MEMORY) -> tuple[DeadlineServer, Store, JobManager]:
+                query_memory: int = QUERY_MEMORY) -> tuple[BodyLimitServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
@@ -52,25 +53,30 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
     mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or
     refused where it is unavailable, unless `trust_xacro`; an expansion fails past `xacro_timeout` s."""
     check_bind(host, token, insecure_no_token)
+    check_port(port)
     if min(max_connections, channel_timeout, header_timeout, body_timeout) < 1:
         raise UrdfkbError("--max-connections, --channel-timeout, --header-timeout and --body-timeout must be at least 1")
     if not xacro_timeout > 0:
         raise UrdfkbError("--xacro-timeout must be more than 0 seconds")
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
     connections = open_files_for(max_connections)
-    store = Store(store_path, limits=ResultLimits(max_result_rows, max_result_bytes, query_memory))
+    store = Store(check_store(store_path), limits=ResultLimits(max_result_rows, max_result_bytes, query_memory))
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
-    jobs.mirror_all()
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
                      max_links=max_links, max_waiters=job_waiters(threads), package_paths=package_paths,
                      trust_xacro=trust_xacro, xacro_timeout=xacro_timeout)
-    # waitress buffers a whole request before the app sees it (refusing a body of max_request_body_size
-    # bytes or more), so bodies over max_body are refused before they fill memory or a temporary file;
-    # poll(), unlike select(), takes descriptors past 1023.
-    server = DeadlineServer(app, header_timeout, body_timeout, host=host, port=port, threads=threads,
-                            max_request_header_size=max_header, max_request_body_size=max_body + 1,
-                            connection_limit=connections, channel_timeout=channel_timeout, cleanup_interval=1,
-                            asyncore_use_poll=True)
+    # waitress buffers a whole request before the app sees it, so bodies over max_body are refused (with the
+    # app's 413: kb_server.http_bodies) before they fill memory or a temporary file; poll(), unlike
+    # select(), takes descriptors past 1023.
+    try:
+        server = BodyLimitServer(app, max_body, header_timeout, body_timeout, host=host, port=port, threads=threads,
+                                 max_request_header_size=max_header, connection_limit=connections,
+                                 channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True)
+    except OSError as e:
+        jobs.shutdown()
+        store.close()
+        raise listen_error(host, port, e) from None
+    jobs.mirror_all()
     policy.port = int(server.effective_port)  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
     return server, store, jobs
 
@@ -115,7 +121,8 @@ def serve(store_path: str | Path | None = None, host: str = HOST, port: int = PO
     if options.get("trust_xacro"):
         log.warning("--trust-xacro: uploaded xacro files run unconfined, as this server's user")
     elif reason := sandbox.unavailable():
-        log.warning("xacro uploads will be refused: %s (see README, Security)", reason)
+        log.warning("xacro uploads need the sandbox, and are refused (403) until it can run: %s; plain URDF uploads "
+                    "work (see docs/xacro.md)", reason)
     port = server.effective_port  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
     log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, port)
     try:

@@ -108,7 +108,7 @@ def test_a_confined_expansion_that_floods_its_output_fails_cleanly():
 def test_the_server_refuses_xacro_where_no_sandbox_can_run(tmp_path, monkeypatch):
     monkeypatch.setattr(sandbox, "unavailable", lambda: "bubblewrap (bwrap) is not installed")
     store = Store(tmp_path / "kb.sqlite3")
-    doc = f'<robot name="plain" {XNS}><link name="a"/><link name="b"/>' \
+    doc = f'<robot name="plain" {XNS}><xacro:property name="b" value="b"/><link name="a"/><link name="${{b}}"/>' \
           '<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>'.encode()
     try:
         app, jobs = make_app(store)

@@ -14,14 +14,19 @@ request per call, so an instance may be shared between threads. It follows no re
 could lead anywhere, and the request would take the token there; a 3xx answer raises `QueryFailed`
 naming its `Location` (give the client the URL it points to, if it is the server's).
 
+`populate()` sends a URDF or xacro document (POST /populate) and `job()` follows the job it starts; a
+document over the server's body limit (which every answer of the server states) is refused here, unsent.
+
 Errors: `ServerUnavailable` when nothing answers at the URL (or not in time), `UnknownRobot` when the
 server has no robot of that name, `QueryFailed` for any other refusal (a bad parameter, a query the
-server does not have, a timeout on the server, a missing token). All three are `ClientError`s.
+server does not have, a timeout on the server, a missing token), `TooLarge` for a document over the
+server's limit. All four are `ClientError`s.
 """
 from __future__ import annotations
 
 import http.client
 import json
+import os
 import re
 import urllib.error
 import urllib.parse
@@ -32,12 +37,13 @@ from urdfkb import __version__, local_name
 from urdfkb.settings import ASK_TIMEOUT, CLIENT_TIMEOUT
 
 __all__ = [
-    "KnowledgeBase", "ClientError", "ServerUnavailable", "UnknownRobot", "QueryFailed",
+    "KnowledgeBase", "ClientError", "ServerUnavailable", "UnknownRobot", "QueryFailed", "TooLarge",
     "CameraLink", "Sensor", "MountedComponent", "EndEffector", "ReviewItem", "SubPart", "Component",
     "BodyPart", "Joint", "LocatedComponent", "ArmEndEffector", "CameraFrame", "ArmReach", "GripperOpening", "Reply", "class_words",
 ]
 
 SIDES = ("left", "right")
+MAX_BODY_HEADER = "Urdfkb-Max-Body"  # where the server states its limit on request bodies (kb_server.http_bodies)
 
 
 class ClientError(Exception):
@@ -61,11 +67,21 @@ class UnknownRobot(ClientError, LookupError):
 
 
 class QueryFailed(ClientError):
-    """The server refused or failed the query: `status` is the HTTP status, `message` its reason."""
+    """The server refused or failed the request (`query`: the bundled query's name, or "populate", "job"):
+    `status` is the HTTP status, `message` its reason."""
 
     def __init__(self, query: str, status: int, message: str, url: str):
         super().__init__(f"query {query!r} failed on the urdfkb server at {url}: HTTP {status}: {message}")
         self.query, self.status, self.message, self.url = query, status, message, url
+
+
+class TooLarge(ClientError, ValueError):
+    """A document larger than the server accepts, refused before it was sent: `size` and `limit` in bytes."""
+
+    def __init__(self, what: str, size: int, limit: int, url: str):
+        super().__init__(f"{what} is {size:,} bytes, over the {limit:,}-byte limit of the urdfkb server at {url} "
+                         "on request bodies: not sent")
+        self.size, self.limit, self.url = size, limit, url
 
 
 # --- answers ---------------------------------------------------------------------------------------
@@ -243,7 +259,7 @@ _OPENER = urllib.request.build_opener(_NoRedirect)
 
 
 class KnowledgeBase:
-    """The bundled HRI queries of the urdfkb server at `url` (e.g. "http://127.0.0.1:8000").
+    """The bundled HRI queries and the populate jobs of the urdfkb server at `url` (e.g. "http://127.0.0.1:8000").
 
     `token` is sent as `Authorization: Bearer <token>` (a server or proxy that wants one), to `url` only:
     a redirect is never followed (QueryFailed names where it pointed); `timeout` bounds each request in
@@ -396,19 +412,69 @@ class KnowledgeBase:
                                r.get("mount"), _name(r["arm"]) if "arm" in r else None, r.get("side"),
                                _float(r.get("opening"))) for r in self.query("gripper_opening", robot)]
 
+    # --- populating ------------------------------------------------------------------------------
+
+    def populate(self, urdf: bytes | str | os.PathLike, name: str | None = None, *, filename: str | None = None,
+                 structure_only: bool = False) -> dict:
+        """Send a URDF or xacro document (bytes, or a file's path) to be populated (POST /populate): the job
+        the server started, as it describes it (`id`, `state`, ...; see `job`). `name` names the robot (default:
+        the URDF's), `filename` the document (default: the file's name; `.xacro` means xacro);
+        `structure_only` skips the model. A document over the server's body limit raises TooLarge, unsent."""
+        if isinstance(urdf, bytes):
+            what, size = filename or "the document", len(urdf)
+        else:
+            what = os.fspath(urdf)
+            size, filename = os.path.getsize(what), filename or os.path.basename(what)
+        limit = self.max_body()
+        if limit is not None and size > limit:
+            raise TooLarge(what, size, limit, self.url)
+        if isinstance(urdf, bytes):
+            data = urdf
+        else:
+            with open(urdf, "rb") as f:
+                data = f.read()
+        params = {"name": name, "filename": filename, "structure_only": "true" if structure_only else None}
+        query = urllib.parse.urlencode({k: v for k, v in params.items() if v is not None})
+        return self._json(self._request("/populate" + (f"?{query}" if query else ""), "populate", data=data,
+                                        headers={"Content-Type": "application/xml"})[0], "populate")
+
+    def job(self, job_id: str, wait: bool = False) -> dict:
+        """A populate job as the server describes it (`state`: queued, running, succeeded or failed; `robot`,
+        `errors`...); with `wait`, once it has finished (or after the server's wait, at most 30 s)."""
+        path = f"/jobs/{urllib.parse.quote(job_id, safe='')}" + ("?wait=1" if wait else "")
+        return self._json(self._request(path, "job")[0], "job")
+
+    def max_body(self) -> int | None:
+        """The most bytes a request body may have on the server (None: a server that does not say)."""
+        value = self._request("/populate", "populate", method="OPTIONS")[1].get(MAX_BODY_HEADER)
+        return int(value) if value and value.isdigit() else None
+
     # --- HTTP ------------------------------------------------------------------------------------
 
     def _get(self, path: str, what: str, robot: str | None = None, timeout: float | None = None):
         """The JSON answer of GET `path` (within `timeout` seconds, default the client's); the errors above otherwise."""
+        return self._json(self._request(path, what, robot, timeout=timeout)[0], what)
+
+    def _json(self, body: bytes, what: str):
+        try:
+            return json.loads(body)
+        except ValueError:
+            raise QueryFailed(what, 200, "the answer is not JSON", self.url) from None
+
+    def _request(self, path: str, what: str, robot: str | None = None, method: str | None = None,
+                 data: bytes | None = None, headers: dict[str, str] | None = None,
+                 timeout: float | None = None) -> tuple[bytes, http.client.HTTPMessage]:
+        """The body and headers of the answer to `method` (GET, or POST with `data`) `path` within `timeout`
+        seconds (default the client's); the errors above otherwise."""
         timeout = self.timeout if timeout is None else timeout
         headers = {"Accept": "application/sparql-results+json, application/json;q=0.9",
-                   "User-Agent": f"urdfkb-client/{__version__}"}
+                   "User-Agent": f"urdfkb-client/{__version__}", **(headers or {})}
         if self.token:
             headers["Authorization"] = f"Bearer {self.token}"
-        request = urllib.request.Request(self.url + path, headers=headers)
+        request = urllib.request.Request(self.url + path, data=data, headers=headers, method=method)
         try:
             with _OPENER.open(request, timeout=timeout) as response:
-                body = response.read()
+                return response.read(), response.headers
         except urllib.error.HTTPError as e:
             message = _redirect(e) if 300 <= e.code < 400 else _message(e)
             if e.code == 404 and robot is not None and message.startswith("no robot"):
@@ -420,10 +486,6 @@ class KnowledgeBase:
             raise ServerUnavailable(self.url, f"no answer within {timeout:g} s") from None
         except (http.client.HTTPException, OSError) as e:
             raise ServerUnavailable(self.url, _reason(e)) from None
-        try:
-            return json.loads(body)
-        except ValueError:
-            raise QueryFailed(what, 200, "the answer is not JSON", self.url) from None
 
 
 def class_words(cls: str) -> str:

@@ -36,6 +36,7 @@ HOST = "127.0.0.1"  # the address `urdfkb serve` binds: --host
 PORT = 8000  # its port: --port
 THREADS = 16  # waitress threads answering requests
 MAX_HEADER = 32_768  # bytes of a request's headers: 431
+MAX_DISCARD = 256 * 2**20  # bytes of a refused (413) body read and dropped so the client reads the 413 (64 MiB: 0.1-0.5 s)
 MAX_CONNECTIONS = 1_000  # open client connections; more wait in the listen backlog: --max-connections
 CHANNEL_TIMEOUT = 30  # seconds a connection may stay idle (nothing received or sent): --channel-timeout
 HEADER_TIMEOUT = 10.0  # seconds from a request's first byte to the end of its headers: --header-timeout
