@@ -12,7 +12,7 @@ export CMAKE_BUILD_PARALLEL_LEVEL ?= $(shell nproc 2>/dev/null || echo 2)
 
 FAST   := not (model or reasoner or crash or w3c or browser or slow)
 
-.PHONY: run test test-fast install model bench typecheck clean
+.PHONY: run test test-fast install model bench typecheck lint clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -43,6 +43,13 @@ $(VENV)/.typecheck: pyproject.toml | $(VENV)/.installed
 
 typecheck: $(VENV)/.typecheck
 	$(BIN)/mypy
+
+$(VENV)/.lint: pyproject.toml | $(VENV)/.installed
+	$(BIN)/python -m pip install -q -e '.[lint]'
+	touch $@
+
+lint: $(VENV)/.lint
+	$(BIN)/ruff check .
 
 bench: install
 	$(BIN)/python -m benchmarks.ingest_bench

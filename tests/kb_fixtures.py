@@ -15,7 +15,7 @@ from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, BodyPa
 
 
 def _comp(name, kind, cls, conf, root, *subs):
-    return Component(name, kind, cls, conf, root, tuple(SubComponent(l, c, s) for l, c, s in subs))
+    return Component(name, kind, cls, conf, root, tuple(SubComponent(link, c, s) for link, c, s in subs))
 
 
 PR2 = Abstraction((
@@ -53,7 +53,7 @@ def _arm(side: str) -> BodyPart:
     links = ("shoulder_pan", "shoulder_lift", "upper_arm_roll", "upper_arm", "elbow_flex", "forearm_roll", "forearm",
              "wrist_flex", "wrist_roll")
     return BodyPart(f"{s}_arm", "Arm", 0.9, "torso_lift_link", tuple(f"{s}_{j}_joint" for j in PR2_ARM),
-                    tuple(f"{s}_{l}_link" for l in links), side)
+                    tuple(f"{s}_{link}_link" for link in links), side)
 
 
 # PR2's whole body as the body pass would give it (joints root-most first), and PR2 with it: every component

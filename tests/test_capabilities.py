@@ -19,7 +19,7 @@ from rdflib.namespace import OWL, RDF, RDFS
 
 from tests.kb_fixtures import PR2, PR2_ARM, PR2_WHOLE
 from urdfkb.pipeline import capabilities
-from urdfkb.pipeline.components import SENSOR, Abstraction, BodyPart, Component, SubComponent
+from urdfkb.pipeline.components import SENSOR, Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.evidence import LinkEvidence, SimSensor
 from urdfkb.pipeline.ingest import load_urdf

@@ -118,7 +118,7 @@ def test_corrections_survive_repopulation_and_report_what_no_longer_fits(store, 
     assert [a["component"] for a in entry.corrections["applied"]] == ["prosilica", "tilt_laser"]
     assert components(store)["prosilica"]["class"] == "StereoCamera" and "tilt_laser" not in components(store)
     # a new URDF without the tilting laser: that correction no longer fits, the other still applies
-    smaller = replace(pr2_tree, links=tuple(l for l in pr2_tree.links if l != "laser_tilt_link"),
+    smaller = replace(pr2_tree, links=tuple(link for link in pr2_tree.links if link != "laser_tilt_link"),
                       edges=tuple(e for e in pr2_tree.edges if e.child != "laser_tilt_link"))
     model = Abstraction(tuple(c for c in PR2.components if c.name != "tilt_laser"), PR2.provenance)
     entry = store.replace_robot("pr2", smaller, model)

@@ -163,7 +163,8 @@ def test_frames_of_one_housing_the_model_splits_between_sensor_and_tool_are_all_
         odd = {fs[0] for fs in by_housing.values() if len(fs) > 1}
         if not odd:
             continue
-        rule = lambda q: {tool: 0.52, sensor: 0.48} if q.key.split(":", 1)[1] in odd else {sensor: 0.6, tool: 0.4}
+        def rule(q, odd=odd):
+            return {tool: 0.52, sensor: 0.48} if q.key.split(":", 1)[1] in odd else {sensor: 0.6, tool: 0.4}
         abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
         state = PassState(TAX.kinds["sensor"], tree, tree, [])
         for step in SENSOR_PASS.steps[:2]:

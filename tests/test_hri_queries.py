@@ -7,7 +7,6 @@ import pytest
 from tests.kb_fixtures import PR2, both_engines, client, copied, make_app
 from urdfkb.kb_server.queries import ParamError, UnknownQuery, _parse, load_queries, run_named, run_named_query
 from urdfkb.kb_server.store import Store, UnknownRobot
-from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.settings import MAX_VOTES, REVIEW_THRESHOLD
 
 R = "https://w3id.org/urdfkb/robot/pr2#"

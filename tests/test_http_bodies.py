@@ -110,7 +110,7 @@ def test_the_client_refuses_a_document_over_the_servers_limit_unsent(server, tmp
     big = tmp_path / "big.urdf"
     big.write_bytes(bytes(LIMIT + 1))
     for document in (big, bytes(LIMIT + 1)):
-        with pytest.raises(TooLarge, match=f"1,000,001 bytes, over the 1,000,000-byte limit of the urdfkb server") as e:
+        with pytest.raises(TooLarge, match="1,000,001 bytes, over the 1,000,000-byte limit of the urdfkb server") as e:
             kb.populate(document)
         assert (e.value.size, e.value.limit) == (LIMIT + 1, LIMIT)
     robot = b'<robot name="tiny"><link name="a"/></robot>'

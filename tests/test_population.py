@@ -108,7 +108,7 @@ def test_escape_is_injective_and_plain_for_ordinary_names():
 def test_names_that_escape_alike_do_not_collide():
     """A sub-link IRI joins component and link with '.', which escape() never emits."""
     links = ("r", "a", "a.b", "b.c", "c")
-    tree = KinematicTree("t", links, tuple(Edge(f"j{l}", "fixed", "r", l, ZERO) for l in links[1:]))
+    tree = KinematicTree("t", links, tuple(Edge(f"j{link}", "fixed", "r", link, ZERO) for link in links[1:]))
     comps = (Component("a.b", "sensor", "IMU", 1, "r", (SubComponent("c", "SensingElement", 1),)),
              Component("a", "sensor", "IMU", 1, "r", (SubComponent("b.c", "SensingElement", 1),)))
     g = triples(build_robot(owlready2.World(), tree, "t", Abstraction(comps)))

@@ -9,7 +9,6 @@ import logging
 import os
 import sqlite3
 import subprocess
-from pathlib import Path
 
 import pytest
 

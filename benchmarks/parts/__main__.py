@@ -50,14 +50,14 @@ def main(argv: list[str] | None = None) -> int:
     chosen = list(robots(parts, args.hosts))[:args.limit]
     folder = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="urdfkb-parts-"))
     per_part: dict[str, list[float]] = {}
-    for part, host, robot in chosen:
+    for part, _host, robot in chosen:
         truth = write(robot, part, folder)
         run = run_truth_robot(truth, settings)
         f1 = run.scores["all"]["typed_f1"]
         per_part.setdefault(part.key, []).append(f1)
         print(f"{robot.name:45s} typed F1 {f1:.3f}  body {_cell(run.scores['body']['typed_f1'])}  {run.seconds:.0f} s",
               file=sys.stderr, flush=True)
-    print(f"| part | maker | hosts | typed F1 |\n|---|---|---|---|")
+    print("| part | maker | hosts | typed F1 |\n|---|---|---|---|")
     by_key = {part.key: part for part in parts}
     for key, scores in per_part.items():
         print(f"| {key} | {by_key[key].maker} | {len(scores)} | {fmean(scores):.3f} |")

@@ -53,5 +53,5 @@ class Backend(ABC):
         """Forget what earlier calls left (caches, counters): from here on, answer as a new backend would."""
         self.stats = Stats()
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027  (a default for every backend, not an abstract method)
         """Release the model; the default has nothing to release."""

@@ -314,7 +314,7 @@ def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: 
         pairs[cls] = (max(lefts, key=lambda p: y[p.name]), min(rights, key=lambda p: y[p.name]))
     if pairs:
         questions = [side_question(cls.lower(), left.joints, right.joints) for cls, (left, right) in pairs.items()]
-        for (cls, (left, right)), q, verdict in zip(pairs.items(), questions, ask(oracle, questions, "sides", progress)):
+        for (cls, (_left, right)), q, verdict in zip(pairs.items(), questions, ask(oracle, questions, "sides", progress)):
             if verdict.answer == q.options[1] and verdict.confidence >= NAMES_WIN:
                 log(f"sides of {cls}: names say {right.joints[0]} is left ({verdict.confidence:.2f}), "
                     "against geometry: names win")
