@@ -125,7 +125,8 @@ def _serve(inbox, requests, replies, parent: int, limits: ResultLimits) -> None:
                     return
         try:
             if op == "query":
-                result = run_query(store, *args, limits=limits)
+                text, accept, default_graphs, named_graphs = args
+                result = run_query(store, text, accept, default_graphs, named_graphs, limits)
                 replies.send(("result", (result.kind, result.media_type)))
                 replies.send_bytes(result.body)
             else:
@@ -166,7 +167,8 @@ class _Worker:
         try:
             status, value = self.replies.recv() if self.replies.poll() else self._died()
             if status == "result":
-                return Result(*value, self.replies.recv_bytes())
+                kind, media_type = value
+                return Result(kind, media_type, self.replies.recv_bytes())
         except EOFError:  # the worker died; its end of the pipe closed with it
             status, value = self._died()
         if status != "ok":
