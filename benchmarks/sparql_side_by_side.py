@@ -50,7 +50,8 @@ def post(port: int, path: str, body: bytes, headers: dict, timeout: float = 600)
 
 
 def ready(port: int, path: str) -> None:
-    for _ in range(600):
+    """Wait (up to 5 minutes: a busy machine, 100 graphs to load) for a server to answer `path`."""
+    for _ in range(3000):
         try:
             c = http.client.HTTPConnection("127.0.0.1", port, timeout=5)
             c.request("GET", path)
