@@ -25,15 +25,16 @@ from __future__ import annotations
 import ctypes
 import errno
 import logging
+import math
 import multiprocessing as mp
 import os
 import queue
 import resource
+import select
 import signal
 import threading
 import time
 from collections.abc import Mapping
-from multiprocessing.connection import wait
 from typing import NoReturn
 
 import pyoxigraph as ox
@@ -86,13 +87,14 @@ def _confine(memory: int) -> None:
         logging.getLogger(__name__).warning("SPARQL workers are not network-confined (libseccomp: %s)", e)
 
 
-def _serve(inbox, requests, replies, parent: int, memory: int) -> None:
+def _serve(inbox, requests, replies, parent: int, limits: ResultLimits) -> None:
     """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
-    (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`.
+    (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`
+    (a query's as ("result", (kind, media type)) then its serialised body as raw bytes, untouched).
     `parent` is the server's pid, passed in: a worker that starts after its server was killed sees
     another parent from its first instruction on (and would wait forever on the half message)."""
     _die_with_parent()
-    _confine(memory)
+    _confine(limits.memory)
     store, applied = ox.Store(), 0
     if os.getppid() != parent:  # the server went before the kernel was told
         return
@@ -122,7 +124,13 @@ def _serve(inbox, requests, replies, parent: int, memory: int) -> None:
                 if os.getppid() != parent:
                     return
         try:
-            replies.send(("ok", (run_query if op == "query" else run_update)(store, *args)))
+            if op == "query":
+                text, accept, default_graphs, named_graphs = args
+                result = run_query(store, text, accept, default_graphs, named_graphs, limits)
+                replies.send(("result", (result.kind, result.media_type)))
+                replies.send_bytes(result.body)
+            else:
+                replies.send(("ok", run_update(store, *args)))
         except _ANSWERED as e:
             replies.send((type(e).__name__, str(e)))
         except MemoryError:  # in Python code; the engine's own allocations abort the process (SIGABRT)
@@ -133,15 +141,18 @@ class _Worker:
     """A worker process: graph replacements go through a queue (never blocking the writer), each
     operation through a pipe, carrying the sequence number of the last replacement it must see."""
 
-    def __init__(self, ctx, graphs: Mapping[str, bytes], memory: int):
-        self.inbox, self.seq, self.memory = ctx.Queue(), 0, memory
+    def __init__(self, ctx, graphs: Mapping[str, bytes], limits: ResultLimits):
+        self.inbox, self.seq, self.memory = ctx.Queue(), 0, limits.memory
         self.requests, requests = ctx.Pipe(duplex=False)[::-1]
         self.replies, replies = ctx.Pipe(duplex=False)
-        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies, os.getpid(), memory), daemon=True,
+        self.proc = ctx.Process(target=_serve, args=(self.inbox, requests, replies, os.getpid(), limits), daemon=True,
                                 name="urdfkb-sparql")
         self.proc.start()
         requests.close()
         replies.close()
+        self.ready = select.poll()  # the reply pipe and the process's sentinel, registered once
+        for fd in (self.replies.fileno(), self.proc.sentinel):
+            self.ready.register(fd, select.POLLIN)
         self.put(dict(graphs))
 
     def put(self, graphs: dict) -> None:
@@ -151,11 +162,13 @@ class _Worker:
 
     def call(self, op: str, args: tuple, deadline: float):
         self.requests.send((self.seq, op, args))
-        ready = wait([self.replies, self.proc.sentinel], timeout=max(deadline - time.monotonic(), 0))
-        if not ready:
+        if not self.ready.poll(max(math.ceil(1000 * (deadline - time.monotonic())), 0)):
             raise QueryTimeout("operation stopped after its timeout")
         try:
-            status, value = self.replies.recv() if self.replies in ready else self._died()
+            status, value = self.replies.recv() if self.replies.poll() else self._died()
+            if status == "result":
+                kind, media_type = value
+                return Result(kind, media_type, self.replies.recv_bytes())
         except EOFError:  # the worker died; its end of the pipe closed with it
             status, value = self._died()
         if status != "ok":
@@ -201,7 +214,7 @@ class Index:
 
     def _spawn(self) -> None:
         with self._guard:
-            worker = _Worker(self._ctx, graph_dumps(self.master), self.limits.memory)
+            worker = _Worker(self._ctx, graph_dumps(self.master), self.limits)
             self._workers.append(worker)
         self._idle.put(worker)
 
@@ -243,8 +256,8 @@ class Index:
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Evaluate a query on a free worker; QueryError, NotAcceptable, ResultTooLarge past the index's
         limits, or QueryTimeout past `timeout`."""
-        args = (text, accept, default_graphs, named_graphs, self.limits)
-        return self._call("query", args, timeout) if self._size else run_query(self.master, *args)
+        args = (text, accept, default_graphs, named_graphs)
+        return self._call("query", args, timeout) if self._size else run_query(self.master, *args, limits=self.limits)
 
     def update(self, text: str, timeout: float) -> Changes:
         """Evaluate an update on one replica (the master without workers) and undo it there: returns

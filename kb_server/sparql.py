@@ -17,6 +17,7 @@ import json
 import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 from urllib.parse import urljoin
 
 import pyoxigraph as ox
@@ -25,6 +26,8 @@ from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
 from urdfkb.settings import MAX_QUERY_NESTING
+
+SCAN_CACHE, SCAN_CACHE_TEXT = 512, 64 * 1024  # query texts whose scan is kept, and the longest kept (characters)
 
 
 class QueryError(UrdfkbError, ValueError):
@@ -106,13 +109,13 @@ _FETCHING = {"SERVICE": "SERVICE (federated query) is not supported: the server 
              "LOAD": "LOAD is not supported: the server does not fetch remote data"}
 
 
-@dataclass
+@dataclass(frozen=True)
 class Scan:
     """What the lexical pass found: keywords at any depth, dataset IRIs (resolved) at depth 0."""
 
-    keywords: set[str] = field(default_factory=set)
-    from_graphs: list[str | None] = field(default_factory=list)  # None: a prefixed name with no PREFIX
-    from_named: list[str | None] = field(default_factory=list)
+    keywords: frozenset[str]
+    from_graphs: tuple[str | None, ...]  # None: a prefixed name with no PREFIX
+    from_named: tuple[str | None, ...]
 
 
 def tokens(text: str) -> Iterator[tuple[str, str]]:
@@ -134,8 +137,16 @@ def tokens(text: str) -> Iterator[tuple[str, str]]:
 
 def scan(text: str, update: bool = False) -> Scan:
     """Read `text` as the engine does; QueryError for SERVICE (and LOAD in an update), however glued to
-    what follows, or for nesting deeper than MAX_QUERY_NESTING."""
-    out, depth, base = Scan(), 0, ""
+    what follows, or for nesting deeper than MAX_QUERY_NESTING. What a text up to SCAN_CACHE_TEXT
+    characters gives is kept (the last SCAN_CACHE of them): clients ask the same queries again and again."""
+    return _scan_kept(text, update) if len(text) <= SCAN_CACHE_TEXT else _scan(text, update)
+
+
+def _scan(text: str, update: bool) -> Scan:
+    keywords: set[str] = set()
+    from_graphs: list[str | None] = []
+    from_named: list[str | None] = []
+    depth, base = 0, ""
     prefixes: dict[str, str] = {}
     refused = ("SERVICE", "LOAD") if update else ("SERVICE",)
     prev: list[tuple[str, str]] = []  # the last few significant tokens at depth 0
@@ -153,7 +164,7 @@ def scan(text: str, update: bool = False) -> Scan:
                     raise QueryError(_FETCHING[keyword] + (f" (the engine reads {tok!r} as {keyword} ...)"
                                                            if upper != keyword else ""))
             if kind == "word":
-                out.keywords.add(upper)
+                keywords.add(upper)
         if depth or kind == "open":
             continue
         prev = (prev + [(kind, tok)])[-3:]
@@ -165,10 +176,13 @@ def scan(text: str, update: bool = False) -> Scan:
             elif len(words) >= 3 and words[-3] == "PREFIX" and prev[-2][0] == "pname" and iri is not None:
                 prefixes[prev[-2][1][:-1]] = iri
             elif len(words) >= 3 and words[-3:-1] == ["FROM", "NAMED"]:
-                out.from_named.append(iri)
+                from_named.append(iri)
             elif len(words) >= 2 and words[-2] == "FROM":
-                out.from_graphs.append(iri)
-    return out
+                from_graphs.append(iri)
+    return Scan(frozenset(keywords), tuple(from_graphs), tuple(from_named))
+
+
+_scan_kept = lru_cache(maxsize=SCAN_CACHE)(_scan)  # a refusal (QueryError) is raised again each time, not kept
 
 
 def _resolve(tok: str, base: str, prefixes: dict[str, str]) -> str | None:

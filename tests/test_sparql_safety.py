@@ -223,6 +223,16 @@ def test_load_written_as_the_engine_reads_it_is_refused(kb, remote):
     assert remote.hits == []
 
 
+def test_a_refused_text_is_refused_every_time_it_is_sent(kb, remote):
+    """The checks' result is kept per text: a refusal never is, nor does a text that passed let another through."""
+    api, _ = kb
+    fetching = f"SELECT * WHERE {{ SERVICE <{remote.url}> {{ ?s ?p ?o }} }}"
+    for text in ("SELECT * WHERE { ?s ?p ?o } LIMIT 1", fetching, fetching, "SELECT * WHERE { ?s ?p ?o } LIMIT 1 ", fetching):
+        status, _, body = api("GET", "/sparql?" + urllib.parse.urlencode({"query": text}))
+        assert status == (400 if "SERVICE" in text else 200), (text, body)
+    assert remote.hits == []
+
+
 def test_nesting_hidden_behind_a_cr_comment_is_counted(kb_workers):
     api, _ = kb_workers
     q = "SELECT * WHERE { #x\r" + "{" * 60_000 + "}" * 60_000 + " }"
