@@ -9,6 +9,7 @@ import rdflib
 import urdfkb.kb_server.index as index_mod
 import urdfkb.kb_server.store as store_mod
 from tests.kb_fixtures import PR2
+from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.components import Abstraction
@@ -131,7 +132,8 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     gone.start()
     gone.join(60)
     inbox = ctx.Queue()  # held here until the worker has read it
-    worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid, 2**30), daemon=True)
+    worker = ctx.Process(target=index_mod._serve, args=(inbox, requests, replies, gone.pid, ResultLimits(memory=2**30)),
+                         daemon=True)
     worker.start()
     worker.join(60)
     assert worker.exitcode == 0
