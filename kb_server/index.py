@@ -40,8 +40,8 @@ from typing import NoReturn
 import pyoxigraph as ox
 
 from urdfkb.kb_server.results import ResultLimits, ResultTooLarge
-from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dumps, put_graph, run_query,
-                              run_update)
+from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dump, graph_dumps, put_graph,
+                              run_query, run_update)
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.sandbox import add_rules
 
@@ -269,6 +269,12 @@ class Index:
                     put_graph(self.master, g, before)
             return changes
         return self._call("update", (text,), timeout)
+
+    def graph(self, graph: str) -> bytes | None:
+        """One graph's N-Triples as last committed (None: no such graph), read from the master under the index's own
+        guard: what the store wrote last, without waiting for a write the store is making."""
+        with self._guard:
+            return graph_dump(self.master, graph)
 
     def put(self, graphs: Mapping[str, bytes | None]) -> None:
         """Replace graphs (None drops one) in the master and every worker, in order with other writes."""

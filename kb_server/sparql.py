@@ -244,6 +244,12 @@ def graph_dumps(store: ox.Store) -> dict[str, bytes]:
     return out
 
 
+def graph_dump(store: ox.Store, graph: str) -> bytes | None:
+    """One named graph of `store` as N-Triples (None where the store has no such graph)."""
+    node = _graph(graph)
+    return _ntriples(store, node) if store.contains_named_graph(node) else None
+
+
 def _ntriples(store: ox.Store, graph: ox.NamedNode | ox.BlankNode | ox.DefaultGraph) -> bytes:
     buf = io.BytesIO()  # written into rather than returned: dump's stub types its return as bytes | None
     store.dump(buf, format=ox.RdfFormat.N_TRIPLES, from_graph=graph)

@@ -452,14 +452,17 @@ class Store:
         return review.to_graph(name, items) if items else None
 
     def _snapshot(self, name: str) -> tuple[int, rdflib.Graph] | None:
-        """Robot `name`'s version and its `robot_graph`, built outside the lock from its N-Triples and
-        corrections read under it; None if there is no such robot."""
-        with self.lock:
-            if (entry := self.robot(name)) is None:
-                return None
-            version, data, extra = self._versions.get(name, 0), rdf.ntriples(self._ontology(entry.ontology_iri)), \
-                self._corrections_graph(name)
-        return version, robot_graph_of(data, entry.ontology_iri, extra)
+        """Robot `name`'s version and its `robot_graph`, built from its graph and its corrections graph as the SPARQL
+        index holds them after the last committed write: read without the store lock, so an export never waits
+        for a write in progress (a long correction of another robot). None if there is no such robot."""
+        if (entry := self.robot(name)) is None:
+            return None
+        version = self._versions.get(name, 0)  # read first: a write landing meanwhile makes the export unkept
+        if (data := self.index.graph(entry.ontology_iri)) is None:
+            return None
+        corrections = self.index.graph(review.corrections_iri(name))
+        items = review.from_graph(rdf.parse_ntriples(corrections)) if corrections else []
+        return version, robot_graph_of(data, entry.ontology_iri, review.to_graph(name, items) if items else None)
 
     def graph(self, name: str) -> rdflib.Graph | None:
         """The robot, its corrections and the core as one self-contained in-memory graph (for mirrors)."""
