@@ -366,7 +366,8 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
                    _prf(len(pred_leaves & truth_leaves), len(pred_leaves), len(truth_leaves))))
     out.update(zip(("component_precision", "component_recall", "component_f1"),
                    _prf(len(pairs), len(preds), len(truths))))
-    typed = sum(tax.credit(p.cls, t.classes, _kind_roots().values()) for p, t in pairs)
+    credits = {p.node: tax.credit(p.cls, t.classes, _kind_roots().values()) for p, t in pairs}
+    typed = sum(credits.values())
     out.update(zip(("typed_precision", "typed_recall", "typed_f1"), _prf(typed, len(preds), len(truths))))
     out["root_accuracy"] = (fmean(p.root in t.roots for p, t in pairs) if pairs else 0.0) if truths else None
     subpart_roots = [kind.subparts for kind in vocabulary().kinds.values()]
@@ -376,7 +377,7 @@ def _scope(preds: list[PredictedComponent], truths: list[TruthComponent], tax: _
     out["subpart_accuracy"] = (fmean(sub) if sub else 0.0) if listed else None
     out.update(n_predicted=len(preds), n_truth=len(truths), n_matched=len(pairs), n_subparts=len(sub))
     # The review queue: components below REVIEW_THRESHOLD; wrong: matching no truth component, or typed short of it
-    right = {p.node for p, t in pairs if tax.credit(p.cls, t.classes, _kind_roots().values()) == 1.0}
+    right = {node for node, credit in credits.items() if credit == 1.0}
     wrong = [p for p in preds if p.node not in right]
     queued = [p for p in preds if p.confidence is not None and p.confidence < REVIEW_THRESHOLD]
     out.update(n_wrong=len(wrong), n_queued=len(queued), n_wrong_queued=len({p.node for p in queued} & {p.node for p in wrong}))

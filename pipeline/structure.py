@@ -188,8 +188,8 @@ def _converging(a: Motion | None, b: Motion | None) -> bool:
     if a is None or b is None or _alongside(a, b):
         return False
     (pa, va), (pb, vb) = a, b
-    line = _unit((pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]))
-    return line is not None and _dot((va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]), line) >= APPROACH
+    line = _unit(_sub(pb, pa))
+    return line is not None and _dot(_sub(va, vb), line) >= APPROACH
 
 
 def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
@@ -419,7 +419,7 @@ def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> 
     fork_at = tree.position_in(fork, body[0])
 
     def at(link: str) -> Vector:
-        return tuple(p - o for p, o in zip(tree.position_in(link, body[0]), fork_at))  # type: ignore[return-value]
+        return _sub(tree.position_in(link, body[0]), fork_at)
     tips = [at(max(f.links, key=lambda link: len(tree.chain_to_root(link)))) for f in fingers]
     centre = (sum(p[0] for p in tips) / len(tips), sum(p[1] for p in tips) / len(tips), sum(p[2] for p in tips) / len(tips))
     span = max(math.dist(p, centre) for p in tips)
@@ -467,15 +467,12 @@ def rigid_body(tree: KinematicTree, link: str) -> tuple[str, ...]:
     top = link
     while (parent := tree.parent(top)) is not None and not tree.edge_to(top).movable:
         top = parent
-    body, stack = [], [top]
-    while stack:
-        body.append(current := stack.pop())
-        stack.extend(c for c in tree.children(current) if not tree.edge_to(c).movable)
-    return tuple(body)
+    return palm(tree, top)
 
 
 def palm(tree: KinematicTree, fork: str) -> tuple[str, ...]:
-    """A hand's own body: its fork and the links bolted below it (not the wrist above, whose camera is no hand's)."""
+    """A hand's own body: its fork and the links bolted below it (not the wrist above, whose camera is no hand's);
+    of any link, the link and what is fixed below it."""
     body, stack = [], [fork]
     while stack:
         body.append(current := stack.pop())
@@ -668,4 +665,4 @@ def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:
     """A joint that moves lies on the tree's path between links `a` and `b`."""
     meet = fork_of(tree, [a, b])
     return any(tree.edge_to(link).movable for leaf in (a, b)
-               for link in tree.chain_to_root(leaf)[:tree.chain_to_root(leaf).index(meet)])
+               for path in [tree.chain_to_root(leaf)] for link in path[:path.index(meet)])
