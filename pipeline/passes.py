@@ -1,24 +1,28 @@
 """Declared passes and the manager that runs them, in the style of numba's PassManager.
 
-A pass is a name and a list of named steps; a step is a function of the pass's context (what lasts
-across passes) and its state (what this pass has built so far). The manager runs a pass's steps in
-order, ends the pass early when a step sets `state.done` (nothing left to abstract), and writes each
-step's wall time to the trace as `{"key": "timing", "pass": ..., "step": ..., "seconds": ...}`, with
-what the `counters` counted during the step (model seconds, tokens, ...: pipeline.timings).
-Timings go to the trace only, never into a prompt or the ontology. pipeline.abstraction declares the
-passes; adding one is adding a list of steps there.
+A pass is a name and a list of steps; a step is a plain function of the pass's context
+(pipeline.steps.context) and the findings record (pipeline.steps.findings), declared with `@step`
+and the record's fields it reads (`needs`) and makes or updates (`makes`), as spaCy components
+declare `requires` and `assigns`. The names are checked when a step is declared: a name that is not a
+field of the record raises there, at import. `check_order` (numba's `finalize`) then verifies, once,
+when the passes are declared, that every field a step needs was given at the start or made by an
+earlier step: of this pass, or of an earlier pass for a field that lasts from pass to pass. So a step
+moved before what it reads fails at import, not with a wrong answer; tests/test_step_declarations.py
+checks on generated robots that the steps read and write only what they declare.
 
-Each step declares the analyses it reads (`needs`) and those it makes (`makes`), by name: the finger
-structure, the identification claims, the groups... `check_order` (numba's `finalize`) verifies, once,
-when the passes are declared, that every analysis a step needs was given at the start or made by an
-earlier step of this pass or an earlier pass, so a step moved before what it reads fails at import,
-not with a wrong answer.
+The manager runs a pass's steps in order, ends the pass early when a step sets `done` (nothing left
+to abstract), adds the pass and step to the notes of an error raised inside a step, and writes each
+step's wall time to the trace as `{"key": "timing", "pass": ..., "step": ..., "seconds": ...}`, with
+what the `counters` counted during the step (model seconds, tokens, ...: pipeline.timings). Timings
+go to the trace only, never into a prompt or the ontology.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Protocol
+
+from urdfkb.pipeline.steps.findings import FIELDS
 
 
 class State(Protocol):
@@ -28,9 +32,24 @@ class State(Protocol):
 @dataclass(frozen=True)
 class Step:
     name: str
-    run: Callable[[Any, Any], None]  # (context, state) -> None
-    needs: tuple[str, ...] = ()  # analyses it reads
-    makes: tuple[str, ...] = ()  # analyses it makes (or remakes)
+    run: Callable[[Any, Any], None]  # (context, findings) -> None
+    needs: tuple[str, ...] = ()  # fields it reads
+    makes: tuple[str, ...] = ()  # fields it makes or updates (an update reads the field too)
+
+    def __call__(self, context: Any, findings: Any) -> None:
+        self.run(context, findings)
+
+
+def step(name: str, needs: tuple[str, ...] = (), makes: tuple[str, ...] = ()) -> Callable[[Callable[[Any, Any], None]], Step]:
+    """Declare a step function named `name`; ValueError when a name in `needs` or `makes` is not a field of
+    the findings record."""
+    if unknown := [n for n in (*needs, *makes) if n not in FIELDS]:
+        raise ValueError(f"step {name!r} declares {', '.join(unknown)}: no such field of the findings record "
+                         "(pipeline.steps.findings)")
+
+    def declare(run: Callable[[Any, Any], None]) -> Step:
+        return Step(name, run, needs, makes)
+    return declare
 
 
 @dataclass(frozen=True)
@@ -44,15 +63,18 @@ class Pass:
             raise ValueError(f"pass {self.name!r} names a step twice: {names}")
 
 
-def check_order(passes: tuple[Pass, ...], given: tuple[str, ...]) -> None:
-    """ValueError naming the first step that needs an analysis neither `given` nor an earlier step makes."""
-    made = set(given)
+def check_order(passes: tuple[Pass, ...], given: tuple[str, ...], lasting: frozenset[str] = frozenset()) -> None:
+    """ValueError naming the first step that needs a field neither `given` nor an earlier step makes; a field
+    made in an earlier pass counts only if it is `lasting`."""
+    kept = set(given)
     for declared in passes:
-        for step in declared.steps:
-            if missing := [n for n in step.needs if n not in made]:
-                raise ValueError(f"pass {declared.name!r}, step {step.name!r} needs {', '.join(missing)}, "
+        made = set(kept)
+        for s in declared.steps:
+            if missing := [n for n in s.needs if n not in made]:
+                raise ValueError(f"pass {declared.name!r}, step {s.name!r} needs {', '.join(missing)}, "
                                  "which no earlier step makes")
-            made.update(step.makes)
+            made.update(s.makes)
+        kept |= made & lasting
 
 
 class PassManager:
@@ -63,12 +85,16 @@ class PassManager:
         self.record = record
         self.counters = counters or dict
 
-    def run(self, declared: Pass, context: Any, state: State) -> None:
-        for step in declared.steps:
+    def run(self, declared: Pass, context: Any, findings: State) -> None:
+        for s in declared.steps:
             before, started = self.counters(), time.perf_counter()
-            step.run(context, state)
+            try:
+                s.run(context, findings)
+            except Exception as error:
+                error.add_note(f"in pass {declared.name!r}, step {s.name!r}")
+                raise
             seconds, after = time.perf_counter() - started, self.counters()
-            self.record({"key": "timing", "pass": declared.name, "step": step.name, "seconds": round(seconds, 4),
+            self.record({"key": "timing", "pass": declared.name, "step": s.name, "seconds": round(seconds, 4),
                          **{name: round(after[name] - value, 4) for name, value in before.items()}})
-            if state.done:
+            if findings.done:
                 return

@@ -168,12 +168,13 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         started = time.monotonic()
         log = _verification_log(trace) if trace else None
         abstractor = Abstractor(oracle, vocabulary(), progress, log, timings.record if timings else None, reasoner, placer)
-        components, body = abstractor.run(tree), abstractor.body
+        found = abstractor.run(tree)
+        components, body = found.components, found.body
         stats = oracle.stats
         provenance = {
             **oracle.provenance(),
             **model_file,
-            "declared_constraints": str(abstractor.declared),
+            "declared_constraints": str(abstractor.tally.declared),
             "llm_calls": str(stats.calls),
             "prompt_tokens": str(stats.prompt_tokens),
             "seconds": f"{time.monotonic() - started:.1f}",

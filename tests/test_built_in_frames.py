@@ -78,7 +78,7 @@ def reads_frames(head: str, truth: dict[str, str], frame_of: dict[str, str]):
 def test_a_frame_built_into_a_device_takes_the_devices_kind(seed):
     urdf, head, truth, frame_of, expected = build(seed)
     oracle = Oracle(ScriptedBackend(reads_frames(head, truth, frame_of)))
-    sensors = [c for c in Abstractor(oracle, TAX, reasoner=scripted_reasoner).run(load_urdf(urdf))
+    sensors = [c for c in Abstractor(oracle, TAX, reasoner=scripted_reasoner).run(load_urdf(urdf)).components
                if c.kind == "sensor"]
     typed = {link: c.cls for c in sensors for link in c.links if link in frame_of}
     assert typed == expected, seed

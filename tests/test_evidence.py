@@ -153,18 +153,18 @@ def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
     seen: dict[str, Question] = {}
     trace = []
     abstractor = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append)
-    components = {c.subcomponents[-1].link: c for c in abstractor.run(bot)}
+    components = {c.subcomponents[-1].link: c for c in abstractor.run(bot).components}
     assert components["nose_scanner"].cls == "Lidar"  # gpu_ray: no question left to ask
     assert "pre:nose_scanner@Sensor" not in seen
     assert seen["pre:tail_scanner@RangingSensor"].options == ("lidar", "sonar")
     assert components["mast_eye_optical"].cls in TAX.subclasses("Camera")  # the first option was "vision"
-    assert abstractor.declared >= 4 and any("declared ['gpu_ray']" in line for line in trace)
+    assert abstractor.tally.declared >= 4 and any("declared ['gpu_ray']" in line for line in trace)
 
 
 def test_numbered_units_named_as_one_device_stay_separate_unless_an_array(bot):
     seen: dict[str, Question] = {}
     trace = []
-    found = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append).run(bot)
+    found = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append).run(bot).components
     echoes = [c for c in found if c.subcomponents[0].link.startswith("echo")]
     assert [c.subcomponents[0].link for c in echoes] == ["echo_1_link", "echo_2_link", "echo_3_link"]
     assert all(c.cls == "Lidar" and c.root == "hull" for c in echoes)  # each its own first-option ranging sensor
@@ -205,7 +205,7 @@ def test_a_declared_span_rules_out_the_ranging_kinds_it_is_too_narrow_for(seed):
         stage = q.key.partition(":")[0]
         return {"check": "sensor", "identify": "sensor"}.get(stage, q.options[0])
 
-    found = {c.subcomponents[-1].link: c.cls for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(load_urdf(urdf))}
+    found = {c.subcomponents[-1].link: c.cls for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(load_urdf(urdf)).components}
     assert found[beam] == "RangingSensor" and found[cone] == "Sonar" and found[scanner] == "Lidar"
     assert seen[f"pre:{wide}@RangingSensor"].options == ("lidar", "sonar")  # both kinds fit a 60-degree sweep
     assert not any(k.startswith((f"pre:{beam}@", f"pre:{cone}@RangingSensor")) for k in seen)
@@ -223,6 +223,6 @@ def test_a_leaf_the_file_declares_a_measuring_sensor_on_is_a_sensor_unasked(seed
         asked.append(q.key)
         return "body part" if q.key.startswith("identify:") else q.options[0]
     abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
-    found = {c.subcomponents[-1].link for c in abstractor.run(load_urdf(urdf)) if c.kind == "sensor"}
+    found = {c.subcomponents[-1].link for c in abstractor.run(load_urdf(urdf)).components if c.kind == "sensor"}
     assert found == set(leaves[:2])
     assert [k for k in asked if k.startswith("identify:")] == [f"identify:{leaves[2]}"]

@@ -11,7 +11,7 @@ import pytest
 from tests.camera_robots import build
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
+from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
@@ -19,6 +19,8 @@ from urdfkb.pipeline.stages.attachment import detect_roots, sub_chain
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.steps.classify import post_classification
+from urdfkb.pipeline.steps.findings import Findings
 from urdfkb.pipeline.structure import viewpoints
 
 SEEDS = range(200)
@@ -134,10 +136,11 @@ def test_a_stereo_pair_read_as_monocular_is_a_stereo_camera_and_a_lone_frame_no_
         pair = next((d for d in built.devices if len({built.housing[f] for f in d}) == 2), None)
         lone = next((d for d in built.devices if len(d) == 1), None)
         groups = [Group([sub_chain(tree, f, built.mount) for f in d]) for d in (pair, lone) if d]
-        state = PassState(TAX.kinds["sensor"], tree, tree, [], groups=groups)
+        state = Findings(groups=groups)
         state.pre = {f: Typed("MonocularCamera" if d is pair else "StereoCamera", 0.9)
                      for d in (pair, lone) if d for f in d}
-        Abstractor(Oracle(ScriptedBackend(_answer([mono, stereo]))), TAX).post_classification(state)
+        post_classification(Abstractor(Oracle(ScriptedBackend(_answer([mono, stereo]))), TAX).context(tree, kind="sensor"),
+                            state)
         for group, typed in zip(groups, state.post):
             if group.leaves == pair:
                 assert typed.cls == "StereoCamera", (seed, built.description)
@@ -166,11 +169,11 @@ def test_frames_of_one_housing_the_model_splits_between_sensor_and_tool_are_all_
         def rule(q, odd=odd):
             return {tool: 0.52, sensor: 0.48} if q.key.split(":", 1)[1] in odd else {sensor: 0.6, tool: 0.4}
         abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
-        state = PassState(TAX.kinds["sensor"], tree, tree, [])
+        context, state = abstractor.context(tree, kind="sensor"), Findings()
         for step in SENSOR_PASS.steps[:2]:
-            step.run(abstractor, state)
+            step(context, state)
         frames = [f for d in built.devices for f in d]
-        assert {f: abstractor.claims[f] for f in frames} == dict.fromkeys(frames, TAX.kinds["sensor"].cls), seed
+        assert {f: state.claims[f] for f in frames} == dict.fromkeys(frames, TAX.kinds["sensor"].cls), seed
         checked += 1
     assert checked > 50
 
@@ -221,9 +224,9 @@ def test_the_frames_say_the_camera_whatever_the_model_names_it():
                 return TAX.answer(MODALITY[modality[leaf]])
             return next((o for o in (depth, mono) if o in q.options), q.options[0])
         groups = [Group([sub_chain(tree, f, built.mount) for f in d]) for d in devices]
-        state = PassState(TAX.kinds["sensor"], tree, tree, [], groups=groups)
+        state = Findings(groups=groups)
         state.pre = {f: Typed("MonocularCamera", 0.9) for d in devices for f in d}
-        Abstractor(Oracle(ScriptedBackend(rule)), TAX).post_classification(state)
+        post_classification(Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor"), state)
         for d, typed in zip(devices, state.post):
             kinds = {modality[f] for f in d}
             expected = ("RGBDCamera" if kinds == {"rgb", "depth"} else "DepthCamera" if kinds == {"depth"}

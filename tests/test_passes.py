@@ -7,14 +7,14 @@ import pytest
 
 from tests.scripted_reasoner import scripted_reasoner
 from tests.toy_robot import TOY, perfect
-from urdfkb.pipeline import abstraction
-from urdfkb.pipeline.abstraction import PASSES, Abstractor
+from urdfkb.pipeline.abstraction import GIVEN, PASSES, Abstractor
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order
+from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order, step
+from urdfkb.pipeline.steps.findings import LASTING
 
 
 @dataclass
@@ -45,11 +45,26 @@ def test_a_pass_names_each_step_once():
         Pass("p", (Step("a", print), Step("a", print)))
 
 
-def test_every_component_kind_has_a_declared_pass_sensors_first(monkeypatch):
+def test_every_component_kind_has_a_declared_pass_sensors_first():
     assert [p.name for p in PASSES] == ["sensor", "end_effector", "body"]
-    monkeypatch.setattr(abstraction, "PASSES", PASSES[:1])
     with pytest.raises(OntologyError, match="no pass declared for component kind.*end_effector"):
-        Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary())
+        Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary(), passes=PASSES[:1])
+
+
+def test_a_step_declaring_a_field_the_findings_record_lacks_is_refused_where_it_is_declared():
+    with pytest.raises(ValueError, match="step 'x' declares hands, chain: no such field of the findings record"):
+        @step("x", needs=("leaves", "hands"), makes=("chain",))
+        def x(context, found):
+            pass
+
+
+def test_an_error_inside_a_step_names_its_pass_and_step():
+    def broken(context, state):
+        raise KeyError("left_finger")
+
+    with pytest.raises(KeyError) as raised:
+        PassManager(lambda _record: None).run(Pass("p", (Step("a", lambda c, s: None), Step("b", broken))), None, Ran())
+    assert raised.value.__notes__ == ["in pass 'p', step 'b'"]
 
 
 def test_the_trace_times_every_step_of_every_pass():
@@ -74,8 +89,10 @@ def test_one_reasoner_run_settles_the_tools_and_the_body_candidates():
 
     robot = load_urdf(TOY)
     abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary(), reasoner=counted)
-    components = body.with_joints(robot, list(abstractor.run(robot)))
-    facts, classes = abstractor.body_reasoned
+    found = abstractor.run(robot)
+    components = body.with_joints(robot, found.components)
+    assert found.body_reasoned is not None
+    facts, classes = found.body_reasoned
     assert runs == [(1, len(facts))]
     assert facts == body.findings(robot, body.candidates(robot, components), components).facts
     assert any(classes)
@@ -83,14 +100,18 @@ def test_one_reasoner_run_settles_the_tools_and_the_body_candidates():
 
 
 def test_a_step_before_what_it_reads_is_refused_when_the_passes_are_declared():
-    """check_order, run on PASSES at import: moving the finger structure after identification (or the end-effector
-    pass before the sensor pass that makes it) is an error naming the step and what it lacks."""
-    check_order(PASSES, given=("robot", "tree", "components"))
+    """check_order, run on PASSES at import: moving the shape step after identification (or the end-effector
+    pass before the sensor pass that makes what shape settles) is an error naming the step and what it lacks;
+    a field of one pass's own is not there for the next."""
+    check_order(PASSES, given=GIVEN, lasting=LASTING)
     sensor = PASSES[0]
     swapped = Pass(sensor.name, (sensor.steps[1], sensor.steps[0], *sensor.steps[2:]))
-    with pytest.raises(ValueError, match="step 'identification' needs hands, feet"):
-        check_order((swapped, *PASSES[1:]), given=("robot", "tree", "components"))
-    with pytest.raises(ValueError, match="pass 'end_effector', step 'identification' needs hands"):
-        check_order((PASSES[1], PASSES[0], PASSES[2]), given=("robot", "tree", "components"))
+    with pytest.raises(ValueError, match="step 'identification' needs hand_mounts, feet"):
+        check_order((swapped, *PASSES[1:]), given=GIVEN, lasting=LASTING)
+    with pytest.raises(ValueError, match="pass 'end_effector', step 'identification' needs hand_mounts"):
+        check_order((PASSES[1], PASSES[0], PASSES[2]), given=GIVEN, lasting=LASTING)
     with pytest.raises(ValueError, match="needs b"):
         check_order((Pass("p", (Step("x", print, needs=("b",)), Step("y", print, makes=("b",)))),), given=())
+    made, used = Pass("p", (Step("x", print, makes=("b", "c")),)), Pass("q", (Step("y", print, needs=("c", "b")),))
+    with pytest.raises(ValueError, match="pass 'q', step 'y' needs b"):
+        check_order((made, used), given=(), lasting=frozenset({"c"}))

@@ -27,7 +27,7 @@ def toy():
 
 
 def abstract(tree, rule=perfect, vote=None):
-    return Abstractor(Oracle(ScriptedBackend(rule), vote=vote), TAX, reasoner=scripted_reasoner).run(tree)
+    return Abstractor(Oracle(ScriptedBackend(rule), vote=vote), TAX, reasoner=scripted_reasoner).run(tree).components
 
 
 def test_toy_robot_is_abstracted_into_its_devices(toy):
@@ -294,7 +294,7 @@ def test_several_touch_pads_read_as_one_device_are_an_array():
         if stage in ("pre", "post"):
             return next(o for o in ("contact sensor", "touch sensor") if o in q.options)
         return q.options[0]
-    comps = Abstractor(Oracle(ScriptedBackend(reads_pads)), TAX, reasoner=scripted_reasoner).run(load_urdf(urdf.encode()))
+    comps = Abstractor(Oracle(ScriptedBackend(reads_pads)), TAX, reasoner=scripted_reasoner).run(load_urdf(urdf.encode())).components
     touch = [c for c in comps if c.kind == "sensor"]
     assert [(c.cls, sorted(s.link for s in c.subcomponents if s.link in pads)) for c in touch] == [("TactileArray", pads)]
     assert all("touch sensor" not in options for key, options in offered.items() if key.startswith("post:"))

@@ -24,7 +24,7 @@ def run(seed: int) -> tuple[Robot, dict, list[dict], list[Question]]:
     asked: list[Question] = []
     abstractor = Abstractor(Oracle(ScriptedBackend(model(robot, asked)), trace=trace), TAX,
                             reasoner=scripted_reasoner, placer=scripted_placements)
-    components = abstractor.run(load_urdf(robot.urdf))
+    components = abstractor.run(load_urdf(robot.urdf)).components
     records = [json.loads(line) for line in trace.getvalue().splitlines()]
     by_leaf = {link: c for c in components for link in c.links}
     return robot, by_leaf, [r for r in records if r["key"] == "placement"], asked
@@ -54,6 +54,6 @@ def test_nothing_is_asked_again_where_every_class_fits_its_place():
     rule = model(robot, asked)
     abstractor = Abstractor(Oracle(ScriptedBackend(lambda q: "none" if q.key.startswith("body:") else rule(q))), TAX,
                             reasoner=scripted_reasoner, placer=scripted_placements)
-    by_leaf = {link: c for c in abstractor.run(load_urdf(robot.urdf)) for link in c.links}
+    by_leaf = {link: c for c in abstractor.run(load_urdf(robot.urdf)).components for link in c.links}
     assert by_leaf[robot.button].cls == "Bumper" and by_leaf[robot.button].located_on.startswith("mobile_base")
     assert not any(q.key.startswith("placement:") for q in asked)

@@ -11,13 +11,14 @@ from tests.body_robots import legged, wheeled
 from tests.hand_robots import build
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
+from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import detect_roots
+from urdfkb.pipeline.steps.findings import Findings
 from urdfkb.pipeline.structure import (alike_leaves, feet, hand_leaves, hand_mounts, hands, loop_closures,
                                       off_limb_ends)
 
@@ -75,10 +76,10 @@ def _identified(urdf: bytes, rule) -> dict[str, str]:
     """The leaves' kinds after the sensor pass's shape and identification steps, answered by `rule`."""
     tree = load_urdf(urdf)
     abstractor = Abstractor(Oracle(ScriptedBackend(rule)), TAX)
-    state = PassState(TAX.kinds["sensor"], tree, tree, [])
+    context, found = abstractor.context(tree, kind="sensor"), Findings()
     for step in SENSOR_PASS.steps[:2]:
-        step.run(abstractor, state)
-    return abstractor.claims
+        step(context, found)
+    return found.claims
 
 
 def _leaf(question) -> str:

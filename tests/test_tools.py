@@ -144,7 +144,8 @@ def perfect(q: Question) -> str | dict:
 
 def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack):
     abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), TAX, reasoner=scripted_reasoner)
-    comps = abstractor.run(rack)
+    found = abstractor.run(rack)
+    comps = found.components
     tools = {c.cls: c for c in comps if c.kind == "end_effector"}
     assert set(tools) == {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand"}
     assert tools["ParallelGripper"].root == "left_flange" and tools["AnthropomorphicHand"].root == "mid_wrist"
@@ -156,7 +157,7 @@ def test_pipeline_takes_kinds_from_the_reasoner_and_keeps_the_camera_apart(rack)
     assert "palm" in OFFERED["part:vise_body@EndEffectorSubpart"]  # the jaws hang from it
     assert not {"palm", "finger"} & set(OFFERED["part:vise_grip_point@EndEffectorSubpart"])
 
-    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(comps, body=abstractor.body))
+    onto = build_robot(owlready2.World(), rack, "tool_rack", Abstraction(tuple(comps), body=tuple(found.body)))
     graph = robot_graph(onto)
     assert validate(graph)[0]
     core = rdflib.Namespace(CORE_IRI)
@@ -173,11 +174,12 @@ def test_a_leaf_moving_on_a_mimic_joint_is_no_sensor(rack):
             return "sensor"  # the model's mistake: the jaw that follows the other is taken for a sensor
         return perfect(q)
     abstractor = Abstractor(Oracle(ScriptedBackend(jaw_as_sensor)), TAX, reasoner=scripted_reasoner)
-    comps = abstractor.run(rack)
+    found = abstractor.run(rack)
+    comps = found.components
     vise = next(c for c in comps if c.kind == "end_effector" and c.root == "left_flange")
     assert vise.cls == "ParallelGripper" and "vise_jaw_starboard" in vise.links
     assert not any(c.kind == "sensor" and "vise_jaw_starboard" in c.links for c in comps)
-    assert "vise_jaw_starboard" in abstractor.hand_tips  # a finger by structure: never asked, never a sensor
+    assert "vise_jaw_starboard" in found.hand_mounts  # a finger by structure: never asked, never a sensor
 
 
 
@@ -225,7 +227,7 @@ def test_a_tool_in_which_nothing_moves_may_stay_a_plain_end_effector(end, offere
             asked.append(q.options)
             return "rigid tool" if "rigid tool" in q.options else "gripper"
         return q.options[0]
-    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(urdf))
+    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(urdf)).components
     (tool,) = [c for c in comps if c.kind == "end_effector"]
     assert asked and ("rigid tool" in asked[0]) is offered
     assert (tool.cls == "EndEffector") is offered

@@ -160,14 +160,15 @@ def test_a_sensor_class_added_to_the_ontology_is_offered_and_written_out(tmp_pat
 
     tree = load_urdf(KILN_BOT)
     abstractor = Abstractor(Oracle(ScriptedBackend(model)), vocab, reasoner=scripted_reasoner)
-    (comp,) = abstractor.run(tree)
+    found = abstractor.run(tree)
+    (comp,) = found.components
     assert (comp.kind, comp.cls, comp.root) == (SENSOR, "Thermometer", "boiler")
     pre = next(q for q in asked if q.key == "pre:boiler_temp_frame@Sensor")
     assert "thermometer" in pre.options
     assert ("- thermometer: Sensor measuring temperature; one small frame named temp or thermo."
             " Example: kettle_thermo_frame") in pre.system
 
-    abstraction = Abstraction((comp,), body=abstractor.body)
+    abstraction = Abstraction((comp,), body=tuple(found.body))
     with pytest.raises(OntologyError, match="Thermometer"):  # the packaged core does not know it
         build_robot(owlready2.World(), tree, "kiln_bot", abstraction)
     graph = robot_graph(build_robot(owlready2.World(), tree, "kiln_bot", abstraction, vocab=vocab), vocab=vocab)

@@ -4,6 +4,6 @@ Numbered as in the README: 1 identification (and, for sensors, sensor_check), 2 
 detection, 3 pre-classification, 4 group merging, 5 verification, 6 post-classification (for
 end-effectors: extent and mount by structure, kind by the reasoner, tools), 7 sub-part typing
 (subparts). All but verification can ask the model constrained questions through an Oracle;
-verification is deterministic. pipeline.abstraction declares each kind's pass as the steps that
-call them.
+verification is deterministic. The steps of pipeline.steps call them; pipeline.abstraction declares
+each kind's pass as a list of those steps.
 """
