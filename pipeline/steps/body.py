@@ -38,9 +38,10 @@ def body_classification(ctx: Context, found: Findings) -> None:
                         reasoned, found.body_reasoned, ctx.reasoner)
 
 
-@step("assembly", needs=("candidates",), makes=("body",))
+@step("assembly", needs=("candidates",), makes=("body", "candidates"))
 def body_assembly(ctx: Context, found: Findings) -> None:
-    """The classified candidates as body parts."""
+    """The classified candidates as body parts (stages.body.assemble joins a chain's lone follower of its class
+    into it, among the candidates themselves)."""
     found.body = body_stage.assemble(ctx.vocab, ctx.robot, found.candidates)
 
 
