@@ -71,7 +71,7 @@ class LinkEvidence:
 
     def text(self) -> str:
         """The link's geometry in a few words, or '' when it has none worth saying. Declared simulator
-        sensors are not rendered: they narrow the classes offered (abstraction._ruled_out) instead."""
+        sensors are not rendered: they narrow the classes offered (pipeline.steps.classify._ruled_out) instead."""
         parts = [f"mesh {', '.join(self.meshes)}"] if self.meshes else []
         if self.shape:
             parts.append(self.shape)

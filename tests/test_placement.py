@@ -1,4 +1,4 @@
-"""The property-restriction loop (Abstractor.placement): a generated robot whose model takes a chest button, and
+"""The property-restriction loop (pipeline.steps.body.placement): a generated robot whose model takes a chest button, and
 a pad of two frames, on a lifting torso for bumpers (a bumper sits on a mobile base or a leg: tests/placement_robot.py)
 has them asked again without the bumper, keeps the bumper on its base, and the trace names the restriction that
 fired."""

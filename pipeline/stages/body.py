@@ -165,7 +165,7 @@ def evidence(tree: KinematicTree, chain: Chain, carried: list[str], further: int
     return "\n".join(lines)
 
 
-# --- the pass's steps (pipeline.abstraction.BODY_PASS runs them in this order) -----------------
+# --- what the body pass's steps call (pipeline.steps.body; pipeline.abstraction.BODY_PASS runs them in order) ----
 
 def with_joints(tree: KinematicTree, components: list[Component]) -> list[Component]:
     """The components, each end-effector with the movable joints of its fingers (`device_joints`)."""

@@ -9,7 +9,7 @@ from urdfkb.pipeline.evidence import LinkEvidence, named
 from urdfkb.pipeline.passes import step
 from urdfkb.pipeline.prompts import product_text
 from urdfkb.pipeline.stages.attachment import SubChain
-from urdfkb.pipeline.stages.classification import Subject, Typed, descend
+from urdfkb.pipeline.stages.classification import Subject, descend
 from urdfkb.pipeline.stages.grouping import Group
 from urdfkb.pipeline.stages.identification import named_product
 from urdfkb.pipeline.stages.sensor_check import MAJORITY
