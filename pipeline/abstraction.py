@@ -93,7 +93,7 @@ class Abstractor:
 
     def context(self, robot: KinematicTree, tree: KinematicTree | None = None, kind: str | None = None) -> Context:
         """A pass's context: `tree` (default: the whole robot) is what it sees, `kind` the component kind it finds."""
-        return Context(robot, tree or robot, self.vocab.kinds.get(kind) if kind else None, self.oracle, self.vocab,
+        return Context(robot, robot if tree is None else tree, self.vocab.kinds.get(kind) if kind else None, self.oracle, self.vocab,
                        self.progress, self.log, self.reasoner, self.placer, self.tally)
 
     def run(self, robot: KinematicTree) -> Findings:
