@@ -515,19 +515,33 @@ OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies alon
 
 
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
-    """The link both leaves hang from as frames of one body: by fixed joints through frames (is_frame),
-    within CAMERA_BODY of it, each on a branch that leads to it alone (None where they do not)."""
+    """The link both leaves hang from as parts of one body: by fixed joints through frames (is_frame), within
+    CAMERA_BODY of it, each on a branch that leads to one imager alone (None where they do not). A leaf with
+    geometry fixed straight to that link, beside a frame, is the body's own housing piece (a camera's model
+    frame, a lidar's cap): it belongs to the body too."""
     body = fork_of(tree, [a, b])
+    housings = 0
     for leaf in (a, b):
         path = tree.chain_to_root(leaf)
         branch = path[:path.index(body)]  # leaf ... the body's child
-        if not branch or any(tree.edge_to(link).movable or not is_frame(tree, link) for link in branch):
+        if not branch or any(tree.edge_to(link).movable for link in branch):
             return None
-        if any(len(tree.children(link)) > 1 for link in branch[1:]):
+        if not is_frame(tree, leaf) and len(branch) == 1:
+            housings += 1
+        elif not all(is_frame(tree, link) for link in branch):
+            return None
+        if any(_imagers_below(tree, link) > 1 for link in branch[1:]):
             return None
         if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
             return None
-    return body
+    return body if housings < 2 else None
+
+
+def _imagers_below(tree: KinematicTree, link: str) -> int:
+    """How many imagers a branch link carries: its optical-convention leaves (REP 103), or all its leaves where
+    none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs)."""
+    leaves = [d for d in tree.descendants(link) if tree.is_leaf(d)]
+    return sum(_optical(tree, leaf) for leaf in leaves) or len(leaves)
 
 
 def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:

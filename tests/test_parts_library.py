@@ -29,14 +29,7 @@ TOOLS = ["robotiq_2f85", "robotiq_2f140", "robotiq_hande", "robotiq_epick", "fra
          "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282"]
 
 # Where the pipeline gets a part wrong today: the failure class, for the lead (strict: a fix shows as XPASS).
-SIBLING_LEAVES = ("one device, many components: a part whose housing or built-in sensor frames are leaves beside its "
-                  "optical or scan frames (OAK-D's model frame, ZED 2's magnetometer/barometer/temperature frames, "
-                  "the OS1's thermal cap) is split when the model names frames apart: no body binds them")
 KNOWN = {
-    ("group", "luxonis_oakd"): SIBLING_LEAVES, ("group", "stereolabs_zed2"): SIBLING_LEAVES,
-    ("group", "ouster_os1"): SIBLING_LEAVES,
-    ("mount", "luxonis_oakd"): "mount: " + SIBLING_LEAVES, ("mount", "stereolabs_zed2"): "mount: " + SIBLING_LEAVES,
-    ("mount", "ouster_os1"): "mount: " + SIBLING_LEAVES,
     ("tool", "robotiq_epick"): ("tool extent: a suction tool with no moving joint is delimited at its cup "
                                 "(mount epick_suction_cup), its body and base frame left out"),
 }

@@ -18,10 +18,12 @@ the tool's provisional mount is the deepest mount the model named for any of its
 them all (stages.tools then settles extent and mount from structure).
 One body, one device: two sensor sub-chains of one category whose leaves are frames (no geometry) hanging
 by fixed joints from one link inside both (the device's body, a housing or a bare camera frame), within
-CAMERA_BODY of it, each by a branch of that link that leads to it alone, are one device whatever their
+CAMERA_BODY of it, each by a branch of that link that leads to one imager alone, are one device whatever their
 names: the colour, depth, infrared and inertial frames of an RGB-D camera, which the name question
-split into one device per frame; one device name is asked for them all. A branch that carries several frames is a camera of its own (a stereo
-head's wide and narrow pairs on one bar), so it binds nothing there; its own frames bind below it.
+split into one device per frame; one device name is asked for them all. A housing piece fixed straight to that
+link beside them (a camera's model frame, a lidar's cap) is bound with them. A branch that carries several
+imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
+its own frames bind below it (structure.body_of).
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
