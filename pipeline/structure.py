@@ -517,16 +517,16 @@ OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies alon
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     """The link both leaves hang from as parts of one body: by fixed joints through frames (is_frame), within
     CAMERA_BODY of it, each on a branch that leads to one imager alone (None where they do not). A leaf with
-    geometry fixed straight to that link, beside a frame, is the body's own housing piece (a camera's model
-    frame, a lidar's cap): it belongs to the body too."""
+    geometry fixed straight to that link, beside an optical frame (REP 103), is the camera body's own housing
+    piece (a camera's model frame): it belongs to the body too."""
     body = fork_of(tree, [a, b])
     housings = 0
-    for leaf in (a, b):
+    for leaf, other in ((a, b), (b, a)):
         path = tree.chain_to_root(leaf)
         branch = path[:path.index(body)]  # leaf ... the body's child
         if not branch or any(tree.edge_to(link).movable for link in branch):
             return None
-        if not is_frame(tree, leaf) and len(branch) == 1:
+        if not is_frame(tree, leaf) and len(branch) == 1 and _optical(tree, other):
             housings += 1
         elif not all(is_frame(tree, link) for link in branch):
             return None
