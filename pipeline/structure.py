@@ -526,7 +526,7 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
         branch = path[:path.index(body)]  # leaf ... the body's child
         if not branch or any(tree.edge_to(link).movable for link in branch):
             return None
-        if not is_frame(tree, leaf) and len(branch) == 1 and _optical(tree, other):
+        if not is_frame(tree, leaf) and len(branch) == 1 and is_optical(tree, other):
             housings += 1
         elif not all(is_frame(tree, link) for link in branch):
             return None
@@ -541,7 +541,7 @@ def _imagers_below(tree: KinematicTree, link: str) -> int:
     """How many imagers a branch link carries: its optical-convention leaves (REP 103), or all its leaves where
     none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs)."""
     leaves = [d for d in tree.descendants(link) if tree.is_leaf(d)]
-    return sum(_optical(tree, leaf) for leaf in leaves) or len(leaves)
+    return sum(is_optical(tree, leaf) for leaf in leaves) or len(leaves)
 
 
 def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
@@ -554,7 +554,7 @@ def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
     of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
     along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
     and two of them see from one place when they lie within VIEWPOINT across their line of sight."""
-    optical = [leaf for leaf in leaves if _optical(tree, leaf)]
+    optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
     places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
     for leaf in optical or leaves:
         point = tree.position_in(leaf, tree.root)
@@ -578,7 +578,8 @@ def _sub(a: Vector, b: Vector) -> Vector:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-def _optical(tree: KinematicTree, leaf: str) -> bool:
+def is_optical(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf follows the optical convention (REP 103): its z axis, the line of sight, along its parent's x axis."""
     parent = tree.parent(leaf)
     if parent is None:
         return False

@@ -130,6 +130,20 @@ def test_each_sensor_part_is_one_device_whatever_the_model_names_its_frames(key,
         assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(c["leaves"]) for c in comps), (key, host)
 
 
+@pytest.mark.parametrize("key", [k for k in SENSORS if CATEGORY[PARTS[k].truth[0]["classes"][0]] == "VisionSensor"])
+def test_a_cameras_frames_that_do_not_see_stay_with_it_whatever_the_model_says_they_measure(key):
+    """The model pre-classes a camera's inertial, magnetic, temperature and model frames as what they measure (here
+    inertial sensors), its imaging frames as vision: every frame still makes one device with the camera."""
+    for host in hosts_for(PARTS[key]):
+        robot, tree = built(key, host)
+        comps, chains, categories = _sensors(robot, tree)
+        imaging = {leaf for c in comps for leaf in c.get("subparts", {})}
+        categories = {leaf: "InertialSensor" if cat == "VisionSensor" and leaf not in imaging else cat
+                      for leaf, cat in categories.items()}
+        groups = merge(Oracle(ScriptedBackend(lambda q: q.options[0])), tree, chains, "sensor", categories)
+        assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(c["leaves"]) for c in comps), (key, host)
+
+
 @pytest.mark.parametrize("key", marked("mount", [k for k in SENSORS if len(PARTS[k].instance().leaves()) > 1]))
 def test_frames_of_a_sensor_part_mounted_apart_share_the_host_mount(key):
     """The model mounts some of a part's frames on the part's own first link, the others on the host link it is
