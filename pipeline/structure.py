@@ -26,7 +26,8 @@
   to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
   link). A lone leaf is a point, pad or jaw of the body it hangs from; where nothing else moves from
   that body, the body is the tool's and the tool is mounted where the body would be (a ball's tip
-  frame: where the ball is bolted; a one-jaw gripper's moving jaw: where its fixed jaw is; a frame
+  frame: where the ball is bolted; a suction tool's tip frame: where the bodies fixed in series above it, each
+  carrying only the next (its cup, its body), are bolted; a one-jaw gripper's moving jaw: where its fixed jaw is; a frame
   on a link that moves on its own joint: on that link), else on the body itself (a frame on a
   torso that carries an arm).
 
@@ -127,8 +128,17 @@ def mount_of(tree: KinematicTree, fork: str) -> str:
     if tree.is_leaf(fork):
         body = edge.parent
         beside = [link for child in tree.children(body) if child != fork for link in (child, *tree.descendants(child))]
-        return body if any(tree.edge_to(link).movable for link in beside) else mount_of(tree, body)
+        return body if any(tree.edge_to(link).movable for link in beside) else mount_of(tree, _top_body(tree, body))
     return edge.parent if not edge.movable else fork
+
+
+def _top_body(tree: KinematicTree, link: str) -> str:
+    """The highest of the bodies fixed in series above `link`, each carrying only the next (a suction tool's cup,
+    its body): up while the link is fixed to a parent with geometry that carries nothing else."""
+    while (edge := tree.parent_edge(link)) is not None and not edge.movable and len(tree.children(edge.parent)) == 1 \
+            and not is_frame(tree, edge.parent):
+        link = edge.parent
+    return link
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:

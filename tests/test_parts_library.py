@@ -34,8 +34,6 @@ CAP = ("one device, many components: a lidar's housing piece (the OS1's thermal 
        "robots a scan frame's body also carries feet, shells and bumpers")
 KNOWN = {
     ("group", "ouster_os1"): CAP, ("mount", "ouster_os1"): "mount: " + CAP,
-    ("tool", "robotiq_epick"): ("tool extent: a suction tool with no moving joint is delimited at its cup "
-                                "(mount epick_suction_cup), its body and base frame left out"),
 }
 
 
