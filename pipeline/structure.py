@@ -17,8 +17,9 @@
   multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
   halfway through its range. A driven
-  subtree that opposes no other, whose tip sits on its drive's axis, or that hangs on a planar or
-  floating joint, is a *mechanism* (a motor, a lead screw), not a finger.
+  subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
+  floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
+  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
 - Two chains *move together* when their tips' closing motions are within 60 degrees
   (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
@@ -150,7 +151,9 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), _norm(tree.position_in(link, fork))))
         chains[child] = (links, tree.edge_to(child), tip)
     pose = _configuration(tree)
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose) for a, (_, drive, tip) in chains.items()}
+    bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose) if a in bodies or not bodies else []
+               for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
     for a in [a for a in chains if not opposes[a]]:  # a hand written open: its thumb closes on fingers that

@@ -18,6 +18,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
 from urdfkb.pipeline.stages.tools import settle
+from urdfkb.pipeline.structure import is_frame, tool_structure
 
 PARTS = {p.key: p for p in load_all()}
 CAMERAS = ("RGBDCamera", "StereoCamera", "MonocularCamera", "DepthCamera", "InfraredCamera")
@@ -171,6 +172,18 @@ def test_each_tool_part_is_one_tool_of_its_own_links_on_the_flange(key):
             assert structure.mount in roots, (key, host, structure.mount)
             expected = set(inst.link_names) - {structure.mount}  # the part's own first frame, where it is read as the mount
             assert set(tool.members) == expected, (key, host, expected ^ set(tool.members))
+
+
+@pytest.mark.parametrize("key", TOOLS)
+def test_a_tools_fingers_are_bodies_not_the_virtual_joint_they_mimic(key):
+    """A chain of bare frames on a driven joint beside the jaws (the Hand-E's finger-distance joint, which both
+    jaws mimic) is a mechanism: every finger the structure finds has a body."""
+    for host in hosts_for(PARTS[key]):
+        robot, tree = built(key, host)
+        for inst, _flange in robot.mounted:
+            (c,) = inst.truth
+            structure = tool_structure(tree, c["leaves"])
+            assert all(not all(is_frame(tree, link) for link in f.links) for f in structure.fingers), (key, host)
 
 
 def test_the_benchmark_runs_a_subset_and_ends_with_its_summary_line(tmp_path, capsys):
