@@ -14,9 +14,11 @@ from benchmarks.parts.robots import robots, write
 from urdfkb.pipeline import evaluation
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.stages.identification import identify
 from urdfkb.pipeline.stages.tools import settle
 from urdfkb.pipeline.structure import is_frame, tool_structure
 
@@ -184,6 +186,18 @@ def test_a_tools_fingers_are_bodies_not_the_virtual_joint_they_mimic(key):
             (c,) = inst.truth
             structure = tool_structure(tree, c["leaves"])
             assert all(not all(is_frame(tree, link) for link in f.links) for f in structure.fingers), (key, host)
+
+
+def test_a_frame_naming_a_tool_product_is_no_sensor_whatever_the_model_prefers():
+    """The EPick's tip frame names the catalogue's suction gripper: a model that calls every leaf a sensor (as the
+    real one did, 0.63) still leaves it an end effector or nothing, never a sensor."""
+    tax = vocabulary()
+    for host in hosts_for(PARTS["robotiq_epick"]):
+        robot, tree = built("robotiq_epick", host)
+        prefer = (lambda q: "sensor" if "sensor" in q.options else q.options[0])
+        claims = identify(Oracle(ScriptedBackend(prefer)), tax, tree, list(tree.leaves()))
+        for tcp in [leaf for c in robot.part_components() for leaf in c["leaves"]]:
+            assert claims[tcp][0] == "EndEffector", (host, tcp, claims[tcp])
 
 
 def test_the_benchmark_runs_a_subset_and_ends_with_its_summary_line(tmp_path, capsys):
