@@ -29,7 +29,7 @@ from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.attachment import SubChain, detect_roots, sub_chain
 from urdfkb.pipeline.stages import body as body_stage
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
-from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.stages.grouping import VISION, Group, merge, one_mount
 from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import MAJORITY, coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
@@ -257,7 +257,8 @@ class Abstractor:
         """Multi-chain groups descend again from what their members share; a lone chain keeps its class,
         unless where its frames see from rules that class out (below).
 
-        The descent starts at the deepest class common to the members' pre-classes, or one level
+        The descent starts at the deepest class common to the members' pre-classes (a camera's: its imaging
+        frames', not its own inertial or model frames'), or one level
         above it when that is a leaf class, so that siblings stay open (several sonar frames may
         still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
         Where a device's optical frames see from (structure.viewpoints) rules classes out by the
@@ -274,7 +275,8 @@ class Abstractor:
                        for g in s.groups}  # by where its frames see from, and by how many there are
         for g in s.groups:
             if len(g.chains) > 1:
-                by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
+                by_start.setdefault(self._shared_class({s.pre[leaf].cls for leaf in self._imaging(s, g)}, top),
+                                    []).append(g)
             elif (cls := s.pre[g.leaves[0]].cls) in counted_out[id(g)]:
                 self.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
                 by_start.setdefault(self.tax.parents(cls)[0], []).append(g)
@@ -294,23 +296,38 @@ class Abstractor:
         """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
         each leaf of `groups` first (into `s.parts`), and each group is not offered the classes under `start`
         that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
-        camera, a depth frame no monocular camera). Only for devices of several frames: a lone link may stand
+        camera, a depth frame no monocular camera), except the class of a catalogue product the device names. Only
+        for devices of several frames: a lone link may stand
         for a whole camera (a RealSense written as one link), and its one answer cannot show colour and depth
         together (asked of lone frames too, eval r14g, Centauro's and G1's D435s came out monocular)."""
         if not groups:
             return {}
-        leaves = [leaf for g in groups for leaf in g.leaves]
+        leaves = [leaf for g in groups for leaf in self._imaging(s, g)]
         frames = required_parts_first(self.oracle, self.tax, s.tree, leaves, start, self.progress)
         if not frames:
             return {}
         s.parts.update(frames)
         unfit = {}
         for g in groups:
-            kinds = frozenset(frames[leaf].cls for leaf in g.leaves)
-            unfit[id(g)] = self.tax.unfit(kinds, start)
+            kinds = frozenset(frames[leaf].cls for leaf in self._imaging(s, g))
+            unfit[id(g)] = self.tax.unfit(kinds, start) - self._named_classes(s.tree, g)
             if unfit[id(g)]:
                 self.log(f"post:{g.leaves[0]}: frames {sorted(kinds)}, so no {', '.join(sorted(unfit[id(g)]))}")
         return unfit
+
+    def _named_classes(self, tree: KinematicTree, g: Group) -> frozenset[str]:
+        """The class of the catalogue product the device's links name, and the classes above it: the kinds its
+        frames are typed do not rule those out (the small model calls a product's monochrome stereo pair colour)."""
+        product = next((p for c in g.chains if (p := named_product(tree, list(reversed(c.links)))) is not None), None)
+        if product is None or product.cls not in self.tax:
+            return frozenset()
+        return frozenset({product.cls, *self.tax.ancestors(product.cls)})
+
+    def _imaging(self, s: PassState, g: Group) -> list[str]:
+        """The leaves that say what a device is: where some of its frames were called vision sensors and others
+        not (a camera's own inertial and model frames, bound to it by group merging), the former; else all."""
+        seeing = [leaf for leaf in g.leaves if self._category(s.pre[leaf].cls, self._kind(s).cls) == VISION]
+        return seeing or g.leaves
 
     def numbered_units(self, s: PassState) -> None:
         """Numbered units of one type given one device name are separate devices unless the

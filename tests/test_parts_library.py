@@ -12,12 +12,14 @@ from benchmarks.parts.hosts import BUILD, HOSTS, hosts_for
 from benchmarks.parts.library import DATA, PartError, load, load_all
 from benchmarks.parts.robots import robots, write
 from urdfkb.pipeline import evaluation
+from urdfkb.pipeline.abstraction import Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.identification import identify
 from urdfkb.pipeline.stages.tools import settle
 from urdfkb.pipeline.structure import is_frame, tool_structure
@@ -143,6 +145,51 @@ def test_a_cameras_frames_that_do_not_see_stay_with_it_whatever_the_model_says_t
                       for leaf, cat in categories.items()}
         groups = merge(Oracle(ScriptedBackend(lambda q: q.options[0])), tree, chains, "sensor", categories)
         assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(c["leaves"]) for c in comps), (key, host)
+
+
+FRAME_ANSWER = {"RgbFrame": "color image", "DepthFrame": "depth image", "InfraredFrame": "infrared image"}
+
+
+@pytest.mark.parametrize("key", [k for k in SENSORS if CATEGORY[PARTS[k].truth[0]["classes"][0]] == "VisionSensor"
+                                 and len(PARTS[k].truth[0].get("subparts", {})) < len(PARTS[k].truth[0]["leaves"])])
+def test_a_camera_with_its_inertial_frames_is_classed_by_its_imaging_frames(key):
+    """A camera's frames are one device, its imaging frames pre-classed monocular cameras and the rest IMUs; the
+    model types each imaging frame right and takes the first class offered: the device is a camera of the kind
+    its frames say, not whatever a descent from Sensor gives first."""
+    tax = vocabulary()
+    robot, tree = built(key, "wrist")
+    (c,) = robot.part_components()
+    frames = {leaf: FRAME_ANSWER[kinds[0]] for leaf, kinds in c["subparts"].items()}
+
+    def rule(q):
+        leaf = q.key.split(":", 1)[1].split("@")[0]
+        return frames[leaf] if q.key.startswith("part:") and frames.get(leaf) in q.options else q.options[0]
+    group = Group([sub_chain(tree, leaf, c["roots"][0]) for leaf in c["leaves"]])
+    state = PassState(tax.kinds["sensor"], tree, tree, [], groups=[group])
+    state.pre = {leaf: Typed("MonocularCamera" if leaf in frames else "IMU", 0.9) for leaf in c["leaves"]}
+    Abstractor(Oracle(ScriptedBackend(rule)), tax).post_classification(state)
+    assert state.post[0].cls in c["classes"], (key, state.post[0].cls)
+
+
+@pytest.mark.parametrize("key", ["luxonis_oakd", "luxonis_oakd_pro", "luxonis_oakd_lite", "luxonis_oakd_poe"])
+def test_a_named_products_class_stays_offered_when_its_frames_are_typed_wrong(key):
+    """The model types the OAK-D's monochrome stereo pair colour, as the real one does: three colour frames rule out
+    an RGB-D camera by the ontology's definitions, but the device names the catalogue's OAK-D, an RGB-D camera,
+    so that class is still offered."""
+    tax = vocabulary()
+    robot, tree = built(key, "wrist")
+    (c,) = robot.part_components()
+    offered = []
+
+    def rule(q):
+        if q.key.startswith("post:"):
+            offered.extend(q.options)
+        return "color image" if q.key.startswith("part:") else q.options[0]
+    group = Group([sub_chain(tree, leaf, c["roots"][0]) for leaf in c["leaves"]])
+    state = PassState(tax.kinds["sensor"], tree, tree, [], groups=[group])
+    state.pre = {leaf: Typed("RGBDCamera", 0.8) for leaf in c["leaves"]}
+    Abstractor(Oracle(ScriptedBackend(rule)), tax).post_classification(state)
+    assert tax.answer("RGBDCamera") in offered, (key, offered)
 
 
 @pytest.mark.parametrize("key", marked("mount", [k for k in SENSORS if len(PARTS[k].instance().leaves()) > 1]))
