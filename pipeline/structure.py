@@ -17,8 +17,9 @@
   multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
   halfway through its range. A driven
-  subtree that opposes no other, whose tip sits on its drive's axis, or that hangs on a planar or
-  floating joint, is a *mechanism* (a motor, a lead screw), not a finger.
+  subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
+  floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
+  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
 - Two chains *move together* when their tips' closing motions are within 60 degrees
   (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
@@ -26,7 +27,8 @@
   to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
   link). A lone leaf is a point, pad or jaw of the body it hangs from; where nothing else moves from
   that body, the body is the tool's and the tool is mounted where the body would be (a ball's tip
-  frame: where the ball is bolted; a one-jaw gripper's moving jaw: where its fixed jaw is; a frame
+  frame: where the ball is bolted; a suction tool's tip frame: where the bodies fixed in series above it, each
+  carrying only the next (its cup, its body), are bolted; a one-jaw gripper's moving jaw: where its fixed jaw is; a frame
   on a link that moves on its own joint: on that link), else on the body itself (a frame on a
   torso that carries an arm).
 
@@ -127,8 +129,17 @@ def mount_of(tree: KinematicTree, fork: str) -> str:
     if tree.is_leaf(fork):
         body = edge.parent
         beside = [link for child in tree.children(body) if child != fork for link in (child, *tree.descendants(child))]
-        return body if any(tree.edge_to(link).movable for link in beside) else mount_of(tree, body)
+        return body if any(tree.edge_to(link).movable for link in beside) else mount_of(tree, _top_body(tree, body))
     return edge.parent if not edge.movable else fork
+
+
+def _top_body(tree: KinematicTree, link: str) -> str:
+    """The highest of the bodies fixed in series above `link`, each carrying only the next (a suction tool's cup,
+    its body): up while the link is fixed to a parent with geometry that carries nothing else."""
+    while (edge := tree.parent_edge(link)) is not None and not edge.movable and len(tree.children(edge.parent)) == 1 \
+            and not is_frame(tree, edge.parent):
+        link = edge.parent
+    return link
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
@@ -140,7 +151,9 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), _norm(tree.position_in(link, fork))))
         chains[child] = (links, tree.edge_to(child), tip)
     pose = _configuration(tree)
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose) for a, (_, drive, tip) in chains.items()}
+    bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose) if a in bodies or not bodies else []
+               for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
     for a in [a for a in chains if not opposes[a]]:  # a hand written open: its thumb closes on fingers that
@@ -515,19 +528,33 @@ OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies alon
 
 
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
-    """The link both leaves hang from as frames of one body: by fixed joints through frames (is_frame),
-    within CAMERA_BODY of it, each on a branch that leads to it alone (None where they do not)."""
+    """The link both leaves hang from as parts of one body: by fixed joints through frames (is_frame), within
+    CAMERA_BODY of it, each on a branch that leads to one imager alone (None where they do not). A leaf with
+    geometry fixed straight to that link, beside an optical frame (REP 103), is the camera body's own housing
+    piece (a camera's model frame): it belongs to the body too."""
     body = fork_of(tree, [a, b])
-    for leaf in (a, b):
+    housings = 0
+    for leaf, other in ((a, b), (b, a)):
         path = tree.chain_to_root(leaf)
         branch = path[:path.index(body)]  # leaf ... the body's child
-        if not branch or any(tree.edge_to(link).movable or not is_frame(tree, link) for link in branch):
+        if not branch or any(tree.edge_to(link).movable for link in branch):
             return None
-        if any(len(tree.children(link)) > 1 for link in branch[1:]):
+        if not is_frame(tree, leaf) and len(branch) == 1 and is_optical(tree, other):
+            housings += 1
+        elif not all(is_frame(tree, link) for link in branch):
+            return None
+        if any(_imagers_below(tree, link) > 1 for link in branch[1:]):
             return None
         if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
             return None
-    return body
+    return body if housings < 2 else None
+
+
+def _imagers_below(tree: KinematicTree, link: str) -> int:
+    """How many imagers a branch link carries: its optical-convention leaves (REP 103), or all its leaves where
+    none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs)."""
+    leaves = [d for d in tree.descendants(link) if tree.is_leaf(d)]
+    return sum(is_optical(tree, leaf) for leaf in leaves) or len(leaves)
 
 
 def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
@@ -540,7 +567,7 @@ def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
     of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
     along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
     and two of them see from one place when they lie within VIEWPOINT across their line of sight."""
-    optical = [leaf for leaf in leaves if _optical(tree, leaf)]
+    optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
     places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
     for leaf in optical or leaves:
         point = tree.position_in(leaf, tree.root)
@@ -564,7 +591,8 @@ def _sub(a: Vector, b: Vector) -> Vector:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-def _optical(tree: KinematicTree, leaf: str) -> bool:
+def is_optical(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf follows the optical convention (REP 103): its z axis, the line of sight, along its parent's x axis."""
     parent = tree.parent(leaf)
     if parent is None:
         return False

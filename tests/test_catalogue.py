@@ -33,6 +33,7 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("mid360_link", "Livox Mid-360"),
     ("sensors/lds", "ROBOTIS LDS"),
     ("zed2_left_camera_frame", "Stereolabs ZED"),
+    ("oak-d-pro_frame", "Luxonis OAK-D"),  # a hyphen parts words too
     ("normalized_frame", None),   # "zed" inside a word
     ("mtimes_link", None),        # "mti" followed by letters
     ("pos1_frame", None),         # "os1" not at a word start

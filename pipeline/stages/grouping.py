@@ -18,10 +18,14 @@ the tool's provisional mount is the deepest mount the model named for any of its
 them all (stages.tools then settles extent and mount from structure).
 One body, one device: two sensor sub-chains of one category whose leaves are frames (no geometry) hanging
 by fixed joints from one link inside both (the device's body, a housing or a bare camera frame), within
-CAMERA_BODY of it, each by a branch of that link that leads to it alone, are one device whatever their
+CAMERA_BODY of it, each by a branch of that link that leads to one imager alone, are one device whatever their
 names: the colour, depth, infrared and inertial frames of an RGB-D camera, which the name question
-split into one device per frame; one device name is asked for them all. A branch that carries several frames is a camera of its own (a stereo
-head's wide and narrow pairs on one bar), so it binds nothing there; its own frames bind below it.
+split into one device per frame; one device name is asked for them all. A frame of the body binds to one
+called a vision sensor whatever category its own pre-class falls in: the camera's own inertial frames belong
+to the camera (ontology.md). A housing piece fixed straight to that
+link beside them (a camera's model frame, a lidar's cap) is bound with them. A branch that carries several
+imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
+its own frames bind below it (structure.body_of).
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
@@ -40,6 +44,7 @@ from urdfkb.pipeline.tree import KinematicTree
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
+VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 
 
@@ -109,6 +114,13 @@ def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return body is not None and body in a.links and body in b.links
 
 
+def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str]) -> bool:
+    """The two leaves are frames of one body and one of them was called a vision sensor: the other is the camera's
+    own inertial, magnetic or temperature frame, or its model frame, which belongs to the camera whatever it
+    measures (ontology.md: a camera's own inertial frames belong to it)."""
+    return VISION in (categories[a.leaf], categories[b.leaf]) and _one_body(tree, a, b)
+
+
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
     """Frames of one body (structure.body_of) that the model mounted apart, some on a link above the body and some on
     the body or below it, all mounted on the highest of those mounts above the body: the body is then
@@ -147,7 +159,7 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        could = [[i != j and categories[a.leaf] == categories[b.leaf] and _near(tree, a, b)
+        could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories)) and _near(tree, a, b)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         bound = [[could[i][j] and _one_body(tree, a, b) for j, b in enumerate(chains)] for i, a in enumerate(chains)]

@@ -37,10 +37,11 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
              ruled_out: dict[str, frozenset[str]] | None = None) -> dict[str, tuple[str, float]]:
     """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention), with
     the share of the votes the answer had. A leaf naming a catalogue product that the ontology does not
-    place under Component (a fiducial marker) is part of none, unasked: no kind is left to offer.
+    place under Component (a fiducial marker) is part of none, unasked: no kind is left to offer; one naming
+    a component (a suction gripper's tip frame) is of that kind or none, whatever else the votes prefer.
     `ruled_out`: leaf → the kinds its structure rules out (never answered for it)."""
     kinds = tax.subclasses(tax.component)
-    ruled = ruled_out or {}
+    ruled = dict(ruled_out or {})
     groups, settled = [], {}
     for group in alike_sets(tree, leaves, lambda a, b: ruled.get(a) == ruled.get(b)):
         product = named_product(tree, [group[0]])
@@ -50,6 +51,9 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
             settled.update({leaf: (NONE, 1.0) for leaf in group})
         else:
             groups.append((group, product))
+            if product is not None and product.cls in tax:  # a named product's kind rules the other kinds out
+                ruled.update({leaf: ruled.get(leaf, frozenset()) | {k for k in kinds if not tax.is_a(product.cls, k)}
+                              for leaf in group})
     choices = [
         kind_choice(tax, kinds, group[0], tree.chain_to_root(group[0])[1:], tree.edge_to(group[0]).joint_type, product)
         for group, product in groups

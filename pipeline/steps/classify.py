@@ -10,12 +10,13 @@ from urdfkb.pipeline.passes import step
 from urdfkb.pipeline.prompts import product_text
 from urdfkb.pipeline.stages.attachment import SubChain
 from urdfkb.pipeline.stages.classification import Subject, descend
-from urdfkb.pipeline.stages.grouping import Group
+from urdfkb.pipeline.stages.grouping import VISION, Group
 from urdfkb.pipeline.stages.identification import named_product
 from urdfkb.pipeline.stages.sensor_check import MAJORITY
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import indexed_units
 from urdfkb.pipeline.steps.context import Context
+from urdfkb.pipeline.steps.devices import category
 from urdfkb.pipeline.steps.findings import Findings
 from urdfkb.pipeline.structure import alike_sets, viewpoints
 from urdfkb.pipeline.tree import KinematicTree
@@ -98,7 +99,8 @@ def post_classification(ctx: Context, found: Findings) -> None:
     """Multi-chain groups descend again from what their members share; a lone chain keeps its class,
     unless where its frames see from rules that class out (below).
 
-    The descent starts at the deepest class common to the members' pre-classes, or one level
+    The descent starts at the deepest class common to the members' pre-classes (a camera's: its imaging
+    frames', not its own inertial or model frames'), or one level
     above it when that is a leaf class, so that siblings stay open (several sonar frames may
     still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
     Where a device's optical frames see from (structure.viewpoints) rules classes out by the
@@ -115,7 +117,8 @@ def post_classification(ctx: Context, found: Findings) -> None:
                    for g in found.groups}  # by where its frames see from, and by how many there are
     for g in found.groups:
         if len(g.chains) > 1:
-            by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in g.leaves}, top), []).append(g)
+            by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in _imaging(ctx, found, g)}, top),
+                                []).append(g)
         elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)]:
             ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
             by_start.setdefault(vocab.parents(cls)[0], []).append(g)
@@ -136,23 +139,41 @@ def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str
     """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
     each leaf of `groups` first (into `found.parts`), and each group is not offered the classes under `start`
     that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
-    camera, a depth frame no monocular camera). Only for devices of several frames: a lone link may stand
+    camera, a depth frame no monocular camera), except the class of a catalogue product the device names. Only
+    for devices of several frames: a lone link may stand
     for a whole camera (a RealSense written as one link), and its one answer cannot show colour and depth
     together."""
     if not groups:
         return {}
-    leaves = [leaf for g in groups for leaf in g.leaves]
+    leaves = [leaf for g in groups for leaf in _imaging(ctx, found, g)]
     frames = required_parts_first(ctx.oracle, ctx.vocab, ctx.tree, leaves, start, ctx.progress)
     if not frames:
         return {}
     found.parts.update(frames)
     unfit = {}
     for g in groups:
-        kinds = frozenset(frames[leaf].cls for leaf in g.leaves)
-        unfit[id(g)] = ctx.vocab.unfit(kinds, start)
+        kinds = frozenset(frames[leaf].cls for leaf in _imaging(ctx, found, g))
+        unfit[id(g)] = ctx.vocab.unfit(kinds, start) - _named_classes(ctx, g)
         if unfit[id(g)]:
             ctx.log(f"post:{g.leaves[0]}: frames {sorted(kinds)}, so no {', '.join(sorted(unfit[id(g)]))}")
     return unfit
+
+
+def _named_classes(ctx: Context, g: Group) -> frozenset[str]:
+    """The class of the catalogue product the device's links name, and the classes above it: the kinds its
+    frames are typed do not rule those out (the small model calls a product's monochrome stereo pair colour)."""
+    product = next((p for c in g.chains if (p := named_product(ctx.tree, list(reversed(c.links)))) is not None), None)
+    if product is None or product.cls not in ctx.vocab:
+        return frozenset()
+    return frozenset({product.cls, *ctx.vocab.ancestors(product.cls)})
+
+
+def _imaging(ctx: Context, found: Findings, g: Group) -> list[str]:
+    """The leaves that say what a device is: where some of its frames were called vision sensors and others
+    not (a camera's own inertial and model frames, bound to it by group merging), the former; else all."""
+    top = ctx.device_kind.cls
+    seeing = [leaf for leaf in g.leaves if category(ctx, found.pre[leaf].cls, top) == VISION]
+    return seeing or g.leaves
 
 
 def _shared_class(ctx: Context, classes: set[str], top: str) -> str:

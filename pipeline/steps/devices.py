@@ -53,7 +53,7 @@ def _blocked(tree: KinematicTree, claims: dict[str, str], cls: str) -> Callable[
 def group_merging(ctx: Context, found: Findings) -> None:
     """Sub-chains into devices, sub-chains of one sensor category together (stages.grouping.merge)."""
     kind = ctx.device_kind
-    categories = {leaf: _category(ctx, t.cls, kind.cls) for leaf, t in found.pre.items()}
+    categories = {leaf: category(ctx, t.cls, kind.cls) for leaf, t in found.pre.items()}
     found.groups = merge(ctx.oracle, ctx.tree, found.chains, kind.name, categories, ctx.progress)
 
 
@@ -63,7 +63,7 @@ def tool_merging(ctx: Context, found: Findings) -> None:
     found.groups = merge(ctx.oracle, ctx.tree, found.chains, ctx.device_kind.name, {}, ctx.progress)
 
 
-def _category(ctx: Context, cls: str, top: str) -> str:
+def category(ctx: Context, cls: str, top: str) -> str:
     """The class directly under `top` that `cls` falls in (itself if it is `top`)."""
     return next((c for c in ctx.vocab.subclasses(top) if ctx.vocab.is_a(cls, c)), cls)
 
