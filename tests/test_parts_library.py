@@ -238,14 +238,17 @@ def test_a_tools_fingers_are_bodies_not_the_virtual_joint_they_mimic(key):
             assert all(not all(is_frame(tree, link) for link in f.links) for f in structure.fingers), (key, host)
 
 
+def _sensor_first(q):
+    return "sensor" if "sensor" in q.options else q.options[0]
+
+
 def test_a_frame_naming_a_tool_product_is_no_sensor_whatever_the_model_prefers():
     """The EPick's tip frame names the catalogue's suction gripper: a model that calls every leaf a sensor (as the
     real one did, 0.63) still leaves it an end effector or nothing, never a sensor."""
     tax = vocabulary()
     for host in hosts_for(PARTS["robotiq_epick"]):
         robot, tree = built("robotiq_epick", host)
-        prefer = (lambda q: "sensor" if "sensor" in q.options else q.options[0])
-        claims = identify(Oracle(ScriptedBackend(prefer)), tax, tree, list(tree.leaves()))
+        claims = identify(Oracle(ScriptedBackend(_sensor_first)), tax, tree, list(tree.leaves()))
         for tcp in [leaf for c in robot.part_components() for leaf in c["leaves"]]:
             assert claims[tcp][0] == "EndEffector", (host, tcp, claims[tcp])
 
