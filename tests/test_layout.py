@@ -47,6 +47,17 @@ def test_urdfkb_links_each_folder_it_ships():
     assert links == {folder for package, folder in PACKAGE_DIR.items() if package != "urdfkb"}
 
 
+def test_every_package_folder_is_shipped():
+    """Each folder with an __init__.py under a shipped folder is in pyproject's package list (a new sub-package
+    left out would be missing from the wheel)."""
+    for package, folder in PACKAGE_DIR.items():
+        if package == "urdfkb":
+            continue
+        for init in (REPO / folder).rglob("__init__.py"):
+            parts = init.parent.relative_to(REPO / folder).parts
+            assert ".".join((package, *parts)) in PACKAGES, init.parent
+
+
 def test_a_plain_checkout_imports_the_package():
     """No install and no site packages' import hook: the checkout alone resolves urdfkb.pipeline.runner to its file."""
     proc = subprocess.run([sys.executable, "-S", "-c",
