@@ -195,6 +195,28 @@ def test_a_named_products_class_stays_offered_when_its_frames_are_typed_wrong(ke
     assert tax.answer("RGBDCamera") in offered, (key, offered)
 
 
+def test_a_named_products_class_is_ruled_out_by_a_frame_it_excludes():
+    """The ZED 2 is a stereo camera in the catalogue; a frame typed depth (which a stereo camera excludes) still rules
+    the stereo camera out: the class and its typed frames never contradict each other."""
+    tax = vocabulary()
+    robot, tree = built("stereolabs_zed2", "wrist")
+    (c,) = robot.part_components()
+    first = next(iter(c["subparts"]))
+    offered = []
+
+    def rule(q):
+        if q.key.startswith("post:"):
+            offered.extend(q.options)
+        if q.key.startswith("part:"):
+            return "depth image" if q.key.startswith(f"part:{first}@") else "color image"
+        return q.options[0]
+    group = Group([sub_chain(tree, leaf, c["roots"][0]) for leaf in c["subparts"]])
+    state = Findings(groups=[group])
+    state.pre = {leaf: Typed("StereoCamera", 0.8) for leaf in c["subparts"]}
+    post_classification(Abstractor(Oracle(ScriptedBackend(rule)), tax).context(tree, kind="sensor"), state)
+    assert tax.answer("StereoCamera") not in offered and state.post[0].cls == "RGBDCamera", (offered, state.post)
+
+
 @pytest.mark.parametrize("key", marked("mount", [k for k in SENSORS if len(PARTS[k].instance().leaves()) > 1]))
 def test_frames_of_a_sensor_part_mounted_apart_share_the_host_mount(key):
     """The model mounts some of a part's frames on the part's own first link, the others on the host link it is

@@ -139,8 +139,8 @@ def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str
     """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
     each leaf of `groups` first (into `found.parts`), and each group is not offered the classes under `start`
     that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
-    camera, a depth frame no monocular camera), except the class of a catalogue product the device names. Only
-    for devices of several frames: a lone link may stand
+    camera, a depth frame no monocular camera), except the class of a catalogue product the device names where
+    only a part it needs is missing. Only for devices of several frames: a lone link may stand
     for a whole camera (a RealSense written as one link), and its one answer cannot show colour and depth
     together."""
     if not groups:
@@ -153,15 +153,18 @@ def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str
     unfit = {}
     for g in groups:
         kinds = frozenset(frames[leaf].cls for leaf in _imaging(ctx, found, g))
-        unfit[id(g)] = ctx.vocab.unfit(kinds, start) - _named_classes(ctx, g)
+        ruled = ctx.vocab.unfit(kinds, start)
+        kept = {c for c in _named_classes(ctx, g) if not kinds & ctx.vocab.excluded_parts(c)}
+        unfit[id(g)] = ruled - kept
         if unfit[id(g)]:
             ctx.log(f"post:{g.leaves[0]}: frames {sorted(kinds)}, so no {', '.join(sorted(unfit[id(g)]))}")
     return unfit
 
 
 def _named_classes(ctx: Context, g: Group) -> frozenset[str]:
-    """The class of the catalogue product the device's links name, and the classes above it: the kinds its
-    frames are typed do not rule those out (the small model calls a product's monochrome stereo pair colour)."""
+    """The class of the catalogue product the device's links name, and the classes above it: a part they need that
+    no frame was typed as does not rule them out (the small model calls a product's monochrome stereo pair
+    colour); a frame typed as a part they exclude still does (a depth frame, no stereo camera)."""
     product = next((p for c in g.chains if (p := named_product(ctx.tree, list(reversed(c.links)))) is not None), None)
     if product is None or product.cls not in ctx.vocab:
         return frozenset()
