@@ -34,8 +34,10 @@ from urdfkb.pipeline.stages.identification import identify, named_product
 from urdfkb.pipeline.stages.sensor_check import MAJORITY, coupled, not_sensors
 from urdfkb.pipeline.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.stages.verification import Log, group_root, indexed_units, verify
-from urdfkb.pipeline.structure import (ToolStructure, alike_sets, body_of, feet, frames_of_one_body, hand_mounts,
-                                      hands, loop_closures, nothing_moves, off_limb_ends, palm, viewpoints)
+from urdfkb.pipeline.alike import alike_sets
+from urdfkb.pipeline.frames import body_of, frames_of_one_body, loop_closures, viewpoints
+from urdfkb.pipeline.hands import feet, hand_mounts, hands, off_limb_ends, palm
+from urdfkb.pipeline.structure import ToolStructure, nothing_moves
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -114,12 +116,12 @@ class Abstractor:
     # --- steps (see PASSES) --------------------------------------------------------------------
 
     def shape(self, s: PassState) -> None:
-        """What the robot's shape settles before any question (pipeline.structure): the leaves of hands and
+        """What the robot's shape settles before any question (pipeline.hands, pipeline.frames): the leaves of hands and
         grippers (their fingers, a hand's drive, tool centre points) belong to the end-effector pass unless a
         simulator declares a sensor on them, limb tips the robot stands on are feet, never tools (a foot that moves
         on its own joint is the leg's last link: part of the body, unasked), and neither are
         leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk), or bodies
-        beside a hand on the link it is mounted on. Frames where a closed loop is cut (structure.loop_closures)
+        beside a hand on the link it is mounted on. Frames where a closed loop is cut (frames.loop_closures)
         are part of no component."""
         declared = {link for link, facts in s.robot.evidence.items() if facts.sensors}
         found = hands(s.robot)
@@ -216,7 +218,7 @@ class Abstractor:
             s.chains = one_mount(s.tree, s.chains)
 
     def pre_classification(self, s: PassState) -> None:
-        """Each sub-chain's class below the pass's kind; alike leaves (structure.alike_leaves) whose declarations
+        """Each sub-chain's class below the pass's kind; alike leaves (alike.alike_leaves) whose declarations
         rule out the same classes are asked once, the first standing for all."""
         kind = self._kind(s)
         subjects = {c.leaf: self._chain_subject(s.tree, c, kind.cls) for c in s.chains}
@@ -260,7 +262,7 @@ class Abstractor:
         The descent starts at the deepest class common to the members' pre-classes, or one level
         above it when that is a leaf class, so that siblings stay open (several sonar frames may
         still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
-        Where a device's optical frames see from (structure.viewpoints) rules classes out by the
+        Where a device's optical frames see from (frames.viewpoints) rules classes out by the
         ontology's core:viewpointCount definitions (a monocular camera sees from one place, a stereo camera
         from two), they are not offered; a lone chain's pre-class so ruled out descends again from its parent.
         Nor are the classes the number of its sensing frames rules out (core:elementCount: a tactile sensor is

@@ -20,7 +20,7 @@ from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, SCHEMA, SSN_SYSTEM, bod
                                         component_local, finger_chain_local, joint_local, link_local, robot_iri,
                                         subcomponent_local)
 from urdfkb.pipeline.ontology import Vocabulary, load_core, vocabulary
-from urdfkb.pipeline.structure import viewpoints
+from urdfkb.pipeline.frames import viewpoints
 
 log = logging.getLogger(__name__)
 Record = Callable[[dict], None]
@@ -271,7 +271,7 @@ _SYSTEM_PROPERTIES = (("Frequency", "frequency", ("rate",), "HTZ"), ("Measuremen
 
 def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict,
                       numbers: _Numbers) -> None:
-    """A camera's viewpoint count (structure.viewpoints over its leaf links, so that a reasoner can check its class
+    """A camera's viewpoint count (frames.viewpoints over its leaf links, so that a reasoner can check its class
     against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
     specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
     properties, the others as core data."""

@@ -19,7 +19,7 @@ from urdfkb.pipeline.stages.attachment import detect_roots, sub_chain
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
-from urdfkb.pipeline.structure import viewpoints
+from urdfkb.pipeline.frames import viewpoints
 
 SEEDS = range(200)
 TAX = vocabulary()

@@ -1,4 +1,4 @@
-"""What the robot's shape settles before any question (pipeline.structure: hand_leaves, feet), on generated
+"""What the robot's shape settles before any question (pipeline.hands: hand_leaves, feet), on generated
 robots with known truth, and with a scripted model that makes the small model's mistakes: it claims fingertips
 for sensors, and a quadruped's feet for tools. Names are meaningless, so only structure can correct it."""
 from __future__ import annotations
@@ -18,8 +18,9 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import detect_roots
-from urdfkb.pipeline.structure import (alike_leaves, feet, hand_leaves, hand_mounts, hands, loop_closures,
-                                      off_limb_ends)
+from urdfkb.pipeline.alike import alike_leaves
+from urdfkb.pipeline.frames import loop_closures
+from urdfkb.pipeline.hands import feet, hand_leaves, hand_mounts, hands, off_limb_ends
 
 TAX = vocabulary()
 SEEDS = range(300)
