@@ -47,7 +47,7 @@ def reference(model_path, backend):
     import llama_cpp
     from llama_cpp import Llama
 
-    from urdfkb.pipeline.llm.llama import without_amx_buffers
+    from urdfkb.pipeline.llm.llama_process import without_amx_buffers
 
     default = llama_cpp.llama_cpp.llama_model_default_params
     with pytest.MonkeyPatch.context() as patch:  # the backend's model parameters (no AMX buffers where it has them)

@@ -4,7 +4,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from urdfkb.pipeline.llm.llama import LlamaBackend, _Job
+from urdfkb.pipeline.llm.llama import LlamaBackend
+from urdfkb.pipeline.llm.option_trie import OptionJob
 
 EOT = 0
 
@@ -13,7 +14,7 @@ def test_option_rows_are_the_options_inner_prefixes():
     """A row per non-empty proper prefix of an option. The end-of-turn is scored only after an option
     that another one continues ([7] by [7, 8], [7, 8] by [7, 8, 9]); [5], [6, 3] and [7, 8, 9] end
     where no other option goes on, so their end is forced and needs no row."""
-    job = _Job(suffix=[1, 2], options=[[5], [7], [7, 8], [7, 8, 9], [6, 3]])
+    job = OptionJob(suffix=[1, 2], options=[[5], [7], [7, 8], [7, 8, 9], [6, 3]])
     assert job.trie() == {(7,): [1, 2, 3], (7, 8): [2, 3], (6,): [4]}
     assert [list(job.steps(o)) for o in job.options] == [[0], [0, 1], [0, 1, 2], [0, 1, 2], [0, 1]]
     assert job.size == 2 + 3
@@ -22,7 +23,7 @@ def test_option_rows_are_the_options_inner_prefixes():
 def draw(options, table, temperature, draws=1, seed=0):
     """Run LlamaBackend._draw on a stand-in backend: `table` maps an option-token prefix (the row's
     context, which stands for the row itself) to {next token: probability}."""
-    job = _Job(suffix=[1], options=options)
+    job = OptionJob(suffix=[1], options=options)
     rows = [[(k, tuple(o[:k])) for k in job.steps(o)] for o in options]
     logprobs = lambda row, token: math.log(table[row].get(token, 1e-12))  # noqa: E731
     fake = SimpleNamespace(_draws=0, seed=seed, stats=SimpleNamespace(generated_tokens=0))
