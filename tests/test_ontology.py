@@ -8,7 +8,8 @@ from rdflib.namespace import OWL, RDF, RDFS
 
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline import ontology, rdf
-from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, core_path, load_core, shapes_path, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI
+from urdfkb.pipeline.ontology import Vocabulary, core_path, load_core, shapes_path, vocabulary
 
 CORE = rdflib.Namespace(CORE_IRI)
 SOSA = rdflib.Namespace("http://www.w3.org/ns/sosa/")

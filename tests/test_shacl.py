@@ -13,7 +13,7 @@ from urdfkb.pipeline.components import Abstraction, Component
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import CORE_IRI
+from urdfkb.pipeline.namespaces import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
 from urdfkb.pipeline.shacl import validate, violations

@@ -15,7 +15,8 @@ from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, core_path, shapes_path, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI
+from urdfkb.pipeline.ontology import Vocabulary, core_path, shapes_path, vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.prompts import NONE
