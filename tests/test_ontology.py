@@ -30,7 +30,8 @@ def spec_text(shared):
 def spec_tree(text):
     """[(name, parents)] from the spec's taxonomy block, in its order."""
     block = text.split("## Required taxonomy", 1)[1].split("```")[1]
-    stack, out = [], []
+    stack: list[str] = []
+    out: list[tuple[str, list[str]]] = []
     for line in block.strip("\n").splitlines():
         depth = (len(line) - len(line.lstrip())) // 2
         name = line.split()[0]

@@ -24,7 +24,7 @@ class Ran:
 
 
 def test_steps_run_in_order_each_timed_until_one_is_done():
-    records = []
+    records: list[dict] = []
 
     def note(name, finish=False):
         def run(context, state):
@@ -75,6 +75,7 @@ def test_one_reasoner_run_settles_the_tools_and_the_body_candidates():
     robot = load_urdf(TOY)
     abstractor = Abstractor(Oracle(ScriptedBackend(perfect)), vocabulary(), reasoner=counted)
     components = body.with_joints(robot, list(abstractor.run(robot)))
+    assert abstractor.body_reasoned is not None
     facts, classes = abstractor.body_reasoned
     assert runs == [(1, len(facts))]
     assert facts == body.findings(robot, body.candidates(robot, components), components).facts

@@ -13,6 +13,7 @@ from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor, PassState
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
@@ -185,7 +186,11 @@ def test_a_hands_leaves_are_mounted_where_its_shape_says_unasked():
         mounts = hand_mounts(hands(tree))
         assert set(mounts.values()) == {built.mount}, (seed, built.layout)
         asked: list[str] = []
-        chains = detect_roots(Oracle(ScriptedBackend(lambda q: asked.append(q.key) or q.options[-1])), tree,
+
+        def last_option(question: Question) -> str:
+            asked.append(question.key)
+            return question.options[-1]
+        chains = detect_roots(Oracle(ScriptedBackend(last_option)), tree,
                               sorted(mounts), TAX.kinds["end_effector"], lambda _link: False, settled=mounts)
         assert not asked and {c.root for c in chains} == {built.mount}, (seed, built.layout)
 

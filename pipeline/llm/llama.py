@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import ctypes
 import logging
-import math
 import os
 import random
 import struct
@@ -13,7 +12,7 @@ from typing import Sequence
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
 from urdfkb.pipeline.llm.llama_process import choose_openmp_waiting, load_model
-from urdfkb.pipeline.llm.option_trie import OptionJob, RowLogprobs, common_prefix
+from urdfkb.pipeline.llm.option_trie import OptionJob, RowLogprobs, common_prefix, draw
 from urdfkb.pipeline.llm.prefix_store import PrefixStore, default_dir, enabled_by_env
 from urdfkb.settings import PREFIX_CACHE_BYTES
 
@@ -57,7 +56,7 @@ class LlamaBackend(Backend):
         self._draws = 0
         threads = n_threads or os.cpu_count() or 1
         try:
-            self._model = load_model(llama_cpp, _internals, path)
+            self._model = load_model(path)
             self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads, flash_attn, kv_type)
             self._ctx = _internals.LlamaContext(model=self._model, verbose=False, params=self._params)
         except Exception as exc:
@@ -385,29 +384,11 @@ class LlamaBackend(Backend):
 
     def _draw(self, targets: list[list[int]], rows: list[list[tuple[int, int]]], logprobs: RowLogprobs,
               temperature: float) -> int:
-        """One walk down the option trie; returns the index of the option it ends in. Only where the
-        options part ways is there a choice (and a row to read): the rest is forced by the options.
-        Options that tokenize alike never part ways; the walk ends in the first of them."""
+        """One draw (option_trie.draw), each from its own generator: the backend's seed and the draw's number."""
         self._draws += 1
-        rng = random.Random(self.seed * 1_000_003 + self._draws)
-        alive, step = list(range(len(targets))), 0
-        while len(alive) > 1 and step < len(targets[alive[0]]):
-            branches: dict[int, list[int]] = {}
-            for i in alive:
-                branches.setdefault(targets[i][step], []).append(i)
-            tokens = list(branches)
-            if len(tokens) > 1:
-                row = dict(rows[alive[0]])[step]
-                scores = [logprobs(row, t) for t in tokens]
-                if temperature <= 0:
-                    pick = max(range(len(tokens)), key=scores.__getitem__)
-                else:
-                    top = max(scores)
-                    pick = rng.choices(range(len(tokens)), [math.exp((x - top) / temperature) for x in scores])[0]
-                alive = branches[tokens[pick]]
-            step += 1
-        self.stats.generated_tokens += len(targets[alive[0]]) - 1
-        return alive[0]
+        pick = draw(targets, rows, logprobs, temperature, random.Random(self.seed * 1_000_003 + self._draws))
+        self.stats.generated_tokens += len(targets[pick]) - 1
+        return pick
 
     def close(self) -> None:
         """Free the scoring context, the batch and the model."""

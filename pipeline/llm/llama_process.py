@@ -6,6 +6,11 @@ import functools
 import os
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # llama_cpp is imported only once the OpenMP wait policy is chosen
+    from llama_cpp import llama_model_params
+    from llama_cpp._internals import LlamaModel
 
 _BACKEND_READY = False
 BUSY_ELSEWHERE = 0.5  # cores other processes keep busy from which llama.cpp's threads wait passively
@@ -44,9 +49,12 @@ def _cpu_ticks() -> tuple[int, int]:
     return sum(fields), fields[3] + fields[4]
 
 
-def load_model(llama_cpp, internals, path: Path):
+def load_model(path: Path) -> LlamaModel:
     """The model alone, with the parameters llama_cpp.Llama would give it (CPU, memory-mapped). Llama itself
     would also build a context of its own, with a KV cache and compute buffers, that scoring never uses."""
+    import llama_cpp
+    from llama_cpp import _internals
+
     global _BACKEND_READY
     if not _BACKEND_READY:
         from llama_cpp._logger import set_verbose
@@ -58,10 +66,10 @@ def load_model(llama_cpp, internals, path: Path):
     params.n_gpu_layers, params.split_mode, params.main_gpu = 0, llama_cpp.LLAMA_SPLIT_MODE_LAYER, 0
     params.vocab_only = False
     params.load_mode = llama_cpp.LLAMA_LOAD_MODE_MMAP
-    return internals.LlamaModel(path_model=str(path), params=params, verbose=False)
+    return _internals.LlamaModel(path_model=str(path), params=params, verbose=False)
 
 
-def without_amx_buffers(params):
+def without_amx_buffers(params: llama_model_params) -> llama_model_params:
     """llama.cpp model parameters `params`, less the extra weight buffers on a processor with AMX: the AMX
     matrix kernel of llama-cpp-python 0.3.36 (built natively) segfaults in its first batched decode on such
     a machine (gdb: ggml_backend_amx_mul_mat, Sapphire Rapids under this workplace's VMs), and without the

@@ -2,10 +2,16 @@
 each is scored on), and log-probabilities read from a batch row's logits."""
 from __future__ import annotations
 
+import math
+import random
 from dataclasses import dataclass
-from typing import Sequence
+from types import ModuleType
+from typing import TYPE_CHECKING, Callable, Sequence, TypeVar
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from llama_cpp import llama_context_p
 
 
 @dataclass
@@ -53,7 +59,7 @@ class RowLogprobs:
     """log P(token) read in place from the logits of one batch row (valid until the next decode);
     each row's normaliser is computed once."""
 
-    def __init__(self, lib, ctx, n_vocab: int):
+    def __init__(self, lib: ModuleType, ctx: llama_context_p, n_vocab: int):
         self.lib, self.ctx, self.n_vocab = lib, ctx, n_vocab
         self.rows: dict[int, tuple[np.ndarray, float]] = {}
 
@@ -65,6 +71,35 @@ class RowLogprobs:
             self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum(dtype=np.float64))))
         logits, logz = self.rows[row]
         return float(logits[token]) - logz
+
+
+Row = TypeVar("Row")  # what names a batch row: its index, or anything a stand-in reads log-probabilities by
+
+
+def draw(targets: Sequence[Sequence[int]], rows: Sequence[Sequence[tuple[int, Row]]],
+         logprobs: Callable[[Row, int], float], temperature: float, rng: random.Random) -> int:
+    """One walk down the option trie; returns the index of the option it ends in. `targets` are the options'
+    tokens then end-of-turn, `rows` each option's scored steps with the row predicting each (OptionJob.steps).
+    Only where the options part ways is there a choice (and a row to read): the rest is forced by the options.
+    A step picks the likeliest token at temperature 0, else draws from a softmax at `temperature` over the
+    tokens that continue some option. Options that tokenize alike never part ways; the walk ends in the first."""
+    alive, step = list(range(len(targets))), 0
+    while len(alive) > 1 and step < len(targets[alive[0]]):
+        branches: dict[int, list[int]] = {}
+        for i in alive:
+            branches.setdefault(targets[i][step], []).append(i)
+        tokens = list(branches)
+        if len(tokens) > 1:
+            row = dict(rows[alive[0]])[step]
+            scores = [logprobs(row, t) for t in tokens]
+            if temperature <= 0:
+                pick = max(range(len(tokens)), key=scores.__getitem__)
+            else:
+                top = max(scores)
+                pick = rng.choices(range(len(tokens)), [math.exp((x - top) / temperature) for x in scores])[0]
+            alive = branches[tokens[pick]]
+        step += 1
+    return alive[0]
 
 
 def common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
