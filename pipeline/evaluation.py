@@ -54,7 +54,7 @@ def failed_scores() -> dict:
     """Scores of a robot whose run failed: every metric and count 0, the body's too."""
     zero = {**dict.fromkeys(METRICS, 0.0), **dict.fromkeys(COUNTS, 0)}
     body = {**dict.fromkeys(BODY_METRICS, 0.0), **dict.fromkeys(BODY_COUNTS, 0)}
-    return {**{s: dict(zero) for s in SCOPES}, BODY: body, "partitions": {}, "differences": ["run failed"], "failed": True}
+    return {**{scope: dict(zero) for scope in SCOPES}, BODY: body, "partitions": {}, "differences": ["run failed"], "failed": True}
 
 
 def mean_scores(per_robot: Mapping[str, dict]) -> dict:
@@ -64,8 +64,8 @@ def mean_scores(per_robot: Mapping[str, dict]) -> dict:
     def mean(values: list) -> float | None:
         defined = [v for v in values if v is not None]
         return fmean(defined) if defined else None
-    out: dict[str, object] = {s: {**{m: mean([r[s][m] for r in runs]) for m in METRICS},
-               **{c: sum(r[s][c] for r in runs) for c in COUNTS}} for s in SCOPES}
+    out: dict[str, object] = {scope: {**{m: mean([r[scope][m] for r in runs]) for m in METRICS},
+                                      **{c: sum(r[scope][c] for r in runs) for c in COUNTS}} for scope in SCOPES}
     out[BODY] = {**{m: mean([r[BODY][m] for r in runs]) for m in BODY_METRICS},
                  **{c: sum(r[BODY][c] for r in runs) for c in BODY_COUNTS}}
     out["failed"] = sum(bool(r.get("failed")) for r in runs)
