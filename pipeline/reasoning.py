@@ -4,11 +4,11 @@ Each tool becomes an EndEffector individual in a temporary world holding the cor
 one individual per finger chain typed by its drive's motion (the class the ontology aligns to it by
 `core:fingerDrive`), `opposes`, `movesWith` and `isMimicOf` between chains.
 The code closes what it knows (the tool has no chain but these, each opposes and moves with no chain
-but those: an at-most cardinality equal to the count of asserted, all-different chains, which
-HermiT classifies faster than the same closure with nominals), so the qualified cardinalities in the definitions of `ParallelGripper`,
+but those: an at-most cardinality equal to the count of asserted, all-different chains), so the qualified
+cardinalities in the definitions of `ParallelGripper`,
 `MultiFingerGripper`, `AnthropomorphicHand` and `ThumbChain` apply. One reasoner run covers every
-tool of a robot pass, and with them the body pass's candidate parts (classify_together): a JVM
-costs 1-4 s. A tool without finger chains is left to the model: the URDF does not say
+tool of a robot pass, and with them the body pass's candidate parts (classify_together): starting the
+JVM is most of a run's time. A tool without finger chains is left to the model: the URDF does not say
 whether a rigid tool holds by suction, a magnet, or fingers written as fixed links.
 Candidate body parts (PartFacts) are classified by the BodyPart classes' sufficient conditions.
 `placements` says which component classes a body part rules out for what sits on it (the ontology's

@@ -19,11 +19,10 @@ BUSY_ELSEWHERE = 0.5  # cores other processes keep busy from which llama.cpp's t
 def choose_openmp_waiting(window: float = 0.25) -> None:
     """Set OMP_WAIT_POLICY=PASSIVE when other processes keep at least BUSY_ELSEWHERE of a core busy.
 
-    llama.cpp's threads meet at an OpenMP barrier after every operation of a decode (about 1,100 per
-    decode of Qwen2.5-1.5B), where libgomp spins before it sleeps. On cores shared with busy processes
-    a spinning thread burns the slice its partner needs, and waiting passively was 0.49-0.71x the
-    time; with the cores to itself, waking a sleeping thread costs more than the spin, and a passive PR2
-    populate took 1.11x (benchmarks.llama_settings_bench, README). Scores are bit-identical either way.
+    llama.cpp's threads meet at an OpenMP barrier after every operation of a decode, where libgomp spins
+    before it sleeps. On cores shared with busy processes a spinning thread burns the slice its partner
+    needs; with the cores to itself, waking a sleeping thread costs more than the spin (docs/speed.md,
+    "llama.cpp settings"). Scores are bit-identical either way.
     The busy share is sampled from /proc/stat over `window` seconds, less this process's own time;
     libgomp reads the policy once, when llama_cpp loads it, so a process keeps its first choice. An
     OMP_WAIT_POLICY or GOMP_SPINCOUNT already set is left alone."""
@@ -71,10 +70,9 @@ def load_model(path: Path) -> LlamaModel:
 
 def without_amx_buffers(params: llama_model_params) -> llama_model_params:
     """llama.cpp model parameters `params`, less the extra weight buffers on a processor with AMX: the AMX
-    matrix kernel of llama-cpp-python 0.3.36 (built natively) segfaults in its first batched decode on such
-    a machine (gdb: ggml_backend_amx_mul_mat, Sapphire Rapids under this workplace's VMs), and without the
-    extra buffers the weights stay in the ordinary CPU buffer, whose kernels answer (measured: Qwen2.5-Coder
-    1.5B completes, the AMX build crashes every time with 2 threads)."""
+    matrix kernel of llama-cpp-python 0.3.36 (built natively) segfaults in its first batched decode
+    (ggml_backend_amx_mul_mat), and without the extra buffers the weights stay in the ordinary CPU buffer,
+    whose kernels answer (docs/speed.md, "llama.cpp settings")."""
     if cpu_has_amx():
         params.use_extra_bufts = False
     return params
