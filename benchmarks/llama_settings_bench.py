@@ -48,10 +48,10 @@ def workload(leaves: int):
     from urdfkb.pipeline.prompts import kind_choice, sensor_check
     from benchmarks.populate_bench import SHARED
 
-    tree, tax = load_urdf(SHARED / "urdf" / "pr2.urdf"), vocabulary()
-    kinds = tax.subclasses(tax.component)
+    tree, vocab = load_urdf(SHARED / "urdf" / "pr2.urdf"), vocabulary()
+    kinds = vocab.subclasses(vocab.component)
     chosen = tree.leaves()[:leaves]
-    stages = [[kind_choice(tax, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.edge_to(leaf).joint_type).question
+    stages = [[kind_choice(vocab, kinds, leaf, tree.chain_to_root(leaf)[1:], tree.edge_to(leaf).joint_type).question
                for leaf in chosen],
               [sensor_check(leaf, leaf, tree.chain_to_root(leaf)[1:]) for leaf in chosen]]
     return [sorted(stage, key=lambda q: q.system) for stage in stages]

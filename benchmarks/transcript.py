@@ -21,7 +21,7 @@ import owlready2
 import rdflib
 from rdflib.compare import to_canonical_graph
 
-from urdfkb.pipeline import evaluation
+from urdfkb.pipeline.truth import load_truth
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -42,7 +42,7 @@ def hashed(question: Question, salt: str = "") -> dict[str, float]:
 
 def transcribe(truth_path: Path, out: Path, traces: Path | None = None, salt: str = "") -> int:
     """Write one truth robot's transcript (and its oracle trace into `traces`); the number of questions asked."""
-    truth = evaluation.load_truth(truth_path)
+    truth = load_truth(truth_path)
     tree = load_urdf(truth_path.resolve().parents[2] / truth.urdf)
     asked: list[dict] = []
     batches: list[int] = []

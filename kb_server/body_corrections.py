@@ -23,8 +23,8 @@ Body = tuple[list[BodyPart], list[Component]]
 
 def classes() -> tuple[str, ...]:
     """The classes a part may be given: every class below BodyPart in the ontology."""
-    tax = vocabulary()
-    return tax.subclasses_below(tax.body_part)
+    vocab = vocabulary()
+    return vocab.subclasses_below(vocab.body_part)
 
 
 def check_class(cls: str) -> str:

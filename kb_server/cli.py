@@ -154,11 +154,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from urdfkb.pipeline import evaluation
+    from urdfkb.pipeline import evaluation, evaluation_report, truth
     from urdfkb.pipeline.truth_run import run_truth_robot
     truth_dir = Path(args.truth_dir)
     files = sorted(truth_dir.glob("*.yaml"))
-    folds = evaluation.load_folds(args.folds) if args.folds else {}
+    folds = truth.load_folds(args.folds) if args.folds else {}
     if args.fold:
         if unknown_folds := set(args.fold) - set(folds):
             raise UrdfkbError(f"no fold {', '.join(sorted(unknown_folds))} in {args.folds} (folds: {', '.join(folds)})")
@@ -201,9 +201,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
         extra["tokens"][robot] = prov.get("prompt_tokens", "?")
         extra["declared"][robot] = prov.get("declared_constraints", "?")
         extra["seconds"][robot] = f"{result.seconds:.1f}"
-    print(evaluation.format_table(per_robot, extra, folds))
+    print(evaluation_report.format_table(per_robot, extra, folds))
     if per_robot:
-        print(evaluation.review_queue(evaluation.mean_scores(per_robot)))
+        print(evaluation_report.review_queue(evaluation.mean_scores(per_robot)))
     if args.json:
         Path(args.json).write_text(json.dumps({"robots": per_robot, "mean": evaluation.mean_scores(per_robot),
                                                "folds": evaluation.fold_means(per_robot, folds), "run": extra}, indent=2))

@@ -36,8 +36,7 @@ from urdfkb.pipeline.components import Abstraction, BodyPart, Component, SubComp
 from urdfkb.pipeline.errors import CorrectionError
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, REVIEW, body_part_local, component_iri, corrections_iri, escape
 from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.structure import fork_of
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.tree import KinematicTree, fork_of
 from urdfkb.settings import MAX_LINKS, MAX_REVIEWER
 
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")
@@ -222,11 +221,11 @@ def kind_of(cls: str) -> str | None:
 
 def allowed_classes(comp: Component) -> tuple[str, ...]:
     """Classes a reviewer may give `comp`: its kind's classes that allow all its parts' classes."""
-    tax = vocabulary()
+    vocab = vocabulary()
     parts = {s.cls for s in comp.subcomponents}
-    root = tax.kinds[comp.kind].cls
-    return tuple(c for c in (root, *tax.subclasses_below(root))
-                 if not parts & tax.excluded_parts(c))
+    root = vocab.kinds[comp.kind].cls
+    return tuple(c for c in (root, *vocab.subclasses_below(root))
+                 if not parts & vocab.excluded_parts(c))
 
 
 def mount_options(tree: KinematicTree, links: tuple[str, ...]) -> tuple[str, ...]:
@@ -328,11 +327,11 @@ def _add(tree: KinematicTree, comps: list[Component], parts: list[BodyPart], cor
 def _new_parts(tree: KinematicTree, corr: Correction) -> tuple[SubComponent, ...]:
     """An added component's sub-parts: each chain's last link is the part the shapes require of its class (a
     camera's optical frame), as the pipeline types it; the other links, and all of a class requiring none, Subpart."""
-    tax = vocabulary()
-    required = tax.required_part(corr.cls or "")
+    vocab = vocabulary()
+    required = vocab.required_part(corr.cls or "")
     above = _ancestors(tree, corr.links)
     ends = {link for link in corr.links if link not in above}
-    return tuple(SubComponent(link, required if required and link in ends else tax.subpart, 1.0) for link in corr.links)
+    return tuple(SubComponent(link, required if required and link in ends else vocab.subpart, 1.0) for link in corr.links)
 
 
 def _ancestors(tree: KinematicTree, links: tuple[str, ...]) -> set[str]:

@@ -22,10 +22,13 @@ from __future__ import annotations
 import functools
 import time
 from collections.abc import Callable, Iterable
+from typing import Any
 
 from flask import Flask
+from waitress.adjustments import Adjustments
+from waitress.channel import HTTPChannel
 from waitress.parser import HTTPRequestParser
-from waitress.task import ErrorTask, WSGITask
+from waitress.task import ErrorTask, Task, WSGITask
 from waitress.utilities import RequestEntityTooLarge
 from werkzeug.exceptions import RequestEntityTooLarge as AppRequestEntityTooLarge
 
@@ -46,7 +49,7 @@ class BodyLimitParser(HTTPRequestParser):
     `Expect: 100-continue` is then answered with the refusal rather than with "100 Continue", and the bytes
     of the body already received are taken (never parsed as a next request); the channel drops the rest."""
 
-    def __init__(self, adj, channel: BodyLimitChannel):
+    def __init__(self, adj: Adjustments, channel: BodyLimitChannel):
         super().__init__(adj)
         self.channel = channel
 
@@ -76,11 +79,11 @@ class RefusedBodyTask(WSGITask):
         super().execute()
 
 
-def error_task(channel, request):
+def error_task(channel: HTTPChannel, request: HTTPRequestParser) -> Task:
     """The task answering a request waitress refused: the app's 413 for a body over the limit, waitress's
     own plain-text answer for the rest (malformed requests, headers over their limit)."""
     task_class = RefusedBodyTask if isinstance(request.error, BodyTooLarge) else ErrorTask
-    return task_class(channel, request)
+    return task_class(channel, request)  # type: ignore[arg-type]  # waitress's stubs call a task's request an Error; it is the parser
 
 
 class BodyLimitChannel(DeadlineChannel):
@@ -92,7 +95,7 @@ class BodyLimitChannel(DeadlineChannel):
     discarding_since = 0.0
 
     @property
-    def parser_class(self):  # type: ignore[override]  # waitress calls it with its adjustments only
+    def parser_class(self) -> Callable[[Adjustments], BodyLimitParser]:  # type: ignore[override]  # waitress calls it with its adjustments only
         return functools.partial(BodyLimitParser, channel=self)
 
     def discard(self, size: int) -> None:
@@ -142,7 +145,7 @@ class BodyLimitServer(DeadlineServer):
 
     channel_class = BodyLimitChannel
 
-    def __init__(self, app: Flask, max_body: int, header_timeout: float, body_timeout: float, **adjustments):
+    def __init__(self, app: Flask, max_body: int, header_timeout: float, body_timeout: float, **adjustments: Any):
         super().__init__(answering_refused_bodies(app, max_body), header_timeout, body_timeout,
                          max_request_body_size=max_body + 1, **adjustments)
 

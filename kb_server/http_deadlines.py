@@ -14,10 +14,14 @@ sent, are never closed early.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING, Any
 
 from waitress.adjustments import Adjustments
 from waitress.channel import HTTPChannel
 from waitress.server import TcpWSGIServer
+
+if TYPE_CHECKING:
+    from _typeshed.wsgi import WSGIApplication
 
 
 class DeadlineChannel(HTTPChannel):
@@ -27,7 +31,7 @@ class DeadlineChannel(HTTPChannel):
     headers_done: float | None = None  # ...and when its headers were complete
     _receiving = None  # that request's parser
 
-    def received(self, data):
+    def received(self, data: bytes) -> bool:
         done = super().received(data)
         self._clock(time.time())
         return done
@@ -61,8 +65,10 @@ class DeadlineServer(TcpWSGIServer):
     (see the module docstring); `adjustments` are waitress's (one listen address)."""
 
     channel_class = DeadlineChannel
+    effective_host: str  # where waitress bound the socket, set as it binds (its stubs leave them out)
+    effective_port: int
 
-    def __init__(self, application, header_timeout: float, body_timeout: float, **adjustments):
+    def __init__(self, application: WSGIApplication, header_timeout: float, body_timeout: float, **adjustments: Any):
         self.header_timeout, self.body_timeout = header_timeout, body_timeout
         super().__init__(application, adj=Adjustments(**adjustments))
 

@@ -29,7 +29,7 @@ from typing import Callable, TypeVar
 
 from urdfkb.kb_server.errors import TooManyRequests
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
-from urdfkb.kb_server.store import RobotNameError, Store, check_robot_name
+from urdfkb.kb_server.store import RobotEntry, RobotNameError, Store, check_robot_name
 from urdfkb.kb_server.text import cut
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
@@ -204,7 +204,7 @@ class JobManager:
             if ended[job_id] < cutoff or i < len(finished) - self.keep:
                 del self._jobs[job_id]
 
-    def delete_robot(self, robot: str):
+    def delete_robot(self, robot: str) -> tuple[RobotEntry | None, str | None]:
         """Delete a robot (after any job on it) and its remote graph.
 
         Returns (entry or None if unknown, the mirror error message or None)."""

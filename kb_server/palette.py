@@ -29,17 +29,17 @@ class Swatch:
 @cache
 def kinds() -> tuple[Swatch, ...]:
     """Each component kind's swatch, keyed by the kind's name (`sensor`)."""
-    tax = vocabulary()
-    return tuple(Swatch(name, tax.label(kind.cls), KIND_COLOURS[i % len(KIND_COLOURS)])
-                 for i, (name, kind) in enumerate(tax.kinds.items()))
+    vocab = vocabulary()
+    return tuple(Swatch(name, vocab.label(kind.cls), KIND_COLOURS[i % len(KIND_COLOURS)])
+                 for i, (name, kind) in enumerate(vocab.kinds.items()))
 
 
 @cache
 def body_classes() -> tuple[Swatch, ...]:
     """Each direct subclass of the body's class's swatch (Vocabulary.body_classes), keyed `part-<Class>`."""
-    tax = vocabulary()
-    return tuple(Swatch(f"part-{cls}", tax.label(cls), BODY_COLOURS[i % len(BODY_COLOURS)])
-                 for i, cls in enumerate(tax.body_classes))
+    vocab = vocabulary()
+    return tuple(Swatch(f"part-{cls}", vocab.label(cls), BODY_COLOURS[i % len(BODY_COLOURS)])
+                 for i, cls in enumerate(vocab.body_classes))
 
 
 def kind_colour(kind: str) -> str:
@@ -48,8 +48,8 @@ def kind_colour(kind: str) -> str:
 
 def body_swatch(cls: str) -> Swatch:
     """The swatch of the direct BodyPart subclass `cls` is (or falls under)."""
-    tax = vocabulary()
-    return next((s for s in body_classes() if cls in tax and tax.is_a(cls, s.key.removeprefix("part-"))),
+    vocab = vocabulary()
+    return next((s for s in body_classes() if cls in vocab and vocab.is_a(cls, s.key.removeprefix("part-"))),
                 Swatch("part-other", cls, OTHER))
 
 

@@ -26,6 +26,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from decimal import Decimal, InvalidOperation
 from functools import cache
+from pathlib import Path
 
 from rdflib import Literal, URIRef
 from rdflib.namespace import XSD
@@ -65,7 +66,7 @@ class Param:
     default: str | None
     doc: str
 
-    def term(self, raw: str):
+    def term(self, raw: str) -> Literal:
         """The value as a typed RDF term; ParamError if it does not fit the type or its bounds: a string of at
         most MAX_STRING characters, a number of at most MAX_NUMBER characters whose plain decimal form has
         at most MAX_DIGITS digits either side of the point (`1e999999999` would be a billion digits)."""
@@ -108,7 +109,7 @@ class NamedQuery:
         unknown = sorted(set(args) - known)
         if unknown:
             raise ParamError(f"query {self.name!r} has no parameter {', '.join(unknown)} (it takes: {', '.join(sorted(known)) or 'none'})")
-        terms = {"robot": URIRef(robot_iri)}
+        terms: dict[str, URIRef | Literal] = {"robot": URIRef(robot_iri)}
         for p in self.params:
             raw = args.get(p.name, p.default)
             if raw is None:
@@ -176,7 +177,7 @@ def components(store: Store, robot: str) -> list[dict]:
     return list(out.values())
 
 
-def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path=None, fmt: str = "table",
+def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path: str | Path | None = None, fmt: str = "table",
                     timeout: float = QUERY_TIMEOUT) -> str:
     """`urdfkb query NAME --robot NAME [--param k=v]`: a named query on a store file, as text.
 

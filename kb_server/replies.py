@@ -5,6 +5,7 @@ from flask import Response, jsonify, request
 from werkzeug.exceptions import HTTPException
 
 from urdfkb.kb_server import ui
+from urdfkb.kb_server.jobs import Job
 from urdfkb.kb_server.services import services
 from urdfkb.kb_server.sparql import Result
 from urdfkb.pipeline.errors import UrdfkbError
@@ -38,7 +39,7 @@ def results(result: Result) -> Response:
     return Response(result.body, 200, content_type=result.media_type + charset)
 
 
-def accepted(job) -> Response:
+def accepted(job: Job) -> Response:
     """202 for a queued populate job, pointing at its status (a full queue raises QueueFull: 429)."""
     resp = jsonify(job.to_dict())
     resp.status_code = 202

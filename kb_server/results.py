@@ -19,7 +19,7 @@ _PAGING = "add a LIMIT, or page through the answer with LIMIT and OFFSET (and OR
 
 # Per results format: the bytes that open a row, whether they may sit in "quoted" strings, whether those use
 # backslash escapes, and the header lines before the rows. TSV and XML escape newlines and "<" in values.
-_ROWS = {
+_ROWS: dict[ox.QueryResultsFormat | ox.RdfFormat, tuple[tuple[bytes, ...], bool, bool, int]] = {
     ox.QueryResultsFormat.JSON: ((b"[{", b",{"), True, True, 0),
     ox.QueryResultsFormat.XML: ((b"<result>",), False, False, 0),
     ox.QueryResultsFormat.CSV: ((b"\n",), True, False, 1),
@@ -42,7 +42,7 @@ class ResultLimits:
     bytes: int = MAX_RESULT_BYTES
     memory: int = QUERY_MEMORY
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.rows < 1 or self.bytes < 1:
             raise UrdfkbError(f"result limits must be positive (max-result-rows {self.rows}, max-result-bytes {self.bytes})")
         if self.memory < MIN_QUERY_MEMORY:
@@ -58,7 +58,8 @@ class ResultLimits:
                               f"(max-result-bytes): {_PAGING}")
 
 
-def serialize(answer: ox.QuerySolutions | ox.QueryTriples | ox.QueryBoolean, fmt, limits: ResultLimits) -> bytes:
+def serialize(answer: ox.QuerySolutions | ox.QueryTriples | ox.QueryBoolean, fmt: ox.QueryResultsFormat | ox.RdfFormat,
+              limits: ResultLimits) -> bytes:
     """`answer` written in `fmt` (a QueryResultsFormat or RdfFormat); ResultTooLarge past `limits`."""
     # pyoxigraph's stubs type `output` as typing.IO[bytes], but its writers only call write() and flush()
     if isinstance(answer, ox.QueryTriples):

@@ -5,6 +5,7 @@ import logging
 import resource
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.http_bodies import BodyLimitServer
@@ -77,7 +78,7 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
         store.close()
         raise listen_error(host, port, e) from None
     jobs.mirror_all()
-    policy.port = int(server.effective_port)  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
+    policy.port = int(server.effective_port)
     return server, store, jobs
 
 
@@ -100,7 +101,7 @@ def open_files_for(connections: int) -> int:
 def serve(store_path: str | Path | None = None, host: str = HOST, port: int = PORT,
           token: str | None = None, remote_store: str | None = None, populate: Sequence[str] = (),
           query_timeout: float = QUERY_TIMEOUT, max_body: int = MAX_BYTES, threads: int = THREADS,
-          package_paths: Sequence[str] = (), **options) -> None:
+          package_paths: Sequence[str] = (), **options: Any) -> None:
     """Serve until interrupted; the store path defaults to user_data_dir("urdfkb")/kb.sqlite3.
 
     Each URDF or xacro in `populate` is ingested first (a bad one raises URDFError before anything
@@ -123,7 +124,7 @@ def serve(store_path: str | Path | None = None, host: str = HOST, port: int = PO
     elif reason := sandbox.unavailable():
         log.warning("xacro uploads need the sandbox, and are refused (403) until it can run: %s; plain URDF uploads "
                     "work (see docs/xacro.md)", reason)
-    port = server.effective_port  # type: ignore[attr-defined]  # waitress sets it at bind; not in its stubs
+    port = server.effective_port
     log.info("serving %s at http://%s:%s/ (SPARQL at /sparql)", store.path, host, port)
     try:
         server.run()

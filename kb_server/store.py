@@ -323,7 +323,7 @@ class Store:
         rows = self.db.execute("SELECT * FROM kb_robots ORDER BY name").fetchall()
         return {row[0]: RobotEntry(*row) for row in rows}
 
-    def replace_robot(self, name: str, tree, abstraction: Abstraction | None,
+    def replace_robot(self, name: str, tree: KinematicTree, abstraction: Abstraction | None,
                       provenance: dict[str, str] | None = None) -> BuiltRobot:
         """Write robot `name` (replacing any earlier one) in one transaction; all or nothing.
 

@@ -11,6 +11,7 @@ some scripts and emoji sequences use): a name needs none.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 
 from urdfkb.pipeline.ingest import format_character
 from urdfkb.settings import MAX_ERROR
@@ -36,7 +37,7 @@ def cut(text: str, limit: int = MAX_ERROR) -> str:
     return f"{text[:limit]}... [cut: {len(text):,} characters in all]"
 
 
-def listed(names, limit: int = 5) -> str:
+def listed(names: Iterable[object], limit: int = 5) -> str:
     """The first `limit` of `names` joined by commas, with how many more there are: an error naming what a
     request got wrong stays short however much it got wrong."""
     names = list(names)

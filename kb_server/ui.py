@@ -66,8 +66,8 @@ def robot_page(store: Store, name: str) -> str:
     outlines = [tree_svg.Outline(r["key"], f"{r['class']} ({r['confidence']:.2f})" if r["confidence"] is not None
                                  else r["class"], palette.kind_colour(r["kind"]), r["links"], r["mount"],
                                  (r["confidence"] or 0) < REVIEW_THRESHOLD and not r["confirmed"]) for r in rows]
-    tax = vocabulary()
-    addable = [c for kind in tax.kinds.values() for c in (kind.cls, *tax.subclasses_below(kind.cls))]
+    vocab = vocabulary()
+    addable = [c for kind in vocab.kinds.values() for c in (kind.cls, *vocab.subclasses_below(kind.cls))]
     claimed = {link for r in rows for link in r["links"]}
     return render_template("robot.html", entry=entry, rows=rows, svg=tree_svg.render(tree, outlines, body_view.bands(body)),
                            stale=stale, held=model.held, links=tree.links, claimed=claimed,

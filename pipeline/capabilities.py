@@ -38,7 +38,8 @@ import numpy as np
 from urdfkb.pipeline.components import END_EFFECTOR, BodyPart, Component
 from urdfkb.pipeline.evidence import SimSensor
 from urdfkb.pipeline.ontology import Vocabulary
-from urdfkb.pipeline.structure import is_frame, tool_structure
+from urdfkb.pipeline.frames import is_frame
+from urdfkb.pipeline.structure import tool_structure
 from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
 
 SAMPLES = 2048           # random configurations of a joint space

@@ -12,15 +12,15 @@ import hashlib
 import importlib.resources
 import pathlib
 from dataclasses import dataclass
-from typing import Iterable, Iterator
+from typing import Iterable
 
 import rdflib
-from rdflib.collection import Collection
-from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS, XSD
+from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS
 
 from urdfkb.pipeline import rdf
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.namespaces import CORE, CORE_IRI, CORE_ONTOLOGY_IRI
+from urdfkb.pipeline.ontology_axioms import count_range, local_name, needed_parts, placement_of, restricted_parts
 
 _LOADED_MARK = CORE_IRI + "ontologyVersion"
 FINGER_CHAIN_ROLES = ("link", "tip", "carrier")  # the values core:fingerChainRole may take
@@ -99,7 +99,7 @@ class Vocabulary:
         graph.parse(data=core_bytes, format="xml", publicID=self.path.as_uri())
         self.graph: rdflib.Graph = graph
         self.shapes = rdflib.Graph().parse(data=shapes_bytes, format="turtle")
-        self._order = {n: i for i, n in enumerate(filter(None, map(_local, graph.declared)))}
+        self._order = {n: i for i, n in enumerate(filter(None, map(local_name, graph.declared)))}
         self._parents: dict[str, tuple[str, ...]] = {}
         self._children: dict[str, list[str]] = {n: [] for n in self._order}
         self._label: dict[str, str] = {}
@@ -122,7 +122,7 @@ class Vocabulary:
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
         for name in self._order:
             node = CORE[name]
-            parents = sorted(filter(None, map(_local, graph.objects(node, RDFS.subClassOf))),
+            parents = sorted(filter(None, map(local_name, graph.objects(node, RDFS.subClassOf))),
                              key=self._order.__getitem__)
             self._parents[name] = tuple(parents)
             for p in parents:
@@ -131,15 +131,15 @@ class Vocabulary:
             self._answer[name] = str(graph.value(node, SKOS.altLabel) or self._label[name])
             self._comment[name] = str(graph.value(node, RDFS.comment) or "")
             self._example[name] = str(graph.value(node, SKOS.example) or "")
-            self._excluded[name] = _restricted_parts(graph, node, complement=True)
-            self._needed[name] = _needed_parts(graph, node)
-            if (views := _count_range(graph, node, CORE.viewpointCount)) is not None:
+            self._excluded[name] = restricted_parts(graph, node, complement=True)
+            self._needed[name] = needed_parts(graph, node)
+            if (views := count_range(graph, node, CORE.viewpointCount)) is not None:
                 self._views[name] = views
-            if (elements := _count_range(graph, node, CORE.elementCount)) is not None:
+            if (elements := count_range(graph, node, CORE.elementCount)) is not None:
                 self._elements[name] = elements
-            if (field := _count_range(graph, node, CORE.horizontalFieldOfViewRadians)) is not None:
+            if (field := count_range(graph, node, CORE.horizontalFieldOfViewRadians)) is not None:
                 self._fields[name] = field
-            if (placement := _placement(graph, node)) is not None:
+            if (placement := placement_of(graph, node)) is not None:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
                 self._declared_by.setdefault(str(sim_type).strip().lower(), set()).add(name)
@@ -172,7 +172,7 @@ class Vocabulary:
             kind = self.graph.value(node, CORE.componentKind)
             if kind is None:
                 continue
-            branches = _restricted_parts(self.graph, node, complement=False)
+            branches = restricted_parts(self.graph, node, complement=False)
             noun, rule = self.graph.value(node, CORE.promptNoun), self.graph.value(node, CORE.mountRule)
             if len(branches) != 1 or noun is None or rule is None:
                 raise OntologyError(f"{name} carries core:componentKind but not one ∀hasComponent branch, "
@@ -209,11 +209,11 @@ class Vocabulary:
         """Class → the sub-part class a shape requires at least one of (sh:qualifiedValueShape on hasComponent)."""
         required = {}
         for shape in self.shapes.subjects(RDF.type, SH.NodeShape):
-            targets = [t for t in map(_local, self.shapes.objects(shape, SH.targetClass)) if t]
+            targets = [t for t in map(local_name, self.shapes.objects(shape, SH.targetClass)) if t]
             for prop in self.shapes.objects(shape, SH.property):
                 part = self.shapes.value(self.shapes.value(prop, SH.qualifiedValueShape), SH["class"])
                 least = self.shapes.value(prop, SH.qualifiedMinCount)
-                if (self.shapes.value(prop, SH.path) != CORE.hasComponent or (local := _local(part)) is None
+                if (self.shapes.value(prop, SH.path) != CORE.hasComponent or (local := local_name(part)) is None
                         or not least):
                     continue
                 for target in targets:
@@ -320,7 +320,7 @@ class Vocabulary:
         return self._bound(prop, RDFS.range)
 
     def _bound(self, prop: str, which: rdflib.URIRef) -> str:
-        name = _local(self.graph.value(CORE[prop], which))
+        name = local_name(self.graph.value(CORE[prop], which))
         if name is None or name not in self:
             raise OntologyError(f"core property {prop!r} has no named core class as its rdfs:{which.fragment}")
         return name
@@ -395,83 +395,6 @@ class Vocabulary:
             return frozenset()
         return frozenset(c for c in self.subclasses_below(below)
                          if not any(self.is_a(c, d) or self.is_a(d, c) for d in declared))
-
-
-def _on_components(graph: rdflib.Graph, node: rdflib.URIRef, quantifier: rdflib.URIRef) -> Iterator[rdflib.term.Node]:
-    """X for each `node ⊑ Q hasComponent.X` axiom whose quantifier Q is `quantifier` (owl:allValuesFrom or
-    owl:someValuesFrom)."""
-    for restriction in graph.objects(node, RDFS.subClassOf):
-        if graph.value(restriction, OWL.onProperty) == CORE.hasComponent:
-            if (filler := graph.value(restriction, quantifier)) is not None:
-                yield filler
-
-
-def _restricted_parts(graph: rdflib.Graph, node: rdflib.URIRef, complement: bool) -> set[str]:
-    """X for each `node ⊑ ∀hasComponent.¬X` axiom (complement), or for each `node ⊑ ∀hasComponent.X`."""
-    out = set()
-    for filler in _on_components(graph, node, OWL.allValuesFrom):
-        part = graph.value(filler, OWL.complementOf) if complement else filler
-        if part is not None and (local := _local(part)):
-            out.add(local)
-    return out
-
-
-def _needed_parts(graph: rdflib.Graph, node: rdflib.URIRef) -> list[frozenset[str]]:
-    """For each `node ⊑ ∃hasComponent.X` axiom, {X}, or the members of X where X is a union."""
-    out = []
-    for filler in _on_components(graph, node, OWL.someValuesFrom):
-        union = graph.value(filler, OWL.unionOf)
-        members = list(Collection(graph, union)) if union is not None else [filler]
-        out.append(frozenset(filter(None, map(_local, members))))
-    return out
-
-
-def _count_range(graph: rdflib.Graph, node: rdflib.URIRef, prop: rdflib.URIRef) -> tuple[float, float] | None:
-    """(least, most) from `node ⊑ ∀prop.integer[>= least, <= most]` (or decimal), None without such an axiom."""
-    for restriction in graph.objects(node, RDFS.subClassOf):
-        if graph.value(restriction, OWL.onProperty) != prop:
-            continue
-        low, high = 0.0, float("inf")
-        facets = graph.value(graph.value(restriction, OWL.allValuesFrom), OWL.withRestrictions)
-        for facet in Collection(graph, facets) if facets is not None else ():
-            for kind, value in graph.predicate_objects(facet):
-                if kind == XSD.minInclusive:
-                    low = float(str(value))
-                elif kind == XSD.maxInclusive:
-                    high = float(str(value))
-                else:
-                    raise OntologyError(f"{_local(node)}: {_local(prop)} facet {kind} is not minInclusive or maxInclusive")
-        return low, high
-    return None
-
-
-def _placement(graph: rdflib.Graph, node: rdflib.URIRef) -> str | None:
-    """X, as text, from `node ⊑ ∀isLocatedOn.X`; None without such an axiom."""
-    fillers = [graph.value(r, OWL.allValuesFrom) for r in graph.objects(node, RDFS.subClassOf)
-               if graph.value(r, OWL.onProperty) == CORE.isLocatedOn]
-    if len(fillers) > 1:
-        raise OntologyError(f"{_local(node)} says twice where it is located (∀isLocatedOn)")
-    return _expression(graph, fillers[0]) if fillers else None
-
-
-def _expression(graph: rdflib.Graph, node: rdflib.term.Node | None) -> str:
-    """An OWL class expression in DL notation: a named class, or a union, intersection or complement of them."""
-    if (local := _local(node)) is not None:
-        return local
-    for prop, joiner in ((OWL.unionOf, " ⊔ "), (OWL.intersectionOf, " ⊓ ")):
-        if (members := graph.value(node, prop)) is not None:
-            return "(" + joiner.join(_expression(graph, m) for m in Collection(graph, members)) + ")"
-    if (negated := graph.value(node, OWL.complementOf)) is not None:
-        return "¬" + _expression(graph, negated)
-    raise OntologyError(f"a class expression urdfkb cannot read: {node!r}")
-
-
-def _local(node: rdflib.term.Node | None) -> str | None:
-    """Local name of a core IRI, None for anything else (blank nodes, other namespaces)."""
-    text = str(node)
-    if isinstance(node, rdflib.URIRef) and text.startswith(CORE_IRI):
-        return text[len(CORE_IRI):]
-    return None
 
 
 @functools.cache

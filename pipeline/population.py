@@ -20,7 +20,8 @@ from urdfkb.pipeline.namespaces import (CORE_IRI, ROBOT, SCHEMA, SSN_SYSTEM, bod
                                         component_local, finger_chain_local, joint_local, link_local, robot_iri,
                                         subcomponent_local)
 from urdfkb.pipeline.ontology import Vocabulary, load_core, vocabulary
-from urdfkb.pipeline.structure import viewpoints
+from urdfkb.pipeline.frames import viewpoints
+from urdfkb.pipeline.tree import KinematicTree
 
 log = logging.getLogger(__name__)
 Record = Callable[[dict], None]
@@ -41,7 +42,7 @@ PROVENANCE_ALIASES = {
 }
 
 
-def stamp(tree) -> dict[str, str]:
+def stamp(tree: KinematicTree) -> dict[str, str]:
     """What every populated robot says of the populate that wrote it: when (UTC), with which urdfkb,
     from which URDF document (its SHA-256, where the tree was read from one)."""
     facts = {"generatedAt": datetime.now(timezone.utc).isoformat(timespec="seconds"), "softwareVersion": __version__}
@@ -50,7 +51,7 @@ def stamp(tree) -> dict[str, str]:
     return facts
 
 
-def build_robot(world: rdf.World, tree, robot_name: str, abstraction: Abstraction | None = None,
+def build_robot(world: rdf.World, tree: KinematicTree, robot_name: str, abstraction: Abstraction | None = None,
                 provenance: dict[str, str] | None = None, vocab: Vocabulary | None = None,
                 record: Record | None = None) -> rdf.Ontology:
     """Write the robot as ontology `robot_iri(robot_name)` in `world`, replacing any earlier version.
@@ -271,7 +272,7 @@ _SYSTEM_PROPERTIES = (("Frequency", "frequency", ("rate",), "HTZ"), ("Measuremen
 
 def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict,
                       numbers: _Numbers) -> None:
-    """A camera's viewpoint count (structure.viewpoints over its leaf links, so that a reasoner can check its class
+    """A camera's viewpoint count (frames.viewpoints over its leaf links, so that a reasoner can check its class
     against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
     specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
     properties, the others as core data."""

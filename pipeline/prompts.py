@@ -40,17 +40,17 @@ class Choice:
         return default if answer is None else self.meaning.get(answer, default)
 
 
-def _definitions(tax: Vocabulary, classes: Sequence[str]) -> str:
+def _definitions(vocab: Vocabulary, classes: Sequence[str]) -> str:
     lines = []
     for c in classes:
-        example = tax.example(c)
-        lines.append(f"- {tax.answer(c)}: {tax.comment(c)}" + (f" Example: {example}" if example else ""))
+        example = vocab.example(c)
+        lines.append(f"- {vocab.answer(c)}: {vocab.comment(c)}" + (f" Example: {example}" if example else ""))
     return "\n".join(lines)
 
 
-def _class_choice(system: str, user: str, tax: Vocabulary, classes: Sequence[str], key: str,
+def _class_choice(system: str, user: str, vocab: Vocabulary, classes: Sequence[str], key: str,
                   extra: dict[str, str] | None = None) -> Choice:
-    meaning = {tax.answer(c): c for c in classes} | (extra or {})
+    meaning = {vocab.answer(c): c for c in classes} | (extra or {})
     return Choice(Question(system, user, tuple(meaning), key=key), meaning)
 
 
@@ -60,34 +60,34 @@ def chain_text(chain: Sequence[str]) -> str:
     return " < ".join(shown) + (" < ..." if len(chain) > MAX_CHAIN else "")
 
 
-def product_text(tax: Vocabulary, product: Product | None, below: str | None = None) -> str:
+def product_text(vocab: Vocabulary, product: Product | None, below: str | None = None) -> str:
     """The catalogue product a link names, as a line of evidence ('' for none). `below`: the class a descent
     starts from; the product's kinds from there down are named in the words the questions offer (a
     microphone array is an "audio sensor > microphone array"), so the first answer is there to read."""
     if not product:
         return ""
-    if below is None or product.cls == below or not tax.is_a(product.cls, below):
-        return f"\nProduct: {product.label} ({tax.label(product.cls)})"
+    if below is None or product.cls == below or not vocab.is_a(product.cls, below):
+        return f"\nProduct: {product.label} ({vocab.label(product.cls)})"
     path, cls = [], product.cls
     while cls != below:
         path.append(cls)
-        cls = next(p for p in tax.parents(cls) if tax.is_a(p, below))
-    return f"\nProduct: {product.label} ({' > '.join(tax.answer(c) for c in reversed(path))})"
+        cls = next(p for p in vocab.parents(cls) if vocab.is_a(p, below))
+    return f"\nProduct: {product.label} ({' > '.join(vocab.answer(c) for c in reversed(path))})"
 
 
-def kind_choice(tax: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str,
+def kind_choice(vocab: Vocabulary, kinds: Sequence[str], link: str, ancestors: Sequence[str], joint: str,
                 product: Product | None = None) -> Choice:
     """Which kind of component (or none) a leaf link is part of; `product`: the catalogue's, where it names one."""
     system = (
-        _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(tax, kinds)
+        _PREAMBLE + "Decide which kind of component a leaf link belongs to.\nKinds:\n" + _definitions(vocab, kinds)
         + f"\n- {NONE}: part of none of these: actuators and emitters (motors, lights, loudspeakers, displays,"
         " projectors), fasteners, covers, cables, and purely virtual reference frames."
         "\nSensors and their frames are fixed to their parent; a leaf that moves on a revolute, continuous or"
         " prismatic joint is a finger, a wheel or another moving part, not a sensor."
         "\nReply with the kind only."
     )
-    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}" + product_text(tax, product)
-    return _class_choice(system, user, tax, kinds, f"identify:{link}", {NONE: NONE})
+    user = f"Leaf link: {link}\nParents: {chain_text(ancestors)}\nJoint to parent: {joint}" + product_text(vocab, product)
+    return _class_choice(system, user, vocab, kinds, f"identify:{link}", {NONE: NONE})
 
 
 DRIVE_PART = "mechanism"  # the sensor check's answers that take a leaf off the sensors: a drive's part,
@@ -130,22 +130,22 @@ def root_question(kind: Kind, link: str, candidates: Sequence[str]) -> Question:
     return Question(system, user, tuple(candidates), key=f"root:{link}")
 
 
-def level_options(tax: Vocabulary, concept: str, exclude: frozenset[str] = frozenset()) -> tuple[str, ...]:
+def level_options(vocab: Vocabulary, concept: str, exclude: frozenset[str] = frozenset()) -> tuple[str, ...]:
     """The direct subclasses of `concept` the schema allows here."""
-    return tuple(c for c in tax.subclasses(concept) if c not in exclude)
+    return tuple(c for c in vocab.subclasses(concept) if c not in exclude)
 
 
-def level_choice(tax: Vocabulary, concept: str, framing: str, evidence: str, key: str,
+def level_choice(vocab: Vocabulary, concept: str, framing: str, evidence: str, key: str,
                  exclude: frozenset[str] = frozenset(), stay: tuple[str, str] | None = None) -> Choice:
     """Pick among the allowed direct subclasses of `concept` for one subject (a sub-chain, a link, a group);
     `stay`: (answer, definition) of one more option, meaning `concept` itself (none of its kinds)."""
-    options = level_options(tax, concept, exclude)
-    label = tax.label(concept)
+    options = level_options(vocab, concept, exclude)
+    label = vocab.label(concept)
     system = (
         _PREAMBLE + framing.format(concept=label) + f" Choose the most fitting kind of {label}:\n"
-        + _definitions(tax, options) + (f"\n- {stay[0]}: {stay[1]}" if stay else "") + "\nReply with the kind only."
+        + _definitions(vocab, options) + (f"\n- {stay[0]}: {stay[1]}" if stay else "") + "\nReply with the kind only."
     )
-    return _class_choice(system, evidence, tax, options, f"{key}@{concept}", {stay[0]: concept} if stay else None)
+    return _class_choice(system, evidence, vocab, options, f"{key}@{concept}", {stay[0]: concept} if stay else None)
 
 
 RIGID_TOOL = ("rigid tool", "End effector in which nothing moves, that neither grasps nor has a hand's shape: a probe,"
@@ -167,17 +167,17 @@ def device_name_question(frame: str, prefixes: Sequence[str]) -> Question:
     return Question(system, f"Frame: {frame}", tuple(prefixes), key=f"device:{frame}")
 
 
-def body_choice(tax: Vocabulary, evidence: str, key: str) -> Choice:
+def body_choice(vocab: Vocabulary, evidence: str, key: str) -> Choice:
     """Which body part (or none) a chain of moving joints is; `evidence` from stages.body."""
-    parts = tax.offered(tax.body_classes)
+    parts = vocab.offered(vocab.body_classes)
     system = (
         _PREAMBLE + "Decide which part of the robot's body a chain of moving joints is. Each joint is given with"
         " its type and how it moves the robot at rest (x forward, y left, z up).\nParts:\n"
-        + _definitions(tax, parts)
+        + _definitions(vocab, parts)
         + f"\n- {NONE}: none of these: a mechanism of the device it carries (a tilting sensor mount, a bumper's"
         " switch) or a passive linkage.\nReply with the part only."
     )
-    return _class_choice(system, evidence, tax, parts, key, {NONE: NONE})
+    return _class_choice(system, evidence, vocab, parts, key, {NONE: NONE})
 
 
 def side_question(label: str, left: Sequence[str], right: Sequence[str]) -> Question:

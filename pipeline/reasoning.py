@@ -4,11 +4,11 @@ Each tool becomes an EndEffector individual in a temporary world holding the cor
 one individual per finger chain typed by its drive's motion (the class the ontology aligns to it by
 `core:fingerDrive`), `opposes`, `movesWith` and `isMimicOf` between chains.
 The code closes what it knows (the tool has no chain but these, each opposes and moves with no chain
-but those: an at-most cardinality equal to the count of asserted, all-different chains, which
-HermiT classifies faster than the same closure with nominals), so the qualified cardinalities in the definitions of `ParallelGripper`,
+but those: an at-most cardinality equal to the count of asserted, all-different chains), so the qualified
+cardinalities in the definitions of `ParallelGripper`,
 `MultiFingerGripper`, `AnthropomorphicHand` and `ThumbChain` apply. One reasoner run covers every
-tool of a robot pass, and with them the body pass's candidate parts (classify_together): a JVM
-costs 1-4 s. A tool without finger chains is left to the model: the URDF does not say
+tool of a robot pass, and with them the body pass's candidate parts (classify_together): starting the
+JVM is most of a run's time. A tool without finger chains is left to the model: the URDF does not say
 whether a rigid tool holds by suction, a magnet, or fingers written as fixed links.
 Candidate body parts (PartFacts) are classified by the BodyPart classes' sufficient conditions.
 `placements` says which component classes a body part rules out for what sits on it (the ontology's
@@ -114,10 +114,10 @@ def _hermit(world: rdf.World, left: str) -> tuple[bool, float]:
 
 
 def _inference(individual, chains: dict) -> Inference:
-    tax, tool = vocabulary(), _tool_class()
+    vocab, tool = vocabulary(), _tool_class()
     names = [iri[len(CORE_IRI):] for iri in rdf.class_iris(individual) if iri.startswith(CORE_IRI)]
-    under = [n for n in names if n in tax and tax.is_a(n, tool)]
-    cls = max(under, key=lambda n: len(tax.ancestors(n)), default=tool)
+    under = [n for n in names if n in vocab and vocab.is_a(n, tool)]
+    cls = max(under, key=lambda n: len(vocab.ancestors(n)), default=tool)
     thumbs = tuple(name for name, chain in chains.items()
                    if any(getattr(c, "iri", "") == CORE_IRI + THUMB for c in chain.is_a))
     return Inference(cls, thumbs)
@@ -154,10 +154,10 @@ TOOL_REF = "tool:"  # a device of a body part that is the tool of that index in 
 
 def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
     """Each candidate as a BodyPart individual with the facts the code asserts of it."""
-    tax, tool = vocabulary(), _tool_class()
-    individuals = [core[tax.body_part](f"part{i}") for i in range(len(parts))]
+    vocab, tool = vocabulary(), _tool_class()
+    individuals = [core[vocab.body_part](f"part{i}") for i in range(len(parts))]
     for i, (facts, part) in enumerate(zip(parts, individuals)):
-        part.hasJoint = [core[tax.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
+        part.hasJoint = [core[vocab.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
         part.carriesDevice = [tools[int(cls[len(TOOL_REF):])] if cls.startswith(TOOL_REF) else core[cls](f"part{i}_device{j}")
                               for j, cls in enumerate(facts.devices)]
         part.carriesPart = [individuals[k] for k in facts.carries]
@@ -165,7 +165,7 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
         # what the conditions count is asserted as counts: no closure, no cardinality reasoning
         part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
         part.deviceCount = len(facts.devices)
-        part.endEffectorCount = sum(cls.startswith(TOOL_REF) or tax.is_a(cls, tool) for cls in facts.devices)
+        part.endEffectorCount = sum(cls.startswith(TOOL_REF) or vocab.is_a(cls, tool) for cls in facts.devices)
     return individuals
 
 

@@ -42,6 +42,7 @@ import threading
 from collections.abc import Iterable, Mapping
 from importlib.util import find_spec
 from pathlib import Path
+from typing import Any
 
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.settings import MAX_ERROR
@@ -100,7 +101,7 @@ def _seccomp_filter(extra: Iterable[str] = ()) -> bytes:
         return f.read()
 
 
-def add_rules(rules, action, calls: Iterable[str]) -> None:
+def add_rules(rules: Any, action: Any, calls: Iterable[str]) -> None:
     """Give each of the system calls `calls` that this architecture has `action` in the pyseccomp filter `rules`."""
     for name in calls:
         try:
@@ -245,7 +246,7 @@ def _mount_args(mounts: Mapping[str, str]) -> list[str]:
     return out
 
 
-def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, **popen) -> tuple[int, bytes, bytes]:
+def bounded_run(argv: list[str], stdin: bytes, timeout: float, max_output: int, **popen: Any) -> tuple[int, bytes, bytes]:
     """subprocess.run keeping the first `max_output` bytes of stdout (read into one buffer) and the last
     min(`max_output`, MAX_ERROR) bytes of stderr (where an error's message is), reading and dropping the
     rest; past `timeout` seconds the child's process group (the child starts one) is killed and

@@ -289,3 +289,19 @@ class KinematicTree:
             {link: facts for link, facts in self.evidence.items() if link not in removed},
             self.source_sha256,
         )
+
+
+def fork_of(tree: KinematicTree, leaves: list[str]) -> str:
+    """The lowest common ancestor of `leaves` (a lone leaf is its own fork), each link walked once: linear in
+    the tree, however many leaves."""
+    chain = tree.chain_to_root(leaves[0])
+    joins = {link: i for i, link in enumerate(chain)}  # link -> where on `chain` its own chain meets it
+    lowest = 0
+    for leaf in leaves[1:]:
+        walked, link = [], leaf
+        while link not in joins:
+            walked.append(link)
+            link = tree.edge_to(link).parent
+        joins.update(dict.fromkeys(walked, joins[link]))
+        lowest = max(lowest, joins[link])
+    return chain[lowest]

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TextIO
 
 from urdfkb.pipeline import evaluation, rdf
+from urdfkb.pipeline.truth import load_truth
 from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
@@ -28,7 +29,7 @@ class RobotRun:
 def run_truth_robot(truth_path: str | Path, settings: Settings, backend: Backend | None = None,
                     progress: Progress | None = None, trace: TextIO | None = None) -> RobotRun:
     """The URDF named by the truth file (relative to the truth folder's grandparent), abstracted and scored."""
-    truth = evaluation.load_truth(truth_path)
+    truth = load_truth(truth_path)
     urdf = Path(truth_path).resolve().parent.parent.parent / truth.urdf
     started = time.monotonic()
     tree = load_urdf(urdf)

@@ -26,8 +26,11 @@ import json
 import os
 import resource
 import sys
+import weakref
 import xml.dom.expatbuilder
+import xml.dom.minidom
 import xml.parsers.expat
+from typing import IO, Any
 
 import defusedxml.ElementTree as DET
 import yaml  # noqa: F401  (xacro imports it lazily; loaded before the audit hook)
@@ -39,6 +42,8 @@ from xacro import substitution_args
 MAX_INCLUDE_DEPTH = 20
 MAX_MACRO_DEPTH = 50
 MAX_FILES = 500
+# (file, line) of each element parsed, and of each failure an element's place is known for
+WHERE: weakref.WeakKeyDictionary[object, tuple[str, object]] = weakref.WeakKeyDictionary()
 
 
 class Disallowed(Exception):
@@ -49,7 +54,7 @@ class Disallowed(Exception):
     def __init__(self, message: str, where: tuple[str, object] | None = None):
         super().__init__(message)
         if where:
-            self._urdfkb_where = where
+            WHERE[self] = where
 
 
 class Request:
@@ -110,10 +115,10 @@ class _LocatingBuilder(xml.dom.expatbuilder.ExpatBuilderNS):
 
     def start_element_handler(self, name, attributes):
         super().start_element_handler(name, attributes)
-        self.curNode._urdfkb_where = (self.where, self._parser.CurrentLineNumber)
+        WHERE[self.curNode] = (self.where, self.getParser().CurrentLineNumber)
 
 
-def parse_text(text: str, display: str):
+def parse_text(text: str, display: str) -> xml.dom.minidom.Document:
     """A DOM of `text` after defusedxml's checks; element locations recorded."""
     try:
         DET.fromstring(text.encode())
@@ -127,10 +132,12 @@ def parse_text(text: str, display: str):
     return builder.parseString(text)
 
 
-def guarded_parse(inp, filename=None):
+def guarded_parse(inp: object, filename: str | None = None) -> xml.dom.minidom.Document:
     """Replaces xacro.parse: includes open through REQ.resolve, with size and count limits."""
     if inp is not None:
         return xacro.parse.__wrapped__(inp, filename)
+    if filename is None:
+        raise Disallowed("xacro asked to parse neither a text nor a file")
     try:
         path = REQ.resolve(filename)
     except Disallowed:
@@ -154,7 +161,7 @@ def guarded_parse(inp, filename=None):
 guarded_parse.__wrapped__ = xacro.parse  # type: ignore[attr-defined]
 
 
-def guarded_open(file, *args, **kwargs):
+def guarded_open(file: str, *args: Any, **kwargs: Any) -> IO[Any]:
     """xacro's other file access (xacro.load_yaml): only inside the allowed directories."""
     return open(REQ.resolve(file), *args, **kwargs)
 
@@ -165,8 +172,8 @@ def _locate(func):
         try:
             return func(node, *args, **kwargs)
         except Exception as e:
-            if getattr(e, "_urdfkb_where", None) is None and getattr(node, "_urdfkb_where", None):
-                e._urdfkb_where = node._urdfkb_where
+            if e not in WHERE and node in WHERE:
+                WHERE[e] = WHERE[node]
             raise
     return wrapper
 
@@ -252,7 +259,7 @@ def expand(req: Request) -> str:
 
 
 def describe(e: BaseException) -> str:
-    where = getattr(e, "_urdfkb_where", None)
+    where = WHERE.get(e)
     if isinstance(wrapped := getattr(e, "exc", None), Disallowed):  # xacro wraps what its substitutions raise
         e = wrapped
     if isinstance(e, Disallowed):

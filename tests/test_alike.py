@@ -23,7 +23,7 @@ from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.grouping import Group
 from urdfkb.pipeline.stages.sensor_check import not_sensors
 from urdfkb.pipeline.stages.subparts import type_subparts
-from urdfkb.pipeline.structure import alike_leaves
+from urdfkb.pipeline.alike import alike_leaves
 
 TAX = vocabulary()
 SEEDS = range(0, 200, 7)

@@ -171,7 +171,7 @@ def test_openmp_threads_wait_passively_only_where_other_processes_keep_the_cores
     other processes keep at least half a core busy; a policy already set is left alone."""
     import os as _os
 
-    from urdfkb.pipeline.llm import llama
+    from urdfkb.pipeline.llm import llama_process
 
     def choose(busy_elsewhere: float, own: float = 0.5, preset: dict | None = None) -> str | None:
         for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT"):
@@ -181,10 +181,10 @@ def test_openmp_threads_wait_passively_only_where_other_processes_keep_the_cores
         cores, ticks = _os.cpu_count() or 1, 100
         readings = iter([(0, 0), (cores * ticks, cores * ticks - int((busy_elsewhere + own) * ticks))])
         times = iter([_os.times_result((0, 0, 0, 0, 0)), _os.times_result((own * ticks / _os.sysconf("SC_CLK_TCK"), 0, 0, 0, 0))])
-        monkeypatch.setattr(llama, "_cpu_ticks", lambda: next(readings))
-        monkeypatch.setattr(llama.os, "times", lambda: next(times))
-        monkeypatch.setattr(llama.time, "sleep", lambda seconds: None)
-        llama._choose_openmp_waiting()
+        monkeypatch.setattr(llama_process, "_cpu_ticks", lambda: next(readings))
+        monkeypatch.setattr(llama_process.os, "times", lambda: next(times))
+        monkeypatch.setattr(llama_process.time, "sleep", lambda seconds: None)
+        llama_process.choose_openmp_waiting()
         return _os.environ.get("OMP_WAIT_POLICY")
 
     assert choose(busy_elsewhere=0.0) is None

@@ -10,10 +10,12 @@ import rdflib
 from rdflib import RDF, RDFS
 
 from urdfkb.pipeline.components import Abstraction, BodyPart
-from urdfkb.pipeline.evaluation import (
-    BODY, BODY_METRICS, CORE, end_effector_joints, failed_scores, format_table, load_truth, mean_scores,
-    read_body, score, scored_joints,
-)
+from urdfkb.pipeline.body_scoring import BODY, BODY_METRICS, end_effector_joints, scored_joints
+from urdfkb.pipeline.evaluation import failed_scores, mean_scores, score
+from urdfkb.pipeline.evaluation_report import format_table
+from urdfkb.pipeline.namespaces import CORE
+from urdfkb.pipeline.prediction import read_body
+from urdfkb.pipeline.truth import load_truth
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.population import build_robot

@@ -32,7 +32,7 @@ def rows(store, name, robot="pr2", **args):
 
 def test_body_parts_with_class_side_and_joints(store):
     got = rows(store, "body_parts")
-    parts = {}
+    parts: dict[str, dict] = {}
     for r in got:
         part = parts.setdefault(r["name"], {"class": r["class"].removeprefix(C), "label": r["classLabel"], "side": r.get("side"),
                                             "parent": r.get("parent"), "mount": r.get("mount"),

@@ -45,7 +45,8 @@ class Page(HTMLParser):
         super().__init__()
         self.rows: dict[str, list[str]] = {}
         self.bands: dict[str, int] = {}
-        self._row = self._band = None
+        self._row: list[str] | None = None
+        self._band: str | None = None
         self.feed(html)
 
     def handle_starttag(self, tag, attrs):
@@ -183,7 +184,7 @@ def test_body_corrections_survive_repopulation_and_find_their_parts_by_joints(st
     assert len(entry.corrections["applied"]) == 2 and len(store.corrections("pr2")) == 3
 
 
-MALFORMED = [  # refused before the robot is looked at
+MALFORMED: list[tuple[dict[str, object], str]] = [  # refused before the robot is looked at
     ({"part": "head", "action": "reclassify", "class": "Camera"}, "'Camera' is not a body-part class of the ontology"),
     ({"part": "head", "action": "reclassify", "class": "Tentacle"}, "'Tentacle' is not a body-part class"),
     ({"part": "head", "action": "reclassify", "class": "BodyPart"}, "'BodyPart' is not a body-part class"),
@@ -194,7 +195,7 @@ MALFORMED = [  # refused before the robot is looked at
     ({"part": "", "action": "reject"}, "part must name the body part"),
     ({"part": ["head"], "action": "reject"}, "part must be a string"),
 ]
-MISFIT = [  # refused by the robot as it is
+MISFIT: list[tuple[dict[str, object], str]] = [  # refused by the robot as it is
     ({"part": "tail", "action": "side", "side": "left"}, "no body part 'tail' on this robot (its parts: base, "),
     ({"part": "l_arm", "action": "merge", "with": "r_arm"}, "l_arm and r_arm do not touch"),
     ({"part": "l_arm", "action": "merge", "with": "l_arm"}, "cannot be merged with itself"),
@@ -215,7 +216,7 @@ def test_body_corrections_that_do_not_fit_are_refused_with_a_400_and_change_noth
     for data, message in MISFIT:
         with pytest.raises(CorrectionError, match=re.escape(message)):
             store.add_correction("pr2", new(data))
-    for data, message in MALFORMED + MISFIT:
+    for data, message in [*MALFORMED, *MISFIT]:
         status, _, out = api("POST", "/robots/pr2/corrections", json.dumps(data).encode(), {"Content-Type": "application/json"})
         assert status == 400 and message in json.loads(out)["error"]
     assert store.export("pr2", "nt") == before and store.corrections("pr2") == []

@@ -50,6 +50,7 @@ def browser():
 
     profile = tempfile.mkdtemp(prefix="urdfkb-chromium-")
     options = webdriver.ChromeOptions()
+    assert CHROMIUM is not None  # the browser lane is skipped without one
     options.binary_location = CHROMIUM
     for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync",

@@ -52,7 +52,8 @@ def test_a_user_catalogue_adds_products(tmp_path, monkeypatch):
     monkeypatch.setenv(catalogue_mod.ENV, str(own))
     catalogue.cache_clear()
     try:
-        assert catalogue().match(["left_eyecam_frame"]).label == "Acme EyeCam"
+        found = catalogue().match(["left_eyecam_frame"])
+        assert found is not None and found.label == "Acme EyeCam"
     finally:
         monkeypatch.delenv(catalogue_mod.ENV)
         catalogue.cache_clear()

@@ -97,6 +97,7 @@ def test_what_is_on_the_head_and_at_the_end_of_an_arm(kb):
     (right,) = kb.arm_end_effector("pr2", side="right")
     assert isinstance(right, ArmEndEffector) and (right.arm, right.side) == ("r_arm", "right")
     tool = right.end_effector
+    assert tool is not None
     assert (tool.name, tool.cls, tool.label, tool.mount, tool.tcp) == (
         "r_gripper", "ParallelGripper", "parallel gripper", "r_wrist_roll_link", "r_gripper_tool_frame")
     assert tool.joints == tuple(sorted(f"r_gripper_{f}_joint" for f in ("l_finger", "r_finger", "l_finger_tip", "r_finger_tip")))
@@ -114,12 +115,12 @@ def test_refusals_are_clear(kb, url):
     with pytest.raises(UnknownRobot, match="'nao'") as e:
         kb.cameras("nao")
     assert e.value.robot == "nao" and url in str(e.value) and isinstance(e.value, LookupError)
-    with pytest.raises(QueryFailed, match="decimal") as e:
+    with pytest.raises(QueryFailed, match="decimal") as failed:
         kb.query("low_confidence", "pr2", threshold="abc")
-    assert e.value.status == 400 and e.value.query == "low_confidence"
-    with pytest.raises(QueryFailed, match="no query 'toasters'") as e:  # a server without that query: not a robot problem
+    assert failed.value.status == 400 and failed.value.query == "low_confidence"
+    with pytest.raises(QueryFailed, match="no query 'toasters'") as failed:  # a server without that query: not a robot problem
         kb.query("toasters", "pr2")
-    assert e.value.status == 404 and not isinstance(e.value, UnknownRobot)
+    assert failed.value.status == 404 and not isinstance(failed.value, UnknownRobot)
     with pytest.raises(ValueError):
         kb.cameras("")
     with pytest.raises(ValueError):

@@ -106,7 +106,8 @@ def test_corrections_carry_provenance_into_exports(store):
     assert (activity, rdflib.RDF.type, PROV.Activity) in graph
     agent = graph.value(activity, PROV.wasAssociatedWith)
     assert str(graph.value(agent, rdflib.RDFS.label)) == "Ann Reviewer"
-    assert graph.value(activity, PROV.endedAtTime).datatype == rdflib.XSD.dateTime
+    ended = graph.value(activity, PROV.endedAtTime)
+    assert isinstance(ended, rdflib.Literal) and ended.datatype == rdflib.XSD.dateTime
     assert str(activity).startswith(corrections_iri("pr2"))
     assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#comp_base_laser"), PROV.wasInfluencedBy, activity) in graph
 

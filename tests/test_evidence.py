@@ -151,7 +151,7 @@ def test_meshes_and_shapes_reach_classification_but_declarations_only_narrow(bot
 
 def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
     seen: dict[str, Question] = {}
-    trace = []
+    trace: list[str] = []
     abstractor = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append)
     components = {c.subcomponents[-1].link: c for c in abstractor.run(bot).components}
     assert components["nose_scanner"].cls == "Lidar"  # gpu_ray: no question left to ask
@@ -163,7 +163,7 @@ def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
 
 def test_numbered_units_named_as_one_device_stay_separate_unless_an_array(bot):
     seen: dict[str, Question] = {}
-    trace = []
+    trace: list[str] = []
     found = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append).run(bot).components
     echoes = [c for c in found if c.subcomponents[0].link.startswith("echo")]
     assert [c.subcomponents[0].link for c in echoes] == ["echo_1_link", "echo_2_link", "echo_3_link"]

@@ -13,7 +13,7 @@ from rdflib.namespace import OWL, RDF, RDFS
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.export import export_robot, robot_graph
 from urdfkb.pipeline.formats import BY_NAME
-from urdfkb.pipeline.ontology import CORE_IRI
+from urdfkb.pipeline.namespaces import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.tree import Edge, KinematicTree
 from tests.sample_bot import HOSTILE, ZERO, sample_abstraction, sample_tree

@@ -76,8 +76,12 @@ def test_a_model_file_is_hashed_once_per_path_size_and_mtime(monkeypatch, tmp_pa
     gguf = tmp_path / "mine.gguf"
     gguf.write_bytes(b"GGUF" * 1000)
     assert fetch.model_sha256(gguf) == hashlib.sha256(gguf.read_bytes()).hexdigest()
-    hashed = []
-    monkeypatch.setattr(fetch, "_sha256", lambda p: hashed.append(p) or "0" * 64)
+    hashed: list[Path] = []
+
+    def sha256(path: Path) -> str:
+        hashed.append(path)
+        return "0" * 64
+    monkeypatch.setattr(fetch, "_sha256", sha256)
     assert fetch.model_sha256(gguf) == hashlib.sha256(b"GGUF" * 1000).hexdigest() and not hashed
     gguf.write_bytes(b"GGUF" * 1001)  # a changed file is hashed again
     os.utime(gguf, ns=(1, 1))

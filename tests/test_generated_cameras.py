@@ -21,7 +21,7 @@ from urdfkb.pipeline.stages.classification import Typed
 from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
 from urdfkb.pipeline.steps.classify import post_classification
 from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.structure import viewpoints
+from urdfkb.pipeline.frames import viewpoints
 
 SEEDS = range(200)
 TAX = vocabulary()

@@ -17,7 +17,8 @@ from urdfkb.pipeline.reasoning import classify
 from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group
 from urdfkb.pipeline.stages.tools import settle
-from urdfkb.pipeline.structure import ToolStructure, hands, tool_structure
+from urdfkb.pipeline.hands import hands
+from urdfkb.pipeline.structure import ToolStructure, tool_structure
 
 SEEDS = range(400)
 REASONED = list(range(0, 400, 25))  # one reasoner run over every layout

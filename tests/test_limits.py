@@ -13,6 +13,7 @@ import threading
 import time
 import urllib.parse
 import xml.dom.minidom
+from typing import Any
 
 import pyoxigraph as ox
 import pytest
@@ -119,9 +120,11 @@ def test_limits_must_be_positive(tmp_path):
     for bad in (dict(rows=0), dict(bytes=-1)):
         with pytest.raises(UrdfkbError, match="must be positive"):
             ResultLimits(**bad)
-    for bad in (dict(max_connections=0), dict(channel_timeout=0), dict(header_timeout=0.5), dict(body_timeout=0)):
+    refused: list[dict[str, Any]] = [dict(max_connections=0), dict(channel_timeout=0), dict(header_timeout=0.5),
+                                     dict(body_timeout=0)]
+    for options in refused:
         with pytest.raises(UrdfkbError, match="at least 1"):
-            make_server(tmp_path / "kb.sqlite3", port=0, **bad)
+            make_server(tmp_path / "kb.sqlite3", port=0, **options)
 
 
 # --- slow clients ------------------------------------------------------------------------------
@@ -132,7 +135,8 @@ def test_slow_clients_do_not_starve_the_others(server):
     host, port = urllib.parse.urlsplit(server).netloc.split(":")
     head = (f"POST /populate HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Type: {XML}\r\n"
             "Content-Length: 100000\r\n\r\n").encode()
-    slow, stop = [], threading.Event()
+    slow: list[socket.socket] = []
+    stop = threading.Event()
     trickler = threading.Thread(target=trickle, args=(slow, stop, b"<"), daemon=True)
     try:
         for _ in range(110):
@@ -186,7 +190,8 @@ def test_trickling_clients_are_cut_off_at_the_deadline_and_never_keep_another_ou
     the others waited in the backlog."""
     srv, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, runner=fake_runner(), max_connections=20,
                                    header_timeout=3, body_timeout=3)
-    port, slow, stop = srv.effective_port, [], threading.Event()
+    port, stop = srv.effective_port, threading.Event()
+    slow: list[socket.socket] = []
     heads = (b"GET /robots HTTP/1.1\r\nX-Slow: ",
              f"POST /populate HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Type: {XML}\r\n"
              "Content-Length: 100000\r\n\r\n".encode())

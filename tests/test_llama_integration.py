@@ -47,7 +47,7 @@ def reference(model_path, backend):
     import llama_cpp
     from llama_cpp import Llama
 
-    from urdfkb.pipeline.llm.llama import without_amx_buffers
+    from urdfkb.pipeline.llm.llama_process import without_amx_buffers
 
     default = llama_cpp.llama_cpp.llama_model_default_params
     with pytest.MonkeyPatch.context() as patch:  # the backend's model parameters (no AMX buffers where it has them)
@@ -340,7 +340,11 @@ def test_a_robots_answers_are_identical_cold_warm_and_after_another_robot(model_
     monkeypatch.setenv("URDFKB_CACHE", str(tmp_path))
     scored: list = []
 
+    steering = steered
+
     class Steered(LlamaBackend):
+        steer = False
+
         def score(self, questions):
             rows = super().score(questions)
             scored.extend((q.key, row) for q, row in zip(questions, rows))
@@ -365,7 +369,6 @@ def test_a_robots_answers_are_identical_cold_warm_and_after_another_robot(model_
         return (list(scored), [(r["key"], r["distribution"]) for r in asked if "distribution" in r],
                 result.components, int(result.provenance["prompt_tokens"]))
 
-    steering = steered
     plain = answers(toy, "off")
     cold = answers(toy)
     warm = answers(toy)

@@ -91,7 +91,9 @@ def test_structure_only_and_result_cache_hits_load_nothing(toy, tmp_path, monkey
 
 
 def test_runs_never_overlap_and_keep_their_order(toy):
-    running, order, overlap = [], [], []
+    running: list[int] = []
+    order: list[tuple] = []
+    overlap: list[str] = []
 
     def slow(question):
         if running:

@@ -8,7 +8,8 @@ from rdflib.namespace import OWL, RDF, RDFS
 
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline import ontology, rdf
-from urdfkb.pipeline.ontology import CORE_IRI, Vocabulary, core_path, load_core, shapes_path, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI
+from urdfkb.pipeline.ontology import Vocabulary, core_path, load_core, shapes_path, vocabulary
 
 CORE = rdflib.Namespace(CORE_IRI)
 SOSA = rdflib.Namespace("http://www.w3.org/ns/sosa/")
@@ -29,7 +30,8 @@ def spec_text(shared):
 def spec_tree(text):
     """[(name, parents)] from the spec's taxonomy block, in its order."""
     block = text.split("## Required taxonomy", 1)[1].split("```")[1]
-    stack, out = [], []
+    stack: list[str] = []
+    out: list[tuple[str, list[str]]] = []
     for line in block.strip("\n").splitlines():
         depth = (len(line) - len(line.lstrip())) // 2
         name = line.split()[0]

@@ -11,8 +11,8 @@ import pytest
 from benchmarks.parts.hosts import BUILD, HOSTS, hosts_for
 from benchmarks.parts.library import DATA, PartError, load, load_all
 from benchmarks.parts.robots import robots, write
-from urdfkb.pipeline import evaluation
 from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.truth import load_truth
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.ontology import vocabulary
@@ -24,7 +24,8 @@ from urdfkb.pipeline.stages.identification import identify
 from urdfkb.pipeline.stages.tools import settle
 from urdfkb.pipeline.steps.classify import post_classification
 from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.structure import is_frame, tool_structure
+from urdfkb.pipeline.frames import is_frame
+from urdfkb.pipeline.structure import tool_structure
 
 PARTS = {p.key: p for p in load_all()}
 CAMERAS = ("RGBDCamera", "StereoCamera", "MonocularCamera", "DepthCamera", "InfraredCamera")
@@ -107,7 +108,7 @@ def test_the_pair_host_names_two_copies_left_and_right(tmp_path):
 def test_the_written_robots_load_in_the_scorer(tmp_path):
     """What `python -m benchmarks.parts --out DIR` writes, `urdfkb eval DIR/eval/truth` reads."""
     for part, _host, robot in robots(PARTS.values()):
-        truth = evaluation.load_truth(write(robot, part, tmp_path))
+        truth = load_truth(write(robot, part, tmp_path))
         assert (tmp_path / truth.urdf).is_file() and truth.body is not None
         assert {c.id for c in truth.components} == {c["id"] for c in robot.components}
 

@@ -24,7 +24,7 @@ class Ran:
 
 
 def test_steps_run_in_order_each_timed_until_one_is_done():
-    records = []
+    records: list[dict] = []
 
     def note(name, finish=False):
         def run(context, state):

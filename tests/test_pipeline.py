@@ -11,6 +11,7 @@ from tests.toy_robot import TAX, TOY, perfect
 from urdfkb.pipeline.abstraction import Abstractor
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE
@@ -206,8 +207,12 @@ def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_categ
               SubChain("cam_a_led", "mount", ("cam_a_led",))]
     names = {"cam_a_rgb": "cam_a", "cam_a_depth": "cam_a", "cam_b_rgb": "cam_b", "cam_a_far": "cam_a", "cam_a_led": "cam_a"}
     categories = dict.fromkeys(names, "VisionSensor") | {"cam_a_led": "ContactSensor"}
-    asked = []
-    backend = ScriptedBackend(lambda q: asked.append(q.key) or names[q.key.split(":")[1]])
+    asked: list[str] = []
+
+    def rule(question: Question) -> str:
+        asked.append(question.key)
+        return names[question.key.split(":")[1]]
+    backend = ScriptedBackend(rule)
     groups = merge(Oracle(backend), toy, chains, "sensor", categories)
     assert sorted(sorted(g.leaves) for g in groups) == [["cam_a_depth", "cam_a_rgb"], ["cam_a_far"], ["cam_a_led"], ["cam_b_rgb"]]
     # the far camera and the LED (alone in their category at their mount) are devices whatever their names
@@ -226,7 +231,7 @@ def test_verification_reroots_a_device_that_carries_other_things(toy):
     # mounted too high: the chassis-level chain would swallow the mast, which carries the camera
     chain = SubChain("front_scanner", "chassis", ("front_scanner",))
     too_high = SubChain("mast_rgbd_color_optical", "chassis", ("mast", "mast_rgbd_body", "mast_rgbd_color_optical"))
-    notes = []
+    notes: list[str] = []
     groups = verify(toy, [Group([too_high]), Group([chain])], lambda link: False, notes.append)
     camera = next(g for g in groups if g.leaves == ["mast_rgbd_color_optical"])
     assert camera.members == ["mast_rgbd_color_optical"] and any("re-root" in n for n in notes)
@@ -234,7 +239,7 @@ def test_verification_reroots_a_device_that_carries_other_things(toy):
 
 def test_verification_absorbs_unclaimed_links(toy):
     chain = SubChain("claw_tcp", "arm_flange", ("claw_base", "claw_tcp"))
-    notes = []
+    notes: list[str] = []
     (group,) = verify(toy, [Group([chain])], lambda link: True, notes.append)
     assert set(group.members) == {"claw_base", "claw_tcp", "claw_jaw_a", "claw_jaw_b", "claw_status_light"}
     assert notes and notes[0].startswith("absorb")

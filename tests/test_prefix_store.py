@@ -11,11 +11,18 @@ IDENTITY = {"model": ["/models/m.gguf", 1000, 1], "context": {"n_ctx": 4096}}
 TOKENS = [1, 2, 3, 4, 5]
 
 
+def loaded(store: PrefixStore, tokens: list[int]) -> bytes:
+    """The payload `store` holds for `tokens` (it must hold one)."""
+    payload = store.load(tokens)
+    assert payload is not None
+    return bytes(payload)
+
+
 def test_round_trip(tmp_path):
     store = PrefixStore(tmp_path, IDENTITY)
     assert store.load(TOKENS) is None
     store.save(TOKENS, b"state bytes")
-    assert bytes(store.load(TOKENS)) == b"state bytes"
+    assert loaded(store, TOKENS) == b"state bytes"
     assert store.hits == 1 and store.writes == 1
     assert [p.name for p in tmp_path.iterdir()] == [store.path(TOKENS).name]  # no temporary file left
 
@@ -24,7 +31,7 @@ def test_key_covers_tokens_and_identity(tmp_path):
     store = PrefixStore(tmp_path, IDENTITY)
     store.save(TOKENS, b"x")
     store.save(TOKENS[:3], b"head")
-    assert bytes(store.load(TOKENS[:3])) == b"head" and bytes(store.load(TOKENS)) == b"x"
+    assert loaded(store, TOKENS[:3]) == b"head" and loaded(store, TOKENS) == b"x"
     assert store.load(TOKENS[:-1]) is None and store.load(TOKENS + [6]) is None
     other_model = PrefixStore(tmp_path, {**IDENTITY, "model": ["/models/m.gguf", 1000, 2]})
     assert other_model.load(TOKENS) is None

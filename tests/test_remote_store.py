@@ -94,7 +94,9 @@ def test_startup_mirrors_robots_stored_before(oxigraph, shared, tmp_path):
     store.replace_robot("pr2_early", load_urdf(shared / "urdf" / "pr2.urdf"), PR2)
     store.close()
     server, store, jobs = make_server(tmp_path / "kb.sqlite3", port=0, remote_store=oxigraph + "/store")
-    jobs.mirror_all().result(60)  # a second full push, awaited (make_server started one too)
+    pushed = jobs.mirror_all()  # a second full push, awaited (make_server started one too)
+    assert pushed is not None
+    pushed.result(60)
     graph = "https://w3id.org/urdfkb/robot/pr2_early#"
     assert remote_count(oxigraph, f"GRAPH <{graph}> {{ <{graph}comp_kinect> a ?c }}") >= 1
     server.close()

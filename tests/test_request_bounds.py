@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import random
 import threading
+from typing import Any, Callable, TypeVar
 
 import pytest
 
@@ -16,9 +17,10 @@ from urdfkb.kb_server import store as store_module
 from urdfkb.kb_server.corrections import Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import ReadOnlyGraph, Store
 from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.structure import fork_of
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+from urdfkb.pipeline.tree import Edge, KinematicTree, Origin, fork_of
 from urdfkb.settings import MAX_LINKS
+
+T = TypeVar("T")
 
 TOKEN = "t0k"
 PR2_GRAPH = "https://w3id.org/urdfkb/robot/pr2#"
@@ -90,15 +92,22 @@ def test_made_up_links_are_refused_naming_the_first_few(pr2_store):
                     f"no_such_link_00004 and {MAX_LINKS - 5:,} more are not in the URDF any more"
 
 
+def spied(func: Callable[..., T], note: Callable[[], None]) -> Callable[..., T]:
+    """`func`, calling `note()` before each call."""
+    def call(*args: Any) -> T:
+        note()
+        return func(*args)
+    return call
+
+
 def test_a_correction_is_checked_outside_the_lock_and_what_it_makes_is_kept(pr2_store, monkeypatch):
     seen: list[bool] = []
     check = review.check
-    monkeypatch.setattr(review, "check", lambda *a: (seen.append(lock_free(pr2_store)), check(*a))[1])
+    monkeypatch.setattr(review, "check", spied(check, lambda: seen.append(lock_free(pr2_store))))
     pr2_store.add_correction("pr2", Correction.new({"action": "confirm", "links": ["base_laser_link"]}, "ann"))
     assert seen == [True]
     calls: list[int] = []
-    apply = review.apply
-    monkeypatch.setattr(review, "apply", lambda *a: (calls.append(1), apply(*a))[1])
+    monkeypatch.setattr(review, "apply", spied(review.apply, lambda: calls.append(1)))
     kept = pr2_store.reviewed("pr2")  # the write left what it made
     assert [c.action for c, _ in kept.report.applied] == ["confirm"] and calls == []
     pr2_store.replace_robot("other", chain(3), None)  # another robot's write keeps it
@@ -115,8 +124,7 @@ def test_pages_and_corrections_routes_never_compute_again(pr2_store, monkeypatch
     api = client(app)
     assert api("GET", "/robots/pr2/corrections")[0] == 200
     calls: list[int] = []
-    apply = review.apply
-    monkeypatch.setattr(review, "apply", lambda *a: (calls.append(1), apply(*a))[1])
+    monkeypatch.setattr(review, "apply", spied(review.apply, lambda: calls.append(1)))
     for _ in range(2):
         assert api("GET", "/robots/pr2/corrections")[0] == 200
         assert api("GET", "/robots/pr2", headers={"Accept": "text/html"})[0] == 200
@@ -128,7 +136,7 @@ def test_pages_and_corrections_routes_never_compute_again(pr2_store, monkeypatch
 def test_exports_are_made_outside_the_lock_once_per_write(pr2_store, monkeypatch):
     made: list[bool] = []
     export_graph = store_module.export_graph
-    monkeypatch.setattr(store_module, "export_graph", lambda *a: (made.append(lock_free(pr2_store)), export_graph(*a))[1])
+    monkeypatch.setattr(store_module, "export_graph", spied(export_graph, lambda: made.append(lock_free(pr2_store))))
     first = pr2_store.export("pr2", "ttl")
     assert made == [True]
     with pr2_store.lock:  # a write under way elsewhere does not hold up an export already made

@@ -25,10 +25,11 @@ def private_cache(tmp_path, monkeypatch):
 def test_settings_from_user_input_are_typed_and_checked():
     s = Settings.from_mapping({"vote": "sample", "votes": "7", "use_cache": "false"})
     assert (s.vote, s.votes, s.use_cache) == ("sample", 7, False)
-    for bad, message in [({"colour": "red"}, "unknown setting"), ({"votes": "many"}, "integer"),
+    refused: list[tuple[dict[str, object], str]] = [({"colour": "red"}, "unknown setting"), ({"votes": "many"}, "integer"),
                          ({"vote": "shout"}, "exact"), ({"votes": 0}, "between"),
                          ({"structure_only": "maybe"}, "true or false"),
-                         ({"model": "a.gguf", "llm_url": "http://127.0.0.1:1"}, "either")]:
+                         ({"model": "a.gguf", "llm_url": "http://127.0.0.1:1"}, "either")]
+    for bad, message in refused:
         with pytest.raises(ValueError, match=message):
             Settings.from_mapping(bad)
 
@@ -82,7 +83,8 @@ def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     entry.write_text("{not json")
     again = run(tree, Settings(), backend=ScriptedBackend(perfect))
     assert again.components == first.components  # recomputed (its wall time may differ)
-    assert cache.load(entry.stem).components == again.components  # rewritten whole
+    rewritten = cache.load(entry.stem)
+    assert rewritten is not None and rewritten.components == again.components  # rewritten whole
 
 
 def test_a_change_to_the_pipeline_code_misses_the_cache(monkeypatch):

@@ -11,15 +11,19 @@ import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from tests.kb_fixtures import PR2, fake_runner, http, live, multipart, running
 from urdfkb.kb_server.app import create_app
-from urdfkb.kb_server.jobs import JobManager, pipeline_runner
+from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.serve import make_server
+from urdfkb.pipeline.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
+from urdfkb.pipeline.runner import Progress, Settings
+from urdfkb.pipeline.tree import KinematicTree
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
@@ -50,14 +54,16 @@ def toy(name="toy") -> bytes:
     return TOY.read_bytes().replace(b'<robot name="toy_robot">', f'<robot name="{name}">'.encode())
 
 
-def recording(runner=pipeline_runner):
-    """`runner` that also lists the settings of every job it runs (runner.calls)."""
-    def run(tree, settings, progress):
-        run.calls.append(settings)
-        return runner(tree, settings, progress)
+class Recording:
+    """`runner` that also lists the settings of every job it runs (`calls`)."""
 
-    run.calls = []
-    return run
+    def __init__(self, runner: Runner = pipeline_runner):
+        self.runner = runner
+        self.calls: list[Settings] = []
+
+    def __call__(self, tree: KinematicTree, settings: Settings, progress: Progress) -> Abstraction:
+        self.calls.append(settings)
+        return self.runner(tree, settings, progress)
 
 
 def finished(app_jobs, job_id):
@@ -69,10 +75,19 @@ def finished(app_jobs, job_id):
 # --- model and llm_url ------------------------------------------------------------------------
 
 
-class Recorder(BaseHTTPRequestHandler):
-    """An 'internal service' that records every request and answers a secret with `status`."""
+class RecordingServer(ThreadingHTTPServer):
+    """An 'internal service': the paths it was asked for (`hits`), and the status it answers with."""
 
-    status = 200
+    def __init__(self, status: int):
+        super().__init__(("127.0.0.1", 0), Recorder)
+        self.hits: list[str] = []
+        self.status = status
+
+
+class Recorder(BaseHTTPRequestHandler):
+    """Records every request and answers a secret with the server's `status`."""
+
+    server: RecordingServer
 
     def do_POST(self):
         self.server.hits.append(self.path)
@@ -92,8 +107,7 @@ def internal():
     servers = []
 
     def start(status=200):
-        server = ThreadingHTTPServer(("127.0.0.1", 0), Recorder)
-        server.hits, server.status = [], status
+        server = RecordingServer(status)
         threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True).start()  # shutdown() waits one poll
         servers.append(server)
         return f"http://127.0.0.1:{server.server_address[1]}", server.hits
@@ -105,7 +119,7 @@ def internal():
 
 
 def test_llm_url_file_is_refused_and_nothing_is_read(kb):
-    app, jobs = kb(runner=(runner := recording()))
+    app, jobs = kb(runner=(runner := Recording()))
     r = app.test_client().post("/populate?llm_url=file%3A%2F%2F%2Fetc%2Fpasswd%23&use_cache=false", data=toy(),
                                content_type=XML)
     assert r.status_code == 403 and "--allow-llm-url" in r.json["error"] and "root:" not in r.get_data(as_text=True)
@@ -117,7 +131,7 @@ def test_llm_url_file_is_refused_and_nothing_is_read(kb):
 
 def test_llm_url_to_an_internal_service_is_refused_unless_allowed(kb, internal):
     url, hits = internal()
-    app, jobs = kb(runner=(runner := recording()))
+    app, jobs = kb(runner=(runner := Recording()))
     r = app.test_client().post(f"/populate?llm_url={url}/private%23&use_cache=false", data=toy(), content_type=XML)
     assert r.status_code == 403 and "--allow-llm-url" in r.json["error"]
     jobs.shutdown()
@@ -187,7 +201,7 @@ def star(links: int) -> bytes:
 
 def test_too_many_links_are_refused_before_the_pipeline(kb):
     """Counted as the upload is parsed in its job (never on the request thread): the pipeline never sees it."""
-    app, jobs = kb(runner=(runner := recording(fake_runner())), max_links=100)
+    app, jobs = kb(runner=(runner := Recording(fake_runner())), max_links=100)
     c = app.test_client()
     r = c.post("/populate", data=star(101), content_type=XML)
     assert r.status_code == 202
@@ -202,7 +216,7 @@ def test_too_many_links_are_refused_before_the_pipeline(kb):
 def test_a_huge_upload_is_parsed_in_its_job_and_refused_by_its_attribute_count(kb):
     """A 5.6 MB URDF of 700,000 attributes: the POST answers at once (the request thread parses nothing), the job
     fails naming the cap, and /robots answers meanwhile."""
-    app, jobs = kb(runner=(runner := recording(fake_runner())))
+    app, jobs = kb(runner=(runner := Recording(fake_runner())))
     c = app.test_client()
     attrs = " ".join(f'a{i}="1"' for i in range(100))
     doc = ('<robot name="big"><link name="l"/>' + f"<g {attrs}/>" * 7_000 + "</robot>").encode()
@@ -301,7 +315,7 @@ def test_finished_jobs_expire_with_a_clear_404(kb):
 def test_simple_cross_site_populate_is_refused(kb, store):
     c = client(kb)
     assert c.post("/populate", data=toy("pr2"), content_type=XML).status_code == 202  # curl-style: fine
-    attacks = [
+    attacks: list[dict[str, Any]] = [
         dict(content_type="text/plain", headers={"Origin": "http://evil.example"}),
         dict(content_type="text/plain"),  # a browser that sends no Origin
         dict(content_type="application/x-www-form-urlencoded"),

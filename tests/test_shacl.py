@@ -8,12 +8,12 @@ from rdflib.namespace import PROV, RDF
 
 from tests.sample_bot import sample_abstraction, sample_tree
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
-from urdfkb.pipeline import evaluation
+from urdfkb.pipeline.truth import load_truth
 from urdfkb.pipeline.components import Abstraction, Component
 from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import CORE_IRI
+from urdfkb.pipeline.namespaces import CORE_IRI
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
 from urdfkb.pipeline.shacl import validate, violations
@@ -202,7 +202,7 @@ def test_shared_truth_robots_populated_conform_with_nothing_held(shared):
     paths = sorted((shared / "eval" / "truth").glob("*.yaml"))
     assert paths, "no truth robot"
     for path in paths:
-        tree = load_urdf(shared / evaluation.load_truth(path).urdf)
+        tree = load_urdf(shared / load_truth(path).urdf)
         abstraction = run(tree, Settings(use_cache=False), backend=ScriptedBackend(hashed), reasoner=scripted_reasoner,
                           placer=scripted_placements)
         assert abstraction.held == (), f"{path.stem}: {abstraction.held}"

@@ -1,4 +1,4 @@
-"""What the robot's shape settles before any question (pipeline.structure: hand_leaves, feet), on generated
+"""What the robot's shape settles before any question (pipeline.hands: hand_leaves, feet), on generated
 robots with known truth, and with a scripted model that makes the small model's mistakes: it claims fingertips
 for sensors, and a quadruped's feet for tools. Names are meaningless, so only structure can correct it."""
 from __future__ import annotations
@@ -13,14 +13,16 @@ from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor
 from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.prompts import NONE
 from urdfkb.pipeline.stages.attachment import detect_roots
 from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.structure import (alike_leaves, feet, hand_leaves, hand_mounts, hands, loop_closures,
-                                      off_limb_ends)
+from urdfkb.pipeline.alike import alike_leaves
+from urdfkb.pipeline.hands import feet, hand_leaves, hand_mounts, hands, off_limb_ends
+from urdfkb.pipeline.frames import loop_closures
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -185,7 +187,11 @@ def test_a_hands_leaves_are_mounted_where_its_shape_says_unasked():
         mounts = hand_mounts(hands(tree))
         assert set(mounts.values()) == {built.mount}, (seed, built.layout)
         asked: list[str] = []
-        chains = detect_roots(Oracle(ScriptedBackend(lambda q: asked.append(q.key) or q.options[-1])), tree,
+
+        def last_option(question: Question) -> str:
+            asked.append(question.key)
+            return question.options[-1]
+        chains = detect_roots(Oracle(ScriptedBackend(last_option)), tree,
                               sorted(mounts), TAX.kinds["end_effector"], lambda _link: False, settled=mounts)
         assert not asked and {c.root for c in chains} == {built.mount}, (seed, built.layout)
 

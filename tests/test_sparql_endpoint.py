@@ -3,11 +3,12 @@ import csv
 import io
 import json
 import urllib.parse
-from xml.dom.minidom import Document
+from xml.dom.minidom import Document, Text
 
 import pytest
 import rdflib
 from rdflib.plugins.stores.sparqlstore import SPARQLStore
+from rdflib.query import ResultRow
 from SPARQLWrapper import JSON, POST, POSTDIRECTLY, TURTLE, XML, SPARQLWrapper
 
 from tests.kb_fixtures import PR2, copied, http, served
@@ -46,7 +47,7 @@ def test_select_json_and_xml_with_sparqlwrapper(url, method):
     assert len(cams) == 4 and KINECT in cams  # RGBDCamera counts as a Camera
     doc = wrapper(url, CAMERAS, XML, method).convert()
     assert isinstance(doc, Document)
-    assert sorted(u.firstChild.data for u in doc.getElementsByTagName("uri")) == sorted(cams)
+    assert sorted(t.data for u in doc.getElementsByTagName("uri") if isinstance(t := u.firstChild, Text)) == sorted(cams)
 
 
 def test_ask_construct_describe_minus(url):
@@ -66,10 +67,11 @@ def test_ask_construct_describe_minus(url):
 
 def test_rdflib_sparqlstore(url):
     g = rdflib.Graph(store=SPARQLStore(url))
-    rows = list(g.query(CAMERAS))
+    rows = [row for row in g.query(CAMERAS) if isinstance(row, ResultRow)]
     assert len(rows) == 4 and rdflib.URIRef(KINECT) in [r[0] for r in rows]
-    conf = list(g.query(P + f"SELECT ?v WHERE {{ <{KINECT}> core:confidence ?v }}"))[0][0]
-    assert conf.datatype == rdflib.XSD.decimal and str(conf) == "0.93"
+    ((conf,),) = [row for row in g.query(P + f"SELECT ?v WHERE {{ <{KINECT}> core:confidence ?v }}")
+                  if isinstance(row, ResultRow)]
+    assert isinstance(conf, rdflib.Literal) and conf.datatype == rdflib.XSD.decimal and str(conf) == "0.93"
 
 
 def get(url, query, accept=None):

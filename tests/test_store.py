@@ -37,7 +37,7 @@ def test_restart_serves_everything_stored(tmp_path, trees):
     s.close()
     s = Store(path, workers=0)
     assert [e.name for e in s.robots()] == ["panda", "pr2"]
-    assert s.robot("pr2").robot_iri == "https://w3id.org/urdfkb/robot/pr2#robot"
+    assert s.require("pr2").robot_iri == "https://w3id.org/urdfkb/robot/pr2#robot"
     assert components(s) == len(PR2.components)
     s.close()
 
@@ -180,7 +180,8 @@ def test_an_update_waiting_for_a_worker_holds_up_no_other_store_operation(tmp_pa
     started = time.monotonic()
     assert s.lock.acquire(timeout=1)
     s.lock.release()
-    assert s.delete_robot("panda").name == "panda"  # a write goes through meanwhile
+    deleted = s.delete_robot("panda")  # a write goes through meanwhile
+    assert deleted is not None and deleted.name == "panda"
     assert time.monotonic() - started < 2 and query.is_alive() and update.is_alive()
     query.join(30)
     update.join(30)

@@ -14,7 +14,8 @@ from urdfkb.pipeline.timings import COUNTERS, Timings, process_age
 
 
 def test_a_step_record_counts_the_work_done_in_it():
-    records, totals = [], {"tokens": 10}
+    records: list[dict] = []
+    totals = {"tokens": 10}
 
     def work(context, state):
         totals["tokens"] += 5

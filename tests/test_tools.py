@@ -22,7 +22,8 @@ from urdfkb.pipeline.export import robot_graph
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import CORE_IRI, vocabulary
+from urdfkb.pipeline.namespaces import CORE_IRI
+from urdfkb.pipeline.ontology import vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.population import build_robot
 from urdfkb.pipeline.prompts import NONE
@@ -87,7 +88,7 @@ def test_the_reasoner_classifies_every_tool_in_one_run(rack):
 
 
 def test_settle_remounts_splits_arms_and_keeps_every_finger(rack):
-    notes = []
+    notes: list[str] = []
     too_high = Group([sub_chain(rack, leaf, "left_seg1") for leaf in VISE])  # the model mounted it on the shoulder
     thumbless = Group([sub_chain(rack, leaf, "mid_seg3") for leaf in MITT[:3]])  # thumb and two digits left out
     both_arms = Group([sub_chain(rack, leaf, "torso") for leaf in TRIDENT[:2] + ["mitt_drive"]])
@@ -98,7 +99,7 @@ def test_settle_remounts_splits_arms_and_keeps_every_finger(rack):
 
 
 def test_a_group_not_at_the_end_of_an_arm_is_no_tool(rack):
-    notes = []
+    notes: list[str] = []
     clamp = Group([sub_chain(rack, "left_shoulder_clamp", "left_seg1")])  # one joint from the torso
     vise = Group([sub_chain(rack, leaf, "left_flange") for leaf in VISE])
     settled = settle(rack, [clamp, vise], lambda leaf: False, notes.append)
@@ -109,7 +110,7 @@ def test_a_group_not_at_the_end_of_an_arm_is_no_tool(rack):
 def test_a_group_on_a_link_that_carries_the_rest_of_the_arm_is_no_tool(shared):
     """Sawyer's extra collision volume on its second arm link: five more arm joints hang beside it."""
     sawyer = load_urdf(shared / "urdf" / "sawyer.urdf")
-    notes = []
+    notes: list[str] = []
     assert settle(sawyer, [Group([sub_chain(sawyer, "right_l2_2", "right_l2")])], lambda leaf: False, notes.append) == []
     assert notes == ["no tool: ['right_l2_2'] mounted on right_l2, which is not the end of an arm"]
 

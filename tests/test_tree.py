@@ -75,7 +75,7 @@ def test_position_in_uses_urdf_rpy_convention():
         rpy = tuple(rng.uniform(-math.pi, math.pi) for _ in range(3))
         offset = tuple(rng.uniform(-1, 1) for _ in range(3))
         tree = KinematicTree("r", ("a", "b", "c"), (edge("j1", "a", "b", rpy=rpy), edge("j2", "b", "c", xyz=offset)))
-        expected = tra.euler_matrix(*rpy, "sxyz")[:3, :3] @ offset
+        expected = tra.euler_matrix(rpy[0], rpy[1], rpy[2], "sxyz")[:3, :3] @ offset
         assert_close(tree.position_in("c", "a"), expected)
 
 
@@ -122,14 +122,14 @@ def test_without_refuses_open_set_and_root(small):
 
 def test_a_callers_lists_do_not_reach_into_the_tree(small):
     links, edges = list(small.links), list(small.edges)
-    tree = KinematicTree(small.robot_name, links, edges)
+    tree = KinematicTree(small.robot_name, links, edges)  # type: ignore[arg-type]  # lists, as an untyped caller may pass
     links.append("ghost")
     edges.pop()
     assert tree.links == small.links and tree.edges == small.edges and tree.leaves() == small.leaves()
 
 
 def test_equal_trees_compare_and_hash_equal(small):
-    again = KinematicTree(small.robot_name, list(small.links), list(small.edges))
+    again = KinematicTree(small.robot_name, small.links, small.edges)
     assert again == small and hash(again) == hash(small)
 
 

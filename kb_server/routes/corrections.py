@@ -2,7 +2,7 @@
 stale) and POST /robots/<name>/corrections (one more, with the token where one is configured)."""
 from __future__ import annotations
 
-from flask import Blueprint, jsonify
+from flask import Blueprint, Response, jsonify
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.errors import Forbidden
@@ -15,12 +15,12 @@ USAGE = ("send the correction as a JSON object: {action, links, class?, mount?, 
 
 
 @bp.get("/robots/<name>/corrections")
-def list_corrections(name: str):
+def list_corrections(name: str) -> Response:
     return jsonify(services().store.reviewed(name).report.to_dict())
 
 
 @bp.post("/robots/<name>/corrections")
-def add_correction(name: str):
+def add_correction(name: str) -> Response:
     kb = services()
     if not kb.may_write():
         raise Forbidden("corrections need the server's token (Authorization: Bearer ...)")

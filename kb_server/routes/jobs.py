@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
-from flask import Blueprint, jsonify, request
+from flask import Blueprint, Response, jsonify, request
 
 from urdfkb.kb_server.errors import BadRequest, Forbidden, NotFound, TooManyRequests
 from urdfkb.kb_server.replies import accepted
@@ -22,7 +22,7 @@ bp = Blueprint("jobs", __name__)
 
 
 @bp.post("/populate")
-def populate():
+def populate() -> Response:
     kb = services()
     if not kb.may_write():
         raise Forbidden("populating needs the server's token (Authorization: Bearer ...)")
@@ -52,7 +52,7 @@ def populate():
 
 
 @bp.post("/robots/<name>/populate")
-def repopulate(name: str):
+def repopulate(name: str) -> Response:
     """Populate a stored robot again from its stored URDF tree (same mode as last time)."""
     kb = services()
     if not kb.may_write():
@@ -95,7 +95,7 @@ def _xacro_loader(kb: Services, data: bytes, filename: str | None,
 
 
 @bp.get("/jobs/<job_id>")
-def job_status(job_id: str):
+def job_status(job_id: str) -> Response:
     kb = services()
     job = kb.jobs.get(job_id)
     if job is None:

@@ -34,7 +34,7 @@ def bridge() -> HttpBridge:
 
 
 @bp.post("/mcp")
-def mcp():
+def mcp() -> Response:
     kb = services()
     if not kb.may_write():
         raise Forbidden("the MCP tools need the server's token (Authorization: Bearer ...)")

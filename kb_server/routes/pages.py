@@ -15,7 +15,7 @@ bp = Blueprint("pages", __name__)
 
 
 @bp.get("/")
-def index():
+def index() -> str:
     store = services().store
     robots = []
     for entry in store.robots():

@@ -2,7 +2,7 @@
 (one answered for one robot, bounded as /sparql answers are)."""
 from __future__ import annotations
 
-from flask import Blueprint, jsonify, request
+from flask import Blueprint, Response, jsonify, request
 
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.errors import BadRequest
@@ -13,12 +13,12 @@ bp = Blueprint("queries", __name__)
 
 
 @bp.get("/queries")
-def list_queries():
+def list_queries() -> Response:
     return jsonify([q.describe() for q in queries.load_queries().values()])
 
 
 @bp.get("/queries/<name>")
-def named_query(name: str):
+def named_query(name: str) -> Response:
     kb = services()
     args = request.args.to_dict()
     robot_name = args.pop("robot", None)

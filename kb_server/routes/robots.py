@@ -14,12 +14,12 @@ bp = Blueprint("robots", __name__)
 
 
 @bp.get("/robots")
-def robots():
+def robots() -> Response:
     return jsonify([e.to_dict() for e in services().store.robots()])
 
 
 @bp.get("/robots/<spec>")
-def robot(spec: str):
+def robot(spec: str) -> Response | str:
     store = services().store
     name, _, ext = spec.partition(".")
     if ext:
@@ -38,7 +38,7 @@ def robot(spec: str):
 
 
 @bp.delete("/robots/<name>")
-def delete_robot(name: str):
+def delete_robot(name: str) -> Response:
     kb = services()
     if not kb.authorized():
         raise Forbidden("deleting a robot needs the server's token (Authorization: Bearer ...)")

@@ -21,17 +21,9 @@ bp = Blueprint("sparql", __name__)
 
 
 @bp.route(SPARQL_PATH, methods=["GET", "POST"])
-def protocol():
+def protocol() -> Response | str:
     kb = services()
     query, update = _operation()
-    if query is None and update is None:
-        if request.method == "GET" and ui.wants_html():
-            return ui.sparql_page()
-        if request.method == "GET":
-            return _service_description()
-        usage = ("POST a query (application/sparql-query or form field query) or an update "
-                 "(application/sparql-update or form field update)")
-        raise UnsupportedMediaType(usage) if request.mimetype not in FORM_TYPES else BadRequest(usage)
     if query is not None and update is not None:
         raise BadRequest("give a query or an update, not both")
     if update is not None:
@@ -41,6 +33,14 @@ def protocol():
             raise Forbidden("SPARQL updates need the server's token (Authorization: Bearer ...)")
         kb.store.update(update, kb.query_timeout)
         return Response(status=204)
+    if query is None:
+        if request.method == "GET" and ui.wants_html():
+            return ui.sparql_page()
+        if request.method == "GET":
+            return _service_description()
+        usage = ("POST a query (application/sparql-query or form field query) or an update "
+                 "(application/sparql-update or form field update)")
+        raise UnsupportedMediaType(usage) if request.mimetype not in FORM_TYPES else BadRequest(usage)
     dataset = request.values if request.mimetype in FORM_TYPES else request.args
     default, named = dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri")
     given = bool(default or named)  # the protocol's dataset, instead of the union default graph

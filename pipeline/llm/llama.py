@@ -2,21 +2,17 @@
 from __future__ import annotations
 
 import ctypes
-import functools
 import logging
-import math
 import os
 import random
 import struct
-import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-import numpy as np
-
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
+from urdfkb.pipeline.llm.llama_process import choose_openmp_waiting, load_model
+from urdfkb.pipeline.llm.option_trie import OptionJob, RowLogprobs, common_prefix, draw
 from urdfkb.pipeline.llm.prefix_store import PrefixStore, default_dir, enabled_by_env
 from urdfkb.settings import PREFIX_CACHE_BYTES
 
@@ -27,47 +23,6 @@ PREFIX = 0  # the KV sequence holding the system prefix; options are sequences 1
 # context parameters that change a stored prefix state's bytes or its numerics
 _STATE_PARAMS = ("n_ctx", "n_batch", "n_ubatch", "n_seq_max", "n_threads", "n_threads_batch", "kv_unified",
                  "flash_attn_type", "type_k", "type_v", "swa_full", "offload_kqv")
-
-
-@dataclass
-class _Job:
-    """One question prepared for scoring: its suffix after the shared prefix and its options' tokens.
-
-    An option is scored as the sum of log P(token | before) over its tokens, and over the end-of-turn
-    token only where that is a choice: where the option is a proper prefix of another one. Elsewhere the
-    options themselves force the end, as they would force it in constrained decoding. Over the sixteen
-    truth robots, dropping the forced end-of-turn factors changed 3 of about 1,000 answers, and no
-    metric (eval r9 against r6), and spares the end-of-turn row of every option no other one continues
-    (546 of PR2's 7,304 tokens).
-    """
-
-    suffix: list[int]
-    options: list[list[int]]
-
-    def trie(self) -> dict[tuple[int, ...], list[int]]:
-        """Every row the options need (a non-empty proper prefix of some option, the context of its next
-        token) → the indices of the options that start with it.
-
-        Options sharing leading tokens share those batch entries (a token may belong to several
-        sequences), so each distinct prefix is evaluated once. A prefix always comes after its parent.
-        """
-        inner = {tuple(o[:k]) for o in self.options for k in range(1, len(o))}
-        nodes: dict[tuple[int, ...], list[int]] = {}
-        for i, option in enumerate(self.options):
-            for k in range(1, len(option) + 1):
-                if tuple(option[:k]) in inner:
-                    nodes.setdefault(tuple(option[:k]), []).append(i)
-        return nodes
-
-    def steps(self, option: list[int]) -> range:
-        """The steps k scored for `option`: P(target k | the option's first k tokens), targets being its
-        tokens and then end-of-turn (step len(option)) where another option continues it."""
-        ends = any(len(o) > len(option) and o[:len(option)] == option for o in self.options)
-        return range(len(option) + ends)
-
-    @property
-    def size(self) -> int:
-        return len(self.suffix) + len(self.trie())
 
 
 class LlamaBackend(Backend):
@@ -89,7 +44,7 @@ class LlamaBackend(Backend):
                  n_batch: int = 512, n_seq_max: int = 64, prefix_cache: bool | str | Path = True,
                  prefix_cache_bytes: int = PREFIX_CACHE_BYTES,
                  flash_attn: bool = False, kv_type: str = "f16"):
-        _choose_openmp_waiting()
+        choose_openmp_waiting()
         import llama_cpp
         from llama_cpp import _internals
 
@@ -101,7 +56,7 @@ class LlamaBackend(Backend):
         self._draws = 0
         threads = n_threads or os.cpu_count() or 1
         try:
-            self._model = _load_model(llama_cpp, _internals, path)
+            self._model = load_model(path)
             self._params = self._context_params(n_ctx, n_batch, n_seq_max, threads, flash_attn, kv_type)
             self._ctx = _internals.LlamaContext(model=self._model, verbose=False, params=self._params)
         except Exception as exc:
@@ -219,16 +174,16 @@ class LlamaBackend(Backend):
         prompts = [self.prompt_tokens(q) for q in questions]
         # the shared part: the rendered system prefix, as tokenized inside every full prompt, minus
         # at least the last prompt token (decoded per question to predict the first answer token)
-        shared = min(min(_common_prefix(prefix, p), len(p) - 1) for p in prompts)
+        shared = min(min(common_prefix(prefix, p), len(p) - 1) for p in prompts)
         jobs = [self._job(q, p, shared) for q, p in zip(questions, prompts)]
         self._load_prefix(prefix[:shared])
         for chunk in self._chunks(list(zip(indices, jobs)), self.n_ctx - shared):
             for i, scores in zip([i for i, _ in chunk], self._decode_jobs([j for _, j in chunk], shared)):
                 out[i] = scores
 
-    def _job(self, question: Question, prompt: list[int], shared: int) -> _Job:
+    def _job(self, question: Question, prompt: list[int], shared: int) -> OptionJob:
         options = [self.option_tokens(o) for o in question.options]
-        job = _Job(prompt[shared:], options)
+        job = OptionJob(prompt[shared:], options)
         if (len(options) > self.n_seq_max - 1 or job.size > self.n_batch
                 or len(prompt) + max(map(len, options)) > self.n_ctx):
             raise BackendError(f"{self.name}: question {question.key!r} does not fit one decode "
@@ -315,15 +270,15 @@ class LlamaBackend(Backend):
 
     # --- decoding ------------------------------------------------------------------------------
 
-    def _decode_jobs(self, jobs: list[_Job], n_prefix: int) -> list[list[float]]:
+    def _decode_jobs(self, jobs: list[OptionJob], n_prefix: int) -> list[list[float]]:
         """Whole-option log-probabilities of every job, from one decode."""
         logprobs, wanted = self._decode_rows(jobs, n_prefix)
         return [[self._option_logprob(logprobs, r, o) for r, o in zip(rows, job.options)]
                 for rows, job in zip(wanted, jobs)]
 
-    def _decode_rows(self, jobs: list[_Job], n_prefix: int) -> tuple["_RowLogprobs", list[list[list[tuple[int, int]]]]]:
+    def _decode_rows(self, jobs: list[OptionJob], n_prefix: int) -> tuple[RowLogprobs, list[list[list[tuple[int, int]]]]]:
         """One decode for all options of all jobs; returns the row reader and, per job and option, its
-        scored steps (_Job.steps), each with the batch row predicting it.
+        scored steps (OptionJob.steps), each with the batch row predicting it.
 
         Every option is a sequence copying the prefix from sequence PREFIX. The jobs' suffixes are laid
         out as one token trie (a suffix token is evaluated once for all jobs that share the tokens up to
@@ -357,13 +312,13 @@ class LlamaBackend(Backend):
         try:
             self._fill(entries)
             self._decode()
-            return _RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab), wanted
+            return RowLogprobs(self._lib, self._ctx.ctx, self.n_vocab), wanted
         finally:
             for s in range(PREFIX + 1, seq):
                 self._seq_rm(s)
 
-    def _option_logprob(self, logprobs: "_RowLogprobs", rows: list[tuple[int, int]], option: list[int]) -> float:
-        """Sum of log P(target | before) over the option's scored steps (_Job.steps)."""
+    def _option_logprob(self, logprobs: RowLogprobs, rows: list[tuple[int, int]], option: list[int]) -> float:
+        """Sum of log P(target | before) over the option's scored steps (OptionJob.steps)."""
         targets = option + [self.eot]
         return float(sum(logprobs(row, targets[k]) for k, row in rows))
 
@@ -415,7 +370,7 @@ class LlamaBackend(Backend):
         """
         try:
             prefix, prompt = self.prefix_tokens(question.system), self.prompt_tokens(question)
-            shared = min(_common_prefix(prefix, prompt), len(prompt) - 1)
+            shared = min(common_prefix(prefix, prompt), len(prompt) - 1)
             job = self._job(question, prompt, shared)
             self._load_prefix(prefix[:shared])
             logprobs, (rows,) = self._decode_rows([job], shared)
@@ -427,31 +382,13 @@ class LlamaBackend(Backend):
             self.reset()
             raise BackendError(f"{self.name}: sampling failed: {type(exc).__name__}: {exc}") from exc
 
-    def _draw(self, targets: list[list[int]], rows: list[list[tuple[int, int]]], logprobs: "_RowLogprobs",
+    def _draw(self, targets: list[list[int]], rows: list[list[tuple[int, int]]], logprobs: RowLogprobs,
               temperature: float) -> int:
-        """One walk down the option trie; returns the index of the option it ends in. Only where the
-        options part ways is there a choice (and a row to read): the rest is forced by the options.
-        Options that tokenize alike never part ways; the walk ends in the first of them."""
+        """One draw (option_trie.draw), each from its own generator: the backend's seed and the draw's number."""
         self._draws += 1
-        rng = random.Random(self.seed * 1_000_003 + self._draws)
-        alive, step = list(range(len(targets))), 0
-        while len(alive) > 1 and step < len(targets[alive[0]]):
-            branches: dict[int, list[int]] = {}
-            for i in alive:
-                branches.setdefault(targets[i][step], []).append(i)
-            tokens = list(branches)
-            if len(tokens) > 1:
-                row = dict(rows[alive[0]])[step]
-                scores = [logprobs(row, t) for t in tokens]
-                if temperature <= 0:
-                    pick = max(range(len(tokens)), key=scores.__getitem__)
-                else:
-                    top = max(scores)
-                    pick = rng.choices(range(len(tokens)), [math.exp((x - top) / temperature) for x in scores])[0]
-                alive = branches[tokens[pick]]
-            step += 1
-        self.stats.generated_tokens += len(targets[alive[0]]) - 1
-        return alive[0]
+        pick = draw(targets, rows, logprobs, temperature, random.Random(self.seed * 1_000_003 + self._draws))
+        self.stats.generated_tokens += len(targets[pick]) - 1
+        return pick
 
     def close(self) -> None:
         """Free the scoring context, the batch and the model."""
@@ -479,110 +416,7 @@ def _state_positions(payload: memoryview | bytes) -> list[int]:
         return []
 
 
-class _RowLogprobs:
-    """log P(token) read in place from the logits of one batch row (valid until the next decode);
-    each row's normaliser is computed once."""
-
-    def __init__(self, lib, ctx, n_vocab: int):
-        self.lib, self.ctx, self.n_vocab = lib, ctx, n_vocab
-        self.rows: dict[int, tuple[np.ndarray, float]] = {}
-
-    def __call__(self, row: int, token: int) -> float:
-        if row not in self.rows:
-            ptr = self.lib.llama_get_logits_ith(self.ctx, row)
-            logits = np.ctypeslib.as_array(ptr, shape=(self.n_vocab,))
-            top = float(logits.max())
-            self.rows[row] = (logits, top + float(np.log(np.exp(logits - top).sum(dtype=np.float64))))
-        logits, logz = self.rows[row]
-        return float(logits[token]) - logz
-
-
-_BACKEND_READY = False
-BUSY_ELSEWHERE = 0.5  # cores other processes keep busy from which llama.cpp's threads wait passively
-
-
-def _choose_openmp_waiting(window: float = 0.25) -> None:
-    """Set OMP_WAIT_POLICY=PASSIVE when other processes keep at least BUSY_ELSEWHERE of a core busy.
-
-    llama.cpp's threads meet at an OpenMP barrier after every operation of a decode (about 1,100 per
-    decode of Qwen2.5-1.5B), where libgomp spins before it sleeps. On cores shared with busy processes
-    a spinning thread burns the slice its partner needs, and waiting passively was 0.49-0.71x the
-    time; with the cores to itself, waking a sleeping thread costs more than the spin, and a passive PR2
-    populate took 1.11x (benchmarks.llama_settings_bench, README). Scores are bit-identical either way.
-    The busy share is sampled from /proc/stat over `window` seconds, less this process's own time;
-    libgomp reads the policy once, when llama_cpp loads it, so a process keeps its first choice. An
-    OMP_WAIT_POLICY or GOMP_SPINCOUNT already set is left alone."""
-    if "OMP_WAIT_POLICY" in os.environ or "GOMP_SPINCOUNT" in os.environ:
-        return
-    try:
-        before, mine = _cpu_ticks(), os.times()
-        time.sleep(window)
-        after, mine_after = _cpu_ticks(), os.times()
-    except (OSError, ValueError, IndexError):
-        return
-    total, idle = after[0] - before[0], after[1] - before[1]
-    own = (mine_after.user + mine_after.system - mine.user - mine.system) * os.sysconf("SC_CLK_TCK")
-    cores = os.cpu_count() or 1
-    if total > 0 and (total - idle - own) / total * cores >= BUSY_ELSEWHERE:
-        os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
-
-
-def _cpu_ticks() -> tuple[int, int]:
-    """All CPUs' ticks since boot, and their idle (and I/O wait) ticks, from /proc/stat."""
-    with open("/proc/stat") as f:
-        fields = [int(x) for x in f.readline().split()[1:9]]
-    return sum(fields), fields[3] + fields[4]
-
-
-def _load_model(llama_cpp, internals, path: Path):
-    """The model alone, with the parameters llama_cpp.Llama would give it (CPU, memory-mapped). Llama itself
-    would also build a context of its own, with a KV cache and compute buffers, that scoring never uses."""
-    global _BACKEND_READY
-    if not _BACKEND_READY:
-        from llama_cpp._logger import set_verbose
-
-        set_verbose(False)  # llama.cpp's log: errors only, as Llama(verbose=False) sets it
-        llama_cpp.llama_backend_init()
-        _BACKEND_READY = True
-    params = without_amx_buffers(llama_cpp.llama_model_default_params())
-    params.n_gpu_layers, params.split_mode, params.main_gpu = 0, llama_cpp.LLAMA_SPLIT_MODE_LAYER, 0
-    params.vocab_only = False
-    params.load_mode = llama_cpp.LLAMA_LOAD_MODE_MMAP
-    return internals.LlamaModel(path_model=str(path), params=params, verbose=False)
-
-
-def without_amx_buffers(params):
-    """llama.cpp model parameters `params`, less the extra weight buffers on a processor with AMX: the AMX
-    matrix kernel of llama-cpp-python 0.3.36 (built natively) segfaults in its first batched decode on such
-    a machine (gdb: ggml_backend_amx_mul_mat, Sapphire Rapids under this workplace's VMs), and without the
-    extra buffers the weights stay in the ordinary CPU buffer, whose kernels answer (measured: Qwen2.5-Coder
-    1.5B completes, the AMX build crashes every time with 2 threads)."""
-    if cpu_has_amx():
-        params.use_extra_bufts = False
-    return params
-
-
-@functools.cache
-def cpu_has_amx() -> bool:
-    """The processor offers AMX tiles (Linux /proc/cpuinfo flags; False where that cannot be read)."""
-    try:
-        with open("/proc/cpuinfo") as f:
-            flags = next((line for line in f if line.startswith("flags")), "")
-    except OSError:
-        return False
-    return "amx_tile" in flags.split()
-
-
 def _file_identity(path: Path) -> list:
     """Cheap identity of a file: resolved path, size and modification time."""
     st = path.stat()
     return [str(path.resolve()), st.st_size, st.st_mtime_ns]
-
-
-def _common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
-    n = 0
-    for x, y in zip(a, b):
-        if x != y:
-            break
-        n += 1
-    return n

@@ -17,7 +17,8 @@ from typing import Callable, Mapping
 from urdfkb.pipeline.ontology import Kind
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import root_question
-from urdfkb.pipeline.structure import alike_sets, body_of, frames_of_one_body
+from urdfkb.pipeline.alike import alike_sets
+from urdfkb.pipeline.frames import body_of, frames_of_one_body
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.stages.asking import Progress, ask
 
@@ -59,11 +60,11 @@ def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: K
                  settled: Mapping[str, str] | None = None) -> list[SubChain]:
     """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device;
     `rigid`: devices of this kind are fixed to their mount (sensors); `settled`: leaf → the mount its tree
-    shape gives it (a hand's leaves: structure.hand_mounts), taken unasked where it is among the candidates.
+    shape gives it (a hand's leaves: hands.hand_mounts), taken unasked where it is among the candidates.
 
-    Fewer questions than leaves: alike leaves (structure.alike_leaves: a left and a right forearm camera) with
+    Fewer questions than leaves: alike leaves (alike.alike_leaves: a left and a right forearm camera) with
     as many candidates are asked once, each mounted as high up its own chain as the first is on its chain; and
-    of the frames of one body (structure.body_of: an RGB-D camera's) the first is asked, the others taking its
+    of the frames of one body (frames.body_of: an RGB-D camera's) the first is asked, the others taking its
     mount where that lies above the body (they would be raised to it anyway: grouping.one_mount) and being
     asked themselves where it does not (a mount on the body itself binds nothing)."""
     candidates = {leaf: mount_candidates(tree, leaf, blocked, rigid) for leaf in leaves}

@@ -27,8 +27,7 @@ from urdfkb.pipeline.ontology import Vocabulary
 from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.stages.asking import Progress, ask
-from urdfkb.pipeline.structure import fork_of
-from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, rotate_rpy
+from urdfkb.pipeline.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
 
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground

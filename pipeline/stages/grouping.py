@@ -39,8 +39,9 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import device_name_question
 from urdfkb.pipeline.stages.asking import Progress, ask
 from urdfkb.pipeline.stages.attachment import SubChain, sub_chain
-from urdfkb.pipeline.structure import body_of, fork_of, is_frame, partition
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.alike import partition
+from urdfkb.pipeline.frames import body_of, is_frame
+from urdfkb.pipeline.tree import KinematicTree, fork_of
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
@@ -109,7 +110,7 @@ def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
 
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """The two leaves are frames of one body (structure.body_of) that lies inside both sub-chains."""
+    """The two leaves are frames of one body (frames.body_of) that lies inside both sub-chains."""
     body = body_of(tree, a.leaf, b.leaf)
     return body is not None and body in a.links and body in b.links
 
@@ -122,7 +123,7 @@ def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[st
 
 
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
-    """Frames of one body (structure.body_of) that the model mounted apart, some on a link above the body and some on
+    """Frames of one body (frames.body_of) that the model mounted apart, some on a link above the body and some on
     the body or below it, all mounted on the highest of those mounts above the body: the body is then
     inside every chain, and group merging binds them into one device. Where the model mounted them all on the body
     or below it and the body is a bare frame fixed to its parent (a camera's own `camera_link` with colour, depth

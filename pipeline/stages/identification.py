@@ -1,11 +1,11 @@
 """Stage 1, identification: which kind of component (if any) each leaf link belongs to.
 
-Alike leaves (pipeline.structure.alike_leaves: the fingers of a hand, mirrored limbs, a quadruped's feet)
+Alike leaves (pipeline.alike.alike_leaves: the fingers of a hand, mirrored limbs, a quadruped's feet)
 are asked once, the first standing for all, and all get its answer: four
 identical fingers can no longer become four different things, and fewer questions are asked. A leaf
 that names a catalogue product which is no component (a fiducial marker) is settled without a question.
 Where the robot's structure rules a kind out for a leaf (no end effector where a limb goes on from the leaf's
-body: structure.limb_goes_on), the question stays the same for every leaf, so its system text is shared, and
+body: hands.limb_goes_on), the question stays the same for every leaf, so its system text is shared, and
 the answer is the option with the most votes among those left."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from urdfkb.pipeline.catalogue import Product, catalogue
 from urdfkb.pipeline.oracle import Oracle, Verdict
 from urdfkb.pipeline.ontology import Vocabulary
 from urdfkb.pipeline.prompts import NONE, Choice, kind_choice
-from urdfkb.pipeline.structure import alike_sets
+from urdfkb.pipeline.alike import alike_sets
 from urdfkb.pipeline.tree import KinematicTree
 from urdfkb.pipeline.stages.asking import Progress, ask
 

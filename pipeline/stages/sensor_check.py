@@ -5,7 +5,7 @@
   every finger chain.
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
   drive part, reference frame or passive part?), unless the file declares a simulator sensor on it;
-  alike leaves (structure.alike_leaves) once for all. "Part of a motor or drive" and "passive part"
+  alike leaves (alike.alike_leaves) once for all. "Part of a motor or drive" and "passive part"
   overrule identification: over the truth robots they went to motor screws, rotors, an actuator's
   dummy link, a battery, a reflector and links the truth ignores, and to no true sensor, while 'emitter'
   and 'reference frame' alone also took laser scanners and optical frames, so they are traced but change
@@ -23,7 +23,7 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.prompts import DRIVE_PART, PASSIVE_PART, sensor_check
 from urdfkb.pipeline.stages.asking import Progress, ask
 from urdfkb.pipeline.stages.verification import Log
-from urdfkb.pipeline.structure import alike_leaves
+from urdfkb.pipeline.alike import alike_leaves
 from urdfkb.pipeline.tree import KinematicTree
 
 

@@ -18,7 +18,8 @@ from urdfkb.pipeline.oracle import Oracle
 from urdfkb.pipeline.stages.asking import Progress
 from urdfkb.pipeline.stages.classification import Subject, Typed, descend
 from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.structure import ToolStructure, alike_sets
+from urdfkb.pipeline.alike import alike_sets
+from urdfkb.pipeline.structure import ToolStructure
 from urdfkb.pipeline.tree import KinematicTree
 
 
@@ -75,7 +76,7 @@ def _required_subject(tax: Vocabulary, tree: KinematicTree, link: str, device: s
 
 def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: str,
                    subjects: list[tuple[str, Subject]], stage: str, progress: Progress | None) -> dict[str, Typed]:
-    """Each link's class below `start`; alike links (structure.alike_leaves: the same link of a left and a
+    """Each link's class below `start`; alike links (alike.alike_leaves: the same link of a left and a
     right gripper) asked the same about the same kind of device are asked once, the first standing for all."""
     by_link = dict(subjects)
     sets = alike_sets(tree, list(by_link), lambda a, b: _same_question(by_link[a], by_link[b]))

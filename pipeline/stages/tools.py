@@ -23,8 +23,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from urdfkb.pipeline.structure import ToolStructure, fork_of, tool_structure
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.tree import KinematicTree, fork_of
 from urdfkb.pipeline.stages.attachment import sub_chain
 from urdfkb.pipeline.stages.grouping import Group
 from urdfkb.pipeline.stages.verification import Log

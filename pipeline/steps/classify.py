@@ -18,7 +18,8 @@ from urdfkb.pipeline.stages.verification import indexed_units
 from urdfkb.pipeline.steps.context import Context
 from urdfkb.pipeline.steps.devices import category
 from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.structure import alike_sets, viewpoints
+from urdfkb.pipeline.alike import alike_sets
+from urdfkb.pipeline.frames import viewpoints
 from urdfkb.pipeline.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts

@@ -9,7 +9,7 @@ from urdfkb.pipeline.stages.identification import identify
 from urdfkb.pipeline.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.steps.context import Context
 from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.structure import body_of, frames_of_one_body
+from urdfkb.pipeline.frames import body_of, frames_of_one_body
 
 
 @step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "loop_frames",

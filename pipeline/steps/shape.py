@@ -6,7 +6,8 @@ from urdfkb.pipeline.evidence import LinkEvidence
 from urdfkb.pipeline.passes import step
 from urdfkb.pipeline.steps.context import Context
 from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.structure import feet, hand_mounts, hands, loop_closures, off_limb_ends, palm
+from urdfkb.pipeline.hands import feet, hand_mounts, hands, off_limb_ends, palm
+from urdfkb.pipeline.frames import loop_closures
 from urdfkb.pipeline.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
