@@ -32,7 +32,7 @@ CATEGORY = {**dict.fromkeys(CAMERAS, "VisionSensor"), "Lidar": "RangingSensor", 
             "ForceTorqueSensor": "ForceTorqueSensor"}
 SENSORS = ["realsense_d435i", "realsense_d455", "luxonis_oakd", "stereolabs_zed2", "orbbec_femto_bolt",
            "microsoft_kinect", "ouster_os1", "velodyne_vlp16", "sick_tim571", "microstrain_3dm",
-           "carnegie_multisense_s21"]
+           "carnegie_multisense_s21", "realsense_l515"]
 TOOLS = ["robotiq_2f85", "robotiq_2f140", "robotiq_hande", "robotiq_epick", "franka_hand", "wonik_allegro_right",
          "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282", "onrobot_rg2"]
 
@@ -45,12 +45,18 @@ TURNING_BASE = ("tool extent: a revolute joint inside a tool (the OnRobot RG2's 
                 "is left out")
 MOUNT_POINT = ("one device, many components: a bare mount-point frame on a camera's housing (the MultiSense S21's "
                "top_left_rear_mount, beside its IMU frames) is split off the device, however the model names it")
+IMU_UNDER_COLOUR = ("one device, many components: a camera whose IMU frames hang from its colour frame (the RealSense "
+                    "L515's gyro and accel frames) is split into the colour-and-IMU branch and its depth and infrared "
+                    "frames, and the bare mount points on its case (lower_mount, upper_mount) into a third, however "
+                    "the model names them")
 OPTICAL_ROOT = ("mount: a camera whose description starts at its optical frame (the MultiSense S21's "
                 "left_camera_optical_frame, the link the host fixes) keeps that frame as its own frames' mount")
 KNOWN = {
     ("group", "ouster_os1"): CAP, ("mount", "ouster_os1"): "mount: " + CAP,
     ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("group together", "carnegie_multisense_s21"): MOUNT_POINT,
     ("stay", "carnegie_multisense_s21"): MOUNT_POINT, ("mount", "carnegie_multisense_s21"): OPTICAL_ROOT,
+    ("group", "realsense_l515"): IMU_UNDER_COLOUR, ("group together", "realsense_l515"): IMU_UNDER_COLOUR,
+    ("stay", "realsense_l515"): IMU_UNDER_COLOUR,
     ("tool", "onrobot_rg2"): TURNING_BASE,
 }
 
