@@ -32,7 +32,7 @@ CATEGORY = {**dict.fromkeys(CAMERAS, "VisionSensor"), "Lidar": "RangingSensor", 
             "ForceTorqueSensor": "ForceTorqueSensor"}
 SENSORS = ["realsense_d435i", "realsense_d455", "luxonis_oakd", "stereolabs_zed2", "orbbec_femto_bolt",
            "microsoft_kinect", "ouster_os1", "velodyne_vlp16", "sick_tim571", "microstrain_3dm",
-           "carnegie_multisense_s21", "realsense_l515"]
+           "carnegie_multisense_s21", "realsense_l515", "robotiq_ft300", "ati_mini58"]
 TOOLS = ["robotiq_2f85", "robotiq_2f140", "robotiq_hande", "robotiq_epick", "franka_hand", "wonik_allegro_right",
          "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282", "onrobot_rg2"]
 
