@@ -34,7 +34,7 @@ SENSORS = ["realsense_d435i", "realsense_d455", "luxonis_oakd", "stereolabs_zed2
            "microsoft_kinect", "ouster_os1", "velodyne_vlp16", "sick_tim571", "microstrain_3dm",
            "carnegie_multisense_s21", "realsense_l515", "robotiq_ft300", "ati_mini58"]
 TOOLS = ["robotiq_2f85", "robotiq_2f140", "robotiq_hande", "robotiq_epick", "franka_hand", "wonik_allegro_right",
-         "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282", "onrobot_rg2"]
+         "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282", "onrobot_rg2", "schunk_svh_right"]
 
 # Where the pipeline gets a part wrong today: the failure class, for the lead (strict: a fix shows as XPASS).
 CAP = ("one device, many components: a lidar's housing piece (the OS1's thermal cap) beside its scan frame is split "
@@ -51,6 +51,9 @@ IMU_UNDER_COLOUR = ("one device, many components: a camera whose IMU frames hang
                     "the model names them")
 OPTICAL_ROOT = ("mount: a camera whose description starts at its optical frame (the MultiSense S21's "
                 "left_camera_optical_frame, the link the host fixes) keeps that frame as its own frames' mount")
+FORK_BELOW_BASE = ("tool extent: a hand whose fingers fork from a frame below its base (the Schunk SVH's e1, fixed under "
+                   "right_hand_base_link) is mounted on its own base, which is left out of it; its middle finger, on a "
+                   "fixed spread dummy beside mimicking spread joints, is read as a mechanism")
 KNOWN = {
     ("group", "ouster_os1"): CAP, ("mount", "ouster_os1"): "mount: " + CAP,
     ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("group together", "carnegie_multisense_s21"): MOUNT_POINT,
@@ -58,6 +61,7 @@ KNOWN = {
     ("group", "realsense_l515"): IMU_UNDER_COLOUR, ("group together", "realsense_l515"): IMU_UNDER_COLOUR,
     ("stay", "realsense_l515"): IMU_UNDER_COLOUR,
     ("tool", "onrobot_rg2"): TURNING_BASE,
+    ("tool", "schunk_svh_right"): FORK_BELOW_BASE,
 }
 
 
