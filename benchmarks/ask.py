@@ -2,20 +2,22 @@
 
 Builds a temporary store with the set's robots (tests/ask_robots.py: PR2 with its whole body, the TurtleBot3
 Waffle Pi), loads the model once, reads each robot's menu into it with one untimed question (as a running
-server has it after its first question), then asks every question and prints: accuracy of the in-scope
+server has it after its first question), then asks every question, one robot's after the other's (as in a dialogue with one robot), and prints: accuracy of the in-scope
 questions (query and every value right), the out-of-scope refusal rate, and the latency per question (p50,
-p95) with the model loaded; then the same per fold and the accuracy per query.
+p95) with the model loaded, and the tokens the model evaluates per question (the work behind the
+latency, the same on a busy machine); then the same per fold and the accuracy per query.
 
 The set is split into two folds by phrasing, not per question: within each expected query (refusals
 included), the distinct phrasings in the order they are written alternate between `design` (the half to
 tune on) and `check` (the half kept to measure); one phrasing asked of both robots stays in one fold.
 Usage:
-    python -m benchmarks.ask [--model GGUF | --test] [--fold design|check] [--limit N] [--explain]
+    python -m benchmarks.ask [--model GGUF | --test] [--fold design|check] [--limit N] [--explain] [--save JSON]
 --test runs the small SmolLM2 model.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import tempfile
 import time
@@ -51,11 +53,14 @@ def summary(label: str, results: list[dict]) -> list[str]:
     outside = [r for r in results if r["query"] is None]
     right, refused = sum(r["ok"] for r in inside), sum(r["ok"] for r in outside)
     seconds = sorted(r["seconds"] for r in results)
+    tokens = sorted(r["tokens"] for r in results)
     return [f"{label}: {len(results)} questions ({len(inside)} in scope, {len(outside)} out of scope)",
             f"  accuracy (query and every value right): {right}/{len(inside)} = {right / max(len(inside), 1):.1%}",
             f"  out of scope refused: {refused}/{len(outside)} = {refused / max(len(outside), 1):.1%}",
             f"  latency per question: p50 {statistics.median(seconds):.3f} s, "
-            f"p95 {seconds[min(len(seconds) - 1, int(0.95 * len(seconds)))]:.3f} s, max {seconds[-1]:.3f} s"]
+            f"p95 {seconds[min(len(seconds) - 1, int(0.95 * len(seconds)))]:.3f} s, max {seconds[-1]:.3f} s",
+            f"  tokens evaluated per question (the model's work, whatever the machine's load): "
+            f"p50 {statistics.median(tokens):.0f}, max {tokens[-1]}"]
 
 
 def main() -> None:
@@ -65,6 +70,7 @@ def main() -> None:
     parser.add_argument("--fold", choices=FOLDS, help="ask one fold's questions only")
     parser.add_argument("--limit", type=int, metavar="N", help="ask at most N questions")
     parser.add_argument("--explain", action="store_true", help="print every wrong answer")
+    parser.add_argument("--save", metavar="JSON", help="write every question with its reply and latency to this file")
     args = parser.parse_args()
     questions = [q for q in with_folds(yaml.safe_load(QUESTIONS.read_text()))
                  if args.fold in (None, q["fold"])][:args.limit]
@@ -83,18 +89,22 @@ def main() -> None:
                 asker.ask(store, robot, "What sensors do you have?")
                 print(f"{robot}: menu read in {time.perf_counter() - started:.1f} s "
                       f"({len(backend.prefix_tokens(asker.menu(store, robot).system))} prompt tokens)")
-            for q in questions:
+            for q in sorted(questions, key=lambda q: q["robot"]):  # one robot's dialogue, then the other's
+                tokens = backend.stats.prompt_tokens
                 started = time.perf_counter()
                 reply = asker.ask(store, q["robot"], q["q"])
                 seconds = time.perf_counter() - started
+                tokens = backend.stats.prompt_tokens - tokens
                 if q["query"] is None:
                     ok = reply["refused"]
                 else:
                     ok = reply["query"] == q["query"] and reply["params"] == q.get("params", {})
-                results.append(q | {"ok": ok, "seconds": seconds, "reply": reply})
+                results.append(q | {"ok": ok, "seconds": seconds, "tokens": tokens, "reply": reply})
         finally:
             backend.close()
             store.close()
+    if args.save:
+        Path(args.save).write_text(json.dumps(results, indent=1))
     if args.explain:
         for r in results:
             if not r["ok"]:

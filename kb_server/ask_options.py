@@ -145,10 +145,7 @@ def build_menu(store: Store, robot: str) -> Menu:
     lines = []
     for q in queries:
         params = {p.name for p in q.params}
-        what = (" (for a link the question names)" if "link" in params
-                else f" (a body part: {', '.join(p.label for p in parts)})" if "part" in params
-                else " (left, right or every arm)" if "side" in params else "")
-        lines.append(f"{q.name}: {q.title}{what}")
+        lines.append(f"{q.name}: {q.title}" + (f"; asked as: {q.in_words}" if q.in_words else ""))
     system = (f"A person talks to the robot {robot}. Choose the one query that answers what they ask about the "
               f"robot's own body; answer {NONE} when the question is about anything else (the weather, people, "
               "time, places, the battery, objects in the room, feelings, news...).\n"

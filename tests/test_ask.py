@@ -12,6 +12,7 @@ from tests.kb_fixtures import client, copied, make_app, served
 from urdfkb.client import KnowledgeBase
 from urdfkb.kb_server.ask import Asker, QuestionError, direct
 from urdfkb.kb_server.ask_options import build_menu
+from urdfkb.kb_server.queries import load_queries
 from urdfkb.kb_server.store import Store, UnknownRobot
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -54,6 +55,9 @@ def test_options_come_from_the_robot(kb):
     turtlebot = build_menu(kb, "turtlebot3")
     assert not any(o.startswith("located_on arm") for o in options(kb, "turtlebot3", "what is on you?"))
     assert "lidar" in turtlebot.system and "mobile base" in turtlebot.system
+    reach = load_queries()["arm_reach"]  # each query's title and `# in words` line are the menu
+    assert reach.in_words.startswith("how far an arm reaches") and f"arm_reach: {reach.title}; asked as: {reach.in_words}" in turtlebot.system
+    assert all(q.in_words for q in load_queries().values())
     assert not any(o.startswith("mounted_below") for o in options(kb, "turtlebot3", "what can you see?"))
 
 
