@@ -228,6 +228,8 @@ class LlamaBackend(Backend):
 
     def _job(self, question: Question, prompt: list[int], shared: int) -> _Job:
         options = [self.option_tokens(o) for o in question.options]
+        if question.until_unique:
+            options = [o[:_unique_length(o, options)] for o in options]
         job = _Job(prompt[shared:], options)
         if (len(options) > self.n_seq_max - 1 or job.size > self.n_batch
                 or len(prompt) + max(map(len, options)) > self.n_ctx):
@@ -577,6 +579,11 @@ def _file_identity(path: Path) -> list:
     """Cheap identity of a file: resolved path, size and modification time."""
     st = path.stat()
     return [str(path.resolve()), st.st_size, st.st_mtime_ns]
+
+
+def _unique_length(option: list[int], options: list[list[int]]) -> int:
+    """The tokens of `option` up to the first that no other option shares at that place (all, if none)."""
+    return max((_common_prefix(option, o) + 1 for o in options if o is not option), default=1)
 
 
 def _common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
