@@ -11,7 +11,7 @@ The set is split into two folds by phrasing, not per question: within each expec
 included), the distinct phrasings in the order they are written alternate between `design` (the half to
 tune on) and `check` (the half kept to measure); one phrasing asked of both robots stays in one fold.
 Usage:
-    python -m benchmarks.ask [--model GGUF | --test] [--fold design|check] [--limit N] [--explain] [--save JSON]
+    python -m benchmarks.ask [--model GGUF | --test] [--fold design|check] [--threshold P] [--limit N] [--explain] [--save JSON]
 --test runs the small SmolLM2 model.
 """
 from __future__ import annotations
@@ -32,6 +32,7 @@ from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.ingest import load_urdf
 from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
 from urdfkb.pipeline.llm.llama import LlamaBackend
+from urdfkb.settings import ASK_THRESHOLD
 
 QUESTIONS = Path(__file__).resolve().parents[1] / "tests" / "data" / "questions.yaml"
 FOLDS = ("design", "check")
@@ -68,6 +69,8 @@ def main() -> None:
     parser.add_argument("--model", metavar="GGUF", help="a GGUF file (default: the default model)")
     parser.add_argument("--test", action="store_true", help="the small SmolLM2-135M test model")
     parser.add_argument("--fold", choices=FOLDS, help="ask one fold's questions only")
+    parser.add_argument("--threshold", type=float, default=ASK_THRESHOLD, metavar="P",
+                        help=f"the probability the chosen query must hold (default {ASK_THRESHOLD}); 0 refuses only `none`")
     parser.add_argument("--limit", type=int, metavar="N", help="ask at most N questions")
     parser.add_argument("--explain", action="store_true", help="print every wrong answer")
     parser.add_argument("--save", metavar="JSON", help="write every question with its reply and latency to this file")
@@ -82,7 +85,7 @@ def main() -> None:
         started = time.perf_counter()
         backend = LlamaBackend(model)
         print(f"model {Path(model).name} loaded in {time.perf_counter() - started:.1f} s")
-        asker = Asker(direct(backend))
+        asker = Asker(direct(backend), args.threshold)
         try:
             for robot in sorted({q["robot"] for q in questions}):
                 started = time.perf_counter()

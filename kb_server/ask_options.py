@@ -142,10 +142,7 @@ def build_menu(store: Store, robot: str) -> Menu:
                   for cls in sorted(labels))
     sides = tuple(sorted({side for part in parts for side in part.sides}))
     queries = tuple(load_queries().values())
-    lines = []
-    for q in queries:
-        params = {p.name for p in q.params}
-        lines.append(f"{q.name}: {q.title}" + (f"; asked as: {q.in_words}" if q.in_words else ""))
+    lines = [f"{q.name}: {q.title}" + (f"; asked as: {q.in_words}" if q.in_words else "") for q in queries]
     system = (f"A person talks to the robot {robot}. Choose the one query that answers what they ask about the "
               f"robot's own body; answer {NONE} when the question is about anything else (the weather, people, "
               "time, places, the battery, objects in the room, feelings, news...).\n"
