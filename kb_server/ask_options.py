@@ -144,8 +144,9 @@ def build_menu(store: Store, robot: str) -> Menu:
     queries = tuple(load_queries().values())
     lines = [f"{q.name}: {q.title}" + (f"; asked as: {q.in_words}" if q.in_words else "") for q in queries]
     system = (f"A person talks to the robot {robot}. Choose the one query that answers what they ask about the "
-              f"robot's own body; answer {NONE} when the question is about anything else (the weather, people, "
-              "time, places, the battery, objects in the room, feelings, news...).\n"
+              "robot's own body: its parts, links, joints, sensors and devices. Answer "
+              f"{NONE} when the question is about anything else (the weather, people, time, places, the battery, "
+              "things around the robot, feelings, news...).\n"
               f"The robot's body parts: {', '.join(p.label for p in parts) or 'none known'}. "
               f"Its sides: {', '.join(sides) or 'none'}.\n"
               f"Its sensors and end-effectors: {', '.join(components) or 'none known'}.\n"
