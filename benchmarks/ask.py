@@ -73,12 +73,13 @@ def main() -> None:
                         help=f"the probability the chosen query must hold (default {ASK_THRESHOLD}); 0 refuses only `none`")
     parser.add_argument("--limit", type=int, metavar="N", help="ask at most N questions")
     parser.add_argument("--explain", action="store_true", help="print every wrong answer")
-    parser.add_argument("--save", metavar="JSON", help="write every question with its reply and latency to this file")
+    parser.add_argument("--save", metavar="JSON", help="write each question with its reply, latency and tokens to this file (JSON lines, as asked)")
     args = parser.parse_args()
     questions = [q for q in with_folds(yaml.safe_load(QUESTIONS.read_text()))
                  if args.fold in (None, q["fold"])][:args.limit]
     model = args.model or ensure_model(TEST_MODEL if args.test else DEFAULT_MODEL, progress=False)
     results = []
+    saved = open(args.save, "w") if args.save else None  # noqa: SIM115  (written as the questions are asked)
     with tempfile.TemporaryDirectory() as folder:
         store = Store(Path(folder) / "kb.sqlite3", workers=0)
         store_ask_robots(store, load_urdf(SHARED / "urdf" / "pr2.urdf"))
@@ -103,11 +104,14 @@ def main() -> None:
                 else:
                     ok = reply["query"] == q["query"] and reply["params"] == q.get("params", {})
                 results.append(q | {"ok": ok, "seconds": seconds, "tokens": tokens, "reply": reply})
+                if saved:
+                    saved.write(json.dumps(results[-1]) + "\n")
+                    saved.flush()
         finally:
             backend.close()
             store.close()
-    if args.save:
-        Path(args.save).write_text(json.dumps(results, indent=1))
+            if saved:
+                saved.close()
     if args.explain:
         for r in results:
             if not r["ok"]:
