@@ -6,8 +6,10 @@ A query file is SPARQL whose header comments give a title and its parameters:
     # param link: string - URDF name of the link
     # param side: string = any - what it means
     # param threshold: decimal = {REVIEW_THRESHOLD} - what it means
+    # in words: what is mounted under a link, what hangs below it
 
-A default follows `=`; written `{NAME}`, it is the setting NAME of urdfkb.settings, filled in as the file
+`# in words` says, in the words a person would use, what questions the query answers (the options of a
+question in words: kb_server.ask_options). A parameter's default follows `=`; written `{NAME}`, it is the setting NAME of urdfkb.settings, filled in as the file
 is loaded, so a default the server also uses elsewhere (the review threshold of the pages) has one home
 and the file stays a SPARQL query Protégé or any client can read.
 
@@ -98,6 +100,7 @@ class NamedQuery:
     title: str
     text: str
     params: tuple[Param, ...]
+    in_words: str = ""
 
     def describe(self) -> dict:
         return {"name": self.name, "title": self.title,
@@ -119,10 +122,12 @@ class NamedQuery:
 
 
 def _parse(name: str, text: str) -> NamedQuery:
-    title, params = name, []
+    title, in_words, params = name, "", []
     for line in text.splitlines():
         if line.startswith("# title:"):
             title = line.split(":", 1)[1].strip()
+        elif line.startswith("# in words:"):
+            in_words = line.split(":", 1)[1].strip()
         elif m := _PARAM.match(line):
             pname, ptype, default, doc = m.groups()
             if ptype not in TYPES or pname == "robot":
@@ -132,7 +137,7 @@ def _parse(name: str, text: str) -> NamedQuery:
     used = set(_VAR.findall(text))
     if used != declared:
         raise ValueError(f"query file {name}.rq: variables {sorted(used)} do not match parameters {sorted(declared)}")
-    return NamedQuery(name, title, text, tuple(params))
+    return NamedQuery(name, title, text, tuple(params), in_words)
 
 
 def _setting(name: str, default: str | None) -> str | None:

@@ -10,7 +10,9 @@ import pytest
 from tests.ask_robots import store_ask_robots
 from tests.kb_fixtures import client, copied, make_app, served
 from urdfkb.client import KnowledgeBase
-from urdfkb.kb_server.ask import Asker, QuestionError, build_menu, direct
+from urdfkb.kb_server.ask import Asker, QuestionError, direct
+from urdfkb.kb_server.ask_options import build_menu
+from urdfkb.kb_server.queries import load_queries
 from urdfkb.kb_server.store import Store, UnknownRobot
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -41,21 +43,44 @@ def scripted(answer):
     return Asker(direct(ScriptedBackend(rule))), asked
 
 
+def options(kb, robot, text):
+    return {c.option: dict(c.params) for c in build_menu(kb, robot).choices(text)}
+
+
 def test_options_come_from_the_robot(kb):
-    pr2 = [c.option for c in build_menu(kb, "pr2").choices]
-    assert {"arm_reach left", "arm_reach right", "arm_reach any", "located_on head", "body_part_joints arm left",
-            "cameras", "none"} <= set(pr2)
+    pr2 = options(kb, "pr2", "what is on you?")
+    assert pr2["arm_reach"] == {"side": "any"} and pr2["cameras"] == {} and pr2["none"] == {}
+    assert pr2["located_on arm"] == {"part": "Arm", "side": "any"} and pr2["located_on head"] == {"part": "Head"}
+    assert {"body_part_joints mobile base", "body_part_joints torso", "body_part_joints wheel"} <= set(pr2)
     turtlebot = build_menu(kb, "turtlebot3")
-    options = [c.option for c in turtlebot.choices]
-    assert "located_on wheel left" in options and not any(o.startswith("located_on arm") for o in options)
+    assert not any(o.startswith("located_on arm") for o in options(kb, "turtlebot3", "what is on you?"))
     assert "lidar" in turtlebot.system and "mobile base" in turtlebot.system
-    question, _ = turtlebot.question("what is mounted on your base_scan link?")
-    assert "mounted_below base_scan" in question.options
-    assert not any(o.startswith("mounted_below") for o in turtlebot.question("what can you see?")[0].options)
+    reach = load_queries()["arm_reach"]  # each query's title and `# in words` line are the menu
+    assert reach.in_words.startswith("how far an arm reaches") and f"arm_reach: {reach.title}; asked as: {reach.in_words}" in turtlebot.system
+    assert all(q.in_words for q in load_queries().values())
+    assert not any(o.startswith("mounted_below") for o in options(kb, "turtlebot3", "what can you see?"))
+
+
+def test_code_fixes_the_values_the_question_names(kb):
+    left = options(kb, "pr2", "How far can you reach with your lefft arm?")
+    assert left["arm_reach"] == {"side": "left"} and left["located_on"] == {"part": "Arm", "side": "left"}
+    assert options(kb, "pr2", "reach of your left and right arms")["arm_reach"] == {"side": "any"}
+    assert options(kb, "pr2", "what is on your rigth arm")["located_on"] == {"part": "Arm", "side": "right"}
+    head = options(kb, "pr2", "what is on your left head")  # the head has no side
+    assert head["located_on"] == {"part": "Head"} and head["body_part_joints"] == {"part": "Head"}
+    assert options(kb, "pr2", "what is on your base?")["located_on"] == {"part": "MobileBase"}
+    both = options(kb, "pr2", "is there a camera on your head or on your arms?")
+    assert both["located_on head"] == {"part": "Head"} and "located_on torso" not in both
+    wheels = options(kb, "turtlebot3", "joints of your right wheels")
+    assert wheels["body_part_joints"] == {"part": "Wheel", "side": "right"}
+    assert options(kb, "turtlebot3", "what is mounted below your base scan link?")["mounted_below"] == {"link": "base_scan"}
+    links = options(kb, "pr2", "what is under head_pan_link or torso_lift_link?")
+    assert {o: v for o, v in links.items() if o.startswith("mounted_below")} == {
+        "mounted_below head_pan_link": {"link": "head_pan_link"}, "mounted_below torso_lift_link": {"link": "torso_lift_link"}}
 
 
 def test_a_question_is_answered_by_its_query(kb):
-    asker, asked = scripted("arm_reach left")
+    asker, asked = scripted("arm_reach")
     reply = asker.ask(kb, "pr2", "How far can you reach with your left arm?")
     assert reply["query"] == "arm_reach" and reply["params"] == {"side": "left"} and not reply["refused"]
     (row,) = reply["rows"]
@@ -82,14 +107,14 @@ def test_none_of_these_is_a_refusal(kb):
 
 
 def test_probability_is_counted_per_query(kb):
-    reply = scripted({"arm_reach left": 0.3, "arm_reach any": 0.25, "cameras": 0.45})[0].ask(kb, "pr2", "reach?")
-    assert reply["query"] == "arm_reach" and reply["params"] == {"side": "left"} and reply["confidence"] == 0.55
+    reply = scripted({"located_on head": 0.3, "located_on torso": 0.25, "cameras": 0.45})[0].ask(kb, "pr2", "on you?")
+    assert reply["query"] == "located_on" and reply["params"] == {"part": "Head"} and reply["confidence"] == 0.55
     unsure = scripted({"cameras": 0.45, "sensors": 0.35, "none": 0.2})[0].ask(kb, "pr2", "what is that?")
     assert unsure["refused"] and unsure["confidence"] == 0.45
 
 
 def test_an_empty_robot_answer_says_none(kb):
-    reply = scripted("arm_reach any")[0].ask(kb, "turtlebot3", "how far can your arm reach?")
+    reply = scripted("arm_reach")[0].ask(kb, "turtlebot3", "how far can your arm reach?")
     assert reply["rows"] == [] and reply["answer"] == "How far each arm reaches: none."
 
 
@@ -105,7 +130,7 @@ def test_bad_questions(kb):
 
 
 def test_ask_route(kb):
-    app, jobs = make_app(kb, asker=scripted("located_on head")[0])
+    app, jobs = make_app(kb, asker=scripted("located_on")[0])
     try:
         call = client(app)
         status, _, body = call("GET", "/ask?robot=pr2&q=what%20is%20on%20your%20head%3F")

@@ -4,7 +4,7 @@ import random
 
 import pytest
 
-from urdfkb.pipeline.llm.option_trie import OptionJob, draw
+from urdfkb.pipeline.llm.option_trie import OptionJob, draw, unique_length
 
 EOT = 0
 
@@ -17,6 +17,15 @@ def test_option_rows_are_the_options_inner_prefixes():
     assert job.trie() == {(7,): [1, 2, 3], (7, 8): [2, 3], (6,): [4]}
     assert [list(job.steps(o)) for o in job.options] == [[0], [0, 1], [0, 1, 2], [0, 1, 2], [0, 1]]
     assert job.size == 2 + 3
+
+
+def test_until_unique_scores_each_option_up_to_where_it_parts_from_the_others():
+    """[7, 8, 9] parts from [7, 4] at its second token: 9 is forced, and scored no more; [7] is a prefix of
+    both, so it keeps its end-of-turn choice; [5, 3] parts at once."""
+    options = [[5, 3], [7], [7, 8, 9], [7, 4]]
+    assert [o[:unique_length(o, options)] for o in options] == [[5], [7], [7, 8], [7, 4]]
+    alone = [5, 3]
+    assert unique_length(alone, [alone]) == 1
 
 
 def drawn(options, table, temperature, draws=1, seed=0):

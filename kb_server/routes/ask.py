@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 
-from flask import Blueprint, current_app, jsonify, request
+from flask import Blueprint, Response, current_app, jsonify, request
 
 from urdfkb.kb_server.ask import Asker
 from urdfkb.kb_server.errors import BadRequest, ServiceUnavailable
@@ -28,7 +28,7 @@ def asker() -> Asker:
 
 
 @bp.get("/ask")
-def ask():
+def ask() -> Response:
     robot, question = request.args.get("robot"), request.args.get("q")
     if not robot or question is None:
         raise BadRequest("give the robot and the question: /ask?robot=NAME&q=QUESTION")

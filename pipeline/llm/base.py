@@ -8,12 +8,16 @@ from typing import Sequence
 
 @dataclass(frozen=True)
 class Question:
-    """One classification question; `system` is the shared (KV-cached) prefix, `options` the valid answers."""
+    """One classification question; `system` is the shared (KV-cached) prefix, `options` the valid answers.
+
+    `until_unique`: a backend that scores token by token may score each option only up to the token where
+    it parts from every other option, the rest being forced (as constrained decoding forces it)."""
 
     system: str
     user: str
     options: tuple[str, ...]
     key: str = ""
+    until_unique: bool = False
 
     def __post_init__(self) -> None:
         if not self.options:

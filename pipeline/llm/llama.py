@@ -12,7 +12,7 @@ from typing import Sequence
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Backend, Question, Stats
 from urdfkb.pipeline.llm.llama_process import choose_openmp_waiting, load_model
-from urdfkb.pipeline.llm.option_trie import OptionJob, RowLogprobs, common_prefix, draw
+from urdfkb.pipeline.llm.option_trie import OptionJob, RowLogprobs, common_prefix, draw, unique_length
 from urdfkb.pipeline.llm.prefix_store import PrefixStore, default_dir, enabled_by_env
 from urdfkb.settings import PREFIX_CACHE_BYTES
 
@@ -183,6 +183,8 @@ class LlamaBackend(Backend):
 
     def _job(self, question: Question, prompt: list[int], shared: int) -> OptionJob:
         options = [self.option_tokens(o) for o in question.options]
+        if question.until_unique:
+            options = [o[:unique_length(o, options)] for o in options]
         job = OptionJob(prompt[shared:], options)
         if (len(options) > self.n_seq_max - 1 or job.size > self.n_batch
                 or len(prompt) + max(map(len, options)) > self.n_ctx):

@@ -100,6 +100,11 @@ def draw(targets: Sequence[Sequence[int]], rows: Sequence[Sequence[tuple[int, Ro
     return alive[0]
 
 
+def unique_length(option: list[int], options: list[list[int]]) -> int:
+    """The tokens of `option` up to the first that no other option shares at that place (all, if none)."""
+    return max((common_prefix(option, o) + 1 for o in options if o is not option), default=1)
+
+
 def common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
     n = 0
     for x, y in zip(a, b):
