@@ -29,7 +29,7 @@ from tests.ask_robots import store_ask_robots
 from tests.shared_assets import SHARED
 from urdfkb.kb_server.ask import Asker, direct
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
 from urdfkb.pipeline.llm.llama import LlamaBackend
 from urdfkb.settings import ASK_THRESHOLD

@@ -28,8 +28,8 @@ import pyoxigraph
 from tests.kb_fixtures import PR2, free_port
 from urdfkb.kb_server.queries import load_queries
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Abstraction, Component, SubComponent
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "urdf"

@@ -4,7 +4,7 @@ import statistics
 import time
 from pathlib import Path
 
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -3,7 +3,7 @@
 Usage: python -m benchmarks.llama_settings_bench [--rounds 3] [--leaves 24] [--test-model] [SETTING ...]
 
 The workload is what a populate starts with: PR2's identification questions (the first `--leaves`
-leaves), scored eight at a time as pipeline.stages.asking does, then the same leaves' sensor-check
+leaves), scored eight at a time as pipeline.abstraction.stages.asking does, then the same leaves' sensor-check
 questions (a second system text: a prefix switch). Each setting runs in a fresh process (model
 load not timed), the settings alternate round by round so that load from other processes hits
 them alike, and the script prints per setting the median seconds, the ratio to the first setting,
@@ -43,9 +43,9 @@ SETTINGS: dict[str, tuple[dict, dict]] = {
 
 def workload(leaves: int):
     """The questions, in the order the pipeline asks them (sorted by system text within a stage)."""
-    from urdfkb.pipeline.ingest import load_urdf
-    from urdfkb.pipeline.ontology import vocabulary
-    from urdfkb.pipeline.prompts import kind_choice, sensor_check
+    from urdfkb.pipeline.reading.ingest import load_urdf
+    from urdfkb.pipeline.knowledge.ontology import vocabulary
+    from urdfkb.pipeline.abstraction.prompts import kind_choice, sensor_check
     from benchmarks.populate_bench import SHARED
 
     tree, vocab = load_urdf(SHARED / "urdf" / "pr2.urdf"), vocabulary()

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, TEST_MODEL, ensure_model
 from urdfkb.pipeline.llm.llama import LlamaBackend
-from urdfkb.pipeline.oracle import softmax
+from urdfkb.pipeline.abstraction.oracle import softmax
 
 SYSTEM = (
     "You classify the links of a robot described by a URDF file. Each question names one link, its parent "

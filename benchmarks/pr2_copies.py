@@ -17,8 +17,8 @@ from tests.kb_fixtures import PR2_WHOLE
 from tests.shared_assets import SHARED
 from urdfkb.kb_server.queries import load_queries
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.namespaces import CORE_GRAPH, ROBOT, robot_iri
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.namespaces import CORE_GRAPH, ROBOT, robot_iri
 
 PARAMS = {"mounted_below": {"link": "base_link"}}  # what a bundled query needs beyond its defaults
 

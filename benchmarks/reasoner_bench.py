@@ -13,10 +13,10 @@ from pathlib import Path
 
 import owlready2
 
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import load_core
-from urdfkb.pipeline.reasoning import classify
-from urdfkb.pipeline.structure import tool_structure
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.ontology import load_core
+from urdfkb.pipeline.knowledge.reasoning import classify
+from urdfkb.pipeline.abstraction.structure import tool_structure
 
 REPO = Path(__file__).resolve().parents[1]
 RACK = REPO / "tests" / "data" / "tool_rack.urdf"

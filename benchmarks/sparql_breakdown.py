@@ -36,7 +36,7 @@ from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.kb_server.sparql import run_query, scan
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.namespaces import CORE_GRAPH
+from urdfkb.pipeline.knowledge.namespaces import CORE_GRAPH
 
 QUERIES = ("sensors", "camera_frames")
 

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from benchmarks.pr2_copies import bound_queries, insert_data, pr2_graphs, renamed, store_file
 from tests.kb_fixtures import free_port
-from urdfkb.pipeline.namespaces import CORE_GRAPH
+from urdfkb.pipeline.knowledge.namespaces import CORE_GRAPH
 
 TOKEN = "bench-token"
 REPO = Path(__file__).resolve().parents[1]

@@ -21,11 +21,11 @@ import owlready2
 import rdflib
 from rdflib.compare import to_canonical_graph
 
-from urdfkb.pipeline.truth import load_truth
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.scoring.truth import load_truth
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
 
 REPO = Path(__file__).resolve().parents[1]

@@ -17,7 +17,7 @@ from pathlib import Path
 from tests.kb_fixtures import PR2_WHOLE, make_app
 from urdfkb.kb_server.corrections import Correction, new
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared" / "urdf"

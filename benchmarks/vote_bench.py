@@ -11,7 +11,7 @@ import os
 from pathlib import Path
 
 from urdfkb.pipeline.runner import Settings
-from urdfkb.pipeline.truth_run import run_truth_robot
+from urdfkb.pipeline.scoring.truth_run import run_truth_robot
 
 SHARED = Path(os.environ.get("URDFKB_SHARED", Path(__file__).resolve().parents[2] / "shared"))
 

@@ -40,7 +40,7 @@ def create_app(store: Store, jobs: JobManager, token: str | None = None, max_bod
     `policy` (default: a loopback server with nothing opened) checks every request; at most
     `max_waiters` clients wait on a job at once (GET /jobs/<id>?wait=1), so waits never hold
     every server thread. Uploaded xacro files may include only from `package_paths` (none: they
-    read no server file), inside the sandbox of pipeline.sandbox unless `trust_xacro`; expansion
+    read no server file), inside the sandbox of pipeline.reading.sandbox unless `trust_xacro`; expansion
     is the job's first step, never the request's, and fails past `xacro_timeout` seconds. Questions in words
     (GET /ask) go to `asker`, by default one on the jobs' model thread."""
     app = Flask(__name__)

@@ -24,7 +24,7 @@ from urdfkb.kb_server.rows import table, units
 from urdfkb.kb_server.sparql import Result
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.llm.base import Backend, Question
-from urdfkb.pipeline.oracle import softmax
+from urdfkb.pipeline.abstraction.oracle import softmax
 from urdfkb.settings import ASK_THRESHOLD, MAX_QUESTION
 
 T = TypeVar("T")

@@ -10,11 +10,11 @@ from __future__ import annotations
 from dataclasses import replace
 
 from urdfkb.kb_server.text import cut, listed
-from urdfkb.pipeline.components import SIDES, BodyPart, Component
+from urdfkb.pipeline.abstraction.components import SIDES, BodyPart, Component
 from urdfkb.pipeline.errors import CorrectionError
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.stages.body import locate
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.stages.body import locate
+from urdfkb.pipeline.reading.tree import KinematicTree
 
 NO_SIDE = "none"
 SIDE_CHOICES = (*SIDES, NO_SIDE)

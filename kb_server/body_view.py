@@ -5,9 +5,9 @@ from __future__ import annotations
 from urdfkb.kb_server import body_corrections as body
 from urdfkb.kb_server import palette, tree_svg
 from urdfkb.kb_server.corrections import BodyCorrection, Report
-from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.namespaces import body_part_local, component_local
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.abstraction.components import Abstraction
+from urdfkb.pipeline.knowledge.namespaces import body_part_local, component_local
+from urdfkb.pipeline.reading.tree import KinematicTree
 
 
 def rows(tree: KinematicTree, corrected: Abstraction, report: Report) -> list[dict]:

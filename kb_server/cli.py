@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Sequence
 
 from urdfkb import __version__, local_name
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import BY_NAME, RESULTS_BY_NAME
+from urdfkb.pipeline.knowledge.formats import BY_NAME, RESULTS_BY_NAME
 from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
                              MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, TEMPERATURE, VOTES, XACRO_TIMEOUT)
 
@@ -46,7 +46,7 @@ class StageBars:
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
-    from urdfkb.pipeline.oracle import MODES
+    from urdfkb.pipeline.abstraction.oracle import MODES
     g = p.add_argument_group("model")
     g.add_argument("--model", metavar="GGUF", help="a GGUF model file (default: Qwen2.5-Coder-1.5B-Instruct, fetched once)")
     g.add_argument("--llm-url", metavar="URL", help="an OpenAI-compatible server (llama.cpp server, vLLM, Ollama /v1) instead of the embedded model")
@@ -88,7 +88,7 @@ def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace, timings
               xacro_args: Sequence[str] = (), package_paths: Sequence[str] = ()):
     """Ingest (expanding xacro) and abstract one robot; returns (tree, robot name, abstraction, seconds)."""
     from urdfkb.pipeline.runner import run
-    from urdfkb.pipeline.xacro_input import load_description, parse_args, parse_package_paths
+    from urdfkb.pipeline.reading.xacro_input import load_description, parse_args, parse_package_paths
     with timings.stage("ingest"):
         tree = load_description(urdf, args=parse_args(xacro_args), packages=parse_package_paths(package_paths), **limits)
     bars = StageBars(quiet)
@@ -101,14 +101,14 @@ def _abstract(urdf: str, name: str | None, settings, quiet: bool, trace, timings
 
 
 def _robot_ontology(tree, name: str, abstraction):
-    from urdfkb.pipeline import rdf
-    from urdfkb.pipeline.population import build_robot
+    from urdfkb.pipeline.knowledge import rdf
+    from urdfkb.pipeline.knowledge.population import build_robot
     return build_robot(rdf.new_world(), tree, name, abstraction)
 
 
 def cmd_populate(args: argparse.Namespace) -> int:
-    from urdfkb.pipeline.export import export_graph, robot_graph
-    from urdfkb.pipeline.shacl import validate
+    from urdfkb.pipeline.knowledge.export import export_graph, robot_graph
+    from urdfkb.pipeline.knowledge.shacl import validate
     from urdfkb.pipeline.timings import Timings
     settings = _settings(args, args.structure_only)
     started = time.perf_counter()
@@ -143,7 +143,7 @@ def cmd_populate(args: argparse.Namespace) -> int:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     import rdflib
-    from urdfkb.pipeline.shacl import validate
+    from urdfkb.pipeline.knowledge.shacl import validate
     try:
         graph = rdflib.Graph().parse(args.file)
     except Exception as exc:  # rdflib raises many parser-specific types
@@ -154,8 +154,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from urdfkb.pipeline import evaluation, evaluation_report, truth
-    from urdfkb.pipeline.truth_run import run_truth_robot
+    from urdfkb.pipeline.scoring import evaluation, evaluation_report, truth
+    from urdfkb.pipeline.scoring.truth_run import run_truth_robot
     truth_dir = Path(args.truth_dir)
     files = sorted(truth_dir.glob("*.yaml"))
     folds = truth.load_folds(args.folds) if args.folds else {}

@@ -32,11 +32,11 @@ from rdflib.namespace import PROV, RDF, RDFS, XSD
 
 from urdfkb.kb_server import body_corrections as body
 from urdfkb.kb_server.text import check_text, cut, listed
-from urdfkb.pipeline.components import Abstraction, BodyPart, Component, SubComponent
+from urdfkb.pipeline.abstraction.components import Abstraction, BodyPart, Component, SubComponent
 from urdfkb.pipeline.errors import CorrectionError
-from urdfkb.pipeline.namespaces import CORE, CORE_IRI, REVIEW, body_part_local, component_iri, corrections_iri, escape
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.tree import KinematicTree, fork_of
+from urdfkb.pipeline.knowledge.namespaces import CORE, CORE_IRI, REVIEW, body_part_local, component_iri, corrections_iri, escape
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.settings import MAX_LINKS, MAX_REVIEWER
 
 ACTIONS = ("reclassify", "remount", "reject", "confirm", "add")

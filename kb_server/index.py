@@ -43,7 +43,7 @@ from urdfkb.kb_server.results import ResultLimits, ResultTooLarge
 from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dump, graph_dumps, put_graph,
                               run_query, run_update)
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.sandbox import add_rules
+from urdfkb.pipeline.reading.sandbox import add_rules
 
 Changes = dict[str, tuple[bytes | None, bytes | None]]
 

@@ -31,11 +31,11 @@ from urdfkb.kb_server.errors import TooManyRequests
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.store import RobotEntry, RobotNameError, Store, check_robot_name
 from urdfkb.kb_server.text import cut
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.llm.base import Backend
 from urdfkb.pipeline.runner import Progress, Settings, make_backend, run
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.reading.tree import KinematicTree
 from urdfkb.settings import JOB_THREADS, KEEP_JOB_SECONDS, KEEP_JOBS, MAX_QUEUED_JOBS, QUEUE_RETRY_AFTER
 
 log = logging.getLogger(__name__)

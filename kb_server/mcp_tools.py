@@ -29,8 +29,8 @@ from urdfkb.kb_server.rows import table, units
 from urdfkb.kb_server.sparql import tokens
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import N_TRIPLES, TURTLE
-from urdfkb.pipeline.namespaces import CORE_IRI
+from urdfkb.pipeline.knowledge.formats import N_TRIPLES, TURTLE
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI
 from urdfkb.settings import QUERY_TIMEOUT
 
 JSON_TYPES = {"string": "string", "decimal": "number", "integer": "integer"}

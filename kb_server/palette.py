@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cache
 
-from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.knowledge.ontology import vocabulary
 
 KIND_COLOURS = ("#1f77b4", "#d95f02", "#7570b3", "#e7298a")
 BODY_COLOURS = ("#66a61e", "#999933", "#8c6bb1", "#1b9e77", "#e7298a", "#a6761d", "#666666")

@@ -37,7 +37,7 @@ from urdfkb import local_name, settings
 from urdfkb.kb_server.sparql import Result
 from urdfkb.kb_server.store import Store
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import RESULTS_BY_NAME
+from urdfkb.pipeline.knowledge.formats import RESULTS_BY_NAME
 from urdfkb.settings import QUERY_TIMEOUT
 
 _PARAM = re.compile(r"^#\s*param\s+(\w+)\s*:\s*(\w+)(?:\s*=\s*(\S+))?(?:\s*-\s*(.*))?$")
@@ -187,7 +187,7 @@ def run_named_query(name: str, robot: str, params: Mapping[str, str], store_path
     """`urdfkb query NAME --robot NAME [--param k=v]`: a named query on a store file, as text.
 
     fmt: "table" (aligned columns, IRIs shortened to their local name) or a SPARQL results format's
-    name ("json", "xml", "csv", "tsv": pipeline.formats). Raises UnknownQuery, UnknownRobot, ParamError, QueryError or
+    name ("json", "xml", "csv", "tsv": pipeline.knowledge.formats). Raises UnknownQuery, UnknownRobot, ParamError, QueryError or
     QueryTimeout (all UrdfkbError) with a clear message.
     """
     if fmt != "table" and fmt not in RESULTS_BY_NAME:

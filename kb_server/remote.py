@@ -12,9 +12,9 @@ import urllib.request
 
 import rdflib
 
-from urdfkb.pipeline import rdf
+from urdfkb.pipeline.knowledge import rdf
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import N_TRIPLES
+from urdfkb.pipeline.knowledge.formats import N_TRIPLES
 from urdfkb.settings import REMOTE_TIMEOUT
 
 

@@ -15,10 +15,10 @@ from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.startup import check_port, check_store, listen_error
 from urdfkb.kb_server.store import Store, check_robot_name
-from urdfkb.pipeline import sandbox
+from urdfkb.pipeline.reading import sandbox
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
-from urdfkb.pipeline.xacro_input import load_description, parse_package_paths
+from urdfkb.pipeline.reading.xacro_input import load_description, parse_package_paths
 from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER,
                              MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, QUERY_TIMEOUT, THREADS,
                              XACRO_TIMEOUT, job_waiters)
@@ -51,7 +51,7 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
     connection is closed when idle for `channel_timeout` seconds, or when a request's headers take
     longer than `header_timeout` seconds from its first byte, or its body `body_timeout` seconds
     more. With a remote store, every robot already stored is
-    mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.sandbox, or
+    mirrored to it in the background. Uploaded xacro files are expanded inside pipeline.reading.sandbox, or
     refused where it is unavailable, unless `trust_xacro`; an expansion fails past `xacro_timeout` s."""
     check_bind(host, token, insecure_no_token)
     check_port(port)

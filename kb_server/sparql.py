@@ -3,7 +3,7 @@
 The functions `run_query` and `run_update` evaluate one operation on a pyoxigraph Store; they run
 inside the index's worker processes (kb_server/index.py). Results are serialised by Oxigraph's
 own W3C writers (SPARQL results JSON/XML/CSV/TSV; Turtle, RDF/XML, N-Triples for graphs: the table of
-pipeline/formats.py), within the row and byte limits of kb_server/results.py.
+pipeline/knowledge/formats.py), within the row and byte limits of kb_server/results.py.
 
 Before anything is evaluated, `scan` reads the operation's tokens (strings, IRIs and comments
 skipped) to refuse what would make the server fetch remote data (SERVICE, LOAD: pyoxigraph has an
@@ -24,7 +24,7 @@ import pyoxigraph as ox
 
 from urdfkb.kb_server.results import ResultLimits, serialize
 from urdfkb.pipeline.errors import UrdfkbError
-from urdfkb.pipeline.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
+from urdfkb.pipeline.knowledge.formats import GRAPH_MEDIA, RESULTS_MEDIA, RdfFormat, ResultsFormat
 from urdfkb.settings import MAX_QUERY_NESTING
 
 SCAN_CACHE, SCAN_CACHE_TEXT = 512, 64 * 1024  # query texts whose scan is kept, and the longest kept (characters)

@@ -1,5 +1,5 @@
 """The persistent knowledge base: one owlready2 SQLite quadstore (the store of record, reached through
-pipeline.rdf) and its SPARQL index.
+pipeline.knowledge.rdf) and its SPARQL index.
 
 The quadstore holds the core ontology, one ontology per robot (its named graph: graph IRI =
 ontology IRI), and, in table kb_graphs, the exact N-Triples of every other graph SPARQL Update
@@ -42,16 +42,16 @@ from urdfkb.kb_server.errors import DiskFull, StorageFault
 from urdfkb.kb_server.index import Index
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
-from urdfkb.pipeline import rdf
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.knowledge import rdf
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError, UrdfkbError
-from urdfkb.pipeline.export import export_graph, robot_graph, robot_graph_of
-from urdfkb.pipeline.formats import BY_EXTENSION
-from urdfkb.pipeline.namespaces import CORE_GRAPH, CORE_IRI, ROBOT_BASE
-from urdfkb.pipeline.ontology import load_core
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.shacl import violations
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.knowledge.export import export_graph, robot_graph, robot_graph_of
+from urdfkb.pipeline.knowledge.formats import BY_EXTENSION
+from urdfkb.pipeline.knowledge.namespaces import CORE_GRAPH, CORE_IRI, ROBOT_BASE
+from urdfkb.pipeline.knowledge.ontology import load_core
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.knowledge.shacl import violations
+from urdfkb.pipeline.reading.tree import KinematicTree
 from urdfkb.settings import QUERY_TIMEOUT, QUERY_WORKERS
 
 log = logging.getLogger(__name__)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
-from urdfkb.pipeline.ingest import format_character
+from urdfkb.pipeline.reading.ingest import format_character
 from urdfkb.settings import MAX_ERROR
 
 _UNSTORABLE = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from html import escape
 
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.reading.tree import KinematicTree
 
 ROW = 22           # px between leaf rows
 CHAR = 6.6         # px per character of a 11px monospace label

@@ -17,9 +17,9 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import body_view, palette, queries, tree_svg
 from urdfkb.kb_server.body_corrections import SIDE_CHOICES
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.formats import RESULTS_MEDIA
-from urdfkb.pipeline.namespaces import component_iri
-from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.knowledge.formats import RESULTS_MEDIA
+from urdfkb.pipeline.knowledge.namespaces import component_iri
+from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.settings import REVIEW_THRESHOLD
 
 JSON_TYPES = tuple(media for media, f in RESULTS_MEDIA.items() if f.name == "json")  # what API clients ask for
@@ -33,7 +33,7 @@ def wants_html() -> bool:
 
 def robot_page(store: Store, name: str) -> str:
     """The robot's page: SVG tree, components least confident first, review controls, what the shapes held
-    back (pipeline.screen) (UnknownRobot if there is no such robot: kb_server.replies answers it as a page)."""
+    back (pipeline.knowledge.screen) (UnknownRobot if there is no such robot: kb_server.replies answers it as a page)."""
     entry = store.require(name)
     reviewed = store.reviewed(name)  # kept between writes of the robot: never computed again for a page
     tree, model, corrected, report = reviewed.tree, reviewed.model, reviewed.corrected, reviewed.report

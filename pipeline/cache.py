@@ -10,7 +10,7 @@ from pathlib import Path
 import platformdirs
 
 from urdfkb.pipeline.atomic import write_atomically
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.components import Abstraction
 
 
 @functools.cache

@@ -57,7 +57,7 @@ class CorrectionError(UrdfkbError, ValueError):
 
 
 class ShapeError(UrdfkbError):
-    """A robot that breaks the SHACL shapes; `violations` lists them, one line each (pipeline.shacl)."""
+    """A robot that breaks the SHACL shapes; `violations` lists them, one line each (pipeline.knowledge.shacl)."""
 
     status = 400
 

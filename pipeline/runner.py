@@ -10,18 +10,18 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, TextIO
 
 from urdfkb.pipeline import cache
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import BackendError, SettingsError, URDFError
 from urdfkb.pipeline.llm.base import Backend
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle, check_voting
-from urdfkb.pipeline.population import stamp
-from urdfkb.pipeline.reasoning import Placer, Reasoner, classify_together, placements
-from urdfkb.pipeline.screen import screen
-from urdfkb.pipeline.stages.asking import Progress
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle, check_voting
+from urdfkb.pipeline.knowledge.population import stamp
+from urdfkb.pipeline.knowledge.reasoning import Placer, Reasoner, classify_together, placements
+from urdfkb.pipeline.knowledge.screen import screen
+from urdfkb.pipeline.abstraction.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.reading.tree import KinematicTree
 from urdfkb.settings import VOTES
 
 
@@ -145,7 +145,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     and result_cache=hit. `timings` receives the model load's and every step's timing records (else
     the steps' go to the trace). `reasoner` and `placer` stand in for HermiT (tests inject ones that agree
     with it: they are no part of the cache key). Components and body parts that break the SHACL shapes are
-    held back for review (pipeline.screen), each recorded in the trace.
+    held back for review (pipeline.knowledge.screen), each recorded in the trace.
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only", **stamp(tree)})

@@ -1,6 +1,6 @@
 """Where a populate's time goes: one `{"key": "timing", ...}` record per part, in the trace and as a table.
 
-A record names either a pass and one of its steps (pipeline.passes times every step, with the model
+A record names either a pass and one of its steps (pipeline.abstraction.passes times every step, with the model
 work done in it: seconds inside the model backend, prompt tokens evaluated and restored, decodes, and
 the reasoner's seconds), or a stage around the passes (`startup`, `ingest`, `model load`,
 `population`, `SHACL`, `export`, `total`). Timings go to the trace and the `--timings` table only,

@@ -6,8 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from tests.kb_fixtures import PR2_WHOLE, _comp
-from urdfkb.pipeline.components import SENSOR, Abstraction, BodyPart
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.components import SENSOR, Abstraction, BodyPart
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 TURTLEBOT3_URDF = Path(__file__).resolve().parents[1] / "kb_server" / "samples" / "turtlebot3_waffle_pi.urdf"
 

@@ -11,7 +11,7 @@ import random
 from dataclasses import dataclass, field
 
 from tests.urdf_writer import Writer
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Component, SubComponent
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Component, SubComponent
 
 
 @dataclass

@@ -29,7 +29,7 @@ def store(tmp_path):
 @pytest.fixture(scope="session")
 def pr2_tree(shared):
     """PR2's kinematic tree (shared/urdf/pr2.urdf); a KinematicTree is immutable."""
-    from urdfkb.pipeline.ingest import load_urdf
+    from urdfkb.pipeline.reading.ingest import load_urdf
 
     return load_urdf(shared / "urdf" / "pr2.urdf")
 

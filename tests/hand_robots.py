@@ -18,7 +18,7 @@ plate on it) or straight on the arm's last moving link; fingertip frames (fixed 
 and a TCP frame are optional. `asides=True` also bolts a small box on the arm's first moving link and, where
 the hand has a palm, one on the link the palm is bolted to, beside the hand: bodies at no limb's end.
 
-The truth (`Built`) follows pipeline/structure.py's definitions and the ontology's class
+The truth (`Built`) follows pipeline/abstraction/structure.py's definitions and the ontology's class
 definitions: the mount is the link the palm is bolted to (the flange, or the adapter), or the
 flange when the fingers hang straight on it; a finger chain starts at the first link hung on the
 palm's rigid body by a moving joint, its drive is that joint. Kinds: two opposing jaws are a

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from waitress.server import create_server
 
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction, BodyPart, Component, SubComponent
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Abstraction, BodyPart, Component, SubComponent
 
 
 def _comp(name, kind, cls, conf, root, *subs):
@@ -228,7 +228,7 @@ def both_engines(store, robot: str, name: str, args: dict) -> tuple[list[str], l
     import rdflib
 
     from urdfkb.kb_server.queries import load_queries
-    from urdfkb.pipeline.namespaces import ROBOT, robot_iri
+    from urdfkb.pipeline.knowledge.namespaces import ROBOT, robot_iri
 
     text = load_queries()[name].bind(robot_iri(robot) + ROBOT, args)
     answer = store.query(text)

@@ -9,7 +9,7 @@ from typing import Callable
 
 from tests.urdf_writer import Writer
 from urdfkb.pipeline.llm.base import Question
-from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.knowledge.ontology import vocabulary
 
 TAX = vocabulary()
 LABELS = {TAX.answer(c): c for c in TAX.subclasses_below(TAX.component)}

@@ -2,8 +2,8 @@
 abstraction (an RGB-D camera on a head, a gripper on a wrist), and link names that are hostile in an IRI."""
 from __future__ import annotations
 
-from urdfkb.pipeline.components import Abstraction, Component, SubComponent
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+from urdfkb.pipeline.abstraction.components import Abstraction, Component, SubComponent
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin
 
 ZERO = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 HOSTILE = ["base link", "a#b", "a/b", "50%", "%41", "a.b", "a%2Eb", "ünï€😀", 'say "hi"', "it's", "<x>&y",

@@ -1,7 +1,7 @@
-"""Stand-ins for HermiT with pipeline.reasoning.classify_together's and placements' contracts, so pipeline
+"""Stand-ins for HermiT with pipeline.knowledge.reasoning.classify_together's and placements' contracts, so pipeline
 tests run without a JVM: the ontology's definitions of the end-effector kinds, ThumbChain and the body-part
 conditions (ontologies/urdfkb.owl) written out as rules over the facts the code asserts, and the
-facts closed as pipeline.reasoning closes them; and its ∀isLocatedOn restrictions (PLACEMENTS). Inject them as
+facts closed as pipeline.knowledge.reasoning closes them; and its ∀isLocatedOn restrictions (PLACEMENTS). Inject them as
 `reasoner=scripted_reasoner, placer=scripted_placements` (Abstractor, runner.run), as tests inject a
 ScriptedBackend for the model.
 
@@ -10,9 +10,9 @@ generated robots, so a change to the ontology's definitions that it misses fails
 """
 from __future__ import annotations
 
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.reasoning import TOOL_REF, Inference, PartFacts
-from urdfkb.pipeline.structure import ToolStructure
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.knowledge.reasoning import TOOL_REF, Inference, PartFacts
+from urdfkb.pipeline.abstraction.structure import ToolStructure
 
 TOOL = "EndEffector"
 PLACEMENTS = {"Bumper": ("MobileBase", "Leg")}  # class → the body parts it may be located on

@@ -13,17 +13,17 @@ import random
 import pytest
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.components import SENSOR
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.components import SENSOR
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.stages.attachment import detect_roots
-from urdfkb.pipeline.stages.classification import Typed
-from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.stages.sensor_check import not_sensors
-from urdfkb.pipeline.stages.subparts import type_subparts
-from urdfkb.pipeline.alike import alike_leaves
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
+from urdfkb.pipeline.abstraction.stages.classification import Typed
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
+from urdfkb.pipeline.abstraction.stages.subparts import type_subparts
+from urdfkb.pipeline.abstraction.alike import alike_leaves
 
 TAX = vocabulary()
 SEEDS = range(0, 200, 7)

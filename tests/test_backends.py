@@ -41,7 +41,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer  # noqa: E40
 
 from urdfkb.pipeline.errors import BackendError  # noqa: E402
 from urdfkb.pipeline.llm.http import OpenAIBackend  # noqa: E402
-from urdfkb.pipeline.oracle import Oracle  # noqa: E402
+from urdfkb.pipeline.abstraction.oracle import Oracle  # noqa: E402
 
 
 def fake_server(behaviour):

@@ -9,17 +9,17 @@ import pytest
 import rdflib
 from rdflib import RDF, RDFS
 
-from urdfkb.pipeline.components import Abstraction, BodyPart
-from urdfkb.pipeline.body_scoring import BODY, BODY_METRICS, end_effector_joints, scored_joints
-from urdfkb.pipeline.evaluation import failed_scores, mean_scores, score
-from urdfkb.pipeline.evaluation_report import format_table
-from urdfkb.pipeline.namespaces import CORE
-from urdfkb.pipeline.prediction import read_body
-from urdfkb.pipeline.truth import load_truth
-from urdfkb.pipeline.export import robot_graph
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+from urdfkb.pipeline.abstraction.components import Abstraction, BodyPart
+from urdfkb.pipeline.scoring.body_scoring import BODY, BODY_METRICS, end_effector_joints, scored_joints
+from urdfkb.pipeline.scoring.evaluation import failed_scores, mean_scores, score
+from urdfkb.pipeline.scoring.evaluation_report import format_table
+from urdfkb.pipeline.knowledge.namespaces import CORE
+from urdfkb.pipeline.scoring.prediction import read_body
+from urdfkb.pipeline.scoring.truth import load_truth
+from urdfkb.pipeline.knowledge.export import robot_graph
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin
 
 SHARED = Path(os.environ.get("URDFKB_SHARED", Path(__file__).resolve().parents[2] / "shared")).resolve()
 
@@ -291,7 +291,7 @@ def test_eval_command_prints_and_writes_the_body(tmp_path, monkeypatch, capsys):
     """`urdfkb eval` (its pipeline run replaced by scoring a hand-built graph): the body block in the
     printed table and a "body" entry per robot and in the mean of --json."""
     from urdfkb.kb_server import cli
-    from urdfkb.pipeline import truth_run
+    from urdfkb.pipeline.scoring import truth_run
 
     def fake_run(path, settings, progress=None, trace=None):
         truth = load_truth(path)

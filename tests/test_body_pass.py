@@ -9,15 +9,15 @@ import pytest
 from tests.body_robots import Built, legged, wheeled
 from tests.scripted_reasoner import scripted_reasoner
 from tests.urdf_writer import Writer
-from urdfkb.pipeline.abstraction import BODY_PASS, Abstractor
-from urdfkb.pipeline.components import Component, SubComponent
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import BODY_PASS, Abstractor
+from urdfkb.pipeline.abstraction.components import Component, SubComponent
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.passes import PassManager
-from urdfkb.pipeline.stages import body
-from urdfkb.pipeline.steps.findings import Findings
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.passes import PassManager
+from urdfkb.pipeline.abstraction.stages import body
+from urdfkb.pipeline.abstraction.steps.findings import Findings
 
 
 def _candidates(built: Built) -> set[tuple[str, ...]]:
@@ -81,7 +81,7 @@ def _torso_rule(built: Built, flip_sides: bool = False):
 
 
 def body_pass(oracle: Oracle, tree, components) -> tuple[list, list]:
-    """The declared body pass (pipeline.abstraction.BODY_PASS), step by step, on `components` as given."""
+    """The declared body pass (pipeline.abstraction.abstractor.BODY_PASS), step by step, on `components` as given."""
     found = Findings(components=list(components))
     context = Abstractor(oracle, vocabulary(), reasoner=scripted_reasoner).context(tree)
     PassManager(lambda _record: None).run(BODY_PASS, context, found)

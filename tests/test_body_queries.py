@@ -11,7 +11,7 @@ import pytest
 from tests.kb_fixtures import PR2_ARM, PR2_BODY, both_engines, client, copied, make_app
 from urdfkb.kb_server.queries import ParamError, run_named
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.components import Abstraction, BodyPart
+from urdfkb.pipeline.abstraction.components import Abstraction, BodyPart
 
 R = "https://w3id.org/urdfkb/robot/pr2#"
 C = "https://w3id.org/urdfkb/core#"

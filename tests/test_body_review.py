@@ -17,8 +17,8 @@ from urdfkb.kb_server import palette
 from urdfkb.kb_server.corrections import PROV, REVIEW, CorrectionError, new
 from urdfkb.kb_server.queries import run_named
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.namespaces import robot_iri
+from urdfkb.pipeline.abstraction.components import Abstraction
+from urdfkb.pipeline.knowledge.namespaces import robot_iri
 
 HTML = {"Accept": "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8"}
 

@@ -1,6 +1,6 @@
 """Generated sensor heads where a device's own IMU frame is its only leaf (a lidar written as a housing frame
 with its built-in IMU's frame below): the model types that frame an IMU, as the small model does, and the
-device is still what its housing is (pipeline.steps.classify.built_in_frames, the ontology's core:builtIn). A housing
+device is still what its housing is (pipeline.abstraction.steps.classify.built_in_frames, the ontology's core:builtIn). A housing
 that is an IMU of its own, that carries another leaf too (as a palm carries fingers), or that the model
 cannot place (a bracket: no kind with the majority of the votes) changes nothing."""
 from __future__ import annotations
@@ -10,10 +10,10 @@ import pytest
 from tests.built_in_robots import build, reads_frames
 from tests.scripted_reasoner import scripted_reasoner
 from tests.toy_robot import TAX
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.abstraction.oracle import Oracle
 
 SEEDS = range(60)
 

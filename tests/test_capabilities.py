@@ -1,4 +1,4 @@
-"""What each part can do (pipeline.capabilities), on small hand-built trees with known answers and on PR2
+"""What each part can do (pipeline.abstraction.capabilities), on small hand-built trees with known answers and on PR2
 populated with its hand-written body (kb_fixtures.PR2_WHOLE and its left forearm camera): optical and
 reference frames, declared specifications, reach, gripper opening, head ranges; the export stays consistent
 and in OWL 2 DL."""
@@ -18,15 +18,15 @@ import yourdfpy
 from rdflib.namespace import OWL, RDF, RDFS
 
 from tests.kb_fixtures import PR2, PR2_ARM, PR2_WHOLE
-from urdfkb.pipeline import capabilities
-from urdfkb.pipeline.components import SENSOR, Abstraction, Component, SubComponent
+from urdfkb.pipeline.abstraction import capabilities
+from urdfkb.pipeline.abstraction.components import SENSOR, Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.evidence import LinkEvidence, SimSensor
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.namespaces import CORE, SCHEMA, SSN_SYSTEM, robot_iri
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+from urdfkb.pipeline.reading.evidence import LinkEvidence, SimSensor
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.namespaces import CORE, SCHEMA, SSN_SYSTEM, robot_iri
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin
 
 TAX = vocabulary()
 DL_CHECK = Path(__file__).parent / "data" / "OWL2DLCheck.java"
@@ -120,7 +120,7 @@ def pr2(pr2_tree):
 
 @pytest.fixture(scope="module")
 def graph(pr2) -> rdflib.Graph:
-    from urdfkb.pipeline.export import robot_graph
+    from urdfkb.pipeline.knowledge.export import robot_graph
     return robot_graph(pr2)
 
 
@@ -234,7 +234,7 @@ def test_the_heads_pan_and_tilt_ranges(graph):
 def test_a_robot_without_body_or_declarations_gets_no_capability(pr2_tree):
     bare = KinematicTree(pr2_tree.robot_name, pr2_tree.links, pr2_tree.edges)  # no evidence: nothing declared
     onto = build_robot(owlready2.World(), bare, "pr2", Abstraction(PR2.components[:1]))  # the kinect
-    from urdfkb.pipeline.export import robot_graph
+    from urdfkb.pipeline.knowledge.export import robot_graph
     g = robot_graph(onto)
     kinect = rdflib.URIRef(onto.base_iri + "comp_kinect")
     assert not list(g.objects(kinect, CORE.horizontalFieldOfViewRadians)) and not list(g.subjects(CORE.reachMetres, None))
@@ -246,7 +246,7 @@ def test_a_robot_without_body_or_declarations_gets_no_capability(pr2_tree):
 def test_the_populated_export_is_consistent_and_in_owl2_dl(pr2, tmp_path):
     """HermiT finds the populated PR2 consistent, and the OWL API (HermiT's own, Protégé's) reads the export
     offline and finds it within the OWL 2 DL profile."""
-    from urdfkb.pipeline.export import export_robot
+    from urdfkb.pipeline.knowledge.export import export_robot
     path = tmp_path / "pr2.owl"
     export_robot(pr2, path)
     world = owlready2.World()

@@ -1,15 +1,15 @@
-"""The hardware product catalogue (ontologies/products.ttl, pipeline.catalogue) and where it reaches the questions."""
+"""The hardware product catalogue (ontologies/products.ttl, pipeline.abstraction.catalogue) and where it reaches the questions."""
 from __future__ import annotations
 
 import pytest
 from rdflib.namespace import OWL
 
-from urdfkb.pipeline import catalogue as catalogue_mod
-from urdfkb.pipeline.catalogue import Catalogue, Product, catalogue, load
+from urdfkb.pipeline.abstraction import catalogue as catalogue_mod
+from urdfkb.pipeline.abstraction.catalogue import Catalogue, Product, catalogue, load
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.namespaces import CORE
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.prompts import kind_choice, level_options, product_text
+from urdfkb.pipeline.knowledge.namespaces import CORE
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.prompts import kind_choice, level_options, product_text
 
 TAX = vocabulary()
 

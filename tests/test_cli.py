@@ -12,7 +12,7 @@ import pytest
 import rdflib
 
 from urdfkb.kb_server.cli import main
-from urdfkb.pipeline.components import Abstraction, Held
+from urdfkb.pipeline.abstraction.components import Abstraction, Held
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = REPO / "tests" / "data" / "toy_robot.urdf"
@@ -108,7 +108,7 @@ def test_console_script_help_lists_every_command():
 
 def test_query_offers_every_results_format_the_server_answers_in():
     from urdfkb.kb_server.cli import build_parser
-    from urdfkb.pipeline.formats import RESULTS_FORMATS
+    from urdfkb.pipeline.knowledge.formats import RESULTS_FORMATS
     for fmt in ("table", *(f.name for f in RESULTS_FORMATS)):
         assert build_parser().parse_args(["query", "cameras", "--robot", "pr2", "--format", fmt]).format == fmt
 
@@ -145,7 +145,7 @@ def test_the_wheel_installs_one_top_level_package(tmp_path):
     assert top == {"urdfkb"}
     for needed in ("urdfkb/ontologies/urdfkb.owl", "urdfkb/ontologies/shapes.ttl", "urdfkb/queries/cameras.rq",
                    "urdfkb/kb_server/samples/turtlebot3_waffle_pi.urdf", "urdfkb/kb_server/templates/robot.html",
-                   "urdfkb/pipeline/stages/identification.py", "urdfkb/__main__.py"):
+                   "urdfkb/pipeline/abstraction/stages/identification.py", "urdfkb/__main__.py"):
         assert needed in names
 
 

@@ -12,9 +12,9 @@ from tests.kb_fixtures import PR2, client, copied, make_app
 from urdfkb.kb_server import queries
 from urdfkb.kb_server.corrections import PROV, REVIEW, Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import Store, UnknownRobot
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import ShapeError
-from urdfkb.pipeline.shacl import violations
+from urdfkb.pipeline.knowledge.shacl import violations
 from urdfkb.settings import REVIEW_THRESHOLD
 
 TOKEN = "s3cret"

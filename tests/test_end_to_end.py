@@ -11,7 +11,7 @@ import rdflib
 
 from urdfkb.kb_server.cli import main
 from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
-from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.knowledge.ontology import vocabulary
 
 pytestmark = pytest.mark.model
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"

@@ -14,14 +14,14 @@ from urdfkb.pipeline.errors import UrdfkbError
 # What each error is answered with: a new subclass fails the first test below until it is listed here.
 STATUS = {
     "urdfkb.pipeline.errors.URDFError": 400,
-    "urdfkb.pipeline.tree.TreeError": 400,
-    "urdfkb.pipeline.xacro_input.XacroError": 400,
+    "urdfkb.pipeline.reading.tree.TreeError": 400,
+    "urdfkb.pipeline.reading.xacro_input.XacroError": 400,
     "urdfkb.pipeline.errors.OntologyError": 500,
     "urdfkb.pipeline.errors.BackendError": 502,
     "urdfkb.pipeline.errors.SettingsError": 400,
     "urdfkb.pipeline.errors.CorrectionError": 400,
     "urdfkb.pipeline.errors.ShapeError": 400,
-    "urdfkb.pipeline.sandbox.Unavailable": 403,
+    "urdfkb.pipeline.reading.sandbox.Unavailable": 403,
     "urdfkb.kb_server.errors.BadRequest": 400,
     "urdfkb.kb_server.errors.Forbidden": 403,
     "urdfkb.kb_server.errors.NotFound": 404,

@@ -7,12 +7,12 @@ import rdflib
 import yaml
 from rdflib import RDF, RDFS
 
-from urdfkb.pipeline.component_scoring import METRICS, SCOPES
-from urdfkb.pipeline.evaluation import failed_scores, fold_means, mean_scores, score
-from urdfkb.pipeline.evaluation_report import format_table, review_queue
-from urdfkb.pipeline.namespaces import CORE
-from urdfkb.pipeline.prediction import read_prediction
-from urdfkb.pipeline.truth import load_truth
+from urdfkb.pipeline.scoring.component_scoring import METRICS, SCOPES
+from urdfkb.pipeline.scoring.evaluation import failed_scores, fold_means, mean_scores, score
+from urdfkb.pipeline.scoring.evaluation_report import format_table, review_queue
+from urdfkb.pipeline.knowledge.namespaces import CORE
+from urdfkb.pipeline.scoring.prediction import read_prediction
+from urdfkb.pipeline.scoring.truth import load_truth
 
 HIERARCHY = {
     "Sensor": ["Component"], "EndEffector": ["Component"],

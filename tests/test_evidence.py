@@ -8,14 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.evidence import LinkEvidence, SimSensor, mesh_stem, named
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.reading.evidence import LinkEvidence, SimSensor, mesh_stem, named
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.runner import Settings, run
 from tests.urdf_writer import Writer
 

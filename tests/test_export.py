@@ -11,11 +11,11 @@ from rdflib.compare import isomorphic
 from rdflib.namespace import OWL, RDF, RDFS
 
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.export import export_robot, robot_graph
-from urdfkb.pipeline.formats import BY_NAME
-from urdfkb.pipeline.namespaces import CORE_IRI
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.tree import Edge, KinematicTree
+from urdfkb.pipeline.knowledge.export import export_robot, robot_graph
+from urdfkb.pipeline.knowledge.formats import BY_NAME
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree
 from tests.sample_bot import HOSTILE, ZERO, sample_abstraction, sample_tree
 
 CORE = rdflib.Namespace(CORE_IRI)

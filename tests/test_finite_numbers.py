@@ -17,15 +17,16 @@ from tests.kb_fixtures import PR2_WHOLE, client, fake_runner, make_app
 from tests.test_capabilities import planar_arm
 from urdfkb.kb_server.queries import run_named
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline import capabilities, rdf
+from urdfkb.pipeline.abstraction import capabilities
+from urdfkb.pipeline.knowledge import rdf
 from urdfkb.pipeline.errors import ShapeError, URDFError
-from urdfkb.pipeline.export import robot_graph
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.namespaces import CORE, robot_iri
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.screen import screen
-from urdfkb.pipeline.shacl import violations
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+from urdfkb.pipeline.knowledge.export import robot_graph
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.namespaces import CORE, robot_iri
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.knowledge.screen import screen
+from urdfkb.pipeline.knowledge.shacl import violations
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin
 
 PLAIN_DECIMAL = re.compile(r"[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)")
 HTML = {"Accept": "text/html"}

@@ -11,17 +11,17 @@ import pytest
 from tests.camera_robots import build
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import SENSOR_PASS, Abstractor
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.stages.attachment import detect_roots, sub_chain
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.stages.classification import Typed
-from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
-from urdfkb.pipeline.steps.classify import post_classification
-from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.frames import viewpoints
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.stages.attachment import detect_roots, sub_chain
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.stages.classification import Typed
+from urdfkb.pipeline.abstraction.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.abstraction.steps.classify import post_classification
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.abstraction.frames import viewpoints
 
 SEEDS = range(200)
 TAX = vocabulary()

@@ -12,13 +12,13 @@ import pytest
 from tests.hand_robots import Built, build, build_open_hand
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.reasoning import classify
-from urdfkb.pipeline.stages.attachment import sub_chain
-from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.stages.tools import settle
-from urdfkb.pipeline.hands import hands
-from urdfkb.pipeline.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.reasoning import classify
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.tools import settle
+from urdfkb.pipeline.abstraction.hands import hands
+from urdfkb.pipeline.abstraction.structure import ToolStructure, tool_structure
 
 SEEDS = range(400)
 REASONED = list(range(0, 400, 25))  # one reasoner run over every layout

@@ -137,8 +137,8 @@ def test_numeric_parameters_are_bounded_in_digits_and_exponent(store):
 
 def test_a_hostile_parameter_value_is_one_literal_that_round_trips(tmp_path):
     """A link name full of SPARQL syntax is matched exactly, as a value: it neither breaks nor widens the query."""
-    from urdfkb.pipeline.components import Abstraction, Component, SubComponent
-    from urdfkb.pipeline.tree import Edge, KinematicTree, Origin
+    from urdfkb.pipeline.abstraction.components import Abstraction, Component, SubComponent
+    from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin
     odd = 'deck" } UNION { ?component ?p ?o } # \\ \'\'\' """ \n $robot'
     zero = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     tree = KinematicTree("odd", ("base", odd, "lidar"), (Edge("j1", "fixed", "base", odd, zero),

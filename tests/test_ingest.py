@@ -8,7 +8,7 @@ import pytest
 import yourdfpy
 
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.settings import MAX_BYTES
 
 GOOD = b"""<?xml version="1.0"?>

@@ -67,8 +67,8 @@ def test_a_plain_checkout_imports_the_package():
     assert Path(proc.stdout.strip()).resolve() == REPO / "pipeline" / "runner.py"
 
 
-# --- one RDF seam (pipeline/rdf.py, docs/layout.md) ------------------------------------------------
-SEAM = REPO / "pipeline" / "rdf.py"
+# --- one RDF seam (pipeline/knowledge/rdf.py, docs/layout.md) ------------------------------------------------
+SEAM = REPO / "pipeline" / "knowledge" / "rdf.py"
 PRODUCT = [p for p in SOURCES if p.relative_to(REPO).parts[0] in PACKAGE_DIR.values()]
 # Underscore names the product uses that owlready2 also defines, on objects that are not owlready2's.
 NOT_OWLREADY = {("pipeline/llm/llama.py", "_name")}  # a ctypes library's file name
@@ -96,11 +96,11 @@ def _owlready_internals() -> set[str]:
 
 
 def test_only_the_seam_imports_owlready2():
-    """pipeline/rdf.py alone (stricter than the issue's "the seam and the store": the store needs no more)."""
+    """pipeline/knowledge/rdf.py alone (stricter than the issue's "the seam and the store": the store needs no more)."""
     importing = {path.relative_to(REPO).as_posix() for path in PRODUCT for node in ast.walk(ast.parse(path.read_text()))
                  if isinstance(node, ast.Import) and any(a.name.split(".")[0] == "owlready2" for a in node.names)
                  or isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "owlready2"}
-    assert importing == {"pipeline/rdf.py"}
+    assert importing == {"pipeline/knowledge/rdf.py"}
 
 
 def test_only_the_seam_touches_owlready2_internals():
@@ -125,7 +125,7 @@ def test_no_class_outside_the_seam_derives_from_its_types():
     for path in PRODUCT:
         tree = ast.parse(path.read_text())
         seam_names = {a.asname or a.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
-                      and node.module == "urdfkb.pipeline.rdf" for a in node.names}
+                      and node.module == "urdfkb.pipeline.knowledge.rdf" for a in node.names}
         for node in ast.walk(tree):
             if path != SEAM and isinstance(node, ast.ClassDef):
                 for base in node.bases:

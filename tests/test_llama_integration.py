@@ -7,7 +7,7 @@ import pytest
 
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.fetch import TEST_MODEL, ensure_model
-from urdfkb.pipeline.oracle import Oracle, softmax
+from urdfkb.pipeline.abstraction.oracle import Oracle, softmax
 
 pytestmark = pytest.mark.model
 
@@ -330,7 +330,7 @@ def test_a_robots_answers_are_identical_cold_warm_and_after_another_robot(model_
 
     from tests.toy_robot import perfect
     from urdfkb.pipeline import runner
-    from urdfkb.pipeline.ingest import load_urdf
+    from urdfkb.pipeline.reading.ingest import load_urdf
     from urdfkb.pipeline.llm.llama import LlamaBackend
     from urdfkb.pipeline.llm.scripted import ScriptedBackend
     from urdfkb.pipeline.runner import Settings, run

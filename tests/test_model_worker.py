@@ -9,7 +9,7 @@ import pytest
 from tests.head_robot import HEAD, perfect
 from urdfkb.kb_server.jobs import JobManager, ModelWorker
 from urdfkb.pipeline.errors import BackendError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import Settings, run
 

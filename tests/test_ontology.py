@@ -7,9 +7,9 @@ import rdflib
 from rdflib.namespace import OWL, RDF, RDFS
 
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline import ontology, rdf
-from urdfkb.pipeline.namespaces import CORE_IRI
-from urdfkb.pipeline.ontology import Vocabulary, core_path, load_core, shapes_path, vocabulary
+from urdfkb.pipeline.knowledge import ontology, rdf
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI
+from urdfkb.pipeline.knowledge.ontology import Vocabulary, core_path, load_core, shapes_path, vocabulary
 
 CORE = rdflib.Namespace(CORE_IRI)
 SOSA = rdflib.Namespace("http://www.w3.org/ns/sosa/")

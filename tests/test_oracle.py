@@ -8,7 +8,7 @@ import pytest
 from urdfkb.pipeline.errors import BackendError
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle, Verdict, normalise
+from urdfkb.pipeline.abstraction.oracle import Oracle, Verdict, normalise
 
 OPTS = ("sensor", "gripper", "wheel")
 

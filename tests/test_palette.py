@@ -3,7 +3,7 @@ import re
 from pathlib import Path
 
 from urdfkb.kb_server import palette
-from urdfkb.pipeline.ontology import vocabulary
+from urdfkb.pipeline.knowledge.ontology import vocabulary
 
 KB_SERVER = Path(__file__).resolve().parents[1] / "kb_server"
 

@@ -11,21 +11,21 @@ import pytest
 from benchmarks.parts.hosts import BUILD, HOSTS, hosts_for
 from benchmarks.parts.library import DATA, PartError, load, load_all
 from benchmarks.parts.robots import robots, write
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.truth import load_truth
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.scoring.truth import load_truth
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.stages.attachment import sub_chain
-from urdfkb.pipeline.stages.grouping import Group, merge, one_mount
-from urdfkb.pipeline.stages.classification import Typed
-from urdfkb.pipeline.stages.identification import identify
-from urdfkb.pipeline.stages.tools import settle
-from urdfkb.pipeline.steps.classify import post_classification
-from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.frames import is_frame
-from urdfkb.pipeline.structure import tool_structure
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.abstraction.stages.classification import Typed
+from urdfkb.pipeline.abstraction.stages.identification import identify
+from urdfkb.pipeline.abstraction.stages.tools import settle
+from urdfkb.pipeline.abstraction.steps.classify import post_classification
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.abstraction.structure import tool_structure
 
 PARTS = {p.key: p for p in load_all()}
 CAMERAS = ("RGBDCamera", "StereoCamera", "MonocularCamera", "DepthCamera", "InfraredCamera")

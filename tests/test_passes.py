@@ -7,14 +7,14 @@ import pytest
 
 from tests.scripted_reasoner import scripted_reasoner
 from tests.toy_robot import TOY, perfect
-from urdfkb.pipeline.abstraction import GIVEN, PASSES, Abstractor
+from urdfkb.pipeline.abstraction.abstractor import GIVEN, PASSES, Abstractor
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.passes import Pass, PassManager, Step, check_order, step
-from urdfkb.pipeline.steps.findings import LASTING
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.passes import Pass, PassManager, Step, check_order, step
+from urdfkb.pipeline.abstraction.steps.findings import LASTING
 
 
 @dataclass
@@ -78,8 +78,8 @@ def test_the_trace_times_every_step_of_every_pass():
 def test_one_reasoner_run_settles_the_tools_and_the_body_candidates():
     """The end-effector pass's HermiT run also classifies the body pass's candidates (the toy's gripper is
     settled by its structure), and the body pass takes those classes: the same as a run of its own."""
-    from urdfkb.pipeline import reasoning
-    from urdfkb.pipeline.stages import body
+    from urdfkb.pipeline.knowledge import reasoning
+    from urdfkb.pipeline.abstraction.stages import body
 
     runs = []
 

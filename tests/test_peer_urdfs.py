@@ -13,7 +13,7 @@ import pytest
 from tests.shared_assets import SHARED
 
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 INGEST, REFUSE = "parse", "fail"  # spelled as EXPECTED.tsv's urdfdom_expects
 

@@ -8,18 +8,18 @@ import pytest
 
 from tests.scripted_reasoner import scripted_reasoner
 from tests.toy_robot import TAX, TOY, perfect
-from urdfkb.pipeline.abstraction import Abstractor
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
 from urdfkb.pipeline.errors import BackendError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.stages.attachment import SubChain, mount_candidates
-from urdfkb.pipeline.stages.classification import Subject, descend
-from urdfkb.pipeline.stages import grouping
-from urdfkb.pipeline.stages.grouping import Group, device_names, merge, name_prefixes
-from urdfkb.pipeline.stages.verification import verify
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.prompts import NONE
+from urdfkb.pipeline.abstraction.stages.attachment import SubChain, mount_candidates
+from urdfkb.pipeline.abstraction.stages.classification import Subject, descend
+from urdfkb.pipeline.abstraction.stages import grouping
+from urdfkb.pipeline.abstraction.stages.grouping import Group, device_names, merge, name_prefixes
+from urdfkb.pipeline.abstraction.stages.verification import verify
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""The property-restriction loop (pipeline.steps.body.placement): a generated robot whose model takes a chest button, and
+"""The property-restriction loop (pipeline.abstraction.steps.body.placement): a generated robot whose model takes a chest button, and
 a pad of two frames, on a lifting torso for bumpers (a bumper sits on a mobile base or a leg: tests/placement_robot.py)
 has them asked again without the bumper, keeps the bumper on its base, and the trace names the restriction that
 fired."""
@@ -11,11 +11,11 @@ import pytest
 
 from tests.placement_robot import TAX, Robot, build, model
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
+from urdfkb.pipeline.abstraction.oracle import Oracle
 
 
 def run(seed: int) -> tuple[Robot, dict, list[dict], list[Question]]:

@@ -8,13 +8,13 @@ import pytest
 import rdflib
 
 from tests.sample_bot import HOSTILE, ZERO, sample_abstraction, sample_tree
-from urdfkb.pipeline.components import Abstraction, Component, SubComponent
+from urdfkb.pipeline.abstraction.components import Abstraction, Component, SubComponent
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.namespaces import CORE_IRI, escape, robot_iri
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.tree import Edge, KinematicTree
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI, escape, robot_iri
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree
 
 CORE = rdflib.Namespace(CORE_IRI)
 IRI_CHARS = re.compile(r"[A-Za-z0-9:/._~%#-]+")
@@ -226,7 +226,7 @@ def test_joint_facts_body_parts_and_locations():
             b'<joint name="grip2" type="prismatic"><parent link="hand"/><child link="jaw2"/><mimic joint="grip" multiplier="-1" offset="0.01"/>'
             b'<limit lower="-0.04" upper="0" velocity="0.1" effort="5"/></joint></robot>')
     tree = load_urdf(urdf)
-    from urdfkb.pipeline.components import BodyPart
+    from urdfkb.pipeline.abstraction.components import BodyPart
     gripper = Component("g", "end_effector", "ParallelGripper", 1.0, "upper",
                         (SubComponent("hand", "Palm", 1.0), SubComponent("jaw", "Finger", 1.0), SubComponent("jaw2", "Finger", 1.0)),
                         joints=("grip", "grip2"), located_on="arm", side="left")
@@ -264,7 +264,7 @@ def test_joint_facts_body_parts_and_locations():
     (dict(parent="ghost"), "unknown body part 'ghost'"),
 ])
 def test_bad_body_parts_are_refused(part, message):
-    from urdfkb.pipeline.components import BodyPart
+    from urdfkb.pipeline.abstraction.components import BodyPart
     body = (BodyPart(**{**dict(name="p", cls="Arm", confidence=1.0, root="base_link", joints=("head_joint",),
                                links=("head_link",)), **part}),)
     with pytest.raises(OntologyError, match=message):

@@ -1,14 +1,14 @@
-"""The RDF seam (pipeline/rdf.py): graphs leave and enter owlready2 as N-Triples unchanged, and the calls below
+"""The RDF seam (pipeline/knowledge/rdf.py): graphs leave and enter owlready2 as N-Triples unchanged, and the calls below
 owlready2's object model write what they say."""
 import pytest
 import rdflib
 from rdflib.compare import isomorphic
 from rdflib.namespace import PROV
 
-from urdfkb.pipeline import rdf
-from urdfkb.pipeline.namespaces import CORE, CORE_IRI, robot_iri
-from urdfkb.pipeline.ontology import load_core
-from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.knowledge import rdf
+from urdfkb.pipeline.knowledge.namespaces import CORE, CORE_IRI, robot_iri
+from urdfkb.pipeline.knowledge.ontology import load_core
+from urdfkb.pipeline.knowledge.population import build_robot
 from tests.sample_bot import sample_abstraction, sample_tree
 
 

@@ -12,14 +12,14 @@ from tests.body_robots import legged, wheeled
 from tests.hand_robots import build
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
 from tests.toy_robot import TAX, TOY, perfect
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.components import END_EFFECTOR
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.reasoning import TOOL_REF, PartFacts, classify_together, placements
-from urdfkb.pipeline.stages import body
-from urdfkb.pipeline.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.knowledge.reasoning import TOOL_REF, PartFacts, classify_together, placements
+from urdfkb.pipeline.abstraction.stages import body
+from urdfkb.pipeline.abstraction.structure import ToolStructure, tool_structure
 
 Call = tuple[list[ToolStructure], list[PartFacts]]
 

@@ -13,7 +13,7 @@ from tests.kb_fixtures import PR2, free_port, http, live, make_app, served
 from urdfkb.kb_server.remote import RemoteError, RemoteStore
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 pytestmark = pytest.mark.slow  # a real Oxigraph server process
 

@@ -16,8 +16,8 @@ from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server import store as store_module
 from urdfkb.kb_server.corrections import Correction, CorrectionError, corrections_iri
 from urdfkb.kb_server.store import ReadOnlyGraph, Store
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin, fork_of
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin, fork_of
 from urdfkb.settings import MAX_LINKS
 
 T = TypeVar("T")

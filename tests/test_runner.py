@@ -5,7 +5,7 @@ import pytest
 
 from urdfkb.pipeline import cache, runner
 from urdfkb.pipeline.errors import BackendError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.runner import Settings
 from tests.scripted_reasoner import scripted_reasoner
@@ -108,9 +108,9 @@ def _robot_provenance(tree, abstraction) -> dict:
     """The Robot individual's provenance annotations, by local name, as rdflib terms (the robot conforms)."""
     import owlready2
     import rdflib
-    from urdfkb.pipeline.export import robot_graph
-    from urdfkb.pipeline.population import build_robot
-    from urdfkb.pipeline.shacl import validate
+    from urdfkb.pipeline.knowledge.export import robot_graph
+    from urdfkb.pipeline.knowledge.population import build_robot
+    from urdfkb.pipeline.knowledge.shacl import validate
     g = robot_graph(build_robot(owlready2.World(), tree, "toy", abstraction))
     conforms, report = validate(g)
     assert conforms, report

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.fetch import DEFAULT_MODEL, models_dir, ensure_model
 from urdfkb.pipeline.runner import Settings, run
 

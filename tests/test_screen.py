@@ -1,4 +1,4 @@
-"""SHACL before population (pipeline.screen): a component or body part that breaks the shapes is held back for
+"""SHACL before population (pipeline.knowledge.screen): a component or body part that breaks the shapes is held back for
 review, never silently written: the trace records it with the shapes it broke, the review page lists it with
 their messages, and the robot written without it passes the shapes as a whole."""
 from __future__ import annotations
@@ -13,14 +13,14 @@ from tests.kb_fixtures import client, make_app
 from tests.placement_robot import LABELS, TAX, build, model
 from tests.sample_bot import sample_abstraction, sample_tree
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
-from urdfkb.pipeline.components import Abstraction, BodyPart, Held
-from urdfkb.pipeline.export import robot_graph
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.components import Abstraction, BodyPart, Held
+from urdfkb.pipeline.knowledge.export import robot_graph
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
-from urdfkb.pipeline.screen import screen
-from urdfkb.pipeline.shacl import validate
+from urdfkb.pipeline.knowledge.screen import screen
+from urdfkb.pipeline.knowledge.shacl import validate
 
 HTML = {"Accept": "text/html"}
 

@@ -20,10 +20,10 @@ from urdfkb.kb_server.app import create_app
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.security import Policy, check_bind
 from urdfkb.kb_server.serve import make_server
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Progress, Settings
-from urdfkb.pipeline.tree import KinematicTree
+from urdfkb.pipeline.reading.tree import KinematicTree
 
 REPO = Path(__file__).resolve().parents[1]
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"

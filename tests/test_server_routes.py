@@ -17,7 +17,7 @@ from tests.kb_fixtures import PR2, client, copied, free_port, make_app, multipar
 from urdfkb.kb_server.jobs import pipeline_runner
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import BackendError
 
 REPO = Path(__file__).resolve().parents[1]

@@ -8,15 +8,15 @@ from rdflib.namespace import PROV, RDF
 
 from tests.sample_bot import sample_abstraction, sample_tree
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
-from urdfkb.pipeline.truth import load_truth
-from urdfkb.pipeline.components import Abstraction, Component
-from urdfkb.pipeline.export import robot_graph
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.scoring.truth import load_truth
+from urdfkb.pipeline.abstraction.components import Abstraction, Component
+from urdfkb.pipeline.knowledge.export import robot_graph
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.namespaces import CORE_IRI
-from urdfkb.pipeline.population import build_robot
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI
+from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
-from urdfkb.pipeline.shacl import validate, violations
+from urdfkb.pipeline.knowledge.shacl import validate, violations
 
 CORE = rdflib.Namespace(CORE_IRI)
 

@@ -1,4 +1,4 @@
-"""What the robot's shape settles before any question (pipeline.hands: hand_leaves, feet), on generated
+"""What the robot's shape settles before any question (pipeline.abstraction.hands: hand_leaves, feet), on generated
 robots with known truth, and with a scripted model that makes the small model's mistakes: it claims fingertips
 for sensors, and a quadruped's feet for tools. Names are meaningless, so only structure can correct it."""
 from __future__ import annotations
@@ -11,18 +11,18 @@ from tests.body_robots import legged, wheeled
 from tests.hand_robots import build
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.abstraction import SENSOR_PASS, Abstractor
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import SENSOR_PASS, Abstractor
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.stages.attachment import detect_roots
-from urdfkb.pipeline.steps.findings import Findings
-from urdfkb.pipeline.alike import alike_leaves
-from urdfkb.pipeline.hands import feet, hand_leaves, hand_mounts, hands, off_limb_ends
-from urdfkb.pipeline.frames import loop_closures
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.prompts import NONE
+from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.abstraction.alike import alike_leaves
+from urdfkb.pipeline.abstraction.hands import feet, hand_leaves, hand_mounts, hands, off_limb_ends
+from urdfkb.pipeline.abstraction.frames import loop_closures
 
 TAX = vocabulary()
 SEEDS = range(300)

@@ -14,15 +14,15 @@ from tests import body_robots, built_in_robots, camera_robots, hand_robots, plac
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
 from tests.toy_robot import TOY, perfect
 from tests.urdf_writer import Writer
-from urdfkb.pipeline.abstraction import PASSES, Abstractor
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import PASSES, Abstractor
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.passes import Pass, Step
-from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.steps.findings import FIELDS, Findings
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.passes import Pass, Step
+from urdfkb.pipeline.abstraction.prompts import NONE
+from urdfkb.pipeline.abstraction.steps.findings import FIELDS, Findings
 
 Rule = Callable[[Question], Any]
 ROVER = Path(__file__).parent / "data" / "sensor_bot.urdf"  # three rangers numbered as one device's units

@@ -87,7 +87,7 @@ def small_disk(tmp_path):
 
 @pytest.mark.slow
 def test_a_full_disk_refuses_populate_and_update_by_name_and_the_store_survives(small_disk, shared):
-    from urdfkb.pipeline.ingest import load_urdf
+    from urdfkb.pipeline.reading.ingest import load_urdf
 
     pr2, panda = (load_urdf(shared / "urdf" / f"{n}.urdf") for n in ("pr2", "panda"))
     store = Store(small_disk / "kb.sqlite3", workers=0)

@@ -12,9 +12,9 @@ from tests.kb_fixtures import PR2
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline.components import Abstraction
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import OntologyError, UrdfkbError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 COUNT_COMPONENTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 SELECT (COUNT(?c) AS ?n) WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:hasComponent ?c }"""

@@ -6,9 +6,9 @@ import json
 
 from tests.head_robot import HEAD, perfect
 from urdfkb.kb_server.cli import main
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.passes import Pass, PassManager, Step
+from urdfkb.pipeline.abstraction.passes import Pass, PassManager, Step
 from urdfkb.pipeline.runner import Settings, run
 from urdfkb.pipeline.timings import COUNTERS, Timings, process_age
 

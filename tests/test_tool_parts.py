@@ -10,12 +10,12 @@ import pytest
 from tests.hand_robots import build
 from tests.urdf_writer import Writer
 
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.stages.attachment import sub_chain
-from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.stages.subparts import _structural_parts
-from urdfkb.pipeline.structure import tool_structure
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.subparts import _structural_parts
+from urdfkb.pipeline.abstraction.structure import tool_structure
 
 TAX = vocabulary()
 TOOLS = TAX.kinds["end_effector"]

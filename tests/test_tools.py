@@ -16,23 +16,23 @@ import rdflib
 
 from tests.scripted_reasoner import scripted_reasoner
 from tests.urdf_writer import Writer
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.components import Abstraction
-from urdfkb.pipeline.export import robot_graph
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.components import Abstraction
+from urdfkb.pipeline.knowledge.export import robot_graph
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.namespaces import CORE_IRI
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.reasoning import classify
-from urdfkb.pipeline.shacl import validate
-from urdfkb.pipeline.stages.grouping import Group
-from urdfkb.pipeline.stages.attachment import sub_chain
-from urdfkb.pipeline.stages.tools import settle
-from urdfkb.pipeline.structure import mount_of, tool_structure
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.abstraction.prompts import NONE
+from urdfkb.pipeline.knowledge.reasoning import classify
+from urdfkb.pipeline.knowledge.shacl import validate
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.tools import settle
+from urdfkb.pipeline.abstraction.structure import mount_of, tool_structure
 
 RACK = Path(__file__).parent / "data" / "tool_rack.urdf"
 TAX = vocabulary()

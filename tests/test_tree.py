@@ -8,8 +8,8 @@ import trimesh.transformations as tra
 import yourdfpy
 from tests.shared_assets import SHARED
 
-from urdfkb.pipeline.ingest import load_urdf
-from urdfkb.pipeline.tree import Edge, KinematicTree, Origin, TreeError
+from urdfkb.pipeline.reading.ingest import load_urdf
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Origin, TreeError
 
 ZERO = Origin((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 REAL_FILES = sorted(p.name for p in (SHARED / "urdf").glob("*.urdf")) or ["<shared/urdf missing>"]

@@ -9,18 +9,18 @@ import rdflib
 from rdflib.namespace import RDF, RDFS
 
 from tests.scripted_reasoner import scripted_reasoner
-from urdfkb.pipeline.abstraction import Abstractor
-from urdfkb.pipeline.components import END_EFFECTOR, SENSOR, Abstraction
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Abstraction
 from urdfkb.pipeline.errors import OntologyError
-from urdfkb.pipeline.export import robot_graph
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.knowledge.export import robot_graph
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
-from urdfkb.pipeline.namespaces import CORE_IRI
-from urdfkb.pipeline.ontology import Vocabulary, core_path, shapes_path, vocabulary
-from urdfkb.pipeline.oracle import Oracle
-from urdfkb.pipeline.population import build_robot
-from urdfkb.pipeline.prompts import NONE
-from urdfkb.pipeline.shacl import validate
+from urdfkb.pipeline.knowledge.namespaces import CORE_IRI
+from urdfkb.pipeline.knowledge.ontology import Vocabulary, core_path, shapes_path, vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.knowledge.population import build_robot
+from urdfkb.pipeline.abstraction.prompts import NONE
+from urdfkb.pipeline.knowledge.shacl import validate
 
 CORE = rdflib.Namespace(CORE_IRI)
 THERMOMETER = """  <owl:Class rdf:about="https://w3id.org/urdfkb/core#Thermometer">

@@ -10,9 +10,9 @@ import pytest
 from tests.kb_fixtures import client, make_app, multipart
 from urdfkb.kb_server.cli import main
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline import sandbox
+from urdfkb.pipeline.reading import sandbox
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.xacro_input import XacroError, expand, load_description, parse_args, parse_package_paths
+from urdfkb.pipeline.reading.xacro_input import XacroError, expand, load_description, parse_args, parse_package_paths
 
 DATA = Path(__file__).parent / "data" / "xacro"
 ROVER = DATA / "main" / "rover.urdf.xacro"

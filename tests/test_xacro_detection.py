@@ -9,8 +9,8 @@ import pytest
 
 from tests.kb_fixtures import client, make_app, multipart
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline import sandbox
-from urdfkb.pipeline.xacro_input import is_xacro, uses_xacro
+from urdfkb.pipeline.reading import sandbox
+from urdfkb.pipeline.reading.xacro_input import is_xacro, uses_xacro
 
 ROVER = Path(__file__).parent / "data" / "xacro" / "main" / "rover.urdf.xacro"
 XNS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'

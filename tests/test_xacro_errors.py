@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from urdfkb.pipeline import sandbox
-from urdfkb.pipeline.xacro_input import XacroError, expand
+from urdfkb.pipeline.reading import sandbox
+from urdfkb.pipeline.reading.xacro_input import XacroError, expand
 from urdfkb.settings import MAX_ERROR
 
 

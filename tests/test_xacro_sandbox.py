@@ -1,4 +1,4 @@
-"""xacro is code: uploads are expanded inside the operating system's boundary (pipeline.sandbox),
+"""xacro is code: uploads are expanded inside the operating system's boundary (pipeline.reading.sandbox),
 in the job queue, with their output capped (issue 19). Each attack here worked on the code before."""
 from __future__ import annotations
 
@@ -21,8 +21,8 @@ import pytest
 from tests.kb_fixtures import client, http, make_app, running
 from urdfkb.kb_server.serve import make_server
 from urdfkb.kb_server.store import Store
-from urdfkb.pipeline import sandbox
-from urdfkb.pipeline.xacro_input import XacroError, expand
+from urdfkb.pipeline.reading import sandbox
+from urdfkb.pipeline.reading.xacro_input import XacroError, expand
 
 XNS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
 ATTACKS = Path(__file__).parent / "data" / "sandbox" / "attacks.py"

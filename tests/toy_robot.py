@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from urdfkb.pipeline.llm.base import Question
-from urdfkb.pipeline.ontology import vocabulary
-from urdfkb.pipeline.prompts import NONE
+from urdfkb.pipeline.knowledge.ontology import vocabulary
+from urdfkb.pipeline.abstraction.prompts import NONE
 
 TOY = Path(__file__).parent / "data" / "toy_robot.urdf"
 TAX = vocabulary()

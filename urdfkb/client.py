@@ -528,7 +528,7 @@ def _name(iri: str) -> str:
         if local.startswith(prefix):
             local = local[len(prefix):]
             break
-    return urllib.parse.unquote(local, encoding="utf-8", errors="surrogatepass")  # pipeline.namespaces.escape, undone
+    return urllib.parse.unquote(local, encoding="utf-8", errors="surrogatepass")  # pipeline.knowledge.namespaces.escape, undone
 
 
 def _float(text: str | None) -> float | None:

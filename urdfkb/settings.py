@@ -6,7 +6,7 @@ one, it is served from here: the review threshold reaches the templates through 
 the `low_confidence` query's default through its `{REVIEW_THRESHOLD}` placeholder (kb_server.queries).
 Standard library only: the client imports it.
 
-Not here: the xacro expansion's own caps (pipeline/xacro_worker.py), which run sandboxed where this
+Not here: the xacro expansion's own caps (pipeline/reading/xacro_worker.py), which run sandboxed where this
 package cannot be imported, and the method's parameters (geometry tolerances, prompt sizes), which
 live beside the code they tune.
 """
@@ -53,7 +53,7 @@ KEEP_JOB_SECONDS = 3600.0  # seconds a finished job is remembered
 JOB_WAIT = 30.0  # seconds GET /jobs/<id>?wait=1 waits at most (also its default)
 WAIT_RETRY_AFTER = 1  # seconds the 429 of too many waiting clients asks them to wait (Retry-After)
 
-# The model (pipeline.oracle, pipeline.llm)
+# The model (pipeline.abstraction.oracle, pipeline.llm)
 VOTES = 5  # samples per question with --vote sample: --votes
 MAX_VOTES = 100  # the most --votes may ask for
 TEMPERATURE = 0.7  # of those samples

@@ -33,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
 
     from urdfkb.pipeline.runner import Settings
-    from urdfkb.pipeline.truth_run import run_truth_robot
+    from urdfkb.pipeline.scoring.truth_run import run_truth_robot
 
     parts = load_all()
     if args.parts:

@@ -10,12 +10,12 @@ from urdfkb.kb_server.errors import BadRequest, Forbidden, NotFound, TooManyRequ
 from urdfkb.kb_server.replies import accepted
 from urdfkb.kb_server.services import Services, services
 from urdfkb.kb_server.store import check_robot_name
-from urdfkb.pipeline import sandbox
+from urdfkb.pipeline.reading import sandbox
 from urdfkb.pipeline.errors import URDFError
-from urdfkb.pipeline.ingest import load_urdf
+from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.runner import Settings
-from urdfkb.pipeline.tree import KinematicTree
-from urdfkb.pipeline.xacro_input import XacroError, is_xacro, load_description, parse_args, refuse_args
+from urdfkb.pipeline.reading.tree import KinematicTree
+from urdfkb.pipeline.reading.xacro_input import XacroError, is_xacro, load_description, parse_args, refuse_args
 from urdfkb.settings import JOB_WAIT, WAIT_RETRY_AFTER
 
 bp = Blueprint("jobs", __name__)
@@ -76,7 +76,7 @@ def _urdf_loader(kb: Services, data: bytes) -> Callable[[], KinematicTree]:
 
 def _xacro_loader(kb: Services, data: bytes, filename: str | None,
                   args: Mapping[str, str]) -> Callable[[], KinematicTree]:
-    """The job's first step for a xacro upload: expansion, confined by pipeline.sandbox unless the
+    """The job's first step for a xacro upload: expansion, confined by pipeline.reading.sandbox unless the
     operator trusts xacro. Refused at once (sandbox.Unavailable: 403) where the machine offers no sandbox."""
     confined = not kb.trust_xacro
     if confined and (reason := sandbox.unavailable()):

@@ -8,7 +8,7 @@ from urdfkb.kb_server import queries, ui
 from urdfkb.kb_server.errors import Forbidden, NotFound
 from urdfkb.kb_server.services import services
 from urdfkb.kb_server.store import UnknownRobot
-from urdfkb.pipeline.formats import BY_EXTENSION
+from urdfkb.pipeline.knowledge.formats import BY_EXTENSION
 
 bp = Blueprint("robots", __name__)
 

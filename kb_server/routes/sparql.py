@@ -11,8 +11,8 @@ from urdfkb.kb_server.errors import BadRequest, Forbidden, UnsupportedMediaType
 from urdfkb.kb_server.replies import SPARQL_PATH, results
 from urdfkb.kb_server.services import services
 from urdfkb.kb_server.sparql import NotAcceptable, negotiate
-from urdfkb.pipeline.formats import GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
-from urdfkb.pipeline.namespaces import CORE_GRAPH
+from urdfkb.pipeline.knowledge.formats import GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
+from urdfkb.pipeline.knowledge.namespaces import CORE_GRAPH
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORM_TYPES = ("application/x-www-form-urlencoded", "multipart/form-data")

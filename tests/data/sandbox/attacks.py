@@ -1,4 +1,4 @@
-"""What code that escaped xacro's guards would try next; run inside pipeline.sandbox by
+"""What code that escaped xacro's guards would try next; run inside pipeline.reading.sandbox by
 tests/test_xacro_sandbox.py. Prints a JSON list of the attacks that succeeded (none, if confined).
 
 argv: the host pid to signal, a host file to read, the package file (sandbox path) to change."""

@@ -1,4 +1,4 @@
-"""What a program confined by pipeline.sandbox sees of the host; run by tests/test_xacro_sandbox.py.
+"""What a program confined by pipeline.reading.sandbox sees of the host; run by tests/test_xacro_sandbox.py.
 
 argv: the server's venv, the standard library's site-packages, then NAME=NUMBER system calls to make
 through ctypes. Prints a JSON object: each fact, or the error that kept it hidden."""

@@ -1,0 +1,127 @@
+"""Frames rather than bodies: the leaves that only mark a frame, the frames of one body, where a camera sees
+from, and the frames where a closed kinematic loop is cut.
+"""
+from __future__ import annotations
+
+import math
+
+from urdfkb.pipeline.abstraction.alike import partition
+from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
+from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
+
+FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) only marks where a frame is
+CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
+VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
+OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
+
+
+def is_frame(tree: KinematicTree, link: str) -> bool:
+    """The link is a coordinate frame rather than a body: it has no geometry (a link without evidence counts),
+    or only a primitive of at most FRAME_MARK drawn to show where the frame is."""
+    facts = tree.evidence.get(link)
+    if facts is None or facts.is_pure_frame:
+        return True
+    extent = facts.extent
+    return extent is not None and extent <= FRAME_MARK
+
+
+def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
+    """The link both leaves hang from as parts of one body: by fixed joints through frames (is_frame), within
+    CAMERA_BODY of it, each on a branch that leads to one imager alone (None where they do not). A leaf with
+    geometry fixed straight to that link, beside an optical frame (REP 103), is the camera body's own housing
+    piece (a camera's model frame): it belongs to the body too."""
+    body = fork_of(tree, [a, b])
+    housings = 0
+    for leaf, other in ((a, b), (b, a)):
+        path = tree.chain_to_root(leaf)
+        branch = path[:path.index(body)]  # leaf ... the body's child
+        if not branch or any(tree.edge_to(link).movable for link in branch):
+            return None
+        if not is_frame(tree, leaf) and len(branch) == 1 and is_optical(tree, other):
+            housings += 1
+        elif not all(is_frame(tree, link) for link in branch):
+            return None
+        if any(_imagers_below(tree, link) > 1 for link in branch[1:]):
+            return None
+        if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
+            return None
+    return body if housings < 2 else None
+
+
+def _imagers_below(tree: KinematicTree, link: str) -> int:
+    """How many imagers a branch link carries: its optical-convention leaves (REP 103), or all its leaves where
+    none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs)."""
+    leaves = [d for d in tree.descendants(link) if tree.is_leaf(d)]
+    return sum(is_optical(tree, leaf) for leaf in leaves) or len(leaves)
+
+
+def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:
+    """`leaves` partitioned into the frames of one body (body_of), each set in the order given."""
+    return partition(leaves, lambda a, b: body_of(tree, a, b) is not None)
+
+
+def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
+    """How many places a device's frames see from: their positions at the zero pose, those within VIEWPOINT
+    of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
+    along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
+    and two of them see from one place when they lie within VIEWPOINT across their line of sight."""
+    optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
+    places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
+    for leaf in optical or leaves:
+        point = tree.position_in(leaf, tree.root)
+        sight = unit(sub(tree.position_in(leaf, tree.root, (0.0, 0.0, 1.0)), point)) if optical else None
+        if all(_apart(point, p, axis) > VIEWPOINT for p, axis in places):
+            places.append((point, sight))
+    return len(places)
+
+
+def _apart(a: Vector, b: Vector, sight: Vector | None) -> float:
+    """How far apart two frames see from: across `sight`, the line of sight through `b` (a frame further along
+    it, as optical frames are often written a centimetre ahead of the lens, sees from the same place)."""
+    gap = sub(a, b)
+    if sight is None:
+        return norm(gap)
+    along = dot(gap, sight)
+    return math.sqrt(max(dot(gap, gap) - along * along, 0.0))
+
+
+def is_optical(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf follows the optical convention (REP 103): its z axis, the line of sight, along its parent's x axis."""
+    parent = tree.parent(leaf)
+    if parent is None:
+        return False
+    origin = tree.position_in(leaf, parent)
+    z = tuple(p - o for p, o in zip(tree.position_in(leaf, parent, (0.0, 0.0, 1.0)), origin))
+    return z[0] >= OPTICAL_AXIS
+
+
+LOOP_GAP = 0.001  # m: the two frames a closed kinematic loop is cut at coincide within this at the zero pose
+
+
+def loop_closures(tree: KinematicTree) -> frozenset[str]:
+    """Leaf frames where a closed kinematic loop is cut to make a tree (a Stewart platform's rods, a linkage's
+    bars): bare frames fixed to their links that coincide with another such frame at the zero pose, across a
+    joint that moves (the path between them passes through one). They mark a constraint for a solver, not a
+    device; a camera's frame and its optical twin on one link coincide with nothing between them."""
+    frames = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None
+              and not tree.edge_to(leaf).movable and is_frame(tree, leaf)]
+    cells: dict[tuple[int, int, int], list[tuple[str, Vector]]] = {}
+    for leaf in frames:
+        point = tree.position_in(leaf, tree.root)
+        cells.setdefault(tuple(round(x / LOOP_GAP) for x in point), []).append((leaf, point))  # type: ignore[arg-type]
+    found: set[str] = set()
+    for (i, j, k), members in cells.items():
+        near = [m for di in (-1, 0, 1) for dj in (-1, 0, 1) for dk in (-1, 0, 1)
+                for m in cells.get((i + di, j + dj, k + dk), ())]
+        for a, pa in members:
+            for b, pb in near:
+                if a != b and math.dist(pa, pb) <= LOOP_GAP and _moves_between(tree, a, b):
+                    found.update((a, b))
+    return frozenset(found)
+
+
+def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:
+    """A joint that moves lies on the tree's path between links `a` and `b`."""
+    meet = fork_of(tree, [a, b])
+    return any(tree.edge_to(link).movable for leaf in (a, b)
+               for path in [tree.chain_to_root(leaf)] for link in path[:path.index(meet)])

@@ -1,0 +1,151 @@
+"""What the robot's shape settles before any question: its hands and grippers (their leaves and mounts), the
+feet it stands on, and the leaves along a limb rather than at its end, where no end effector is.
+"""
+from __future__ import annotations
+
+import math
+
+from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.abstraction.structure import FingerChain, ToolStructure, moving_children, tool_structure
+from urdfkb.pipeline.reading.tree import KinematicTree, Vector
+from urdfkb.pipeline.abstraction.vectors import dot, norm, sub
+
+HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
+MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
+TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' span across the hand, at most
+TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
+# hand's back or sides lie under half of it)
+FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
+STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
+
+
+def hand_leaves(tree: KinematicTree) -> frozenset[str]:
+    """The leaves of every hand or gripper the tree's shape shows (hand_mounts)."""
+    return frozenset(hand_mounts(hands(tree)))
+
+
+def hand_mounts(found: list[tuple[ToolStructure, list[str]]]) -> dict[str, str]:
+    """Each leaf of the hands `found` (hands) → the hand's mount, read before anything is asked, so that they
+    go to the end-effector pass and not to the sensors."""
+    return {leaf: structure.mount for structure, leaves in found for leaf in leaves}
+
+
+def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
+    """Every hand or gripper the tree's shape shows, with its leaves. A hand is a fork (tool_structure) with two
+    finger chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
+    range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
+    finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
+    the pure frames fixed to its rigid body that lie out among the fingertips (_among_tips): tool centre points,
+    on the hand itself or on the flange it is bolted to.
+    A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
+    found = []
+    standing = feet(tree)
+    for fork in tree.links:
+        small = [c for c in moving_children(tree, fork) if _hand_sized(tree, fork, c)]
+        if len(small) < 2:
+            continue
+        leaves = [link for c in small for link in (c, *tree.descendants(c)) if tree.is_leaf(link)]
+        if standing & set(leaves):  # short legs the robot stands on, not fingers
+            continue
+        structure = tool_structure(tree, leaves)
+        fingers = [f for f in structure.fingers if f.name in small]
+        if len(fingers) < 2:
+            continue
+        found.append((structure, list(dict.fromkeys([*leaves, *_tool_points(tree, structure.fork, fingers)]))))
+    return found
+
+
+def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
+    """Bodies fixed beside one of the hands found (hands) rather than in it: leaves with geometry on the body the
+    hand is mounted on, not below where its fingers part (a range sensor or a camera on the wrist a gripper is
+    bolted to). A pure frame there may mark the hand's tool point, so frames are not among them."""
+    found: set[str] = set()
+    for structure, leaves in hands_found:
+        mount = set(rigid_body(tree, structure.mount))
+        below = {structure.fork, *tree.descendants(structure.fork)}
+        found.update(leaf for link in mount for leaf in tree.children(link)
+                     if tree.is_leaf(leaf) and leaf not in below and leaf not in leaves and not is_frame(tree, leaf))
+    return frozenset(found)
+
+
+def _tool_points(tree: KinematicTree, fork: str, fingers: list[FingerChain]) -> list[str]:
+    body = rigid_body(tree, fork)  # positions in its top link's frame, from the fork
+    fork_at = tree.position_in(fork, body[0])
+
+    def at(link: str) -> Vector:
+        return sub(tree.position_in(link, body[0]), fork_at)
+    tips = [at(max(f.links, key=lambda link: len(tree.chain_to_root(link)))) for f in fingers]
+    centre = (sum(p[0] for p in tips) / len(tips), sum(p[1] for p in tips) / len(tips), sum(p[2] for p in tips) / len(tips))
+    span = max(math.dist(p, centre) for p in tips)
+    frames = [link for link in body if link != fork and tree.is_leaf(link) and is_frame(tree, link)]
+    return [link for link in frames if _among_tips(at(link), centre, span)]
+
+
+def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
+    """A point of the hand's body lies out among its fingertips: at least TIP_DEPTH of the way from the fork to
+    their centre, along that line, and within TOOL_POINT of their span across it."""
+    reach = norm(centre)
+    if reach == 0:
+        return norm(point) <= span + TOOL_POINT
+    along = dot(point, centre) / reach
+    across = math.sqrt(max(dot(point, point) - along * along, 0.0))
+    return along >= TIP_DEPTH * reach and across <= span + TOOL_POINT
+
+
+def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
+    """The moving subtree `child` of `fork` could be a finger: within a hand's size (_within_hand), with no
+    joint that spins (a wheel's, a caster's)."""
+    links = (child, *tree.descendants(child))
+    return _within_hand(tree, fork, links) and not any(tree.edge_to(link).spins for link in links)
+
+
+def _within_hand(tree: KinematicTree, fork: str, links: tuple[str, ...]) -> bool:
+    """At most MAX_FINGER_JOINTS movable joints among `links`, each within HAND_REACH of `fork`."""
+    return (sum(tree.edge_to(link).movable for link in links) <= MAX_FINGER_JOINTS
+            and all(norm(tree.position_in(link, fork)) <= HAND_REACH for link in links))
+
+
+def rigid_body(tree: KinematicTree, link: str) -> tuple[str, ...]:
+    """The links fixed rigidly to `link`: up through fixed joints to the first link a movable joint moves (or
+    the root), and every link fixed below that one."""
+    top = link
+    while (parent := tree.parent(top)) is not None and not tree.edge_to(top).movable:
+        top = parent
+    return palm(tree, top)
+
+
+def palm(tree: KinematicTree, fork: str) -> tuple[str, ...]:
+    """A hand's own body: its fork and the links bolted below it (not the wrist above, whose camera is no hand's);
+    of any link, the link and what is fixed below it."""
+    body, stack = [], [fork]
+    while stack:
+        body.append(current := stack.pop())
+        stack.extend(c for c in tree.children(current) if not tree.edge_to(c).movable)
+    return tuple(body)
+
+
+def limb_goes_on(tree: KinematicTree, leaf: str) -> bool:
+    """A limb goes on from the body the leaf is fixed to: a moving subtree of that body has more movable joints
+    than a hand's finger (MAX_FINGER_JOINTS) or reaches beyond HAND_REACH. The leaf sits along a limb or on the
+    trunk it leaves from, not at a limb's end, where an end effector is."""
+    return any(tree.edge_to(child).movable and not _within_hand(tree, link, (child, *tree.descendants(child)))
+               for link in rigid_body(tree, leaf) for child in tree.children(link))
+
+
+def off_limb_ends(tree: KinematicTree, found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
+    """Leaves at no limb's end, so never an end effector: where a limb goes on from their body (limb_goes_on),
+    or bodies beside one of the hands `found` (beside_hands)."""
+    return beside_hands(tree, found) | {leaf for leaf in tree.leaves() if limb_goes_on(tree, leaf)}
+
+
+def feet(tree: KinematicTree) -> frozenset[str]:
+    """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
+    of the robot's lowest link origin at the zero pose, on a robot whose root lies STANCE above that point
+    and that has two such tips at least. Where a limb ends there is a foot, not a tool."""
+    height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
+    lowest = min(height.values())
+    if height[tree.root] - lowest < STANCE:
+        return frozenset()
+    limbs = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND
+             and sum(tree.edge_to(link).movable for link in tree.chain_to_root(leaf)[:-1]) >= 2]
+    return frozenset(limbs) if len(limbs) >= 2 else frozenset()

@@ -1,0 +1,342 @@
+"""The body pass: every movable joint not owned by a device, grouped into body parts and classified.
+
+Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
+joints between branch points (a link from which two or more chains go on), cut after a sliding
+joint that lifts turning ones, with a trailing joint that spins (continuous, or revolute with no range) and
+carries nothing split off as a wheel candidate. The code asserts what structure says of
+each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
+the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
+(a part carrying an end-effector off the ground is an arm, ...). The model classifies the
+candidates those leave open among the BodyPart classes (or none: a device's mechanism), shown: its
+joints with their type and the direction of their axis in the robot's frame, the links it moves,
+what it hangs from, what it carries (devices, further chains) and whether it reaches the ground.
+Adjacent chains given the same class join (a shoulder joint split off by a head hung on the same
+link); chains of the mobile base join it, around the chassis its wheels and base joints hang from.
+`side` comes from geometry (REP 103: +y of the root frame is left, at the zero pose), checked once
+per class of mirrored parts against the model's reading of the names, which wins where it is sure.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from urdfkb.pipeline.knowledge import reasoning
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, BodyPart, Component
+from urdfkb.pipeline.reading.evidence import named
+from urdfkb.pipeline.knowledge.ontology import Vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
+from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
+
+SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
+GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
+NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
+Log = Callable[[str], None]
+
+
+@dataclass
+class Chain:
+    """A candidate: serial body joints (root-most first) and the links they move."""
+
+    joints: list[Edge]
+    links: list[str]
+    cls: str = NONE
+    confidence: float = 0.0
+
+    @property
+    def mount(self) -> str:
+        return self.joints[0].parent
+
+    @property
+    def end(self) -> str:
+        return self.joints[-1].child
+
+
+def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
+    """The movable joints on the paths from a component's mount to its links (an end-effector's fingers)."""
+    found: dict[str, None] = {}
+    for link in comp.links:
+        for current in tree.chain_to_root(link):
+            if current == comp.root:
+                break
+            edge = tree.edge_to(current)
+            if edge.movable:
+                found[edge.joint] = None
+    return tuple(j for j in (e.joint for e in tree.edges) if j in found)
+
+
+def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
+    """Candidate chains of body joints, in document order of their first joints."""
+    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints]
+    names = {e.joint for e in body}
+    upper = {e.joint: _upper(tree, e, names) for e in body}
+    below: dict[str | None, list[Edge]] = {}
+    for e in body:
+        below.setdefault(upper[e.joint], []).append(e)
+    out = []
+    for start in body:
+        above = upper[start.joint]
+        if above is not None and len(below[above]) == 1:
+            continue  # continues its upper joint's chain
+        run = [start]
+        while len(below.get(run[-1].joint, ())) == 1:
+            run.append(below[run[-1].joint][0])
+        out += [piece for part in _split_lifts(run) for piece in _split_wheel(tree, part, below, owned_links)]
+    for chain in out:
+        chain.links = [link for e in chain.joints for link in _moved(tree, e.child, names, owned_links)]
+    return out
+
+
+def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
+    for link in tree.chain_to_root(edge.parent):
+        above = tree.parent_edge(link)
+        if above is not None and above.joint in body:
+            return above.joint
+    return None
+
+
+def _split_lifts(run: list[Edge]) -> list[list[Edge]]:
+    """A run is cut after each sliding joint followed by a turning one: a lift and what it lifts are two
+    candidates (they join again where the model gives them one class)."""
+    pieces = [[run[0]]]
+    for previous, edge in zip(run, run[1:]):
+        if previous.joint_type == "prismatic" and edge.joint_type in ("revolute", "continuous"):
+            pieces.append([])
+        pieces[-1].append(edge)
+    return pieces
+
+
+def _motion(edge: Edge) -> str:
+    """The joint type the reasoner is told: what the joint does, so a joint that spins (Edge.spins) is continuous
+    whatever the file wrote."""
+    return "continuous" if edge.spins else edge.joint_type
+
+
+def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
+    """A trailing joint that spins (Edge.spins) and carries nothing (no further joint, no device) is its own candidate."""
+    last = run[-1]
+    carries = {last.child, *tree.descendants(last.child)} & owned_links
+    if len(run) > 1 and last.spins and not below.get(last.joint) and not carries:
+        return [Chain(run[:-1], []), Chain([last], [])]
+    return [Chain(run, [])]
+
+
+def _moved(tree: KinematicTree, link: str, body: set[str], owned_links: set[str]) -> list[str]:
+    """`link` and what hangs from it by joints that are not body joints, minus devices' links."""
+    out, stack = [], [link]
+    while stack:
+        current = stack.pop()
+        if current not in owned_links:
+            out.append(current)
+        stack += [c for c in reversed(tree.children(current)) if tree.edge_to(c).joint not in body]
+    return out
+
+
+# --- evidence --------------------------------------------------------------------------------
+
+def _direction(tree: KinematicTree, edge: Edge) -> str:
+    """The joint axis in the root frame at the zero pose, in words (REP 103: x forward, y left, z up)."""
+    axis: Vector = edge.axis
+    current = edge.child
+    while (parent := tree.parent_edge(current)) is not None:
+        axis = rotate_rpy(parent.origin.rpy, axis)
+        current = parent.parent
+    dominant = max(range(3), key=lambda i: abs(axis[i]))
+    if edge.joint_type == "prismatic":
+        return ("slides forward-back", "slides sideways", "slides up-down")[dominant]
+    return ("rolls about the forward axis", "pitches about the sideways axis", "turns about the vertical axis")[dominant]
+
+
+def _height(tree: KinematicTree, link: str) -> float:
+    return tree.position_in(link, tree.root)[2]
+
+
+def evidence(tree: KinematicTree, chain: Chain, carried: list[str], further: int, grounded: bool) -> str:
+    """What structure says of a candidate, in a few lines."""
+    joints = ", ".join(f"{e.joint} ({e.joint_type}, {_direction(tree, e)})" for e in chain.joints)
+    lines = [f"Joints: {joints}", f"Links: {', '.join(chain.links[:-1] + [named(tree.evidence, chain.links[-1])])}",
+             f"Hangs from: {chain.mount}"]
+    ends = list(carried) + ([f"{further} more moving chain{'s' if further > 1 else ''}"] if further else [])
+    lines.append("Carries: " + ("; ".join(ends) if ends else "nothing"))
+    if grounded:
+        lines.append("Reaches the ground: its end is the robot's lowest point")
+    return "\n".join(lines)
+
+
+# --- what the body pass's steps call (pipeline.abstraction.steps.body; pipeline.abstraction.abstractor.BODY_PASS runs them in order) ----
+
+def with_joints(tree: KinematicTree, components: list[Component]) -> list[Component]:
+    """The components, each end-effector with the movable joints of its fingers (`device_joints`)."""
+    return [replace(c, joints=device_joints(tree, c)) if c.kind == END_EFFECTOR else c for c in components]
+
+
+def candidates(tree: KinematicTree, components: list[Component]) -> list[Chain]:
+    """The candidate chains among the joints and links no device owns."""
+    owned_joints = {j for c in components for j in device_joints(tree, c)}
+    return chains(tree, owned_joints, {link for c in components for link in c.links})
+
+
+Reasoned = tuple[list[reasoning.PartFacts], list[str | None]]  # candidates' facts, and the class of each
+
+
+@dataclass
+class Findings:
+    """What structure says of each candidate: the devices it carries, the candidates hanging from it,
+    whether it reaches the ground, and the facts the code asserts of it for the reasoner."""
+
+    devices: list[list[Component]]
+    carries: list[list[int]]
+    grounded: list[bool]
+    facts: list[reasoning.PartFacts]
+
+
+def findings(tree: KinematicTree, found: list[Chain], components: list[Component]) -> Findings:
+    """Each candidate's devices (the components whose mount it holds), followers and ground contact."""
+    by_link = {link: ch for ch in found for link in ch.links}
+    lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
+    devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
+    carries = [[i for i, other in enumerate(found) if other is not chain and other.mount in chain.links] for chain in found]
+    tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
+    grounded = [_reaches_ground(tree, chain, lowest, tools) for chain in found]
+    facts = [reasoning.PartFacts(tuple(_motion(e) for e in chain.joints), tuple(c.cls for c in held),
+                                 tuple(follow), ground)
+             for chain, held, follow, ground in zip(found, devices, carries, grounded)]
+    return Findings(devices, carries, grounded, facts)
+
+
+def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
+             components: list[Component], progress: Progress | None, log: Log,
+             reasoned: Callable[[float], None] = lambda _seconds: None, known: Reasoned | None = None,
+             reasoner: reasoning.Reasoner | None = None) -> None:
+    """Each candidate's class: structure first (the ontology's sufficient conditions, by `reasoner`: HermiT
+    by default), the model for the rest; `reasoned` receives the reasoner's wall time. `known` is what an
+    earlier reasoner run inferred for candidates' facts, taken where the facts are still these."""
+    seen = findings(tree, found, components)
+    devices, carries, grounded = seen.devices, seen.carries, seen.grounded
+    if known is not None and known[0] == seen.facts:
+        inferred, seconds = list(known[1]), 0.0
+        log("body reasoner: inferred in the end-effector pass's run")
+    else:
+        inferred, seconds = reasoning.classify_parts(seen.facts, reasoner)
+    reasoned(seconds)
+    log(f"body reasoner: {seconds:.2f} s, " + ", ".join(f"{c.joints[0].joint}={cls}" for c, cls in zip(found, inferred)))
+    open_ = [i for i, cls in enumerate(inferred) if cls is None]
+    for i, cls in enumerate(inferred):
+        if cls is not None:
+            found[i].cls, found[i].confidence = cls, 1.0
+    questions = [body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]], len(carries[i]),
+                                           grounded[i]), f"body:{found[i].joints[0].joint}") for i in open_]
+    for i, question, verdict in zip(open_, questions, ask(oracle, [q.question for q in questions],
+                                                          "body classification", progress)):
+        found[i].cls = question.meant(verdict.answer, NONE)
+        found[i].confidence = verdict.confidence
+
+
+def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float, tools: set[str]) -> bool:
+    """What the chain moves comes down to the robot's lowest frame, below where it hangs from (an arm on a
+    fixed base holds the lowest frames too, but above its mount). An end-effector's links (`tools`) do not count:
+    a gripper an arm points down below its own base at the zero pose does not make the arm a leg."""
+    moved = [link for e in chain.joints for link in (e.child, *tree.descendants(e.child)) if link not in tools]
+    if not moved:
+        return False
+    reach = min(_height(tree, link) for link in moved)
+    return reach <= lowest + GROUND_EPS and reach < _height(tree, chain.mount) - GROUND_EPS
+
+
+def _nearest(tree: KinematicTree, link: str, by_link: dict[str, Chain]) -> Chain | None:
+    """The chain whose links hold `link` or its nearest ancestor."""
+    return next((by_link[a] for a in tree.chain_to_root(link) if a in by_link), None)
+
+
+def _join(tax: Vocabulary, found: list[Chain]) -> list[Chain]:
+    """A chain of a joining class (every body class but the base, whose chains join around its chassis,
+    and the wheel) whose only follower of that class hangs from its links is one part with it."""
+    joining = set(tax.body_classes) - {tax.mobile_base, tax.wheel}
+    joined = True
+    while joined:
+        joined = False
+        for parent in found:
+            followers = [c for c in found if c is not parent and c.mount in parent.links and c.cls == parent.cls]
+            if parent.cls in joining and len(followers) == 1:
+                child = followers[0]
+                parent.joints += child.joints
+                parent.links += child.links
+                parent.confidence = min(parent.confidence, child.confidence)
+                found.remove(child)
+                joined = True
+                break
+    return found
+
+
+def assemble(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
+    """Body parts from the classified candidates: adjacent chains of one joining class as one part, the
+    base chains joined into one MobileBase around its chassis; candidates classified none drop out."""
+    return _parts(tax, tree, [c for c in _join(tax, found) if c.cls != NONE])
+
+
+def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
+    """Body parts: one per chain, the base chains joined into one MobileBase around its chassis."""
+    base, wheel = tax.mobile_base, tax.wheel
+    base_chains = [c for c in found if c.cls == base]
+    wheels = [c for c in found if c.cls == wheel]
+    parts = [BodyPart(f"{c.cls.lower()}_{c.joints[0].joint}", c.cls, round(c.confidence, 4), c.mount,
+                      tuple(e.joint for e in c.joints), tuple(c.links))
+             for c in found if c.cls != base]
+    if not base_chains and not wheels:
+        return parts
+    chassis = fork_of(tree, [c.mount for c in base_chains + wheels])
+    joints = tuple(e.joint for c in base_chains for e in c.joints)
+    links = tuple(dict.fromkeys([chassis, *(link for c in base_chains for link in c.links)]))
+    root = base_chains[0].mount if base_chains else tree.parent(chassis)
+    confidence = min([c.confidence for c in base_chains] or [1.0])
+    mobile_base = BodyPart(f"mobile_base_{chassis}", base, round(confidence, 4), root, joints, links)
+    return [mobile_base] + [replace(p, parent=mobile_base.name) if p.cls == wheel else p for p in parts]
+
+
+def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: Progress | None,
+          log: Log) -> list[BodyPart]:
+    """left/right by the sign of y in the root frame for classes with parts on both sides; per such class,
+    the model names the left one of its widest pair, and where it disagrees with geometry and is sure,
+    the names win for the whole class."""
+    y = {p.name: _mean_y(tree, _anchor(tree, p)) for p in parts}
+    sides = {p.name: ("left" if y[p.name] > 0 else "right") for p in parts if abs(y[p.name]) > SIDE_EPS}
+    pairs = {}
+    for cls in dict.fromkeys(p.cls for p in parts):
+        members = [p for p in parts if p.cls == cls and p.name in sides]
+        lefts = [p for p in members if sides[p.name] == "left"]
+        rights = [p for p in members if sides[p.name] == "right"]
+        if not lefts or not rights:
+            for p in members:
+                sides.pop(p.name)  # no mirrored pair: no side
+            continue
+        pairs[cls] = (max(lefts, key=lambda p: y[p.name]), min(rights, key=lambda p: y[p.name]))
+    if pairs:
+        questions = [side_question(cls.lower(), left.joints, right.joints) for cls, (left, right) in pairs.items()]
+        for (cls, (_left, right)), q, verdict in zip(pairs.items(), questions, ask(oracle, questions, "sides", progress)):
+            if verdict.answer == q.options[1] and verdict.confidence >= NAMES_WIN:
+                log(f"sides of {cls}: names say {right.joints[0]} is left ({verdict.confidence:.2f}), "
+                    "against geometry: names win")
+                for p in parts:
+                    if p.cls == cls and p.name in sides:
+                        sides[p.name] = "right" if sides[p.name] == "left" else "left"
+    return [replace(p, side=sides.get(p.name)) for p in parts]
+
+
+def _mean_y(tree: KinematicTree, links: list[str]) -> float:
+    return sum(tree.position_in(link, tree.root)[1] for link in links) / len(links)
+
+
+def _anchor(tree: KinematicTree, part: BodyPart) -> list[str]:
+    """The links whose position tells a part's side: its joints' child links (a base: its chassis)."""
+    edges = {e.joint: e for e in tree.edges}
+    return [edges[j].child for j in part.joints] or list(part.links[:1])
+
+
+def locate(tree: KinematicTree, comp: Component, parts: list[BodyPart]) -> Component:
+    """The body part carrying a component's mount (the nearest part up its chain), and that part's side."""
+    owner = {link: p for p in parts for link in p.links}
+    part = next((owner[a] for a in tree.chain_to_root(comp.root) if a in owner), None)
+    if part is None:
+        return comp
+    return replace(comp, located_on=part.name, side=part.side)

@@ -1,0 +1,203 @@
+"""Stage 4, group merging: partition the classified sub-chains into physical devices.
+
+Sensors: the model names each sub-chain's device, picking among the beginnings of the leaf's own
+name (a URDF identifier, so the answer set is finite and checkable) the part that names the whole
+device ("chest_rgbd" for "chest_rgbd_depth_optical_frame"). A beginning that is also a beginning of
+the mount's name ("chest" under "chest_link") names the body part the device sits on, not the device,
+and is not offered. Sub-chains near each other in the
+tree (sharing links, or on the same mount), with the same device name and pre-classes in the same
+sensor category (the taxonomy level under Sensor: RGB and depth frames are both vision; a button and
+an accelerometer on one palm are not) form one device. Two sub-chains that share only their mount,
+each with a body of its own (its first link with geometry, the housing, or failing one the device's own bare
+frame that its frames hang from), are near only if the two housings face the same way and lie within DEVICE_SPAN of each other: housings pointing apart or far apart are separate devices
+whatever their names share, while a stereo pair's two housings look the same way side by side. A sub-chain with no such neighbour is a device of its own whatever its
+name, so it is not asked.
+End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
+at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
+the tool's provisional mount is the deepest mount the model named for any of its chains that carries
+them all (stages.tools then settles extent and mount from structure).
+One body, one device: two sensor sub-chains of one category whose leaves are frames (no geometry) hanging
+by fixed joints from one link inside both (the device's body, a housing or a bare camera frame), within
+CAMERA_BODY of it, each by a branch of that link that leads to one imager alone, are one device whatever their
+names: the colour, depth, infrared and inertial frames of an RGB-D camera, which the name question
+split into one device per frame; one device name is asked for them all. A frame of the body binds to one
+called a vision sensor whatever category its own pre-class falls in: the camera's own inertial frames belong
+to the camera (ontology.md). A housing piece fixed straight to that
+link beside them (a camera's model frame, a lidar's cap) is bound with them. A branch that carries several
+imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
+its own frames bind below it (structure.body_of).
+Each sub-chain lands in exactly one group: a partition by construction.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.prompts import device_name_question
+from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
+from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
+from urdfkb.pipeline.abstraction.alike import partition
+from urdfkb.pipeline.abstraction.frames import body_of, is_frame
+from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
+
+_WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
+ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
+VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
+DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
+
+
+@dataclass
+class Group:
+    """Sub-chains judged to be one device, plus links absorbed by verification."""
+
+    chains: list[SubChain]
+    absorbed: list[str] = field(default_factory=list)
+
+    @property
+    def members(self) -> list[str]:
+        """Every link of the device (the root excluded), in a stable order."""
+        seen = dict.fromkeys(link for c in self.chains for link in c.links)
+        seen.update(dict.fromkeys(self.absorbed))
+        return list(seen)
+
+    @property
+    def leaves(self) -> list[str]:
+        return [c.leaf for c in self.chains]
+
+
+def name_prefixes(name: str) -> tuple[str, ...]:
+    """Every beginning of `name` that ends at a word break ('_' or a lower→upper case change), and the name."""
+    cuts = [m.start() for m in _WORD_BREAK.finditer(name) if m.start() > 0]
+    return tuple(dict.fromkeys([name[:c] for c in cuts] + [name]))
+
+
+def device_names(chain: SubChain) -> tuple[str, ...]:
+    """The device names offered for a sensor sub-chain: beginnings of its leaf's name that do not
+    also begin its mount's name (the leaf's full name is always offered)."""
+    place = set(name_prefixes(chain.root))
+    return tuple(p for p in name_prefixes(chain.leaf) if p not in place or p == chain.leaf)
+
+
+def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    if set(a.links) & set(b.links) or a.root in b.links or b.root in a.links:
+        return True
+    if a.root != b.root:
+        return False
+    housing_a, housing_b = _housing(tree, a), _housing(tree, b)
+    return housing_a is None or housing_b is None or _side_by_side(tree, a.root, housing_a, housing_b)
+
+
+def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
+    """The sub-chain's first link with geometry: its body, where it has one; else its first link below the mount
+    when that is not the leaf: the device's own bare frame, which its other frames hang from."""
+    body = next((link for link in chain.links if link in tree.evidence and not is_frame(tree, link)), None)
+    own = chain.links[0] if len(chain.links) > 1 else None  # links run from the mount's child down to the leaf
+    return body or own
+
+
+def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
+    """Links `a` and `b`, at the zero pose in their mount's frame, lie within DEVICE_SPAN and face the
+    same way (the same x and z axes)."""
+    def axes(link: str) -> list[tuple[float, ...]]:
+        origin = tree.position_in(link, mount)
+        return [tuple(p - o for p, o in zip(tree.position_in(link, mount, unit), origin))
+                for unit in ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0))]
+    near = math.dist(tree.position_in(a, mount), tree.position_in(b, mount)) <= DEVICE_SPAN
+    return near and all(sum(x * y for x, y in zip(u, v)) >= ALIKE for u, v in zip(axes(a), axes(b)))
+
+
+def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """The two leaves are frames of one body (frames.body_of) that lies inside both sub-chains."""
+    body = body_of(tree, a.leaf, b.leaf)
+    return body is not None and body in a.links and body in b.links
+
+
+def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str]) -> bool:
+    """The two leaves are frames of one body and one of them was called a vision sensor: the other is the camera's
+    own inertial, magnetic or temperature frame, or its model frame, which belongs to the camera whatever it
+    measures (ontology.md: a camera's own inertial frames belong to it)."""
+    return VISION in (categories[a.leaf], categories[b.leaf]) and _one_body(tree, a, b)
+
+
+def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
+    """Frames of one body (frames.body_of) that the model mounted apart, some on a link above the body and some on
+    the body or below it, all mounted on the highest of those mounts above the body: the body is then
+    inside every chain, and group merging binds them into one device. Where the model mounted them all on the body
+    or below it and the body is a bare frame fixed to its parent (a camera's own `camera_link` with colour, depth
+    and infrared frames below it), that frame is the device's own: they are mounted on its parent."""
+    out = {c.leaf: c for c in chains}
+    bodies = [(a.leaf, b.leaf, body) for i, a in enumerate(chains) for b in chains[:i]
+              if (body := body_of(tree, a.leaf, b.leaf)) is not None]
+    moved = True
+    while moved:  # each move only raises a mount: this ends
+        moved = False
+        for a, b, body in bodies:
+            above = tree.chain_to_root(body)[1:]
+            mounts = [out[leaf].root for leaf in (a, b) if out[leaf].root in above]
+            if mounts and out[a].root != out[b].root:
+                top = max(mounts, key=above.index)
+                out[a], out[b] = sub_chain(tree, a, top), sub_chain(tree, b, top)
+                moved = True
+    for body in dict.fromkeys(body for _, _, body in bodies):  # a bare frame the device's frames all hang from
+        bound = {leaf for a, b, on in bodies if on == body for leaf in (a, b)}
+        if is_frame(tree, body) and tree.parent(body) is not None and not tree.edge_to(body).movable \
+                and all(body in tree.chain_to_root(out[leaf].root) for leaf in bound):
+            out.update((leaf, sub_chain(tree, leaf, tree.parent(body))) for leaf in bound)  # type: ignore[arg-type]
+    return [out[c.leaf] for c in chains]
+
+
+def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    meet = fork_of(tree, [a.leaf, b.leaf])
+    return meet in a.links or meet in b.links or meet == a.root == b.root
+
+
+def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str, categories: dict[str, str],
+          progress: Progress | None = None) -> list[Group]:
+    """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category."""
+    if kind == END_EFFECTOR:
+        same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
+    else:
+        could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories)) and _near(tree, a, b)
+                  for j, b in enumerate(chains)]
+                 for i, a in enumerate(chains)]
+        bound = [[could[i][j] and _one_body(tree, a, b) for j, b in enumerate(chains)] for i, a in enumerate(chains)]
+        joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
+        device = _device_names(oracle, chains, joinable, partition(range(len(chains)), lambda i, j: bound[i][j]),
+                               progress)
+        same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
+                for i in range(len(chains))]
+    groups = [Group([chains[i] for i in members])
+              for members in partition(range(len(chains)), lambda i, j: same[i][j])]
+    if kind == END_EFFECTOR:
+        for group in groups:
+            group.chains = _one_mount(tree, group.chains)
+    return groups
+
+
+def _device_names(oracle: Oracle, chains: list[SubChain], joinable: list[bool], devices: list[list[int]],
+                  progress: Progress | None) -> list[str]:
+    """Each sub-chain's device name as the model gives it. Only a chain that could join another (one
+    near it, of its category) is asked: for the others no answer changes the partition, so their own
+    leaf name stands. The chains of one device by structure (`devices`, frames of one body) are one device,
+    so the first that could join another is asked for all of them."""
+    names = [c.leaf for c in chains]
+    asked = [(members, first) for members in devices
+             if (first := next((i for i in members if joinable[i]), None)) is not None]
+    verdicts = ask(oracle, [device_name_question(chains[i].leaf, device_names(chains[i])) for _, i in asked],
+                   "group merging", progress)
+    for (members, first), verdict in zip(asked, verdicts):
+        for j in members:
+            names[j] = verdict.answer or chains[first].leaf
+    return names
+
+
+def _one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
+    """Re-mount a tool's chains on the deepest named mount that is an ancestor of every leaf."""
+    carrying = [c.root for c in chains if all(c.root in tree.chain_to_root(x.leaf)[1:] for x in chains)]
+    if not carrying:
+        return chains
+    mount = max(carrying, key=lambda r: len(tree.chain_to_root(r)))
+    return [sub_chain(tree, c.leaf, mount) for c in chains]

@@ -1,0 +1,79 @@
+"""Stage 1, identification: which kind of component (if any) each leaf link belongs to.
+
+Alike leaves (pipeline.abstraction.alike.alike_leaves: the fingers of a hand, mirrored limbs, a quadruped's feet)
+are asked once, the first standing for all, and all get its answer: four
+identical fingers can no longer become four different things, and fewer questions are asked. A leaf
+that names a catalogue product which is no component (a fiducial marker) is settled without a question.
+Where the robot's structure rules a kind out for a leaf (no end effector where a limb goes on from the leaf's
+body: hands.limb_goes_on), the question stays the same for every leaf, so its system text is shared, and
+the answer is the option with the most votes among those left."""
+from __future__ import annotations
+
+from typing import Callable
+
+from urdfkb.pipeline.abstraction.catalogue import Product, catalogue
+from urdfkb.pipeline.abstraction.oracle import Oracle, Verdict
+from urdfkb.pipeline.knowledge.ontology import Vocabulary
+from urdfkb.pipeline.abstraction.prompts import NONE, Choice, kind_choice
+from urdfkb.pipeline.abstraction.alike import alike_sets
+from urdfkb.pipeline.reading.tree import KinematicTree
+from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
+
+
+def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
+    """The catalogue product the first of `links` names (its name, then its meshes), or failing that the
+    link the last of them is fixed to (a frame of a camera body whose mesh names the camera)."""
+    edge = tree.parent_edge(links[-1])
+    above = [edge.parent] if edge is not None and not edge.movable else []
+    for link in [*links, *above]:
+        facts = tree.evidence.get(link)
+        if product := catalogue().match([link, *(facts.meshes if facts else ())]):
+            return product
+    return None
+
+
+def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str],
+             progress: Progress | None = None, log: Callable[[str], None] | None = None,
+             ruled_out: dict[str, frozenset[str]] | None = None) -> dict[str, tuple[str, float]]:
+    """Map each leaf to a direct subclass of Component, or prompts.NONE (also for an abstention), with
+    the share of the votes the answer had. A leaf naming a catalogue product that the ontology does not
+    place under Component (a fiducial marker) is part of none, unasked: no kind is left to offer; one naming
+    a component (a suction gripper's tip frame) is of that kind or none, whatever else the votes prefer.
+    `ruled_out`: leaf → the kinds its structure rules out (never answered for it)."""
+    kinds = tax.subclasses(tax.component)
+    ruled = dict(ruled_out or {})
+    groups, settled = [], {}
+    for group in alike_sets(tree, leaves, lambda a, b: ruled.get(a) == ruled.get(b)):
+        product = named_product(tree, [group[0]])
+        if product is not None and product.cls in tax and not tax.is_a(product.cls, tax.component):
+            if log:
+                log(f"{group}: {product.label}, a {tax.label(product.cls)}: part of no component")
+            settled.update({leaf: (NONE, 1.0) for leaf in group})
+        else:
+            groups.append((group, product))
+            if product is not None and product.cls in tax:  # a named product's kind rules the other kinds out
+                ruled.update({leaf: ruled.get(leaf, frozenset()) | {k for k in kinds if not tax.is_a(product.cls, k)}
+                              for leaf in group})
+    choices = [
+        kind_choice(tax, kinds, group[0], tree.chain_to_root(group[0])[1:], tree.edge_to(group[0]).joint_type, product)
+        for group, product in groups
+    ]
+    verdicts = ask(oracle, [c.question for c in choices], "identification", progress)
+    answers = dict(settled)
+    for (group, _), c, v in zip(groups, choices, verdicts):
+        kind, share = _allowed(c, v, ruled.get(group[0], frozenset()))
+        if log and kind != c.meant(v.answer, NONE):
+            log(f"{group}: {c.meant(v.answer, NONE)} ruled out by structure: {kind} ({share:.2f})")
+        answers.update({leaf: (kind, share) for leaf in group})
+    return answers
+
+
+def _allowed(choice: Choice, verdict: Verdict, ruled: frozenset[str]) -> tuple[str, float]:
+    """The answer the votes give among the options not `ruled` out, with its share."""
+    answer = choice.meant(verdict.answer, NONE)
+    if answer not in ruled:
+        return answer, verdict.confidence
+    shares = {choice.meant(option, NONE): share for option, share in verdict.distribution.items()}
+    left = {kind: share for kind, share in shares.items() if kind not in ruled}
+    best = max(left, key=left.__getitem__, default=NONE)
+    return best, left.get(best, 0.0)

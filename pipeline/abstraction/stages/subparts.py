@@ -1,0 +1,136 @@
+"""Stage 7, sub-part typing: every member link of a device typed in its kind's Subpart branch.
+
+A device whose class ontologies/shapes.ttl requires a part of (a camera: an optical frame; a sensor
+forming no images: a sensing element) has one at each of its sub-chains' leaves: a sensor chain runs
+from its mount to the frame its measurements are expressed in, and nothing hangs below that frame.
+Those leaves are refined below the required part (core:partQuestion asks which kind, where it has
+kinds); the device's other links are typed with that part's branch ruled out, and a tool's links
+with what its finger chains rule out (core:fingerChainRole). Alike links asked the same are asked once.
+A device of several sub-chains has its required parts typed first (required_parts_first), before its own
+class, which they then narrow (the frames say the camera, not the camera the frames); those answers are
+kept here where the class the device got still allows them.
+"""
+from __future__ import annotations
+
+from urdfkb.pipeline.reading.evidence import named
+from urdfkb.pipeline.knowledge.ontology import Kind, Vocabulary
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.stages.asking import Progress
+from urdfkb.pipeline.abstraction.stages.classification import Subject, Typed, descend
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.alike import alike_sets
+from urdfkb.pipeline.abstraction.structure import ToolStructure
+from urdfkb.pipeline.reading.tree import KinematicTree
+
+
+def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
+                  classes: list[Typed], structures: list[ToolStructure] | None = None,
+                  progress: Progress | None = None, known: dict[str, Typed] | None = None) -> dict[str, Typed]:
+    """Each member link of `groups` (devices of `kind`, classified as `classes`) → its sub-part class;
+    `structures`: the tools' structures (end-effectors only); `known`: required parts typed before the device
+    was (required_parts_first), kept."""
+    needed = _required_links(tax, groups, classes)
+    kept = {link: t for link, t in (known or {}).items()
+            if link in needed and t.cls not in tax.excluded_parts(needed[link])}  # still fits its device's class
+    required = {link: cls for link, cls in needed.items() if link not in kept}
+    framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
+    structural = _structural_parts(tax, tree, kind, groups, structures)
+    rest = [
+        (link, Subject(f"part:{link}", framing,
+                       f"Link: {named(tree.evidence, link)}\nDevice: {tax.label(t.cls)}",
+                       tax.excluded_parts(t.cls) | _required_branch(tax, t.cls) | structural.get(link, frozenset())))
+        for g, t in zip(groups, classes) for link in g.members if link not in needed
+    ]
+    frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
+    for link, device in required.items():
+        part = tax.required_part(device)
+        if part is None:
+            raise ValueError(f"{device} requires no sub-part, yet {link} is typed as its required one")
+        frames.setdefault(part, []).append((link, _required_subject(tax, tree, link, device, part,
+                                                                     tax.excluded_parts(device))))
+    typed = _descend_alike(oracle, tax, tree, kind.subparts, rest, "sub-part classification", progress)
+    for part, subjects in frames.items():
+        typed.update(_descend_alike(oracle, tax, tree, part, subjects, "required parts", progress))
+    return typed | kept
+
+
+def required_parts_first(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str], device: str,
+                         progress: Progress | None = None) -> dict[str, Typed]:
+    """The kind of the part a `device` class requires (a camera: an optical frame) at each of `leaves`, asked
+    before the device's own class, with nothing ruled out: what the frames are then says which classes the
+    device can be (Vocabulary.unfit). Empty when that part has no kinds to choose among."""
+    part = tax.required_part(device)
+    if part is None or not tax.subclasses(part):
+        return {}
+    subjects = [(leaf, _required_subject(tax, tree, leaf, device, part, frozenset())) for leaf in leaves]
+    return _descend_alike(oracle, tax, tree, part, subjects, "required parts", progress)
+
+
+def _required_subject(tax: Vocabulary, tree: KinematicTree, link: str, device: str, part: str,
+                      exclude: frozenset[str]) -> Subject:
+    """Which kind of `part` (the part a `device` requires) `link` is."""
+    holder = tax.label(tax.requiring_class(device) or device)
+    return Subject(f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
+                   f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}", exclude)
+
+
+def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: str,
+                   subjects: list[tuple[str, Subject]], stage: str, progress: Progress | None) -> dict[str, Typed]:
+    """Each link's class below `start`; alike links (alike.alike_leaves: the same link of a left and a
+    right gripper) asked the same about the same kind of device are asked once, the first standing for all."""
+    by_link = dict(subjects)
+    sets = alike_sets(tree, list(by_link), lambda a, b: _same_question(by_link[a], by_link[b]))
+    answers = descend(oracle, tax, start, [by_link[links[0]] for links in sets], stage, progress)
+    return {link: typed for links, typed in zip(sets, answers) for link in links}
+
+
+def _same_question(a: Subject, b: Subject) -> bool:
+    """The two subjects differ in their link's name at most (the first line of their evidence)."""
+    return (a.framing, a.exclude, a.evidence.split("\n", 1)[1:]) == (b.framing, b.exclude, b.evidence.split("\n", 1)[1:])
+
+
+def _required_links(tax: Vocabulary, groups: list[Group], classes: list[Typed]) -> dict[str, str]:
+    """The leaf of each sub-chain of a device whose class requires a part → the device's class."""
+    return {chain.leaf: t.cls for g, t in zip(groups, classes) if tax.required_part(t.cls) is not None
+            for chain in g.chains}
+
+
+def _required_branch(tax: Vocabulary, cls: str) -> frozenset[str]:
+    """The branch of the part a `cls` device requires (typed separately), or nothing."""
+    part = tax.required_part(cls)
+    return tax.branch(part) if part else frozenset()
+
+
+def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
+                      structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
+    """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
+    a finger chain is a finger or its contact surface, and only the latter where it is a leaf fixed to the
+    finger (a pad or tip frame: a finger is jointed); so is a link moved by a joint that does not spin in a
+    tool with no finger chain (the jaw of a one-jaw gripper, closing against the fixed body; a spindle or
+    rotor spins: Edge.spins); any other link is no finger,
+    nor a palm if it is a leaf (nothing extends from it) or the tool has fingers and none hangs from it.
+    (Nothing for sensors.)"""
+    if structures is None:
+        return {}
+    finger, carrier, tip = (tax.finger_chain_role(role) for role in ("link", "carrier", "tip"))
+    on_finger = frozenset(set(tax.subclasses_below(kind.subparts)) - finger - tip)
+    excluded = {}
+    for group, structure in zip(groups, structures):
+        fingers = {link for f in structure.fingers for link in f.links}
+        jaws = set() if fingers else {link for link in group.members if _jaw(tree, link, structure.mount)}
+        carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
+        for link in group.members:
+            if link in fingers or link in jaws:
+                fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable
+                excluded[link] = on_finger | (finger if fixed_tip else frozenset())
+            elif (fingers and link not in carriers) or tree.is_leaf(link):
+                excluded[link] = finger | carrier
+            else:
+                excluded[link] = finger
+    return excluded
+
+
+def _jaw(tree: KinematicTree, link: str, mount: str) -> bool:
+    """A movable joint that does not spin lies between `mount` and `link`."""
+    path = tree.chain_to_root(link)
+    return mount in path and any((e := tree.edge_to(x)).movable and not e.spins for x in path[:path.index(mount)])

@@ -1,0 +1,136 @@
+"""Stage 6 for end-effectors: extent and mount by structure, after verification (pipeline.abstraction.structure defines the facts).
+
+The model's mount choices only group a tool's leaves; the tool itself is then settled from the tree:
+- a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent
+  moving joints (a caster on a base), or whose mount carries an arm beside the tool (a cover half-way
+  up an arm), is no tool; unless nothing moving carries it and its fingers close against each
+  other: a gripper or hand described on its own;
+- a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
+  ARM_JOINTS independent moving joints reaching at least ARM_REACH of the fork's distance from the
+  root, and at least ARM_MIN_REACH from its own first joint: an arm, not a finger of four joints) is
+  split at that fork;
+- the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
+  never above the arm's last moving link: links above that mount leave the tool;
+- the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
+  every static frame on its palm; where the fingers hang straight on the arm's last link (the
+  mount), only static frames identified as end-effector parts join;
+- groups that end up on one mount are one tool.
+A sensor device found in the sensor pass is no longer in the tree, so it is never part of a tool;
+the link it is mounted on may be (a camera on a palm).
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+from urdfkb.pipeline.abstraction.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.verification import Log
+
+ARM_JOINTS = 4  # independent moving joints in series that make an arm, if long enough (ARM_REACH)
+ARM_REACH = 0.5  # share of the distance from the root that a chain of ARM_JOINTS must reach to be an arm
+ARM_MIN_REACH = 0.2  # m from its first joint, and at least this: farther than a wrist with its hand or any finger reaches
+
+
+def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str], bool],
+           log: Log) -> list[tuple[Group, ToolStructure]]:
+    """Split, re-mount and complete verified tool groups; `part_of_tool(leaf)`: the leaf was identified
+    as part of an end-effector."""
+    pending: list[list[str]] = [part.leaves for g in groups for part in _split_arms(tree, g, log)]
+    done: list[tuple[list[str], ToolStructure, set[str]]] = []
+    while pending:
+        leaves = pending.pop(0)
+        structure = tool_structure(tree, leaves)
+        links = _extent(tree, structure, leaves, part_of_tool)
+        clash = [d for d in done if set(d[0]) & links or set(leaves) & d[2] or d[1].mount == structure.mount]
+        if clash:  # this group lies on a tool already settled, or that tool on it: one tool, settled again
+            done = [d for d in done if d not in clash]
+            pending.append(leaves + [x for d in clash for x in d[0] if x not in leaves])
+            continue
+        done.append((leaves, structure, links))
+    settled = []
+    for leaves, structure, links in done:
+        mount = structure.mount
+        alone = _joints_above(tree, mount) == 0 and structure.grasps()
+        if (_joints_above(tree, mount) < 2 and not alone) or any(
+                _carries_arm(tree, child) for child in tree.children(mount) if child not in links):
+            log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
+            continue
+        tool_leaves = [link for link in tree.links if link in links and tree.is_leaf(link)]
+        group = Group([sub_chain(tree, leaf, mount) for leaf in tool_leaves])
+        group.absorbed = [link for link in tree.links if link in links and link not in set(group.members)]
+        added = [x for x in tool_leaves if x not in leaves]
+        log(f"tool {tool_leaves} mounted on {mount} (fork {structure.fork}): {structure.describe()}"
+            + (f"; joined by structure: {added}" if added else ""))
+        settled.append((group, structure))
+    return sorted(settled, key=lambda gs: tree.links.index(gs[0].chains[0].leaf))
+
+
+def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
+    """The group, or its leaves split by the fork's children when one of them carries an arm."""
+    if len(group.leaves) < 2:
+        return [group]
+    fork = fork_of(tree, group.leaves)
+    if not any(_carries_arm(tree, child) for child in tree.children(fork)):
+        return [group]
+    parts: dict[str, list[str]] = {}
+    for leaf in group.leaves:
+        path = tree.chain_to_root(leaf)
+        parts.setdefault(path[path.index(fork) - 1] if leaf != fork else leaf, []).append(leaf)
+    log(f"split {group.leaves} at {fork}: an arm hangs below it")
+    return [p for leaves in parts.values() for p in _split_arms(tree, Group([sub_chain(tree, x, fork) for x in leaves]), log)]
+
+
+def _joints_above(tree: KinematicTree, link: str) -> int:
+    """Independent moving joints (no <mimic>) between the tree's root and `link`, its own included."""
+    edges = (tree.edge_to(x) for x in tree.chain_to_root(link)[:-1])
+    return sum(e.independent for e in edges)
+
+
+def _carries_arm(tree: KinematicTree, top: str) -> bool:
+    """`top` and what hangs below it make an arm: a serial chain of at least ARM_JOINTS independent
+    moving joints that reaches at least ARM_REACH of the distance from the tree's root to `top`'s parent
+    (a finger of four joints, as on many hands, is short beside the arm that carries it), and at least
+    ARM_MIN_REACH from `top` (where nothing carries the hand, there is no arm to compare with)."""
+    if _serial_joints(tree, top) < ARM_JOINTS:
+        return False
+    parent = tree.edge_to(top).parent
+    below = (top, *tree.descendants(top))
+    reach = max(_norm(tree.position_in(link, parent)) for link in below)
+    length = max(_norm(tree.position_in(link, top)) for link in below)
+    return reach >= ARM_REACH * _norm(tree.position_in(parent, tree.root)) and length >= ARM_MIN_REACH
+
+
+def _norm(v) -> float:
+    return math.sqrt(sum(x * x for x in v))
+
+
+def _serial_joints(tree: KinematicTree, top: str) -> int:
+    """Most independent moving joints (no <mimic>) on one path from `top` (its own joint included) down."""
+    def count(link: str) -> int:
+        own = int(tree.edge_to(link).independent)
+        return own + max((count(c) for c in tree.children(link)), default=0)
+    return count(top)
+
+
+def _extent(tree: KinematicTree, structure: ToolStructure, leaves: list[str],
+            part_of_tool: Callable[[str], bool]) -> set[str]:
+    """The tool's links: the fork's branch below the mount, closed downwards (module docstring)."""
+    fork, mount = structure.fork, structure.mount
+    moving = {f.name for f in structure.fingers} | set(structure.mechanisms)
+    links: set[str] = set()
+    for child in tree.children(mount):
+        branch = (child, *tree.descendants(child))
+        if fork != mount and fork not in branch:
+            continue  # the mount carries other things beside the tool
+        if fork == mount and not _hangs_moving(tree, branch, moving) and not any(
+                part_of_tool(x) or x in leaves for x in branch if tree.is_leaf(x)):
+            continue  # a static frame on the arm's last link that was not called part of the tool
+        links.update(branch)
+    return links
+
+
+def _hangs_moving(tree: KinematicTree, branch: tuple[str, ...], moving: set[str]) -> bool:
+    return any(link in moving for link in branch)

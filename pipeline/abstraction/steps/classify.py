@@ -1,0 +1,219 @@
+"""Device and sub-part classes: each sub-chain's class (pre-classification), a device's class from its
+members' (post-classification), numbered units, and each member link's sub-part class
+(stages.classification, stages.subparts)."""
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from urdfkb.pipeline.reading.evidence import LinkEvidence, named
+from urdfkb.pipeline.abstraction.passes import step
+from urdfkb.pipeline.abstraction.prompts import product_text
+from urdfkb.pipeline.abstraction.stages.attachment import SubChain
+from urdfkb.pipeline.abstraction.stages.classification import Subject, descend
+from urdfkb.pipeline.abstraction.stages.grouping import VISION, Group
+from urdfkb.pipeline.abstraction.stages.identification import named_product
+from urdfkb.pipeline.abstraction.stages.sensor_check import MAJORITY
+from urdfkb.pipeline.abstraction.stages.subparts import required_parts_first, type_subparts
+from urdfkb.pipeline.abstraction.stages.verification import indexed_units
+from urdfkb.pipeline.abstraction.steps.context import Context
+from urdfkb.pipeline.abstraction.steps.devices import category
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.abstraction.alike import alike_sets
+from urdfkb.pipeline.abstraction.frames import viewpoints
+from urdfkb.pipeline.reading.tree import KinematicTree
+
+MAX_FACTS = 3  # links of a chain shown with their facts
+_NO_FACTS = LinkEvidence()
+
+
+def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) -> Subject:
+    """A sub-chain to pre-classify below `cls`: its links, their facts, what a declaration rules out.
+
+    Declared simulator sensors speak here only by narrowing the options: shown as words (type, plugin,
+    ray counts) they pull a small model off the right class (a 'depth' declaration or a 'depth_camera'
+    plugin towards depth camera for RGB-D and monocular cameras, ray counts towards lidar for sonars),
+    while identification gains from them."""
+    key = f"pre:{chain.leaf}"
+    ruled_out = _ruled_out(ctx, tree, chain.links, cls, key)
+    with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
+    shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
+    between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
+    product = product_text(ctx.vocab, named_product(tree, list(reversed(chain.links))), cls)
+    return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
+
+
+def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: str, key: str) -> frozenset[str]:
+    """Classes under `below` that the simulator sensors declared on `links` rule out: by their type (the
+    ontology's core:simulatorSensorType alignment) and by the span a ray sensor sweeps
+    (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar); each narrowing is
+    counted and logged."""
+    vocab = ctx.vocab
+    sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
+    types = {s.type for s in sensors}
+    declared = vocab.declared_classes(types)
+    ruled_out = vocab.disagreeing(declared, below)
+    spans = [s.fov for s in sensors if s.fov is not None and s.samples is not None]  # ray sensors' sweeps
+    narrow = vocab.too_narrow(max(spans), below) - ruled_out if spans else frozenset()
+    if ruled_out or narrow:
+        ctx.tally.declared += 1
+        ctx.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}"
+                + (f"; sweeping {max(spans):.2f} rad, not {sorted(narrow)}" if narrow else ""))
+    return ruled_out | narrow
+
+
+@step("pre-classification", needs=("chains",), makes=("pre",))
+def pre_classification(ctx: Context, found: Findings) -> None:
+    """Each sub-chain's class below the pass's kind; alike leaves (structure.alike_leaves) whose declarations
+    rule out the same classes are asked once, the first standing for all."""
+    kind = ctx.device_kind
+    subjects = {c.leaf: chain_subject(ctx, ctx.tree, c, kind.cls) for c in found.chains}
+    sets = alike_sets(ctx.tree, list(subjects), lambda a, b: subjects[a].exclude == subjects[b].exclude)
+    typed = descend(ctx.oracle, ctx.vocab, kind.cls, [subjects[leaves[0]] for leaves in sets],
+                    "pre-classification", ctx.progress)
+    by_leaf = {leaf: t for leaves, t in zip(sets, typed) for leaf in leaves}
+    found.pre = {c.leaf: by_leaf[c.leaf] for c in found.chains}
+
+
+@step("built-in frames", needs=("chains", "pre"), makes=("pre",))
+def built_in_frames(ctx: Context, found: Findings) -> None:
+    """A frame of a kind that devices of other kinds carry inside (Vocabulary.built_in: a lidar's or a
+    camera's own IMU), alone below a housing link of its chain, is a part of the device that housing is:
+    the housing is classified as a link of its own, and a sensor kind that is not built in, reached with
+    the majority of the votes, becomes the chain's pre-class (the ontology spec: a device's own inertial
+    frames belong to it; a bracket the model cannot place leaves the frame an IMU of its own)."""
+    kind, vocab, tree, pre = ctx.device_kind, ctx.vocab, ctx.tree, found.pre
+    hosted = [c for c in found.chains if len(c.links) > 1 and vocab.built_in(pre[c.leaf].cls)
+              and [link for link in tree.descendants(c.links[-2]) if tree.is_leaf(link)] == [c.leaf]]
+    if not hosted:
+        return
+    housings = [SubChain(c.links[-2], c.root, c.links[:-1]) for c in hosted]
+    typed = descend(ctx.oracle, vocab, kind.cls, [chain_subject(ctx, tree, h, kind.cls) for h in housings],
+                    "pre-classification", ctx.progress)
+    for c, h, t in zip(hosted, housings, typed):
+        if t.cls != kind.cls and not vocab.built_in(t.cls) and t.confidence > MAJORITY:
+            ctx.log(f"pre:{c.leaf}: the built-in {vocab.label(pre[c.leaf].cls)} of {h.leaf}, a {t.cls}")
+            pre[c.leaf] = t
+
+
+@step("post-classification", needs=("groups", "pre"), makes=("post", "parts"))
+def post_classification(ctx: Context, found: Findings) -> None:
+    """Multi-chain groups descend again from what their members share; a lone chain keeps its class,
+    unless where its frames see from rules that class out (below).
+
+    The descent starts at the deepest class common to the members' pre-classes (a camera's: its imaging
+    frames', not its own inertial or model frames'), or one level
+    above it when that is a leaf class, so that siblings stay open (several sonar frames may
+    still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
+    Where a device's optical frames see from (structure.viewpoints) rules classes out by the
+    ontology's core:viewpointCount definitions (a monocular camera sees from one place, a stereo camera
+    from two), they are not offered; a lone chain's pre-class so ruled out descends again from its parent.
+    Nor are the classes the number of its sensing frames rules out (core:elementCount: a tactile sensor is
+    one pad, a microphone one capsule; several read as one device are an array).
+    """
+    top, vocab, tree, pre = ctx.device_kind.cls, ctx.vocab, ctx.tree, found.pre
+    typed = {id(g): pre[g.leaves[0]] for g in found.groups}
+    by_start: dict[str, list[Group]] = {}
+    views = {id(g): viewpoints(tree, g.leaves) for g in found.groups}
+    counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
+                   for g in found.groups}  # by where its frames see from, and by how many there are
+    for g in found.groups:
+        if len(g.chains) > 1:
+            by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in _imaging(ctx, found, g)}, top),
+                                []).append(g)
+        elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)]:
+            ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
+            by_start.setdefault(vocab.parents(cls)[0], []).append(g)
+    for start, members in by_start.items():
+        unfit = _frames_first(ctx, found, [g for g in members if len(g.chains) > 1], start)
+        results = descend(ctx.oracle, vocab, start, [
+            Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
+                    "Frames: " + "; ".join(f"{leaf} ({vocab.label(pre[leaf].cls)})" for leaf in g.leaves),
+                    _ruled_out(ctx, tree, g.members, start, f"post:{g.leaves[0]}") | counted_out[id(g)]
+                    | unfit.get(id(g), frozenset()))
+            for g in members
+        ], "post-classification", ctx.progress)
+        typed.update({id(g): t for g, t in zip(members, results)})
+    found.post = [typed[id(g)] for g in found.groups]
+
+
+def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str) -> dict[int, frozenset[str]]:
+    """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
+    each leaf of `groups` first (into `found.parts`), and each group is not offered the classes under `start`
+    that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
+    camera, a depth frame no monocular camera), except the class of a catalogue product the device names where
+    only a part it needs is missing. Only for devices of several frames: a lone link may stand
+    for a whole camera (a RealSense written as one link), and its one answer cannot show colour and depth
+    together."""
+    if not groups:
+        return {}
+    leaves = [leaf for g in groups for leaf in _imaging(ctx, found, g)]
+    frames = required_parts_first(ctx.oracle, ctx.vocab, ctx.tree, leaves, start, ctx.progress)
+    if not frames:
+        return {}
+    found.parts.update(frames)
+    unfit = {}
+    for g in groups:
+        kinds = frozenset(frames[leaf].cls for leaf in _imaging(ctx, found, g))
+        ruled = ctx.vocab.unfit(kinds, start)
+        kept = {c for c in _named_classes(ctx, g) if not kinds & ctx.vocab.excluded_parts(c)}
+        unfit[id(g)] = ruled - kept
+        if unfit[id(g)]:
+            ctx.log(f"post:{g.leaves[0]}: frames {sorted(kinds)}, so no {', '.join(sorted(unfit[id(g)]))}")
+    return unfit
+
+
+def _named_classes(ctx: Context, g: Group) -> frozenset[str]:
+    """The class of the catalogue product the device's links name, and the classes above it: a part they need that
+    no frame was typed as does not rule them out (the small model calls a product's monochrome stereo pair
+    colour); a frame typed as a part they exclude still does (a depth frame, no stereo camera)."""
+    product = next((p for c in g.chains if (p := named_product(ctx.tree, list(reversed(c.links)))) is not None), None)
+    if product is None or product.cls not in ctx.vocab:
+        return frozenset()
+    return frozenset({product.cls, *ctx.vocab.ancestors(product.cls)})
+
+
+def _imaging(ctx: Context, found: Findings, g: Group) -> list[str]:
+    """The leaves that say what a device is: where some of its frames were called vision sensors and others
+    not (a camera's own inertial and model frames, bound to it by group merging), the former; else all."""
+    top = ctx.device_kind.cls
+    seeing = [leaf for leaf in g.leaves if category(ctx, found.pre[leaf].cls, top) == VISION]
+    return seeing or g.leaves
+
+
+def _shared_class(ctx: Context, classes: set[str], top: str) -> str:
+    """The deepest class every one of `classes` falls under (at most `top`), lifted off a leaf."""
+    vocab = ctx.vocab
+    common = [c for c in (top, *vocab.subclasses_below(top)) if all(vocab.is_a(x, c) for x in classes)]
+    deepest = max(common, key=lambda c: len(vocab.ancestors(c)))
+    return vocab.parents(deepest)[0] if vocab.is_leaf(deepest) and deepest != top else deepest
+
+
+@step("numbered units", needs=("groups", "pre", "post"), makes=("groups", "post"))
+def numbered_units(ctx: Context, found: Findings) -> None:
+    """Numbered units of one type given one device name are separate devices unless the
+    device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
+    groups, post = [], []
+    for g, t in zip(found.groups, found.post):
+        if len(g.chains) > 1 and not ctx.vocab.has_numbered_units(t.cls) and indexed_units(ctx.tree, g):
+            ctx.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
+            groups += [Group([c]) for c in g.chains]
+            post += [found.pre[c.leaf] for c in g.chains]
+        else:
+            groups.append(g)
+            post.append(t)
+    found.groups, found.post = groups, post
+
+
+@step("sub-part typing", needs=("groups", "post", "parts"), makes=("parts",))
+def subpart_typing(ctx: Context, found: Findings) -> None:
+    """Each member link's sub-part class; the required parts post-classification typed first are kept
+    (stages.subparts.type_subparts)."""
+    found.parts = type_subparts(ctx.oracle, ctx.vocab, ctx.tree, ctx.device_kind, found.groups, found.post, None,
+                                ctx.progress, found.parts)
+
+
+@step("sub-part typing", needs=("groups", "post", "structures"), makes=("parts",))
+def tool_subpart_typing(ctx: Context, found: Findings) -> None:
+    """Each tool link's sub-part class, its structure ruling classes out (stages.subparts.type_subparts)."""
+    found.parts = type_subparts(ctx.oracle, ctx.vocab, ctx.tree, ctx.device_kind, found.groups, found.post,
+                                found.structures, ctx.progress)

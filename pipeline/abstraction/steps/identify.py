@@ -1,0 +1,89 @@
+"""Each leaf's kind: identification (what shape settles, the model for the rest), then the sensor pass's
+checks that take leaves back from the sensors (pipeline.abstraction.stages.identification, stages.sensor_check)."""
+from __future__ import annotations
+
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR
+from urdfkb.pipeline.abstraction.passes import step
+from urdfkb.pipeline.abstraction.prompts import NONE
+from urdfkb.pipeline.abstraction.stages.identification import identify
+from urdfkb.pipeline.abstraction.stages.sensor_check import coupled, not_sensors
+from urdfkb.pipeline.abstraction.steps.context import Context
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
+
+
+@step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "loop_frames",
+                               "palms", "declared_sensors"),
+      makes=("leaves", "claims", "shares"))
+def identification(ctx: Context, found: Findings) -> None:
+    """The pass's leaves (not where an earlier pass condensed a device) and each one's kind: from shape and
+    the file's declarations where they settle it, else asked (stages.identification)."""
+    vocab, claims, shares = ctx.vocab, found.claims, found.shares
+    mounts = {c.root for c in found.components}  # where earlier passes condensed their devices
+    found.leaves = [leaf for leaf in ctx.tree.leaves() if leaf not in mounts]
+    tools = vocab.kinds[END_EFFECTOR].cls if END_EFFECTOR in vocab.kinds else None
+    sensors = vocab.kinds[SENSOR].cls if SENSOR in vocab.kinds else None
+    body = vocab.body_part  # what identification calls a leaf of the body
+    body = body if body in vocab.subclasses(vocab.component) else NONE
+    for leaf in found.leaves:
+        if leaf in found.loop_frames and leaf not in claims:
+            ctx.log(f"{leaf}: where a closed kinematic loop is cut (it coincides with a frame across a moving joint)")
+            claims[leaf], shares[leaf] = NONE, 1.0
+        elif tools and leaf in found.hand_mounts and leaf not in claims:
+            claims[leaf], shares[leaf] = tools, 1.0
+        elif leaf in found.declared_sensors and leaf not in claims and sensors:
+            ctx.log(f"{leaf}: the file declares a simulator sensor on it: a sensor")
+            claims[leaf], shares[leaf] = sensors, 1.0
+        elif leaf in found.moving_feet and leaf not in claims:
+            ctx.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
+            claims[leaf], shares[leaf] = body, 1.0
+    unasked = [leaf for leaf in found.leaves if leaf not in claims]
+    ruled = {leaf: frozenset({tools}) for leaf in unasked if tools and leaf in found.off_ends}
+    for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
+        if kind == tools and leaf in found.feet:  # the tip of a leg: part of the body, as the body pass will find
+            ctx.log(f"{leaf}: a foot the robot stands on, not a tool")
+            kind = body
+        claims[leaf], shares[leaf] = kind, share
+    _one_kind_per_body(ctx, found)
+
+
+def _one_kind_per_body(ctx: Context, found: Findings) -> None:
+    """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
+    split them between the device passes' kinds, the kind with the larger sum of vote shares over them
+    takes them all (a hand's leaf, known from structure, counts one). Not on a hand's palm, which carries
+    its tool frames beside its sensors' frames (an IMU)."""
+    devices = {ctx.vocab.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in ctx.vocab.kinds}
+    claims = found.claims
+    claimed = [leaf for leaf in found.leaves if claims.get(leaf) in devices]
+    for frames in frames_of_one_body(ctx.tree, claimed):
+        if len(frames) > 1 and body_of(ctx.tree, frames[0], frames[1]) in found.palms:
+            continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
+        totals: dict[str, float] = {}
+        for leaf in frames:
+            totals[claims[leaf]] = totals.get(claims[leaf], 0.0) + found.shares[leaf]
+        if len(totals) > 1:
+            kind = max(totals, key=totals.__getitem__)
+            ctx.log(f"frames of one body {frames}: all {kind} ({', '.join(f'{k} {v:.2f}' for k, v in totals.items())})")
+            for leaf in frames:
+                claims[leaf] = kind
+
+
+def claimed(ctx: Context, found: Findings) -> set[str]:
+    """The pass's leaves identified as its kind."""
+    return {leaf for leaf in found.leaves if found.claims[leaf] == ctx.device_kind.cls}
+
+
+@step("mimic veto", needs=("leaves", "claims"), makes=("claims",))
+def mimic_veto(ctx: Context, found: Findings) -> None:
+    """A leaf moving on a mimic joint follows another: no sensor (stages.sensor_check.coupled)."""
+    for leaf in coupled(ctx.tree, found.leaves, claimed(ctx, found), ctx.log):
+        found.claims[leaf] = NONE
+
+
+@step("sensor check", needs=("leaves", "claims", "shares"), makes=("claims",))
+def sensor_check(ctx: Context, found: Findings) -> None:
+    """Leaves the model took for sensors on a thin majority, asked again whether they measure
+    (stages.sensor_check.not_sensors)."""
+    sensors = {leaf: found.shares[leaf] for leaf in claimed(ctx, found)}
+    for leaf in not_sensors(ctx.oracle, ctx.tree, found.leaves, sensors, ctx.log, ctx.progress):
+        found.claims[leaf] = NONE

@@ -1,0 +1,48 @@
+"""The shape step: what the robot's shape settles before any question (pipeline.abstraction.structure)."""
+from __future__ import annotations
+
+from urdfkb.pipeline.abstraction.components import SENSOR
+from urdfkb.pipeline.reading.evidence import LinkEvidence
+from urdfkb.pipeline.abstraction.passes import step
+from urdfkb.pipeline.abstraction.steps.context import Context
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.abstraction.hands import feet, hand_mounts, hands, off_limb_ends, palm
+from urdfkb.pipeline.abstraction.frames import loop_closures
+from urdfkb.pipeline.reading.tree import KinematicTree
+
+_NO_FACTS = LinkEvidence()
+
+
+@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "loop_frames", "palms", "declared_sensors"))
+def shape(ctx: Context, found: Findings) -> None:
+    """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
+    end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
+    never tools (a foot that moves on its own joint is the leg's last link: part of the body, unasked), and
+    neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
+    or bodies beside a hand on the link it is mounted on. Frames where a closed loop is cut
+    (structure.loop_closures) are part of no component."""
+    robot = ctx.robot
+    declared = {link for link, facts in robot.evidence.items() if facts.sensors}
+    seen = hands(robot)
+    found.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(seen).items() if leaf not in declared}
+    found.feet = feet(robot)
+    found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
+    found.off_ends = off_limb_ends(robot, seen)
+    found.loop_frames = loop_closures(robot) - declared
+    found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
+    found.declared_sensors = frozenset(leaf for leaf in robot.leaves() if _measures(ctx, robot, leaf))
+    ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
+               "moving_feet": sorted(found.moving_feet),
+               "off_ends": sorted(found.off_ends), "loop_frames": sorted(found.loop_frames)})
+
+
+def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
+    """The file declares on `leaf` a simulator sensor the ontology aligns to a sensor class other than a contact
+    sensor's: a camera, ranging, inertial, force-torque... declaration is made for what measures. (A contact
+    declaration also reports collisions of feet and fingertips, so those are left to the model.)"""
+    vocab = ctx.vocab
+    if SENSOR not in vocab.kinds:
+        return False
+    top, contact = vocab.kinds[SENSOR].cls, vocab.declared_classes(["contact"])  # SDF's sensor type
+    declared = vocab.declared_classes(s.type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
+    return any(vocab.is_a(c, top) and not any(vocab.is_a(c, k) for k in contact) for c in declared)

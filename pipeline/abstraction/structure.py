@@ -1,0 +1,324 @@
+"""Structural facts about a candidate tool, read from the kinematic tree alone (never from names).
+
+- The *fork* of a tool is the lowest common ancestor of its leaves: where its fingers part.
+- A *finger chain* is a subtree hung on the fork's rigid body (the fork and its fixed descendants)
+  by a driven joint, its *drive*: any type but fixed, or a fixed joint a <transmission> drives,
+  moving prismatic (sliding), pivoting (revolute, continuous) or frozen (written fixed, yet driven),
+  whose tip (its deepest link) closes against another chain's tip.
+- Two chains *oppose* when their tips move towards (or away from) each other along the line joining
+  them as the tool closes, or, where the tips coincide, in opposite directions. The line is taken
+  in the plane of the two motions: an offset across both (fingers of unequal length on a radial
+  gripper, a thumb beside the row of fingers) neither brings the tips together nor keeps them apart.
+  A chain closes by its *closing joint*: of the joints that move on their own (the drive, and any
+  other joint following no <mimic>), each moving positively with the joints coupled to it by
+  <mimic>, the one whose motion closes most directly on another chain's tip; a joint that only
+  spreads a finger sideways or turns a thumb about its own length does not (a drive that itself
+  follows another joint moves as that joint moves positively: a jaw mimicking the other with
+  multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
+  as written (open, on most hands), or, where zero lies outside some joint's range, every joint
+  halfway through its range. A driven
+  subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
+  floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
+  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
+- Two chains *move together* when their tips' closing motions are within 60 degrees
+  (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
+- A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
+- The *mount* is the link the tool is bolted to: the fork's parent when the fork is rigidly fixed
+  to it (a palm on a flange), else the fork itself (fingers hung straight on the arm's last moving
+  link). A lone leaf is a point, pad or jaw of the body it hangs from; where nothing else moves from
+  that body, the body is the tool's and the tool is mounted where the body would be (a ball's tip
+  frame: where the ball is bolted; a suction tool's tip frame: where the bodies fixed in series above it, each
+  carrying only the next (its cup, its body), are bolted; a one-jaw gripper's moving jaw: where its fixed jaw is; a frame
+  on a link that moves on its own joint: on that link), else on the body itself (a frame on a
+  torso that carries an arm).
+
+What these facts mean (parallel gripper, thumb, hand...) is not decided here: the ontology's class
+definitions do that, applied by a reasoner (pipeline.knowledge.reasoning).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
+from urdfkb.pipeline.abstraction.vectors import cross, dot, norm, sub, turn, unit
+
+OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
+ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together
+APPROACH = 0.4   # separate tips: share of each tip's motion along the line joining them, with opposite signs
+_PLANE = 0.5     # sine of the angle between two tips' motions above which they span a plane
+_TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
+_STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
+Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
+MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
+
+
+@dataclass(frozen=True)
+class FingerChain:
+    """One finger of a tool: its links (top first), its drive joint and how that joint moves."""
+
+    name: str                 # its first link below the fork
+    links: tuple[str, ...]
+    drive: str                # joint name
+    motion: str               # prismatic | pivoting | frozen
+    joint_types: tuple[str, ...]  # types of the chain's movable joints, top down
+    mimics: str | None        # the finger chain whose joint this one's drive follows
+    opposes: tuple[str, ...]  # the finger chains it closes against
+    moves_with: tuple[str, ...] = ()  # the finger chains whose tips move alongside its own
+
+
+@dataclass(frozen=True)
+class ToolStructure:
+    """The structural facts of one candidate tool."""
+
+    fork: str
+    mount: str
+    fingers: tuple[FingerChain, ...]
+    mechanisms: tuple[str, ...]  # first links of movable subtrees that are not fingers
+
+    def grasps(self) -> bool:
+        """Some of its fingers close against each other."""
+        return any(f.opposes for f in self.fingers)
+
+    def describe(self) -> str:
+        """The facts in a short phrase for the model's questions."""
+        if not self.fingers:
+            return "no moving fingers"
+        motions = sorted({f.motion for f in self.fingers})
+        words = [f"{len(self.fingers)} moving finger{'s' * (len(self.fingers) > 1)} ({', '.join(motions)})"]
+        pairs = sum(len(f.opposes) for f in self.fingers) // 2
+        if pairs:
+            words.append(f"{pairs} opposing pair{'s' * (pairs > 1)}")
+        if any(f.mimics for f in self.fingers):
+            words.append("coupled by mimic joints")
+        return ", ".join(words)
+
+
+def nothing_moves(tree: KinematicTree, structure: ToolStructure, mount: str) -> bool:
+    """Nothing in the tool moves: no finger or mechanism below its fork, and no movable joint between `mount`
+    (where the tool is fixed) and the fork."""
+    if structure.fingers or structure.mechanisms:
+        return False
+    path = tree.chain_to_root(structure.fork)
+    between = path[:path.index(mount)] if mount in path else path
+    return not any(tree.edge_to(link).movable for link in between)
+
+
+def mount_of(tree: KinematicTree, fork: str) -> str:
+    """The link a tool forking at `fork` is bolted to (module docstring); the tree's root carries itself."""
+    edge = tree.parent_edge(fork)
+    if edge is None:
+        return fork
+    if tree.is_leaf(fork):
+        body = edge.parent
+        beside = [link for child in tree.children(body) if child != fork for link in (child, *tree.descendants(child))]
+        return body if any(tree.edge_to(link).movable for link in beside) else mount_of(tree, _top_body(tree, body))
+    return edge.parent if not edge.movable else fork
+
+
+def _top_body(tree: KinematicTree, link: str) -> str:
+    """The highest of the bodies fixed in series above `link`, each carrying only the next (a suction tool's cup,
+    its body): up while the link is fixed to a parent with geometry that carries nothing else."""
+    while (edge := tree.parent_edge(link)) is not None and not edge.movable and len(tree.children(edge.parent)) == 1 \
+            and not is_frame(tree, edge.parent):
+        link = edge.parent
+    return link
+
+
+def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
+    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms."""
+    fork = fork_of(tree, leaves)
+    chains: dict[str, tuple[tuple[str, ...], Edge, str]] = {}
+    for child in moving_children(tree, fork):
+        links = (child, *tree.descendants(child))
+        tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), norm(tree.position_in(link, fork))))
+        chains[child] = (links, tree.edge_to(child), tip)
+    pose = _configuration(tree)
+    bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose) if a in bodies or not bodies else []
+               for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
+    closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
+    opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
+    for a in [a for a in chains if not opposes[a]]:  # a hand written open: its thumb closes on fingers that
+        if (thumb := _thumb_closing(a, motions[a], closing)) is not None:  # curl side by side into the palm
+            closing[a], closed_on = thumb
+            opposes[a] = tuple(dict.fromkeys([*opposes[a], *closed_on]))
+            for b in closed_on:
+                opposes[b] = tuple(dict.fromkeys([*opposes[b], a]))
+    finger_names = [a for a in chains if opposes[a]]
+    alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
+    joint_owner = {tree.edge_to(link).joint: a for a in finger_names for link in chains[a][0]}
+    fingers = tuple(
+        FingerChain(
+            name=a,
+            links=links,
+            drive=drive.joint,
+            motion=MOTIONS[drive.joint_type],
+            joint_types=tuple(e.joint_type for link in links if (e := tree.edge_to(link)).movable),
+            mimics=None if drive.mimic is None or joint_owner.get(drive.mimic) == a else joint_owner.get(drive.mimic),
+            opposes=opposes[a],
+            moves_with=alongside[a],
+        )
+        for a in finger_names
+        for links, drive, _ in [chains[a]]
+    )
+    return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names))
+
+
+def _thumb_closing(a: str, own: list[Motion], closing: dict[str, Motion | None]) -> tuple[Motion, tuple[str, ...]] | None:
+    """The motion by which chain `a`'s tip closes on two or more chains whose tips move together, and those
+    chains: a thumb (the ontology's ThumbChain closes against two or more chains moving together). Fingers
+    written open curl into the palm, across the line to the thumb's tip, so they do not oppose it tip to tip
+    (_approach); the thumb still closes on each of them (_converging). None where no motion of `a` does."""
+    for motion in own:
+        closes_on = [b for b, m in closing.items() if b != a and _converging(motion, m)]
+        together = tuple(b for b in closes_on if any(_alongside(closing[b], closing[c]) for c in closes_on if c != b))
+        if len(together) >= 2:
+            return motion, together
+    return None
+
+
+def _converging(a: Motion | None, b: Motion | None) -> bool:
+    """Tip `a` closes on tip `b`: their relative motion shortens the gap between them at APPROACH or more of a
+    tip's speed, and they do not move alongside each other."""
+    if a is None or b is None or _alongside(a, b):
+        return False
+    (pa, va), (pb, vb) = a, b
+    line = unit(sub(pb, pa))
+    return line is not None and dot(sub(va, vb), line) >= APPROACH
+
+
+def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
+    """A chain's closing motion: of its joints' motions, the one that closes most directly on some
+    other chain's tip (an abduction or a turn about the finger's length rarely does), else its drive's."""
+    rated = [(max((_approach(m, o) for o in others), default=0.0), -i, m) for i, m in enumerate(own)]
+    return max(rated, key=lambda r: r[:2])[2] if rated else None
+
+
+def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float]) -> list[Motion]:
+    """The tip's motion under each joint between the drive and the tip that moves on its own (the drive
+    first, then every joint following no <mimic>, each with the joints coupled to it), where the tip
+    moves at all."""
+    path = tree.chain_to_root(tip)
+    below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.edge_to(link)).independent]
+    return [m for e in [drive, *below] if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose))]
+
+
+def moving_children(tree: KinematicTree, fork: str) -> list[str]:
+    """Links hung by a movable joint on the rigid body the fork belongs to below it (its fixed descendants)."""
+    found, stack = [], list(reversed(tree.children(fork)))
+    while stack:
+        link = stack.pop()
+        if tree.edge_to(link).movable:
+            found.append(link)
+        else:
+            stack.extend(reversed(tree.children(link)))
+    return found
+
+
+def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float]) -> Motion | None:
+    """Where the tip is and the direction it moves in as the drive moves positively, with every joint
+    of the chain coupled to it by <mimic>, all joints at `pose` (None: it does not move)."""
+    point = _in_frame(tree, tip, fork, (0.0, 0.0, 0.0), pose)
+    path = tree.chain_to_root(tip)
+    velocity = (0.0, 0.0, 0.0)
+    for link in path[:path.index(drive.child) + 1]:
+        edge = tree.edge_to(link)
+        if (rate := _coupling(drive, edge)) and (axis := unit(_in_frame(tree, link, fork, edge.axis, pose, True))):
+            if edge.joint_type == "prismatic":
+                part = axis
+            else:  # pivoting, or a driven joint written fixed: a rotation about its declared axis
+                joint = _in_frame(tree, link, fork, (0.0, 0.0, 0.0), pose)
+                part = cross(axis, (point[0] - joint[0], point[1] - joint[1], point[2] - joint[2]))
+            velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
+    if drive.mimic is not None and drive.mimic_multiplier < 0:  # the drive turns against the joint it follows
+        velocity = (-velocity[0], -velocity[1], -velocity[2])
+    if _closes_backwards(drive, pose):
+        velocity = (-velocity[0], -velocity[1], -velocity[2])
+    direction = unit(velocity) if dot(velocity, velocity) >= _STILL else None
+    return None if direction is None else (point, direction)
+
+
+def _closes_backwards(drive: Edge, pose: dict[str, float]) -> bool:
+    """A joint at zero in the pose whose range reaches further below zero than above it: written open, it closes
+    by moving negatively (a finger of range [-1.7, 0], a mirrored thumb of range [-1.0, 0.6])."""
+    if drive.limits is None or drive.mimic is not None or pose.get(drive.joint, 0.0) != 0.0:
+        return False
+    lower, upper = drive.limits
+    return -lower > upper
+
+
+def _configuration(tree: KinematicTree) -> dict[str, float]:
+    """Every joint at zero where zero is within every joint's range (fingers as written, open on most
+    hands), else every joint halfway through its range (0 without limits); mimic joints following their
+    joint."""
+    movable = [e for e in tree.edges if e.movable]
+    at_zero = all(e.limits is None or e.limits[0] <= 0.0 <= e.limits[1] for e in movable)
+    chosen = {e.joint: (0.0 if at_zero or not e.limits else sum(e.limits) / 2) for e in movable}
+    return {e.joint: e.mimic_multiplier * chosen.get(e.mimic, 0.0) if e.mimic is not None else chosen[e.joint]
+            for e in movable}
+
+
+def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose: dict[str, float],
+              direction: bool = False) -> Vector:
+    """A point (or direction) of `link`'s frame in `ancestor`'s frame, with the joints at `pose`."""
+    while link != ancestor:
+        edge = tree.edge_to(link)
+        q = pose.get(edge.joint, 0.0)
+        if edge.joint_type in ("revolute", "continuous") and q:
+            value = turn(value, unit(edge.axis) or (1.0, 0.0, 0.0), q)
+        elif edge.joint_type == "prismatic" and q and not direction:
+            axis = unit(edge.axis) or (1.0, 0.0, 0.0)
+            value = (value[0] + q * axis[0], value[1] + q * axis[1], value[2] + q * axis[2])
+        value = rotate_rpy(edge.origin.rpy, value)
+        if not direction:
+            value = (value[0] + edge.origin.xyz[0], value[1] + edge.origin.xyz[1], value[2] + edge.origin.xyz[2])
+        link = edge.parent
+    return value
+
+
+def _coupling(drive: Edge, edge: Edge) -> float:
+    """How fast `edge` moves when the drive moves at unit rate (0: independent of it)."""
+    if edge is drive:
+        return 1.0
+    if not edge.movable or edge.mimic is None:
+        return 0.0
+    if edge.mimic == drive.joint:
+        return edge.mimic_multiplier
+    if edge.mimic == drive.mimic and drive.mimic_multiplier:
+        return edge.mimic_multiplier / drive.mimic_multiplier
+    return 0.0
+
+
+def _opposed(a: Motion | None, b: Motion | None) -> bool:
+    """Tips that move towards (or away from) each other along the line joining them; tips that
+    coincide, in opposite directions."""
+    return _approach(a, b) > 0
+
+
+def _approach(a: Motion | None, b: Motion | None) -> float:
+    """How directly two opposed tips close on each other: the smaller share of their motions along the
+    line joining them (1 for coinciding tips moving apart), 0 when they do not oppose."""
+    if a is None or b is None:
+        return 0.0
+    (pa, va), (pb, vb) = a, b
+    gap = (pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2])
+    # an offset across both motions brings no tip nearer: the gap in their plane, or along them
+    # where they are nearly collinear
+    if norm(across_both := cross(va, vb)) > _PLANE and (normal := unit(across_both)):
+        across = dot(gap, normal)
+        gap = (gap[0] - across * normal[0], gap[1] - across * normal[1], gap[2] - across * normal[2])
+    elif norm(gap) >= _TOUCHING:
+        along = dot(gap, va)
+        gap = (along * va[0], along * va[1], along * va[2])
+    line = unit(gap)
+    if line is None or norm(gap) < _TOUCHING:
+        return 1.0 if dot(va, vb) < OPPOSED else 0.0
+    along_a, along_b = dot(va, line), dot(vb, line)
+    closing = min(abs(along_a), abs(along_b))
+    return closing if along_a * along_b < 0 and closing >= APPROACH else 0.0
+
+
+def _alongside(a: Motion | None, b: Motion | None) -> bool:
+    """Tips that move in nearly the same direction (fingers side by side)."""
+    return a is not None and b is not None and dot(a[1], b[1]) > ALONGSIDE

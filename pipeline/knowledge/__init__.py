@@ -1,0 +1,1 @@
+"""The ontology and RDF: the vocabulary, the population of individuals, reasoning, SHACL, export."""

@@ -1,0 +1,312 @@
+"""What a URDF says about each link besides its name: meshes, geometry, mass, simulator sensors.
+
+Extracted once at ingestion from the validated document and carried by the KinematicTree, then
+rendered as a few words in the questions that concern a link (the model still decides). Simulator
+sensor declarations use SDF's closed vocabulary of sensor types (`camera`, `depth`, `ray`, `imu`,
+`contact`, ...); the older Gazebo form `<sensor:camera>` / `<sensor:ray>` of PR2-era files is read
+as the same types. A declaration is attached to the link it references and to the link its
+plugin publishes in (`frameName`), when that is another link of the robot. The numbers it states
+(rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
+(the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
+"""
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, fields
+from typing import Any, Iterable, Mapping
+
+MAX_MESHES = 2  # mesh stems shown per link (visual first)
+_PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
+
+
+@dataclass(frozen=True)
+class SimSensor:
+    """One simulator sensor declaration: its SDF type, plugin library stems, the links it names and the
+    numbers it states (None where it states none)."""
+
+    type: str
+    plugins: tuple[str, ...] = ()
+    reference: str = ""               # the link its <gazebo reference="..."> block names
+    frame: str | None = None          # the link its plugin expresses its data in (frameName), where one of the robot's
+    rate: float | None = None         # Hz: how often it updates (its own update_rate / updateRate)
+    fov: float | None = None          # rad: a camera's horizontal field of view, a ray sensor's horizontal span
+    image: tuple[int, int] | None = None  # a camera's image width and height in pixels
+    samples: int | None = None        # rays per horizontal scan
+    min_range: float | None = None    # m: a ray sensor's nearest and farthest measured distance
+    max_range: float | None = None
+    resolution: float | None = None   # m: a ray sensor's range resolution
+
+
+@dataclass(frozen=True)
+class LinkEvidence:
+    """Facts about one link: mesh file stems, its first primitive shape, mass, declared sensors."""
+
+    meshes: tuple[str, ...] = ()
+    shape: str = ""            # "box 0.1x0.2x0.3 m", "cylinder r=0.05 l=0.1 m", "sphere r=0.02 m", or ""
+    mass: float | None = None  # None when the link has no <inertial>
+    sensors: tuple[SimSensor, ...] = ()
+
+    @classmethod
+    def from_dict(cls, data: dict) -> LinkEvidence:
+        """Inverse of dataclasses.asdict."""
+        return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])))
+
+    @property
+    def is_pure_frame(self) -> bool:
+        """No geometry at all: a coordinate frame rather than a body."""
+        return not self.meshes and not self.shape
+
+    @property
+    def extent(self) -> float | None:
+        """The largest dimension of its primitive shape in metres (None without one, or with a mesh)."""
+        if self.meshes or not self.shape:
+            return None
+        kind, _, sizes = self.shape.partition(" ")
+        numbers = [float(n) for n in re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", sizes)]
+        if kind == "box":
+            return max(numbers, default=0.0)
+        return max([2 * numbers[0], *numbers[1:]]) if numbers else None  # cylinder r, l; sphere r
+
+    def text(self) -> str:
+        """The link's geometry in a few words, or '' when it has none worth saying. Declared simulator
+        sensors are not rendered: they narrow the classes offered (pipeline.abstraction.steps.classify._ruled_out) instead."""
+        parts = [f"mesh {', '.join(self.meshes)}"] if self.meshes else []
+        if self.shape:
+            parts.append(self.shape)
+        if self.is_pure_frame:
+            parts.append("no geometry" + (", massless" if not self.mass else ""))
+        return "; ".join(parts)
+
+
+def _sensor(data: dict[str, Any]) -> SimSensor:
+    """A SimSensor from its asdict form; a tree stored before the numbers were kept has a detail string instead."""
+    known = {f.name for f in fields(SimSensor)}
+    values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items() if k in known}
+    return SimSensor(**values)
+
+
+def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
+    """Evidence for every link of a validated <robot> element."""
+    known = set(links)
+    sensors = _declared_sensors(robot, known)
+    found = {}
+    for link in robot.findall("link"):
+        name = link.get("name", "")
+        if name in known:
+            declared = tuple(dict.fromkeys(sensors.get(name, ())))  # one sensor may name a link twice
+            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared)
+    return found
+
+
+def named(evidence: Mapping[str, LinkEvidence], link: str) -> str:
+    """The link's name followed by its facts in parentheses, or the bare name when it has none:
+    stated next to the name rather than on a line of their own, the facts cost no repeated name."""
+    text = evidence[link].text() if link in evidence else ""
+    return f"{link} ({text})" if text else link
+
+
+# -- geometry ---------------------------------------------------------------------------
+
+
+def _meshes(link: ET.Element) -> tuple[str, ...]:
+    stems = []
+    for part in ("visual", "collision"):
+        for mesh in link.findall(f"{part}/geometry/mesh"):
+            stem = mesh_stem(mesh.get("filename", ""))
+            if stem and stem not in stems:
+                stems.append(stem)
+    return tuple(stems[:MAX_MESHES])
+
+
+def mesh_stem(filename: str) -> str:
+    """The informative end of a mesh path: what follows its `meshes` folder (or its package),
+    at most two components, without extension ('package://p/meshes/sensors/lds.stl' → 'sensors/lds')."""
+    path = re.sub(r"^[a-z]+://", "", filename).replace("\\", "/").strip("/")
+    parts = [p for p in path.split("/") if p]
+    if not parts:
+        return ""
+    lowered = [p.lower() for p in parts]
+    if "meshes" in lowered[:-1]:
+        parts = parts[len(lowered) - lowered[::-1].index("meshes"):]
+    elif len(parts) > 1 and filename.startswith("package://"):
+        parts = parts[1:]
+    parts[-1] = parts[-1].rsplit(".", 1)[0]
+    return "/".join(parts[-2:])
+
+
+def _shape(link: ET.Element) -> str:
+    for part in ("visual", "collision"):
+        geometry = link.find(f"{part}/geometry")
+        if geometry is None:
+            continue
+        for shape in geometry:
+            text = _shape_text(shape)
+            if text:
+                return text
+    return ""
+
+
+def _shape_text(shape: ET.Element) -> str:
+    try:
+        if shape.tag == "box":
+            return "box " + "x".join(_num(v) for v in shape.get("size", "").split()) + " m"
+        if shape.tag == "cylinder":
+            return f"cylinder r={_num(shape.get('radius'))} l={_num(shape.get('length'))} m"
+        if shape.tag == "sphere":
+            return f"sphere r={_num(shape.get('radius'))} m"
+    except (TypeError, ValueError):
+        return ""
+    return ""
+
+
+def _num(value: str | None) -> str:
+    return f"{float(value):.3g}"  # type: ignore[arg-type]
+
+
+def _mass(link: ET.Element) -> float | None:
+    mass = link.find("inertial/mass")
+    if mass is None:
+        return None
+    try:
+        value = float(mass.get("value", "0"))
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
+
+
+# -- simulator sensors ------------------------------------------------------------------
+
+
+def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimSensor]]:
+    """link → sensors declared in `<gazebo reference="link">` blocks (and at their output frame)."""
+    found: dict[str, list[SimSensor]] = {}
+    for gazebo in robot.findall("gazebo"):
+        reference = gazebo.get("reference")
+        if reference not in known:
+            continue
+        for element in gazebo:
+            sensor_type = _sensor_type(element)
+            if sensor_type is None:
+                continue
+            frames = _output_frames(element, known)
+            sensor = SimSensor(sensor_type, _plugins(element), reference, frames[0] if frames else None,
+                               **_numbers(element, sensor_type))
+            for link in dict.fromkeys([reference, *frames]):
+                found.setdefault(link, []).append(sensor)
+    return found
+
+
+def _local(tag: str) -> tuple[str, str]:
+    """(namespace, local name) of an ElementTree tag."""
+    if tag.startswith("{"):
+        ns, local = tag[1:].split("}", 1)
+        return ns, local
+    return "", tag
+
+
+def _sensor_type(element: ET.Element) -> str | None:
+    """SDF's `<sensor type="T">`, or T of the old Gazebo `<sensor:T>` (namespace ending '#sensor')."""
+    ns, local = _local(element.tag)
+    if not ns and local == "sensor":
+        kind = (element.get("type") or "").strip().lower()
+        return kind or None
+    if ns.endswith("#sensor"):
+        return local.lower()
+    return None
+
+
+def _plugins(sensor: ET.Element) -> tuple[str, ...]:
+    stems = []
+    for element in sensor.iter():
+        library = element.get("filename") or element.get("plugin")
+        if library and (match := _PLUGIN_STEM.match(library.rsplit("/", 1)[-1])):
+            if match.group(1) not in stems:
+                stems.append(match.group(1))
+    return tuple(stems)
+
+
+def _output_frames(sensor: ET.Element, known: set[str]) -> list[str]:
+    """Links named by the plugin as the frame its data is expressed in."""
+    frames = []
+    for element in sensor.iter():
+        if _local(element.tag)[1] in ("frameName", "frame_name", "frame_id", "gaussianNoiseFrame"):
+            name = (element.text or "").strip().lstrip("/")
+            if name in known:
+                frames.append(name)
+    return frames
+
+
+def _child_text(element: ET.Element, path: str) -> str | None:
+    """Text at `path` (local names, '/'-separated), ignoring namespaces."""
+    current = [element]
+    for step in path.split("/"):
+        current = [c for e in current for c in e if _local(c.tag)[1] == step]
+    return (current[0].text or "").strip() if current else None
+
+
+def _number(element: ET.Element, *paths: str) -> float | None:
+    """The finite number at the first of `paths` (see _child_text) that is present, else None."""
+    text = next((t for p in paths if (t := _child_text(element, p)) is not None), None)
+    try:
+        value = float(text) if text is not None else math.nan
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
+
+
+def _positive(value: float | None) -> float | None:
+    return value if value is not None and value > 0 else None
+
+
+def _numbers(sensor: ET.Element, sensor_type: str) -> dict:
+    """The numbers a declaration states, by SimSensor field: SDF (`<camera>`, `<ray>` or `<lidar>`, radians)
+    or the old Gazebo form (`imageSize`, `hfov`, `rayCount`, `minAngle`: degrees). An update rate of 0 (as
+    fast as the simulator runs) states no rate."""
+    found: dict = {"rate": _positive(_number(sensor, "update_rate", "updateRate"))}
+    if _local(sensor.tag) == ("", "sensor"):  # SDF: the first <camera> below it (a multicamera has several)
+        camera = next((c for c in sensor.iter() if _local(c.tag)[1] == "camera"), None)
+        if camera is not None:
+            found["fov"] = _positive(_number(camera, "horizontal_fov"))
+            found["image"] = _image(_number(camera, "image/width"), _number(camera, "image/height"))
+    else:
+        hfov = _number(sensor, "hfov")
+        found["fov"] = _positive(math.radians(hfov) if hfov is not None else None)
+        size = (_child_text(sensor, "imageSize") or "").split()
+        found["image"] = _image(*map(_float, size)) if len(size) == 2 else None
+    if sensor_type.endswith("ray") or sensor_type.endswith("lidar"):
+        found.update(_ray_numbers(sensor))
+    return found
+
+
+def _image(width: float | None, height: float | None) -> tuple[int, int] | None:
+    return (int(width), int(height)) if width and height and width >= 1 and height >= 1 else None
+
+
+def _ray_numbers(sensor: ET.Element) -> dict:
+    """Rays per horizontal scan, their span, range and range resolution: SDF `<ray>` / `<lidar>` or the old
+    `rayCount`, `minAngle`/`maxAngle` (degrees), `minRange`, `maxRange`, `resRange`."""
+    block = next((b for b in ("ray", "lidar") if _child_text(sensor, b) is not None), None)
+    if block is not None:
+        scan = f"{block}/scan/horizontal"
+        samples = _number(sensor, f"{scan}/samples")
+        low, high = _number(sensor, f"{scan}/min_angle"), _number(sensor, f"{scan}/max_angle")
+        span = high - low if low is not None and high is not None else None
+        minimum, maximum, resolution = (_number(sensor, f"{block}/range/{n}") for n in ("min", "max", "resolution"))
+    else:
+        samples = _number(sensor, "rayCount")
+        low, high = _number(sensor, "minAngle"), _number(sensor, "maxAngle")
+        span = math.radians(high - low) if low is not None and high is not None else None
+        minimum, maximum, resolution = (_number(sensor, n) for n in ("minRange", "maxRange", "resRange"))
+    return {"samples": int(samples) if samples is not None and samples >= 1 else None, "fov": _positive(span),
+            "min_range": minimum if minimum is not None and minimum >= 0 else None,
+            "max_range": _positive(maximum), "resolution": _positive(resolution)}
+
+
+def _float(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None

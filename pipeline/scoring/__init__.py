@@ -1,0 +1,1 @@
+"""Evaluation against the ground truth: truth files, predictions, component and body scores, the report."""
