@@ -8,10 +8,13 @@ from functools import cache
 
 import pytest
 
+from tests.scripted_reasoner import scripted_placements, scripted_reasoner
+
 from benchmarks.parts.hosts import BUILD, HOSTS, hosts_for
 from benchmarks.parts.library import DATA, PartError, load, load_all
 from benchmarks.parts.robots import robots, write
 from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.prompts import RIGID_TOOL
 from urdfkb.pipeline.scoring.truth import load_truth
 from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -297,6 +300,26 @@ def test_a_frame_naming_a_tool_product_is_no_sensor_whatever_the_model_prefers()
         claims = identify(Oracle(ScriptedBackend(_sensor_first)), tax, tree, list(tree.leaves()))
         for tcp in [leaf for c in robot.part_components() for leaf in c["leaves"]]:
             assert claims[tcp][0] == "EndEffector", (host, tcp, claims[tcp])
+
+
+def _rigid_tool_first(q):
+    if q.key.startswith("identify:"):
+        return "end effector" if "end effector" in q.options else q.options[0]
+    return RIGID_TOOL[0] if RIGID_TOOL[0] in q.options else q.options[0]
+
+
+def test_a_tool_naming_a_product_is_of_that_products_kind():
+    """The EPick's tip names the catalogue's suction gripper: a model that would leave the tool a plain rigid tool
+    (as the real one did, 0.56) gets the suction gripper, the only kind that product is."""
+    tax = vocabulary()
+    for host in ("wrist", "head"):
+        robot, tree = built("robotiq_epick", host)
+        abstractor = Abstractor(Oracle(ScriptedBackend(_rigid_tool_first)), tax, reasoner=scripted_reasoner,
+                                placer=scripted_placements)
+        tools = [c for c in abstractor.run(tree).components if c.kind == "end_effector"]
+        (truth,) = robot.part_components()
+        tool = next(c for c in tools if truth["leaves"][0] in c.links)
+        assert tool.cls == "SuctionGripper", (host, tool.cls)
 
 
 def test_the_benchmark_runs_a_subset_and_ends_with_its_summary_line(tmp_path, capsys):

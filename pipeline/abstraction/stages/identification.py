@@ -9,6 +9,7 @@ body: hands.limb_goes_on), the question stays the same for every leaf, so its sy
 the answer is the option with the most votes among those left."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Callable
 
 from urdfkb.pipeline.abstraction.catalogue import Product, catalogue
@@ -18,6 +19,7 @@ from urdfkb.pipeline.abstraction.prompts import NONE, Choice, kind_choice
 from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.reading.tree import KinematicTree
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
+from urdfkb.pipeline.abstraction.stages.attachment import SubChain
 
 
 def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
@@ -30,6 +32,11 @@ def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
         if product := catalogue().match([link, *(facts.meshes if facts else ())]):
             return product
     return None
+
+
+def device_product(tree: KinematicTree, chains: Iterable[SubChain]) -> Product | None:
+    """The catalogue product a device's links name: the first its sub-chains name, each read from its leaf up."""
+    return next((p for c in chains if (p := named_product(tree, list(reversed(c.links)))) is not None), None)
 
 
 def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str],

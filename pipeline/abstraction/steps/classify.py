@@ -11,7 +11,7 @@ from urdfkb.pipeline.abstraction.prompts import product_text
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain
 from urdfkb.pipeline.abstraction.stages.classification import Subject, descend
 from urdfkb.pipeline.abstraction.stages.grouping import VISION, Group
-from urdfkb.pipeline.abstraction.stages.identification import named_product
+from urdfkb.pipeline.abstraction.stages.identification import device_product, named_product
 from urdfkb.pipeline.abstraction.stages.sensor_check import MAJORITY
 from urdfkb.pipeline.abstraction.stages.subparts import required_parts_first, type_subparts
 from urdfkb.pipeline.abstraction.stages.verification import indexed_units
@@ -166,7 +166,7 @@ def _named_classes(ctx: Context, g: Group) -> frozenset[str]:
     """The class of the catalogue product the device's links name, and the classes above it: a part they need that
     no frame was typed as does not rule them out (the small model calls a product's monochrome stereo pair
     colour); a frame typed as a part they exclude still does (a depth frame, no stereo camera)."""
-    product = next((p for c in g.chains if (p := named_product(ctx.tree, list(reversed(c.links)))) is not None), None)
+    product = device_product(ctx.tree, g.chains)
     if product is None or product.cls not in ctx.vocab:
         return frozenset()
     return frozenset({product.cls, *ctx.vocab.ancestors(product.cls)})

@@ -7,12 +7,14 @@ from dataclasses import replace
 
 from urdfkb.pipeline.knowledge import reasoning
 from urdfkb.pipeline.abstraction.components import FingerFact
-from urdfkb.pipeline.reading.evidence import named
+from urdfkb.pipeline.reading.evidence import named as named_link
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.prompts import RIGID_TOOL
 from urdfkb.pipeline.abstraction.stages import body as body_stage
 from urdfkb.pipeline.abstraction.stages import tools
 from urdfkb.pipeline.abstraction.stages.classification import Subject, Typed, descend
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.identification import device_product
 from urdfkb.pipeline.abstraction.steps.assembly import device
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.devices import mount
@@ -79,15 +81,27 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     """The model is asked the kind of the tools whose structure settles none, seeing what each is mounted
     on (a fingerless tool on a link whose mesh is a hand is a hand). A tool in which nothing moves
     (structure.nothing_moves) may also stay a plain end effector (prompts.RIGID_TOOL: a probe, a ball), which the
-    ontology allows and no kind below it fits."""
-    tree = ctx.tree
+    ontology allows and no kind below it fits, unless its links name a catalogue product of a kind below
+    (a suction gripper's tip frame): then the kinds that product is not are not offered."""
+    tree, top = ctx.tree, ctx.device_kind.cls
     open_groups = [(g, st) for g, st, i in zip(found.groups, found.structures, found.inferred) if not i.settled]
-    asked = descend(ctx.oracle, ctx.vocab, ctx.device_kind.cls, [
+    ruled = [_product_rules_out(ctx, g, top) for g, _ in open_groups]
+    asked = descend(ctx.oracle, ctx.vocab, top, [
         Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
-                f"Links: {', '.join(g.leaves)}\nOn: {named(tree.evidence, mount(tree, g))}"
-                f"\nStructure: {st.describe()}",
-                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) else None)
-        for g, st in open_groups
+                f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
+                f"\nStructure: {st.describe()}", out,
+                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out else None)
+        for (g, st), out in zip(open_groups, ruled)
     ], "end-effector classification", ctx.progress)
     by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
     found.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(found.groups, found.inferred)]
+
+
+def _product_rules_out(ctx: Context, g: Group, top: str) -> frozenset[str]:
+    """The classes under `top` a catalogue product the tool's links name is not, nor is under (none where no
+    product of a kind under `top` is named)."""
+    product, vocab = device_product(ctx.tree, g.chains), ctx.vocab
+    if product is None or product.cls not in vocab or product.cls == top or not vocab.is_a(product.cls, top):
+        return frozenset()
+    return frozenset(c for c in vocab.subclasses_below(top)
+                     if not vocab.is_a(product.cls, c) and not vocab.is_a(c, product.cls))
