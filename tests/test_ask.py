@@ -149,6 +149,7 @@ def test_ask_route(kb):
         jobs.shutdown()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_client_ask(kb):
     with served(kb, asker=scripted("gripper_opening")[0]) as base:
         reply = KnowledgeBase(base).ask("pr2", "How wide do your grippers open?")
@@ -169,6 +170,7 @@ def test_small_real_model(kb):
     assert reply["refused"] == (reply["query"] is None)
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_dialogue_example(kb, capsys):
     import importlib.util
     from pathlib import Path

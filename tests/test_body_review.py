@@ -121,6 +121,7 @@ def located(store, robot="pr2") -> dict[str, tuple[str, str | None]]:
     return {r["c"]: (r["p"], r.get("side")) for r in rows}
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_reclassify_and_side(store):
     correct(store, part="torso", action="reclassify", **{"class": "Leg"})
     entry = correct(store, part="head", action="side", side="left")
@@ -132,6 +133,7 @@ def test_reclassify_and_side(store):
     assert body(store)["head"]["side"] is None and located(store)["kinect"] == ("head", None)
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_split_an_arm_at_its_elbow_and_merge_the_head_into_the_torso(store):
     correct(store, part="l_arm", action="split", at="l_elbow_flex_joint")
     correct(store, part="head", action="merge", **{"with": "torso"})
@@ -145,6 +147,7 @@ def test_split_an_arm_at_its_elbow_and_merge_the_head_into_the_torso(store):
     assert parts["torso"]["mount"] == "base_link" and located(store)["kinect"] == ("torso", None)
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_reject_moves_what_was_on_a_part_to_the_part_above(store):
     correct(store, part="head", action="reject")
     correct(store, part="base", action="reject")
@@ -155,6 +158,7 @@ def test_reject_moves_what_was_on_a_part_to_the_part_above(store):
     assert parts["fl_caster_l_wheel"]["parent"] is None  # the robot's own part now
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_body_corrections_survive_repopulation_and_find_their_parts_by_joints(store, pr2_tree):
     correct(store, part="l_arm", action="split", at="l_elbow_flex_joint")
     correct(store, part="arm_l_elbow_flex_joint", action="reclassify", **{"class": "Leg"})
@@ -222,6 +226,7 @@ def test_body_corrections_that_do_not_fit_are_refused_with_a_400_and_change_noth
     assert store.export("pr2", "nt") == before and store.corrections("pr2") == []
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_over_http_with_provenance(store, api):
     json_type = {"Content-Type": "application/json"}
     status, _, out = api("POST", "/robots/pr2/corrections", json.dumps(

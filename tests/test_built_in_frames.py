@@ -28,6 +28,7 @@ def test_a_frame_built_into_a_device_takes_the_devices_kind(seed):
     assert typed == expected, seed
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_the_generator_makes_bare_and_boxed_lidars():
     housings = [(truth[h], load_urdf(urdf).evidence.get(h)) for urdf, _, truth, frame_of, _ in map(build, SEEDS)
                 for h in frame_of.values()]

@@ -20,6 +20,7 @@ CORE = "https://w3id.org/urdfkb/core#"
 
 
 @pytest.mark.parametrize("fmt,suffix,rdf_format", [("rdfxml", ".owl", "xml"), ("turtle", ".ttl", "turtle"), ("ntriples", ".nt", "nt")])
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_populate_structure_only_writes_a_self_contained_file(tmp_path, shared, capsys, fmt, suffix, rdf_format):
     out = tmp_path / f"pr2{suffix}"
     assert main(["populate", str(shared / "urdf" / "pr2.urdf"), "--structure-only", "--format", fmt, "-o", str(out)]) == 0
@@ -75,6 +76,7 @@ def test_populate_names_what_the_shapes_held_back(tmp_path, capsys, monkeypatch)
     assert "    CameraShape: comp_mast_cam: why" in out
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_validate_reports_conformance_and_violations(tmp_path, capsys):
     good = tmp_path / "toy.ttl"
     main(["populate", str(TOY), "--structure-only", "--format", "turtle", "-o", str(good)])

@@ -34,6 +34,7 @@ def components(store):
     return {c["iri"].rsplit("#comp_", 1)[1]: c for c in queries.components(store, "pr2")}
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_each_action_changes_the_stored_robot(store):
     correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "StereoCamera"})
     correct(store, action="remount", links=["base_laser_link"], mount="base_footprint")
@@ -68,6 +69,7 @@ def test_corrections_that_do_not_fit_are_refused_and_change_nothing(store, data,
     assert store.export("pr2", "nt") == before and store.corrections("pr2") == []
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_correction_that_breaks_the_shapes_is_refused_and_changes_nothing(store):
     correct(store, action="add", links=["l_forearm_cam_frame"], **{"class": "VisionSensor"})  # no frame required
     before, stored = store.export("pr2", "nt"), store.corrections("pr2")
@@ -90,6 +92,7 @@ def test_a_populate_that_breaks_the_shapes_is_refused_and_the_stored_robot_stays
     assert store.export("pr2", "nt") == before
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_correction_the_shapes_accept_is_stored_and_the_robot_conforms(store):
     correct(store, action="add", links=["l_forearm_cam_frame", "l_forearm_cam_optical_frame"], **{"class": "Camera"})
     correct(store, action="reclassify", links=["l_forearm_cam_frame", "l_forearm_cam_optical_frame"],
@@ -99,6 +102,7 @@ def test_a_correction_the_shapes_accept_is_stored_and_the_robot_conforms(store):
     assert violations(graph) == [] and len(store.corrections("pr2")) == 2
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_corrections_carry_provenance_into_exports(store):
     correct(store, who="Ann Reviewer", action="confirm", links=["base_laser_link"])
     graph = rdflib.Graph().parse(data=store.export("pr2", "ttl"), format="turtle")
@@ -112,6 +116,7 @@ def test_corrections_carry_provenance_into_exports(store):
     assert (rdflib.URIRef("https://w3id.org/urdfkb/robot/pr2#comp_base_laser"), PROV.wasInfluencedBy, activity) in graph
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_corrections_survive_repopulation_and_report_what_no_longer_fits(store, pr2_tree):
     correct(store, action="reclassify", links=["head_mount_prosilica_optical_frame"], **{"class": "StereoCamera"})
     correct(store, action="reject", links=["laser_tilt_link"])
@@ -154,6 +159,7 @@ def test_the_pages_get_the_review_threshold_the_low_confidence_query_serves(stor
         jobs.shutdown()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):
     correct(store, action="confirm", links=["base_laser_link"])
     store.delete_robot("pr2")
@@ -164,6 +170,7 @@ def test_deleting_a_robot_removes_its_corrections(store, pr2_tree):
     assert store.corrections("pr2") == []
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_http_corrections_need_the_token_and_pages_are_negotiated(tmp_path, shared):
     store = Store(tmp_path / "kb.sqlite3", workers=0)
     app, jobs = make_app(store, token=TOKEN)
@@ -221,6 +228,7 @@ def test_corrections_are_in_the_sparql_index_after_a_restart(tmp_path, pr2_kb):
         store.close()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_sparql_update_cannot_rewrite_a_corrections_graph(store):
     from urdfkb.kb_server.store import ReadOnlyGraph
     correct(store, action="confirm", links=["head_mount_prosilica_optical_frame"])

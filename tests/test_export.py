@@ -54,6 +54,7 @@ def test_round_trip_through_a_file(onto, hostile_onto, tmp_path, fmt):
     assert os.listdir(tmp_path) == [f"robot.{fmt}"]
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_stream_destination(onto):
     buf = io.BytesIO()
     export_robot(onto, buf, "turtle")

@@ -118,6 +118,7 @@ def api(tmp_path):
     store.close()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_robot_whose_numbers_overflow_is_stored_finite_and_its_page_answers(api, shared):
     call, store = api
     status, _, out = call("POST", "/populate", extreme_pr2(shared, origins=True), {"Content-Type": "application/xml"})

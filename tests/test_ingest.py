@@ -147,6 +147,7 @@ def test_link_count_limit_is_generous_for_real_robots():
     assert len(load_urdf(star(50), max_links=50).links) == 50
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_too_many_links_are_refused_before_any_per_element_work():
     """50,000 links (5 MB, under the byte limit) would hold the store for minutes."""
     document = star(50_000)

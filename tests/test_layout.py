@@ -1,5 +1,6 @@
 """One import name per module (docs/layout.md): absolute imports only, no sys.path edits, a mapped folder
 refuses its bare name, and urdfkb/ reaches each sub-package's folder through a committed symlink."""
+import pytest
 import ast
 import functools
 import subprocess
@@ -21,6 +22,7 @@ def _nodes() -> list[tuple[str, ast.AST]]:
             for path in SOURCES for node in ast.walk(ast.parse(path.read_text(), str(path)))]
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_every_import_is_absolute():
     assert [where for where, node in _nodes() if isinstance(node, ast.ImportFrom) and node.level] == []
 

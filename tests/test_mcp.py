@@ -85,6 +85,7 @@ def live_store(whole_pr2_kb, tmp_path_factory):
     s.close()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_http(live_store):
     with served(live_store) as base:
         _check(anyio.run(_exercise, Client(base + "/mcp")))
@@ -94,6 +95,7 @@ def _with_headers(url: str, headers: dict) -> Client:
     return Client(streamable_http_client(url, http_client=httpx2.AsyncClient(headers=headers, timeout=60)))
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_http_needs_the_token_where_the_server_has_one(live_store):
     with served(live_store, token="s3cret") as base:
         status, _, body = http("POST", base + "/mcp", b"{}", {"Content-Type": "application/json"})

@@ -30,6 +30,8 @@ from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.structure import tool_structure
 
+pytestmark = pytest.mark.slow  # 148 generated robots built and run through the stages: a minute of its own
+
 PARTS = {p.key: p for p in load_all()}
 CAMERAS = ("RGBDCamera", "StereoCamera", "MonocularCamera", "DepthCamera", "InfraredCamera")
 CATEGORY = {**dict.fromkeys(CAMERAS, "VisionSensor"), "Lidar": "RangingSensor", "IMU": "InertialSensor",

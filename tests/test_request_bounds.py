@@ -100,6 +100,7 @@ def spied(func: Callable[..., T], note: Callable[[], None]) -> Callable[..., T]:
     return call
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_correction_is_checked_outside_the_lock_and_what_it_makes_is_kept(pr2_store, monkeypatch):
     seen: list[bool] = []
     check = review.check

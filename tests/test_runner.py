@@ -76,6 +76,7 @@ def test_a_failing_backend_raises_and_caches_nothing(tmp_path):
     assert not list((tmp_path / "cache").glob("**/*.json"))
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_corrupt_cache_entry_is_ignored(tmp_path):
     tree = load_urdf(TOY)
     first = run(tree, Settings(), backend=ScriptedBackend(perfect))

@@ -244,6 +244,7 @@ def blocking_runner():
     return run, release
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_waiting_clients_are_capped_and_never_hold_every_thread(kb):
     run, release = blocking_runner()
     app, jobs = kb(runner=run, max_waiters=2)

@@ -91,6 +91,7 @@ def wait(api, job_id):
     return json.loads(out)
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_populate_raw_and_multipart_then_robot_routes(server, shared):
     status, _, job = populate(server, urdf(shared), headers={"Content-Type": "application/xml"})
     assert status == 202 and job["state"] in ("queued", "running", "succeeded")
@@ -164,6 +165,7 @@ def test_failed_job_leaves_the_store_as_it_was(server, shared):
     assert server("GET", "/robots/pr2")[2] == before
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_queries_answered_while_a_model_runs_and_jobs_report_progress(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
     job = populate(server, urdf(shared, rename="gated_pr2"), "?name=pr2")[2]
@@ -185,6 +187,7 @@ SELECT ?c ?class ?link WHERE { <https://w3id.org/urdfkb/robot/pr2#robot> core:ha
   ?c a ?class ; core:hasComponent/core:hasLink/core:urdfName ?link } ORDER BY ?c ?class ?link"""
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_reader_sees_the_old_robot_or_the_new_one_never_a_mix(serve, shared, monkeypatch):
     """SPARQL readers (who never take the store lock) poll PR2's components while a re-populate replaces
     them by three of them. They must see the old robot, then the new one, and nothing between:
@@ -233,6 +236,7 @@ def test_a_reader_sees_the_old_robot_or_the_new_one_never_a_mix(serve, shared, m
     assert seen[seen.index(new):] == [new] * (len(seen) - seen.index(new))  # never back to the old robot
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_same_robot_jobs_are_serialised(server, shared):
     wait(server, populate(server, urdf(shared))[2]["id"])
     EVENTS.clear()

@@ -55,6 +55,7 @@ def test_hand_leaves_are_the_tools_leaves_and_nothing_else(alone):
     assert not wrong
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_wheels_and_casters_are_no_fingers():
     for seed in range(0, 300, 3):
         tree = load_urdf(wheeled(seed).urdf)

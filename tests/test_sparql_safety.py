@@ -250,6 +250,7 @@ def _service_in_a_confined_worker(url: str, answer) -> None:
         answer.send(str(e))
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_query_worker_can_open_no_connection_whatever_it_is_asked(remote):
     """The second line: were a SERVICE ever to pass the lexical checks, the worker has no socket to send it on."""
     ctx = multiprocessing.get_context("spawn")
@@ -288,6 +289,7 @@ def test_a_query_past_its_memory_is_stopped_and_others_are_answered(pr2_kb, tmp_
     store.close()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_an_update_that_breaks_the_shapes_is_refused_and_writes_nothing(kb):
     api, store = kb
     before = store.export("pr2", "nt")

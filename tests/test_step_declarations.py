@@ -3,6 +3,7 @@ each step seeing the findings record through a recording proxy, and a step that 
 neither in `needs` nor in `makes`, or sets or changes one not in `makes`, fails the test by pass and step."""
 from __future__ import annotations
 
+import pytest
 import copy
 import hashlib
 import json
@@ -139,6 +140,7 @@ def run_checked(passes: tuple[Pass, ...]) -> tuple[set[str], Used]:
     return wrong, used
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_every_step_reads_and_writes_only_what_it_declares():
     wrong, used = run_checked(PASSES)
     assert not wrong, "\n".join(sorted(wrong))

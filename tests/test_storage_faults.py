@@ -48,6 +48,7 @@ def api(pr2_store):
 
 
 @pytest.mark.parametrize("code, message, status, says", FAULTS)
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_a_refused_write_is_named_logged_and_leaves_the_store_as_it_was(api, shared, caplog, code, message, status, says):
     call, store = api
     disk = str(store.path.resolve().parent)

@@ -57,6 +57,7 @@ def test_a_store_with_robots_written_without_their_urdf_tree_is_refused_naming_t
         Store(path, workers=0)
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_replace_is_whole_and_failures_leave_the_old_robot(store, trees, monkeypatch):
     store.replace_robot("pr2", trees["pr2"], PR2)
     store.replace_robot("pr2", trees["pr2"], Abstraction(PR2.components[:2]))
@@ -79,6 +80,7 @@ def test_replace_is_whole_and_failures_leave_the_old_robot(store, trees, monkeyp
     assert store.query(COUNT_COMPONENTS.replace("hasComponent ?c", "hasLink ?c")).as_dicts()[0]["n"] == str(len(trees["pr2"].links))
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_readers_never_see_a_mix(tmp_path, trees):
     s = Store(tmp_path / "kb.sqlite3", workers=2)  # readers on the workers, which apply a write whole
     small, full = Abstraction(PR2.components[:1]), PR2
@@ -99,6 +101,7 @@ def test_readers_never_see_a_mix(tmp_path, trees):
     s.close()
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_delete_and_exports(store, trees):
     store.replace_robot("pr2", trees["pr2"], PR2)
     for ext, fmt in (("owl", "xml"), ("ttl", "turtle"), ("nt", "nt")):
@@ -139,6 +142,7 @@ def test_a_query_worker_whose_server_died_before_it_started_ends():
     assert worker.exitcode == 0
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_an_update_applies_to_the_state_it_read(store, trees, monkeypatch):
     """A populate that lands between an update's evaluation (which holds no lock) and its transaction
     makes the update evaluate again: what it stores is computed from the robot as it is now."""

@@ -102,6 +102,7 @@ def _job(api, body: bytes, headers: dict, query: str = "") -> dict:
 
 
 @pytest.mark.skipif(bool(sandbox.unavailable()), reason=f"no xacro sandbox here: {sandbox.unavailable()}")
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_http_populate_of_xacro_reads_only_configured_packages(tmp_path):
     store = Store(tmp_path / "kb.sqlite3")
     rover = ROVER.read_bytes()

@@ -156,6 +156,7 @@ def test_a_sleeping_xacro_job_ends_within_15_s(tmp_path):
 
 
 @confined_only
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_the_wall_clock_limit_ends_a_job_that_does_not_end(tmp_path):
     """A busy loop, with the server's --xacro-timeout 2: the job fails after 2 s, naming the limit."""
     store = Store(tmp_path / "kb.sqlite3")
@@ -182,6 +183,7 @@ def _processes_running(marker: str, but: str | None = None) -> list[str]:
     return found
 
 
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_past_the_limit_the_whole_process_group_is_killed():
     """An (unconfined) expansion that starts a sleeper holding its output: the sleeper dies with it,
     and the limit is not stretched by waiting for the sleeper's pipe (before: 5 s more, sleeper alive)."""
@@ -262,6 +264,7 @@ def test_where_the_kernel_refuses_a_user_namespace_the_sandbox_runs_as_the_hosts
 
 
 @confined_only
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
 def test_the_sandbox_has_its_own_user_namespace():
     """Before, a root server's sandbox shared the host's user namespace (setpriv only changed its uid)."""
     runner = threading.Thread(target=_run_briefly, args=(SPIN,))
