@@ -23,9 +23,9 @@ names: the colour, depth, infrared and inertial frames of an RGB-D camera, which
 split into one device per frame; one device name is asked for them all. A frame of the body binds to one
 called a vision sensor whatever category its own pre-class falls in: the camera's own inertial frames belong
 to the camera (ontology.md). A housing piece fixed straight to that
-link beside them (a camera's model frame, a lidar's cap) is bound with them. A branch that carries several
+link beside an optical frame (a camera's model frame) is bound with them. A branch that carries several
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
-its own frames bind below it (structure.body_of).
+its own frames bind below it (frames.body_of).
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations

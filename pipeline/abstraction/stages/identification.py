@@ -58,9 +58,9 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
             settled.update({leaf: (NONE, 1.0) for leaf in group})
         else:
             groups.append((group, product))
-            if product is not None and product.cls in tax:  # a named product's kind rules the other kinds out
-                ruled.update({leaf: ruled.get(leaf, frozenset()) | {k for k in kinds if not tax.is_a(product.cls, k)}
-                              for leaf in group})
+            if product is not None and product.cls in tax:  # a named product rules kinds out as a declaration does
+                out = tax.disagreeing(frozenset({product.cls}), tax.component) & set(kinds)
+                ruled.update({leaf: ruled.get(leaf, frozenset()) | out for leaf in group})
     choices = [
         kind_choice(tax, kinds, group[0], tree.chain_to_root(group[0])[1:], tree.edge_to(group[0]).joint_type, product)
         for group, product in groups

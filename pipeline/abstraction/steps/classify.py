@@ -113,18 +113,18 @@ def post_classification(ctx: Context, found: Findings) -> None:
     top, vocab, tree, pre = ctx.device_kind.cls, ctx.vocab, ctx.tree, found.pre
     typed = {id(g): pre[g.leaves[0]] for g in found.groups}
     by_start: dict[str, list[Group]] = {}
+    imaging = {id(g): _imaging(ctx, found, g) for g in found.groups}
     views = {id(g): viewpoints(tree, g.leaves) for g in found.groups}
     counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
                    for g in found.groups}  # by where its frames see from, and by how many there are
     for g in found.groups:
         if len(g.chains) > 1:
-            by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in _imaging(ctx, found, g)}, top),
-                                []).append(g)
+            by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in imaging[id(g)]}, top), []).append(g)
         elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)]:
             ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
             by_start.setdefault(vocab.parents(cls)[0], []).append(g)
     for start, members in by_start.items():
-        unfit = _frames_first(ctx, found, [g for g in members if len(g.chains) > 1], start)
+        unfit = _frames_first(ctx, found, [g for g in members if len(g.chains) > 1], start, imaging)
         results = descend(ctx.oracle, vocab, start, [
             Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                     "Frames: " + "; ".join(f"{leaf} ({vocab.label(pre[leaf].cls)})" for leaf in g.leaves),
@@ -136,9 +136,11 @@ def post_classification(ctx: Context, found: Findings) -> None:
     found.post = [typed[id(g)] for g in found.groups]
 
 
-def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str) -> dict[int, frozenset[str]]:
+def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str,
+                  imaging: dict[int, list[str]]) -> dict[int, frozenset[str]]:
     """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
-    each leaf of `groups` first (into `found.parts`), and each group is not offered the classes under `start`
+    each imaging leaf of `groups` first (`imaging`: a group's leaves that say what it is, by id; into
+    `found.parts`), and each group is not offered the classes under `start`
     that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
     camera, a depth frame no monocular camera), except the class of a catalogue product the device names where
     only a part it needs is missing. Only for devices of several frames: a lone link may stand
@@ -146,14 +148,14 @@ def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str
     together."""
     if not groups:
         return {}
-    leaves = [leaf for g in groups for leaf in _imaging(ctx, found, g)]
+    leaves = [leaf for g in groups for leaf in imaging[id(g)]]
     frames = required_parts_first(ctx.oracle, ctx.vocab, ctx.tree, leaves, start, ctx.progress)
     if not frames:
         return {}
     found.parts.update(frames)
     unfit = {}
     for g in groups:
-        kinds = frozenset(frames[leaf].cls for leaf in _imaging(ctx, found, g))
+        kinds = frozenset(frames[leaf].cls for leaf in imaging[id(g)])
         ruled = ctx.vocab.unfit(kinds, start)
         kept = {c for c in _named_classes(ctx, g) if not kinds & ctx.vocab.excluded_parts(c)}
         unfit[id(g)] = ruled - kept

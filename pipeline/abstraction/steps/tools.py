@@ -98,10 +98,9 @@ def tool_classification(ctx: Context, found: Findings) -> None:
 
 
 def _product_rules_out(ctx: Context, g: Group, top: str) -> frozenset[str]:
-    """The classes under `top` a catalogue product the tool's links name is not, nor is under (none where no
-    product of a kind under `top` is named)."""
-    product, vocab = device_product(ctx.tree, g.chains), ctx.vocab
-    if product is None or product.cls not in vocab or product.cls == top or not vocab.is_a(product.cls, top):
+    """The classes under `top` a catalogue product the tool's links name rules out, as a declaration would
+    (Vocabulary.disagreeing); none where no product of a kind under `top` is named."""
+    product = device_product(ctx.tree, g.chains)
+    if product is None or product.cls not in ctx.vocab:
         return frozenset()
-    return frozenset(c for c in vocab.subclasses_below(top)
-                     if not vocab.is_a(product.cls, c) and not vocab.is_a(c, product.cls))
+    return ctx.vocab.disagreeing(frozenset({product.cls}), top)
