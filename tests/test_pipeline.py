@@ -303,3 +303,25 @@ def test_several_touch_pads_read_as_one_device_are_an_array():
     touch = [c for c in comps if c.kind == "sensor"]
     assert [(c.cls, sorted(s.link for s in c.subcomponents if s.link in pads)) for c in touch] == [("TactileArray", pads)]
     assert all("touch sensor" not in options for key, options in offered.items() if key.startswith("post:"))
+
+
+@pytest.mark.parametrize("name", ["claw_led_frame", "claw_speaker", "claw_display"])
+def test_a_leaf_naming_an_emitter_is_no_sensor_whatever_the_model_reads(tmp_path, name):
+    """A status LED (a loudspeaker, a display) gives out and measures nothing: the catalogue's emitter kinds
+    settle it as part of no component, unasked, so the model's reading it as a button cannot split it from
+    the gripper it sits on; verification absorbs it into that gripper."""
+    urdf = tmp_path / "toy.urdf"
+    urdf.write_text(TOY.read_text().replace("claw_status_light", name))
+
+    def button(q):
+        key = q.key.replace(name, "claw_status_light")
+        if key == "identify:claw_status_light":
+            return "sensor"
+        if key.startswith("pre:claw_status_light@"):
+            return next(o for o in q.options if o in ("contact sensor", "button")) if q.options else q.options[0]
+        return perfect(Question(q.system, q.user, q.options, key=key)) if key != q.key else perfect(q)
+    comps = abstract(load_urdf(urdf), button)
+    assert {c.cls for c in comps} == {"Lidar", "RGBDCamera", "ParallelGripper"}
+    gripper = next(c for c in comps if c.cls == "ParallelGripper")
+    assert name in gripper.links
+
