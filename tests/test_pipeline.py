@@ -325,3 +325,24 @@ def test_a_leaf_naming_an_emitter_is_no_sensor_whatever_the_model_reads(tmp_path
     gripper = next(c for c in comps if c.cls == "ParallelGripper")
     assert name in gripper.links
 
+
+def test_a_leaf_on_a_joint_others_follow_drives_them_and_is_no_sensor(tmp_path):
+    """The status light becomes a horn turned by a continuous joint both jaws mimic (a servo horn that drives a
+    gripper's fingers): the scripted model reads it as a force-torque sensor at every question, yet it is no
+    sensor, and the gripper keeps it."""
+    text = TOY.read_text().replace("claw_status_light", "claw_horn")
+    text = text.replace('<joint name="g4" type="fixed">', '<joint name="g4" type="continuous">')
+    text = text.replace('<axis xyz="0 -1 0"/>', '<axis xyz="0 -1 0"/>\n    <mimic joint="g4"/>')
+    text = text.replace('<mimic joint="g1"/>', '<mimic joint="g4"/>')
+    urdf = tmp_path / "toy.urdf"
+    urdf.write_text(text)
+
+    def torque(q):
+        if q.key in ("identify:claw_horn", "check:claw_horn"):
+            return "sensor"
+        if q.key.startswith("pre:claw_horn@") or q.key.startswith("post:claw_horn@"):
+            return "force-torque sensor" if "force-torque sensor" in q.options else q.options[0]
+        return perfect(Question(q.system, q.user, q.options, key=q.key.replace("claw_horn", "claw_status_light")))
+    comps = abstract(load_urdf(urdf), torque)
+    assert not [c for c in comps if c.kind == "sensor" and "claw_horn" in c.links]
+    assert "claw_horn" in next(c for c in comps if c.kind == "end_effector").links

@@ -2,7 +2,8 @@
 
 - A leaf that itself moves on a <mimic> joint is a finger segment or a linkage, never a sensor frame
   (a sensor is fixed to what carries it): it is left for the end-effector pass, whose tools keep
-  every finger chain.
+  every finger chain. So is a leaf moved by a joint other joints follow: it drives them (the horn or
+  motor link that turns a gripper's fingers).
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
   drive part, reference frame or passive part?), unless the file declares a simulator sensor on it;
   alike leaves (alike.alike_leaves) once for all. "Part of a motor or drive" and "passive part"
@@ -28,12 +29,19 @@ from urdfkb.pipeline.reading.tree import KinematicTree
 
 
 def coupled(tree: KinematicTree, leaves: list[str], sensors: set[str], log: Log) -> list[str]:
-    """The leaves among `sensors` that move on a <mimic> joint."""
+    """The leaves among `sensors` that move on a <mimic> joint, or on a joint another one mimics."""
+    drivers = {edge.mimic for edge in tree.edges if edge.mimic is not None}
     found = []
     for leaf in leaves:
-        if leaf in sensors and tree.edge_to(leaf).mimic is not None:
+        if leaf not in sensors:
+            continue
+        edge = tree.edge_to(leaf)
+        if edge.mimic is not None:
             found.append(leaf)
-            log(f"not a sensor: {leaf} moves on mimic joint {tree.edge_to(leaf).joint}")
+            log(f"not a sensor: {leaf} moves on mimic joint {edge.joint}")
+        elif edge.joint in drivers:
+            found.append(leaf)
+            log(f"not a sensor: {leaf} moves on joint {edge.joint}, which other joints follow")
     return found
 
 

@@ -75,7 +75,8 @@ def claimed(ctx: Context, found: Findings) -> set[str]:
 
 @step("mimic veto", needs=("leaves", "claims"), makes=("claims",))
 def mimic_veto(ctx: Context, found: Findings) -> None:
-    """A leaf moving on a mimic joint follows another: no sensor (stages.sensor_check.coupled)."""
+    """A leaf moving on a mimic joint follows another, one on a joint others follow drives them: no sensor
+    (stages.sensor_check.coupled)."""
     for leaf in coupled(ctx.tree, found.leaves, claimed(ctx, found), ctx.log):
         found.claims[leaf] = NONE
 
