@@ -124,12 +124,9 @@ class SparqlFront:
             status, headers = error.status, [("Content-Type", SPARQL_REFUSAL_TYPE), *error.headers.items()]
             body = sparql_refusal(str(error))
         connection = request.headers.get("CONNECTION", "").lower()
-        if request.version == "1.1":
-            close = connection == "close"
-        else:
-            close = connection != "keep-alive"
-            if not close:
-                headers.append(("Connection", "Keep-Alive"))
+        close = connection == "close" if request.version == "1.1" else connection != "keep-alive"
+        if close or request.version != "1.1":
+            headers.append(("Connection", "close" if close else "Keep-Alive"))
         headers += [("Content-Length", str(len(body))), ("Date", build_http_date(time.time())), *self.fixed]
         head = "".join(f"{name}: {value}\r\n" for name, value in sorted(headers, key=lambda h: h[0]))
         try:  # sent at once, within this call, as far as the socket takes it (waitress's send_bytes is 1)
