@@ -69,12 +69,14 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
                      trust_xacro=trust_xacro, xacro_timeout=xacro_timeout)
     # waitress buffers a whole request before the app sees it, so bodies over max_body are refused (with the
     # app's 413: kb_server.http_bodies) before they fill memory or a temporary file; poll(), unlike
-    # select(), takes descriptors past 1023.
+    # select(), takes descriptors past 1023. With a request lookahead of 1 the I/O thread keeps polling a connection
+    # while its request is answered, so an answer of kb_server.sparql_front needs no wake-up of that thread.
     try:
         server = SparqlServer(app, app.extensions[EXTENSION], max_body, header_timeout, body_timeout, host=host,
                               port=port, threads=threads,
                               max_request_header_size=max_header, connection_limit=connections,
-                              channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True, channel_request_lookahead=1)
+                              channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True,
+                              channel_request_lookahead=1)
     except OSError as e:
         jobs.shutdown()
         store.close()
