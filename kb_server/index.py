@@ -375,9 +375,7 @@ class Index:
         value, error = None, None
         try:
             value = worker.answer()
-        except _ANSWERED as e:
-            error = e
-        except (QueryOutOfMemory, WorkerCrashed) as e:
+        except (*_ANSWERED, QueryOutOfMemory, WorkerCrashed) as e:
             error = e
         if error is None and not worker.alive() or isinstance(error, (QueryOutOfMemory, WorkerCrashed)):
             self._replace(worker)  # crashed after answering: its replacement starts from the master
@@ -412,10 +410,10 @@ class Index:
         for job in late:
             _tell(job, None, QueryTimeout(f"no query worker free within the {job.timeout:g} s timeout"))
         for worker in overdue:
-            job, worker.job = worker.job, None
+            stopped, worker.job = worker.job, None
             self._replace(worker)
-            assert job is not None
-            _tell(job, None, QueryTimeout(f"stopped after its {job.timeout:g} s timeout"))
+            assert stopped is not None
+            _tell(stopped, None, QueryTimeout(f"stopped after its {stopped.timeout:g} s timeout"))
 
     # --- workers -----------------------------------------------------------------------------------
 

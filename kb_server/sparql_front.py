@@ -73,14 +73,14 @@ class SparqlFront:
 
     def query(self, request: HTTPRequestParser) -> Query | None:
         """The query a request parsed by waitress asks, if it is one this front answers; None for the app."""
-        if request.error or request.path != SPARQL_PATH or request.command not in ("GET", "POST"):
+        if request.error or request.path != SPARQL_PATH or request.command not in ("GET", "POST"):  # type: ignore[attr-defined]
             return None
         headers = request.headers
         host = headers.get("HOST", "")
         if not self.host_allowed(host):
             return None
         try:
-            fields = _fields(request.query.encode("latin-1"))
+            fields = _fields(request.query.encode("latin-1"))  # type: ignore[attr-defined]
             if request.command == "GET":
                 query, update = _first(fields, "query"), _first(fields, "update")
             else:
@@ -136,14 +136,14 @@ class SparqlFront:
         close = connection == "close" if request.version == "1.1" else connection != "keep-alive"
         if close or request.version != "1.1":
             headers.append(("Connection", "close" if close else "Keep-Alive"))
-        headers += [("Content-Length", str(len(body))), ("Date", build_http_date(time.time())), *self.fixed]
+        headers += [("Content-Length", str(len(body))), ("Date", build_http_date(int(time.time()))), *self.fixed]
         head = "".join(f"{name}: {value}\r\n" for name, value in sorted(headers, key=lambda h: h[0]))
         try:  # sent at once, within this call, as far as the socket takes it (waitress's send_bytes is 1)
             channel.write_soon(f"HTTP/{request.version} {status} {HTTP_STATUS_CODES[status].upper()}\r\n{head}\r\n"
                                .encode("latin-1") + body)
         except ClientDisconnected:
             close = True
-        with channel.requests_lock:
+        with channel.requests_lock:  # type: ignore[attr-defined]  # waitress's, not in its stubs
             request.close()
             if close:
                 channel.close_when_flushed = True
@@ -151,11 +151,11 @@ class SparqlFront:
                     waiting.close()
                 channel.requests = []
             else:
-                channel.requests.pop(0)
+                channel.requests.pop(0)  # type: ignore[attr-defined]  # a list; the stubs say Sequence
                 if channel.connected and channel.requests:
                     server.add_task(channel)
-                elif channel.connected and (waiting := channel.request) is not None and waiting.expect_continue \
-                        and waiting.headers_finished and not channel.sent_continue:
+                elif channel.connected and (reading := channel.request) is not None and reading.expect_continue \
+                        and reading.headers_finished and not channel.sent_continue:
                     channel.send_continue()
         channel.last_activity = time.time()
         if close or channel.total_outbufs_len or not server.adj.channel_request_lookahead:
@@ -173,4 +173,4 @@ class SparqlServer(BodyLimitServer):
 
     def add_task(self, task: HTTPChannel) -> None:  # type: ignore[override]  # waitress passes the channel
         if not self.front.take(self, task):
-            super().add_task(task)
+            super().add_task(task)  # type: ignore[arg-type]

@@ -33,8 +33,11 @@ def app_requests(served, monkeypatch):
     _, srv, _ = served
     handed = []
     real = srv.task_dispatcher.add_task
-    monkeypatch.setattr(srv.task_dispatcher, "add_task", lambda channel: (handed.append(channel.requests[0].path),
-                                                                           real(channel)))
+
+    def add_task(channel):
+        handed.append(channel.requests[0].path)
+        real(channel)
+    monkeypatch.setattr(srv.task_dispatcher, "add_task", add_task)
     return handed
 
 
