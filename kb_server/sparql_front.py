@@ -138,13 +138,19 @@ class SparqlFront:
             headers.append(("Connection", "close" if close else "Keep-Alive"))
         headers += [("Content-Length", str(len(body))), ("Date", build_http_date(int(time.time()))), *self.fixed]
         head = "".join(f"{name}: {value}\r\n" for name, value in sorted(headers, key=lambda h: h[0]))
-        try:  # sent at once, within this call, as far as the socket takes it (waitress's send_bytes is 1)
-            channel.write_soon(f"HTTP/{request.version} {status} {HTTP_STATUS_CODES[status].upper()}\r\n{head}\r\n"
-                               .encode("latin-1") + body)
+        data = f"HTTP/{request.version} {status} {HTTP_STATUS_CODES[status].upper()}\r\n{head}\r\n".encode("latin-1") + body
+        with channel.outbuf_lock:  # type: ignore[attr-defined]  # waitress's, not in its stubs
+            # Straight to the socket when nothing waits before it: through the out-buffers, the I/O thread could find
+            # them full for an instant and leave the connection out of its poll for a whole loop timeout (1 s; seen).
+            sent = channel.send(data, do_close=False) if channel.connected and not channel.total_outbufs_len else 0
+        try:
+            if sent < len(data):  # the rest, sent by the I/O thread (woken below)
+                channel.write_soon(data[sent:])
         except ClientDisconnected:
             close = True
         with channel.requests_lock:  # type: ignore[attr-defined]  # waitress's, not in its stubs
             request.close()
+            pipelined = len(channel.requests) > 1  # the I/O thread may have stopped reading the connection
             if close:
                 channel.close_when_flushed = True
                 for waiting in channel.requests[1:]:
@@ -158,7 +164,7 @@ class SparqlFront:
                         and reading.headers_finished and not channel.sent_continue:
                     channel.send_continue()
         channel.last_activity = time.time()
-        if close or channel.total_outbufs_len or not server.adj.channel_request_lookahead:
+        if close or pipelined or channel.total_outbufs_len or not server.adj.channel_request_lookahead:
             server.pull_trigger()  # else the I/O thread polls the connection already (a request lookahead of 1)
 
 
