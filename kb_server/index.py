@@ -19,6 +19,12 @@ different workers never wait for each other, nor for a populate or a write: a wr
 behind whatever its worker is answering, and each operation carries the sequence number of the
 last write it must see, so a query sent after a write returned sees it. An update is evaluated on
 one replica and undone there: the store writes what it would change and puts it back like any write.
+
+Operations are submitted with a callback (`submit`): the caller's thread hands the operation to a free
+worker (or queues it), and one answering thread waits on every worker's reply pipe at once, reads each
+answer as one message, enforces the deadlines and calls back. No thread waits per operation, so the
+HTTP server's I/O thread can submit a query and go on serving (kb_server/sparql_front.py); `query` and
+`update` wait for the callback.
 """
 from __future__ import annotations
 
@@ -28,14 +34,17 @@ import logging
 import math
 import multiprocessing as mp
 import os
+import pickle
 import queue
 import resource
-import select
+import selectors
 import signal
 import threading
 import time
-from collections.abc import Mapping
-from typing import NoReturn
+from collections import deque
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, NoReturn
 
 import pyoxigraph as ox
 
@@ -46,6 +55,7 @@ from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.reading.sandbox import add_rules
 
 Changes = dict[str, tuple[bytes | None, bytes | None]]
+Done = Callable[[Any, BaseException | None], None]  # (value, None) or (None, the error)
 
 
 class WorkerCrashed(UrdfkbError, RuntimeError):
@@ -60,9 +70,16 @@ class QueryOutOfMemory(UrdfkbError, MemoryError):
     status = 503
 
 
+class IndexClosed(UrdfkbError, RuntimeError):
+    """The server is stopping: its query workers are gone."""
+
+    status = 503
+
+
 NO_NETWORK = ("socket", "socketpair", "io_uring_setup")  # refused to workers (EACCES): nothing to connect with
 _ANSWERED = (QueryError, NotAcceptable, ResultTooLarge)  # errors a worker sends back by name, staying up
 _ERRORS = {e.__name__: e for e in _ANSWERED}
+_HEAD = 4  # bytes of a reply's header length
 
 
 def _die_with_parent() -> None:
@@ -87,10 +104,16 @@ def _confine(memory: int) -> None:
         logging.getLogger(__name__).warning("SPARQL workers are not network-confined (libseccomp: %s)", e)
 
 
+def _reply(replies, status: str, value: object, body: bytes = b"") -> None:
+    """One message: the pickled (status, value), its length first, then a query's serialised answer untouched."""
+    head = pickle.dumps((status, value))
+    replies.send_bytes(len(head).to_bytes(_HEAD, "big") + head + body)
+
+
 def _serve(inbox, requests, replies, parent: int, limits: ResultLimits) -> None:
     """A worker's loop. `inbox` brings (seq, {graph: data}) replacements in order; `requests` brings
     (seq, op, args): the op runs once every replacement up to seq is applied, its answer goes to `replies`
-    (a query's as ("result", (kind, media type)) then its serialised body as raw bytes, untouched).
+    as one message (_reply: a query's as ("result", (kind, media type)) and its body).
     `parent` is the server's pid, passed in: a worker that starts after its server was killed sees
     another parent from its first instruction on (and would wait forever on the half message)."""
     _die_with_parent()
@@ -127,14 +150,32 @@ def _serve(inbox, requests, replies, parent: int, limits: ResultLimits) -> None:
             if op == "query":
                 text, accept, default_graphs, named_graphs = args
                 result = run_query(store, text, accept, default_graphs, named_graphs, limits)
-                replies.send(("result", (result.kind, result.media_type)))
-                replies.send_bytes(result.body)
+                _reply(replies, "result", (result.kind, result.media_type), result.body)
             else:
-                replies.send(("ok", run_update(store, *args)))
+                _reply(replies, "ok", run_update(store, *args))
         except _ANSWERED as e:
-            replies.send((type(e).__name__, str(e)))
+            _reply(replies, type(e).__name__, str(e))
         except MemoryError:  # in Python code; the engine's own allocations abort the process (SIGABRT)
             return
+
+
+@dataclass
+class _Job:
+    """An operation submitted: what to run, until when, and whom to tell."""
+
+    op: str
+    args: tuple
+    timeout: float
+    deadline: float
+    done: Done
+
+
+def _tell(job: _Job, value: Any, error: BaseException | None) -> None:
+    """Call the job's callback; what it raises is logged, never the end of the answering thread."""
+    try:
+        job.done(value, error)
+    except Exception:
+        logging.getLogger(__name__).exception("answering a SPARQL %s", job.op)
 
 
 class _Worker:
@@ -150,9 +191,7 @@ class _Worker:
         self.proc.start()
         requests.close()
         replies.close()
-        self.ready = select.poll()  # the reply pipe and the process's sentinel, registered once
-        for fd in (self.replies.fileno(), self.proc.sentinel):
-            self.ready.register(fd, select.POLLIN)
+        self.job: _Job | None = None  # the operation it is answering
         self.put(dict(graphs))
 
     def put(self, graphs: dict) -> None:
@@ -160,17 +199,25 @@ class _Worker:
         self.seq += 1
         self.inbox.put((self.seq, graphs))
 
-    def call(self, op: str, args: tuple, deadline: float):
-        self.requests.send((self.seq, op, args))
-        if not self.ready.poll(max(math.ceil(1000 * (deadline - time.monotonic())), 0)):
-            raise QueryTimeout("operation stopped after its timeout")
+    def send(self, job: _Job) -> None:
+        """Hand `job` over; a worker that died meanwhile is noticed by its sentinel, not here."""
+        self.job = job
         try:
-            status, value = self.replies.recv() if self.replies.poll() else self._died()
-            if status == "result":
-                kind, media_type = value
-                return Result(kind, media_type, self.replies.recv_bytes())
+            self.requests.send((self.seq, job.op, job.args))
+        except OSError:
+            pass
+
+    def answer(self):
+        """The value of the answer waiting in the reply pipe (or raise its error, or the worker's death)."""
+        try:
+            data = self.replies.recv_bytes() if self.replies.poll() else self._died()
         except EOFError:  # the worker died; its end of the pipe closed with it
-            status, value = self._died()
+            self._died()
+        size = _HEAD + int.from_bytes(data[:_HEAD], "big")
+        status, value = pickle.loads(data[_HEAD:size])
+        if status == "result":
+            kind, media_type = value
+            return Result(kind, media_type, data[size:])
         if status != "ok":
             raise _ERRORS[status](value)
         return value
@@ -207,68 +254,205 @@ class Index:
         self._ctx = mp.get_context("spawn")
         self._guard = threading.Lock()  # master, worker list, broadcasts
         self._workers: list[_Worker] = []
-        self._size = workers  # the list may be short while a worker is replaced: never evaluate in-process then
-        self._idle: queue.Queue[_Worker] = queue.Queue()
+        self.workers = workers  # the list may be short while a worker is replaced: never evaluate in-process then
+        self._pool = threading.Lock()  # the free workers, the waiting jobs, the busy workers, the arrivals
+        self._free: list[_Worker] = []
+        self._waiting: deque[_Job] = deque()
+        self._busy: set[_Worker] = set()
+        self._arrived: list[_Worker] = []  # replacements, for the answering thread to watch
+        self._closed = False
+        self._planned = math.inf  # the deadline the answering thread's wait ends at
+        self._selector = selectors.DefaultSelector()
+        self._wake_read, self._wake_write = os.pipe()
+        os.set_blocking(self._wake_read, False)
+        os.set_blocking(self._wake_write, False)
+        self._selector.register(self._wake_read, selectors.EVENT_READ)
         for _ in range(workers):
-            self._spawn()
+            self._watch(self._spawn())
+        self._thread = threading.Thread(target=self._answering, name="urdfkb-sparql-answers", daemon=True)
+        if workers:
+            self._thread.start()
 
-    def _spawn(self) -> None:
-        with self._guard:
-            worker = _Worker(self._ctx, graph_dumps(self.master), self.limits)
-            self._workers.append(worker)
-        self._idle.put(worker)
+    # --- submitting ----------------------------------------------------------------------------
 
-    def _retire(self, worker: _Worker) -> None:
-        with self._guard:
-            self._workers.remove(worker)
-        worker.kill()
-        self._spawn()
+    def submit(self, op: str, args: tuple, timeout: float, done: Done) -> None:
+        """Run `op` on a free worker within `timeout` (waiting for one included); `done(value, error)` is called
+        from the answering thread, never from this call. The worker goes back to the pool (an update's changes
+        undone on it first), or is replaced if it overran or died. Needs workers."""
+        job = _Job(op, args, timeout, time.monotonic() + timeout, done)
+        with self._pool:
+            if self._closed:
+                raise IndexClosed("the SPARQL index is closed")
+            worker = self._free.pop() if self._free else None
+            if worker is None:
+                self._waiting.append(job)
+            else:
+                self._busy.add(worker)
+                worker.job = job
+            wake = job.deadline < self._planned
+        if worker is not None:
+            worker.send(job)
+        if wake:
+            self._wake()
 
     def _call(self, op: str, args: tuple, timeout: float):
-        """Run `op` on a free worker within `timeout` (waiting for one included); the worker goes back to
-        the pool (an update's changes undone on it first), or is replaced if it overran or died."""
-        deadline = time.monotonic() + timeout
-        try:
-            worker = self._idle.get(timeout=timeout)
-        except queue.Empty:
-            raise QueryTimeout(f"no query worker free within the {timeout:g} s timeout") from None
-        try:
-            value = worker.call(op, args, deadline)
-        except _ANSWERED:
-            self._idle.put(worker)
-            raise
-        except QueryTimeout:
-            self._retire(worker)
-            raise QueryTimeout(f"stopped after its {timeout:g} s timeout") from None
-        except BaseException:
-            self._retire(worker)
-            raise
-        if not worker.alive():  # crashed after answering: its replacement starts from the master
-            self._retire(worker)
-            return value
-        if op == "update" and value:  # back to what the master holds, in order with the writes
-            with self._guard:
-                worker.put({g: before for g, (before, _) in value.items()})
-        self._idle.put(worker)
+        """`submit`, waiting for the answer."""
+        answered, out = threading.Event(), []
+
+        def done(value, error) -> None:
+            out.append((value, error))
+            answered.set()
+        self.submit(op, args, timeout, done)
+        answered.wait()
+        value, error = out[0]
+        if error is not None:
+            raise error
         return value
+
+    def submit_query(self, text: str, accept: str | None, timeout: float, default_graphs: list[str] | None,
+                     named_graphs: list[str] | None, done: Done) -> None:
+        """`query` answered through `done(Result or None, error or None)` (see `submit`); needs workers."""
+        self.submit("query", (text, accept, default_graphs, named_graphs), timeout, done)
 
     def query(self, text: str, accept: str | None, timeout: float,
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Evaluate a query on a free worker; QueryError, NotAcceptable, ResultTooLarge past the index's
         limits, or QueryTimeout past `timeout`."""
         args = (text, accept, default_graphs, named_graphs)
-        return self._call("query", args, timeout) if self._size else run_query(self.master, *args, limits=self.limits)
+        return self._call("query", args, timeout) if self.workers else run_query(self.master, *args, limits=self.limits)
 
     def update(self, text: str, timeout: float) -> Changes:
         """Evaluate an update on one replica (the master without workers) and undo it there: returns
         {graph: (before, after)} for the graphs it would change, for the store to write and `put` back."""
-        if not self._size:
+        if not self.workers:
             with self._guard:
                 changes = run_update(self.master, text)
                 for g, (before, _) in changes.items():
                     put_graph(self.master, g, before)
             return changes
         return self._call("update", (text,), timeout)
+
+    # --- the answering thread ----------------------------------------------------------------------
+
+    def _wake(self) -> None:
+        try:
+            os.write(self._wake_write, b"\0")
+        except BlockingIOError:  # wakes already pending
+            pass
+
+    def _answering(self) -> None:
+        """Wait on every worker's reply pipe and death at once, and on the next deadline; answer what comes."""
+        while True:
+            with self._pool:
+                if self._closed:
+                    return
+                arrived, self._arrived = self._arrived, []
+                deadlines = [w.job.deadline for w in self._busy if w.job] + [j.deadline for j in self._waiting]
+                self._planned = min(deadlines, default=math.inf)
+            for worker in arrived:
+                self._watch(worker)
+            wait = None if self._planned == math.inf else max(self._planned - time.monotonic(), 0.0)
+            for key, _ in self._selector.select(wait):
+                if key.data is None:
+                    while True:
+                        try:
+                            if not os.read(self._wake_read, 512):
+                                break
+                        except BlockingIOError:
+                            break
+                elif key.data in self._workers:  # not replaced by an event before this one
+                    self._answered(key.data)
+            self._expire(time.monotonic())
+
+    def _answered(self, worker: _Worker) -> None:
+        """The worker's reply pipe or sentinel is ready: its answer, or its death."""
+        with self._pool:
+            job, worker.job = worker.job, None
+            self._busy.discard(worker)
+        if job is None:  # a free worker died
+            self._replace(worker)
+            return
+        value, error = None, None
+        try:
+            value = worker.answer()
+        except (*_ANSWERED, QueryOutOfMemory, WorkerCrashed) as e:
+            error = e
+        if error is None and not worker.alive() or isinstance(error, (QueryOutOfMemory, WorkerCrashed)):
+            self._replace(worker)  # crashed after answering: its replacement starts from the master
+        else:
+            if job.op == "update" and value:  # back to what the master holds, in order with the writes
+                with self._guard:
+                    worker.put({g: before for g, (before, _) in value.items()})
+            self._release(worker)
+        _tell(job, value, error)
+
+    def _release(self, worker: _Worker) -> None:
+        """A worker is free: it takes the next waiting job, or joins the free ones."""
+        with self._pool:
+            job = self._waiting.popleft() if self._waiting else None
+            if job is None:
+                self._free.append(worker)
+            else:
+                self._busy.add(worker)
+                worker.job = job
+        if job is not None:
+            worker.send(job)
+
+    def _expire(self, now: float) -> None:
+        """Refuse the jobs that waited past their deadline for a worker; stop and replace the workers past theirs."""
+        with self._pool:
+            late = [j for j in self._waiting if j.deadline <= now]
+            for job in late:
+                self._waiting.remove(job)
+            overdue = [w for w in self._busy if w.job and w.job.deadline <= now]
+            for worker in overdue:
+                self._busy.discard(worker)
+        for job in late:
+            _tell(job, None, QueryTimeout(f"no query worker free within the {job.timeout:g} s timeout"))
+        for worker in overdue:
+            stopped, worker.job = worker.job, None
+            self._replace(worker)
+            assert stopped is not None
+            _tell(stopped, None, QueryTimeout(f"stopped after its {stopped.timeout:g} s timeout"))
+
+    # --- workers -----------------------------------------------------------------------------------
+
+    def _spawn(self) -> _Worker:
+        with self._guard:
+            worker = _Worker(self._ctx, graph_dumps(self.master), self.limits)
+            self._workers.append(worker)
+        return worker
+
+    def _watch(self, worker: _Worker) -> None:
+        """(In the answering thread, or before it starts) watch a new worker's replies and death; it is free."""
+        self._selector.register(worker.replies.fileno(), selectors.EVENT_READ, worker)
+        self._selector.register(worker.proc.sentinel, selectors.EVENT_READ, worker)
+        self._release(worker)
+
+    def _replace(self, worker: _Worker) -> None:
+        """(In the answering thread) stop watching `worker`; kill it and start its replacement in the background."""
+        self._selector.unregister(worker.replies.fileno())
+        self._selector.unregister(worker.proc.sentinel)
+        with self._guard:
+            self._workers.remove(worker)
+
+        def replace() -> None:
+            worker.kill()
+            with self._pool:
+                if self._closed:
+                    return
+            new = self._spawn()
+            with self._pool:
+                closed = self._closed
+                if not closed:
+                    self._arrived.append(new)
+            if closed:
+                new.kill()
+            else:
+                self._wake()
+        threading.Thread(target=replace, name="urdfkb-sparql-replace", daemon=True).start()
+
+    # --- graphs --------------------------------------------------------------------------------------
 
     def graph(self, graph: str) -> bytes | None:
         """One graph's N-Triples as last committed (None: no such graph), read from the master under the index's own
@@ -287,7 +471,20 @@ class Index:
                 w.put(dict(graphs))
 
     def close(self) -> None:
+        """Stop the workers; operations still waiting or running fail with IndexClosed."""
+        with self._pool:
+            self._closed = True
+            jobs = [*self._waiting, *(w.job for w in self._busy if w.job)]
+            self._waiting.clear()
+        self._wake()
+        if self._thread.is_alive():
+            self._thread.join(5)
         with self._guard:
             workers, self._workers = self._workers, []
         for w in workers:
             w.kill()
+        for job in jobs:
+            _tell(job, None, IndexClosed("the SPARQL index was closed before answering"))
+        self._selector.close()
+        os.close(self._wake_read)
+        os.close(self._wake_write)

@@ -11,6 +11,7 @@ from urdfkb.kb_server.sparql import Result
 from urdfkb.pipeline.errors import UrdfkbError
 
 SPARQL_PATH = "/sparql"  # the protocol's refusals are plain text, as SPARQL clients expect
+SPARQL_REFUSAL_TYPE = "text/plain; charset=utf-8"
 
 
 def handle_error(e: UrdfkbError | HTTPException) -> Response:
@@ -25,7 +26,7 @@ def handle_error(e: UrdfkbError | HTTPException) -> Response:
     else:
         status, headers, message = e.status, e.headers, str(e)
     if request.path == SPARQL_PATH:
-        resp = Response((message + "\n").encode("utf-8", "backslashreplace"), status, mimetype="text/plain")
+        resp = Response(sparql_refusal(message), status, content_type=SPARQL_REFUSAL_TYPE)
     elif request.method == "GET" and ui.wants_html():
         resp = ui.error_page(status, message)
     else:
@@ -34,9 +35,18 @@ def handle_error(e: UrdfkbError | HTTPException) -> Response:
     return resp
 
 
+def sparql_refusal(message: str) -> bytes:
+    """The body of a refusal on /sparql (SPARQL_REFUSAL_TYPE): the message on one line; a lone surrogate escaped."""
+    return (message + "\n").encode("utf-8", "backslashreplace")
+
+
+def results_type(media_type: str) -> str:
+    """The Content-Type of an answer in `media_type` (UTF-8 said, but for XML, which says it itself)."""
+    return media_type + ("" if media_type.endswith("xml") else "; charset=utf-8")
+
+
 def results(result: Result) -> Response:
-    charset = "" if result.media_type.endswith("xml") else "; charset=utf-8"
-    return Response(result.body, 200, content_type=result.media_type + charset)
+    return Response(result.body, 200, content_type=results_type(result.media_type))
 
 
 def accepted(job: Job) -> Response:

@@ -147,10 +147,8 @@ class Policy:
         """Refuse a state-changing request a page on another site could have sent."""
         origin = request.headers.get("Origin")
         site = request.headers.get("Sec-Fetch-Site")
-        if origin is not None and not self._own_origin(origin):
-            raise Forbidden(f"cross-origin {request.method} refused: the request's Origin is not this server's")
-        if site in ("cross-site", "same-site"):
-            raise Forbidden(f"cross-site {request.method} refused (Sec-Fetch-Site: {site})")
+        if refusal := self.cross_site(request.method, origin, site, request.headers.get("Host", "")):
+            raise Forbidden(refusal)
         if request.blueprint == "sparql":
             return  # a query changes nothing; an update needs the token, i.e. an Authorization header
         if request.method == "POST" and request.mimetype in SIMPLE_TYPES and origin is None and site != "same-origin" \
@@ -159,11 +157,19 @@ class Policy:
                             "any web page: send the URDF as application/xml, or add the header X-Requested-With "
                             "(or the token)")
 
-    def _own_origin(self, origin: str) -> bool:
+    def cross_site(self, method: str, origin: str | None, site: str | None, host: str) -> str | None:
+        """Why a write with these `Origin`, `Sec-Fetch-Site` and `Host` headers is refused as another site's, or None."""
+        if origin is not None and not self._own_origin(origin, host):
+            return f"cross-origin {method} refused: the request's Origin is not this server's"
+        if site in ("cross-site", "same-site"):
+            return f"cross-site {method} refused (Sec-Fetch-Site: {site})"
+        return None
+
+    def _own_origin(self, origin: str, host: str) -> bool:
         parts = urllib.parse.urlsplit(origin)
         if parts.scheme not in ("http", "https") or parts.path or parts.query:
             return False  # "null" (sandboxed pages, file:) and anything malformed
-        if parts.netloc.lower() == request.headers.get("Host", "").lower():
+        if parts.netloc.lower() == host.lower():
             return True
         split = _split_host(parts.netloc)
         return split is not None and any(split[0] == n and p in (None, split[1] or 80) for n, p in self.allowed_hosts)

@@ -8,11 +8,12 @@ from pathlib import Path
 from typing import Any
 
 from urdfkb.kb_server.app import create_app
-from urdfkb.kb_server.http_bodies import BodyLimitServer
 from urdfkb.kb_server.jobs import JobManager, Runner, pipeline_runner
 from urdfkb.kb_server.remote import RemoteStore
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.security import Policy, check_bind
+from urdfkb.kb_server.services import EXTENSION
+from urdfkb.kb_server.sparql_front import SparqlServer
 from urdfkb.kb_server.startup import check_port, check_store, listen_error
 from urdfkb.kb_server.store import Store, check_robot_name
 from urdfkb.pipeline.reading import sandbox
@@ -38,7 +39,7 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS, channel_timeout: int = CHANNEL_TIMEOUT,
                 header_timeout: float = HEADER_TIMEOUT, body_timeout: float = BODY_TIMEOUT,
-                query_memory: int = QUERY_MEMORY) -> tuple[BodyLimitServer, Store, JobManager]:
+                query_memory: int = QUERY_MEMORY) -> tuple[SparqlServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
@@ -68,11 +69,14 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
                      trust_xacro=trust_xacro, xacro_timeout=xacro_timeout)
     # waitress buffers a whole request before the app sees it, so bodies over max_body are refused (with the
     # app's 413: kb_server.http_bodies) before they fill memory or a temporary file; poll(), unlike
-    # select(), takes descriptors past 1023.
+    # select(), takes descriptors past 1023. With a request lookahead of 1 the I/O thread keeps polling a connection
+    # while its request is answered, so an answer of kb_server.sparql_front needs no wake-up of that thread.
     try:
-        server = BodyLimitServer(app, max_body, header_timeout, body_timeout, host=host, port=port, threads=threads,
-                                 max_request_header_size=max_header, connection_limit=connections,
-                                 channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True)
+        server = SparqlServer(app, app.extensions[EXTENSION], max_body, header_timeout, body_timeout, host=host,
+                              port=port, threads=threads,
+                              max_request_header_size=max_header, connection_limit=connections,
+                              channel_timeout=channel_timeout, cleanup_interval=1, asyncore_use_poll=True,
+                              channel_request_lookahead=1)
     except OSError as e:
         jobs.shutdown()
         store.close()

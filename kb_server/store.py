@@ -39,7 +39,7 @@ from rdflib.namespace import PROV
 
 from urdfkb.kb_server import corrections as review
 from urdfkb.kb_server.errors import DiskFull, StorageFault
-from urdfkb.kb_server.index import Index
+from urdfkb.kb_server.index import Done, Index
 from urdfkb.kb_server.results import ResultLimits
 from urdfkb.kb_server.sparql import QueryTimeout, Result, scan
 from urdfkb.pipeline.knowledge import rdf
@@ -497,6 +497,11 @@ class Store:
               default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
         """Run a SPARQL query over everything stored (see Index.query); never waits for writers."""
         return self.index.query(text, accept, timeout, default_graphs, named_graphs)
+
+    def submit_query(self, text: str, timeout: float, accept: str | None, default_graphs: list[str] | None,
+                     named_graphs: list[str] | None, done: Done) -> None:
+        """`query` answered through `done(result, error)`, called from the index's answering thread (Index.submit)."""
+        self.index.submit_query(text, accept, timeout, default_graphs, named_graphs, done)
 
     def update(self, text: str, timeout: float = QUERY_TIMEOUT) -> None:
         """Apply a SPARQL update atomically: Oxigraph evaluates it on one replica, the graphs it changed

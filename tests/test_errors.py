@@ -40,6 +40,7 @@ STATUS = {
     "urdfkb.kb_server.sparql.NotAcceptable": 406,
     "urdfkb.kb_server.index.WorkerCrashed": 500,
     "urdfkb.kb_server.index.QueryOutOfMemory": 503,
+    "urdfkb.kb_server.index.IndexClosed": 503,
     "urdfkb.kb_server.store.ReadOnlyGraph": 403,
     "urdfkb.kb_server.store.RobotNameError": 400,
     "urdfkb.kb_server.store.UnknownRobot": 404,
