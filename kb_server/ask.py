@@ -103,7 +103,7 @@ class Asker:
             raise QuestionError(f"the question is longer than {MAX_QUESTION} characters")
         menu = self.menu(store, robot)
         choices = menu.choices(text)
-        question = Question(menu.system, text.strip(), tuple(c.option for c in choices), key=f"ask:{robot}",
+        question = Question(menu.system, menu.user(text), tuple(c.option for c in choices), key=f"ask:{robot}",
                             until_unique=True)
         (scores,) = self.use(lambda backend: backend.score([question]))
         probabilities = softmax(scores)

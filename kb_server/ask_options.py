@@ -13,10 +13,10 @@ Other parameters keep their defaults. One more option, `none`, stands for everyt
 """
 from __future__ import annotations
 
-import difflib
 import re
 from dataclasses import dataclass
 
+from rapidfuzz.distance import OSA
 from rdflib import URIRef
 
 from urdfkb.kb_server.queries import NamedQuery, load_queries
@@ -24,7 +24,6 @@ from urdfkb.kb_server.store import Store
 
 NONE = "none"
 ANY = "any"
-FUZZY = 0.8  # similarity (difflib's ratio) at which a word of four letters or more names a side or a part
 _WORD = re.compile(r"[a-z0-9]+")
 _FACTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#>
@@ -60,13 +59,24 @@ def words(text: str) -> list[str]:
 
 
 def names(word: str, said: list[str]) -> bool:
-    """Whether the question's words `said` name `word`: as written, in the plural, or misspelt (four letters or more)."""
+    """Whether the question's words `said` name `word`: as written, in the plural, or misspelt by one edit
+    (a letter added, dropped, changed, or two neighbours swapped: "rigth", "lefft") where one of the two has
+    five letters or more and neither fewer than four ("where" is no "wheel", "hear" no "head")."""
     for w in said:
         if w in (word, word + "s", word + "es"):
             return True
-        if len(w) >= 4 and len(word) >= 4 and difflib.SequenceMatcher(None, w, word).ratio() >= FUZZY:
+        if min(len(w), len(word)) >= 4 and max(len(w), len(word)) >= 5 and OSA.distance(w, word) <= 1:
             return True
     return False
+
+
+@dataclass(frozen=True)
+class Named:
+    """What a question names of the robot's body: one side (else ANY), body-part classes and links (the longest first)."""
+
+    side: str
+    parts: tuple[Part, ...]
+    links: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -80,25 +90,30 @@ class Menu:
     sides: tuple[str, ...]
     links: tuple[str, ...]
 
-    def side(self, said: list[str]) -> str:
-        """The one side the words name, else ANY."""
-        named = [s for s in self.sides if names(s, said)]
-        return named[0] if len(named) == 1 else ANY
+    def read(self, text: str) -> Named:
+        """What of the robot's body question `text` names: its links, then, in the words outside them, a side and
+        body parts."""
+        said = f" {' '.join(words(text))} "
+        links = sorted((link for link in self.links if f" {' '.join(words(link))} " in said), key=lambda k: (-len(k), k))
+        for link in links:
+            said = said.replace(f" {' '.join(words(link))} ", " ")
+        rest = said.split()
+        sides = [s for s in self.sides if names(s, rest)]
+        return Named(sides[0] if len(sides) == 1 else ANY,
+                     tuple(p for p in self.parts if names(p.label.split()[-1], rest)), tuple(links))
 
-    def named_parts(self, said: list[str]) -> tuple[Part, ...]:
-        """The body-part classes the words name by their label's head noun, else all of them."""
-        return tuple(p for p in self.parts if names(p.label.split()[-1], said)) or self.parts
-
-    def named_links(self, said: list[str]) -> list[str]:
-        """The links whose name's words the question says in a row; the longest names first."""
-        text = f" {' '.join(said)} "
-        return sorted((link for link in self.links if f" {' '.join(words(link))} " in text), key=lambda k: (-len(k), k))
+    def user(self, text: str) -> str:
+        """The user turn the model reads: the question, then what of the robot's body code found it names."""
+        named = self.read(text)
+        parts = [f"{named.side} {p.label}" if named.side in p.sides else p.label for p in named.parts]
+        found = ([f"body part {', '.join(parts)}"] if parts else []) + ([f"link {', '.join(named.links)}"] if named.links else [])
+        return text.strip() + (f"\n(It names the robot's {' and '.join(found)}.)" if found else "")
 
     def choices(self, text: str) -> tuple[Choice, ...]:
-        """The options for question `text`: per query, the values code does not fix by the question's words."""
-        said = words(text)
-        side = self.side(said)
-        parts, links = self.named_parts(said), self.named_links(said)
+        """The options for question `text`: per query, the values code does not fix by the question's words
+        (every body part of the robot where the question names none)."""
+        named = self.read(text)
+        side, parts, links = named.side, named.parts or self.parts, named.links
         out: list[Choice] = []
         for q in self.queries:
             params = {p.name for p in q.params}
