@@ -2,14 +2,15 @@
 
 Every bundled query is an option, with the values its parameters can take on that robot; code fixes
 the values the question's own words name, and the model chooses among the rest:
-- `side`: the robot's side a word of the question names ("left", "rigth"), else any (also where it
-  names both);
-- `part`: the body-part classes whose English label the question names (its head noun: "base" for
-  "mobile base", plural or misspelt alike); the model chooses among those named, or among all of the
-  robot's classes where it names none; `side` as above where the robot has that class on that side;
 - `link`: the robot's links the question names (their name's words in a row: "head_pan_link", "head
-  pan link"); a query taking a link is no option where it names none.
-Other parameters keep their defaults. One more option, `none`, stands for everything else.
+  pan link"); a query taking a link is no option where it names none;
+- `side`: the robot's side a word outside those links names ("left", "rigth"), else any (also where it
+  names both);
+- `part`: the body-part classes whose English label a word outside those links names (its head noun:
+  "base" for "mobile base", plural or misspelt alike); the model chooses among those named, or among all
+  of the robot's classes where it names none; `side` as above where the robot has that class on that side.
+Other parameters keep their defaults. One more option, `none`, stands for everything else. The model
+reads the question followed by what of the robot's body code found it names (Menu.user).
 """
 from __future__ import annotations
 
