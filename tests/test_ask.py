@@ -55,6 +55,7 @@ def test_options_come_from_the_robot(kb):
     turtlebot = build_menu(kb, "turtlebot3")
     assert not any(o.startswith("located_on arm") for o in options(kb, "turtlebot3", "what is on you?"))
     assert "lidar" in turtlebot.system and "mobile base" in turtlebot.system
+    assert "A question naming one of the robot's body parts or links is about its body." in turtlebot.system
     reach = load_queries()["arm_reach"]  # each query's title and `# in words` line are the menu
     assert reach.in_words.startswith("how far an arm reaches") and f"arm_reach: {reach.title}; asked as: {reach.in_words}" in turtlebot.system
     assert all(q.in_words for q in load_queries().values())
