@@ -4,7 +4,7 @@ The options (kb_server.ask_options) are the bundled queries with the values the 
 the robot asked, and `none` for everything else. The embedded model scores every whole option in one pass
 (pipeline.llm: Backend.score), as it scores the pipeline's questions; the menu of queries is the system
 text, the same for every question about the robot, so its prompt state is reused and a question costs its
-own words and the options' tokens. The query whose options hold most of the probability is chosen, with
+own words, a line saying what of the robot's body it names (Menu.user) and the options' tokens. The query whose options hold most of the probability is chosen, with
 its likeliest values; `none`, or a query holding less than the threshold, is a refusal.
 
 The reply's `answer` is one sentence composed by code from the query's rows (or, refused, one saying
@@ -103,7 +103,7 @@ class Asker:
             raise QuestionError(f"the question is longer than {MAX_QUESTION} characters")
         menu = self.menu(store, robot)
         choices = menu.choices(text)
-        question = Question(menu.system, text.strip(), tuple(c.option for c in choices), key=f"ask:{robot}",
+        question = Question(menu.system, menu.user(text), tuple(c.option for c in choices), key=f"ask:{robot}",
                             until_unique=True)
         (scores,) = self.use(lambda backend: backend.score([question]))
         probabilities = softmax(scores)

@@ -2,21 +2,22 @@
 
 Every bundled query is an option, with the values its parameters can take on that robot; code fixes
 the values the question's own words name, and the model chooses among the rest:
-- `side`: the robot's side a word of the question names ("left", "rigth"), else any (also where it
-  names both);
-- `part`: the body-part classes whose English label the question names (its head noun: "base" for
-  "mobile base", plural or misspelt alike); the model chooses among those named, or among all of the
-  robot's classes where it names none; `side` as above where the robot has that class on that side;
 - `link`: the robot's links the question names (their name's words in a row: "head_pan_link", "head
-  pan link"); a query taking a link is no option where it names none.
-Other parameters keep their defaults. One more option, `none`, stands for everything else.
+  pan link"); a query taking a link is no option where it names none;
+- `side`: the robot's side a word outside those links names ("left", "rigth"), else any (also where it
+  names both);
+- `part`: the body-part classes whose English label a word outside those links names (its head noun:
+  "base" for "mobile base", plural or misspelt alike); the model chooses among those named, or among all
+  of the robot's classes where it names none; `side` as above where the robot has that class on that side.
+Other parameters keep their defaults. One more option, `none`, stands for everything else. The model
+reads the question followed by what of the robot's body code found it names (Menu.user).
 """
 from __future__ import annotations
 
-import difflib
 import re
 from dataclasses import dataclass
 
+from rapidfuzz.distance import OSA
 from rdflib import URIRef
 
 from urdfkb.kb_server.queries import NamedQuery, load_queries
@@ -24,7 +25,6 @@ from urdfkb.kb_server.store import Store
 
 NONE = "none"
 ANY = "any"
-FUZZY = 0.8  # similarity (difflib's ratio) at which a word of four letters or more names a side or a part
 _WORD = re.compile(r"[a-z0-9]+")
 _FACTS = """PREFIX core: <https://w3id.org/urdfkb/core#>
 PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#>
@@ -60,13 +60,24 @@ def words(text: str) -> list[str]:
 
 
 def names(word: str, said: list[str]) -> bool:
-    """Whether the question's words `said` name `word`: as written, in the plural, or misspelt (four letters or more)."""
+    """Whether the question's words `said` name `word`: as written, in the plural, or misspelt by one edit
+    (a letter added, dropped, changed, or two neighbours swapped: "rigth", "lefft") where one of the two has
+    five letters or more and neither fewer than four ("where" is no "wheel", "hear" no "head")."""
     for w in said:
         if w in (word, word + "s", word + "es"):
             return True
-        if len(w) >= 4 and len(word) >= 4 and difflib.SequenceMatcher(None, w, word).ratio() >= FUZZY:
+        if min(len(w), len(word)) >= 4 and max(len(w), len(word)) >= 5 and OSA.distance(w, word) <= 1:
             return True
     return False
+
+
+@dataclass(frozen=True)
+class Named:
+    """What a question names of the robot's body: one side (else ANY), body-part classes and links (the longest first)."""
+
+    side: str
+    parts: tuple[Part, ...]
+    links: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -80,25 +91,30 @@ class Menu:
     sides: tuple[str, ...]
     links: tuple[str, ...]
 
-    def side(self, said: list[str]) -> str:
-        """The one side the words name, else ANY."""
-        named = [s for s in self.sides if names(s, said)]
-        return named[0] if len(named) == 1 else ANY
+    def read(self, text: str) -> Named:
+        """What of the robot's body question `text` names: its links, then, in the words outside them, a side and
+        body parts."""
+        said = f" {' '.join(words(text))} "
+        links = sorted((link for link in self.links if f" {' '.join(words(link))} " in said), key=lambda k: (-len(k), k))
+        for link in links:
+            said = said.replace(f" {' '.join(words(link))} ", " ")
+        rest = said.split()
+        sides = [s for s in self.sides if names(s, rest)]
+        return Named(sides[0] if len(sides) == 1 else ANY,
+                     tuple(p for p in self.parts if names(p.label.split()[-1], rest)), tuple(links))
 
-    def named_parts(self, said: list[str]) -> tuple[Part, ...]:
-        """The body-part classes the words name by their label's head noun, else all of them."""
-        return tuple(p for p in self.parts if names(p.label.split()[-1], said)) or self.parts
-
-    def named_links(self, said: list[str]) -> list[str]:
-        """The links whose name's words the question says in a row; the longest names first."""
-        text = f" {' '.join(said)} "
-        return sorted((link for link in self.links if f" {' '.join(words(link))} " in text), key=lambda k: (-len(k), k))
+    def user(self, text: str) -> str:
+        """The user turn the model reads: the question, then what of the robot's body code found it names."""
+        named = self.read(text)
+        parts = [f"{named.side} {p.label}" if named.side in p.sides else p.label for p in named.parts]
+        found = ([f"body part {', '.join(parts)}"] if parts else []) + ([f"link {', '.join(named.links)}"] if named.links else [])
+        return text.strip() + (f"\n(It names the robot's {' and '.join(found)}.)" if found else "")
 
     def choices(self, text: str) -> tuple[Choice, ...]:
-        """The options for question `text`: per query, the values code does not fix by the question's words."""
-        said = words(text)
-        side = self.side(said)
-        parts, links = self.named_parts(said), self.named_links(said)
+        """The options for question `text`: per query, the values code does not fix by the question's words
+        (every body part of the robot where the question names none)."""
+        named = self.read(text)
+        side, parts, links = named.side, named.parts or self.parts, named.links
         out: list[Choice] = []
         for q in self.queries:
             params = {p.name for p in q.params}
@@ -146,7 +162,8 @@ def build_menu(store: Store, robot: str) -> Menu:
     system = (f"A person talks to the robot {robot}. Choose the one query that answers what they ask about the "
               "robot's own body: its parts, links, joints, sensors and devices. Answer "
               f"{NONE} when the question is about anything else (the weather, people, time, places, the battery, "
-              "things around the robot, feelings, news...).\n"
+              "things around the robot, feelings, news...). A question naming one of the robot's body parts or links is "
+              "about its body.\n"
               f"The robot's body parts: {', '.join(p.label for p in parts) or 'none known'}. "
               f"Its sides: {', '.join(sides) or 'none'}.\n"
               f"Its sensors and end-effectors: {', '.join(components) or 'none known'}.\n"

@@ -55,6 +55,7 @@ def test_options_come_from_the_robot(kb):
     turtlebot = build_menu(kb, "turtlebot3")
     assert not any(o.startswith("located_on arm") for o in options(kb, "turtlebot3", "what is on you?"))
     assert "lidar" in turtlebot.system and "mobile base" in turtlebot.system
+    assert "A question naming one of the robot's body parts or links is about its body." in turtlebot.system
     reach = load_queries()["arm_reach"]  # each query's title and `# in words` line are the menu
     assert reach.in_words.startswith("how far an arm reaches") and f"arm_reach: {reach.title}; asked as: {reach.in_words}" in turtlebot.system
     assert all(q.in_words for q in load_queries().values())
@@ -90,7 +91,22 @@ def test_a_question_is_answered_by_its_query(kb):
     assert reply["confidence"] == 1.0
     asker.ask(kb, "pr2", "which of your links are cameras?")
     assert asked[0].system == asked[1].system  # one menu a robot: its prompt state is reused
-    assert asked[0].user == "How far can you reach with your left arm?"
+    assert asked[0].user.startswith("How far can you reach with your left arm?\n")  # then what code found it names
+    assert asked[1].user == "which of your links are cameras?"
+
+
+def test_the_model_reads_what_the_question_names(kb):
+    menu = build_menu(kb, "pr2")
+    assert menu.user(" What is on your rigth arm? ") == "What is on your rigth arm?\n(It names the robot's body part right arm.)"
+    assert menu.user("what is under torso_lift_link?") == "what is under torso_lift_link?\n(It names the robot's link torso_lift_link.)"
+    assert menu.user("joints of the head and torso") == "joints of the head and torso\n(It names the robot's body part head, torso.)"
+    assert menu.user("Where is the kitchen?") == "Where is the kitchen?"  # "where" is no misspelt "wheel"
+
+
+def test_a_link_s_words_name_no_body_part(kb):
+    below = options(kb, "pr2", "what is mounted below torso_lift_link?")
+    assert below["mounted_below"] == {"link": "torso_lift_link"} and "located_on torso" in below  # every part: none named
+    assert options(kb, "pr2", "what is on your head?")["located_on"] == {"part": "Head"}
 
 
 def test_cameras_answer_names_them(kb):
@@ -109,8 +125,10 @@ def test_none_of_these_is_a_refusal(kb):
 def test_probability_is_counted_per_query(kb):
     reply = scripted({"located_on head": 0.3, "located_on torso": 0.25, "cameras": 0.45})[0].ask(kb, "pr2", "on you?")
     assert reply["query"] == "located_on" and reply["params"] == {"part": "Head"} and reply["confidence"] == 0.55
-    unsure = scripted({"cameras": 0.45, "sensors": 0.35, "none": 0.2})[0].ask(kb, "pr2", "what is that?")
-    assert unsure["refused"] and unsure["confidence"] == 0.45
+    leading = scripted({"cameras": 0.45, "sensors": 0.35, "none": 0.2})[0].ask(kb, "pr2", "what is that?")
+    assert leading["query"] == "cameras" and not leading["refused"] and leading["confidence"] == 0.45
+    unsure = scripted({"cameras": 0.28, "sensors": 0.27, "components": 0.25, "none": 0.2})[0].ask(kb, "pr2", "what is that?")
+    assert unsure["refused"] and unsure["confidence"] == 0.28
 
 
 def test_an_empty_robot_answer_says_none(kb):

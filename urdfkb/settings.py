@@ -64,7 +64,7 @@ PREFIX_CACHE_BYTES = 512 << 20  # the prompt-state cache's size bound (the sixte
 # 150 MB; Qwen2.5-1.5B: 28 KB a token)
 
 # Questions in words (kb_server.ask)
-ASK_THRESHOLD = 0.5  # probability the chosen query's options must hold together; less is a refusal
+ASK_THRESHOLD = 0.3  # probability the chosen query's options must hold together; less is a refusal
 MAX_QUESTION = 500  # characters of a question: 400
 
 # Review
