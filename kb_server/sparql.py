@@ -192,6 +192,12 @@ def _resolve(tok: str, base: str, prefixes: dict[str, str]) -> str | None:
     return prefixes[prefix] + local if prefix in prefixes else None
 
 
+def protocol_dataset(default: list[str], named: list[str]) -> tuple[list[str] | None, list[str] | None]:
+    """The dataset a request's default-graph-uri and named-graph-uri values give (run_query's `default_graphs`,
+    `named_graphs`): (None, None) when it gives none, so the union default graph stands."""
+    return (default, named) if default or named else (None, None)
+
+
 # --- evaluation (in a worker) -------------------------------------------------------------
 
 def _graph(iri: str):

@@ -38,7 +38,7 @@ from urdfkb.kb_server.http_bodies import MAX_BODY_HEADER, BodyLimitServer
 from urdfkb.kb_server.index import IndexClosed
 from urdfkb.kb_server.replies import SPARQL_PATH, SPARQL_REFUSAL_TYPE, results_type, sparql_refusal
 from urdfkb.kb_server.services import Services
-from urdfkb.kb_server.sparql import SCAN_CACHE, SCAN_CACHE_TEXT, Result
+from urdfkb.kb_server.sparql import SCAN_CACHE, SCAN_CACHE_TEXT, Result, protocol_dataset
 from urdfkb.pipeline.errors import UrdfkbError
 
 FORM = "application/x-www-form-urlencoded"
@@ -103,10 +103,9 @@ class SparqlFront:
             return None
         if query is None or update is not None:
             return None
-        default = [v for k, v in fields if k == "default-graph-uri"]
-        named = [v for k, v in fields if k == "named-graph-uri"]
-        given = bool(default or named)  # the protocol's dataset, instead of the union default graph
-        return query, headers.get("ACCEPT"), default if given else None, named if given else None
+        default, named = protocol_dataset([v for k, v in fields if k == "default-graph-uri"],
+                                          [v for k, v in fields if k == "named-graph-uri"])
+        return query, headers.get("ACCEPT"), default, named
 
     def take(self, server: SparqlServer, channel: HTTPChannel) -> bool:
         """Answer the channel's first request here if it is a query (see `query`); False: it is the app's."""

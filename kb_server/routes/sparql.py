@@ -10,7 +10,7 @@ from urdfkb.kb_server import ui
 from urdfkb.kb_server.errors import BadRequest, Forbidden, UnsupportedMediaType
 from urdfkb.kb_server.replies import SPARQL_PATH, results
 from urdfkb.kb_server.services import services
-from urdfkb.kb_server.sparql import NotAcceptable, negotiate
+from urdfkb.kb_server.sparql import NotAcceptable, negotiate, protocol_dataset
 from urdfkb.pipeline.knowledge.formats import GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
 from urdfkb.pipeline.knowledge.namespaces import CORE_GRAPH
 
@@ -42,10 +42,8 @@ def protocol() -> Response | str:
                  "(application/sparql-update or form field update)")
         raise UnsupportedMediaType(usage) if request.mimetype not in FORM_TYPES else BadRequest(usage)
     dataset = request.values if request.mimetype in FORM_TYPES else request.args
-    default, named = dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri")
-    given = bool(default or named)  # the protocol's dataset, instead of the union default graph
-    return results(kb.store.query(query, kb.query_timeout, request.headers.get("Accept"),
-                                  default if given else None, named if given else None))
+    default, named = protocol_dataset(dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri"))
+    return results(kb.store.query(query, kb.query_timeout, request.headers.get("Accept"), default, named))
 
 
 def _operation() -> tuple[str | None, str | None]:
