@@ -8,10 +8,12 @@ sent as a form POST asking for SPARQL results JSON, `--requests` times (default 
 keep-alive clients; the two servers take turns run by run (A/B interleaved, the order alternating),
 `--rounds` times. Printed per query: the median over rounds of the one-client p50 latency and of the
 throughput with 1 and 8 clients, for each server, and the ratios urdfkb/Oxigraph and 8 clients/1.
-Both servers' answers are checked to hold the same rows first.
+Both servers' answers are checked to hold the same rows first. urdfkb keeps answers in its result cache
+(kb_server/result_cache.py), so after the first request of a run each is answered from there; with
+`--result-cache 0` it starts with none, and every request goes to a query worker.
 
     URDFKB_SHARED=/work/shared .venv/bin/python -m benchmarks.sparql_side_by_side [--copies 100]
-        [--requests 400] [--rounds 3] [--queries camera_frames sensors ...]
+        [--requests 400] [--rounds 3] [--queries camera_frames sensors ...] [--result-cache MIB]
 """
 from __future__ import annotations
 
@@ -79,10 +81,10 @@ class Server:
         self.proc.wait(10)
 
 
-def urdfkb_server(store: Path, port: int) -> Server:
-    """`urdfkb serve` (this checkout's) on `store`, with its defaults, once its query workers answer."""
+def urdfkb_server(store: Path, port: int, *options: str) -> Server:
+    """`urdfkb serve` (this checkout's) on `store`, with its defaults but `options`, once its query workers answer."""
     kb = Server("urdfkb", [sys.executable, "-m", "urdfkb", "serve", "--store", str(store), "--port", str(port),
-                           "--token", TOKEN], port, "/sparql", "/sparql", {"Authorization": f"Bearer {TOKEN}"})
+                           "--token", TOKEN, *options], port, "/sparql", "/sparql", {"Authorization": f"Bearer {TOKEN}"})
     try:
         ready(port, "/robots")
         for _ in range(60):  # a worker loading its replica on a busy machine may take longer than a query's timeout
@@ -109,9 +111,10 @@ def rows(server: Server, text: str) -> list[str]:
                              sort_keys=True) for b in doc["results"]["bindings"])
 
 
-def measure(server: Server, body: bytes, clients: int, requests: int) -> tuple[float, float]:
-    """(p50 ms, queries/s): `requests` form POSTs shared by `clients` keep-alive connections started together."""
-    headers = {"Content-Type": "application/x-www-form-urlencoded", "Accept": JSON_RESULTS}
+def measure(server: Server, body: bytes, clients: int, requests: int, extra: dict | None = None) -> tuple[float, float]:
+    """(p50 ms, queries/s): `requests` form POSTs (with the `extra` headers) shared by `clients` keep-alive connections
+    started together."""
+    headers = {"Content-Type": "application/x-www-form-urlencoded", "Accept": JSON_RESULTS, **(extra or {})}
     per, samples, lock = requests // clients, [], threading.Lock()
     conns = [http.client.HTTPConnection("127.0.0.1", server.port, timeout=60) for _ in range(clients)]
     start = threading.Barrier(clients + 1)
@@ -151,14 +154,17 @@ def main() -> None:
     ap.add_argument("--requests", type=int, default=400)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--queries", nargs="*", help="bundled query names (default: all)")
+    ap.add_argument("--result-cache", type=int, metavar="MIB", help="urdfkb's result cache (default: its own default; "
+                    "0: none, every request evaluated by a worker)")
     args = ap.parse_args()
+    options = () if args.result_cache is None else ("--result-cache", str(args.result_cache))
     core, pr2 = pr2_graphs()
     queries = bound_queries(args.copies // 2, args.queries)
     copies = dict(renamed(pr2, i) for i in range(args.copies))
     with tempfile.TemporaryDirectory() as tmp:
         store_file(Path(tmp) / "kb.sqlite3", copies)
         kport, oport = free_port(), free_port()
-        kb = urdfkb_server(Path(tmp) / "kb.sqlite3", kport)
+        kb = urdfkb_server(Path(tmp) / "kb.sqlite3", kport, *options)
         oxi = Server("oxigraph", [str(BIN / "oxigraph"), "serve", "--union-default-graph", "--bind",
                                   f"127.0.0.1:{oport}"], oport, "/query", "/update", {})
         try:
@@ -184,8 +190,9 @@ def main() -> None:
             kb.stop()
             oxi.stop()
     med = {k: (statistics.median(p for p, _ in v), statistics.median(q for _, q in v)) for k, v in figures.items()}
+    cache = "urdfkb's default" if args.result_cache is None else f"{args.result_cache} MiB"
     print(f"{args.copies} PR2 copies, {args.requests} form POSTs per run, medians of {args.rounds} runs "
-          "interleaved; p50 with 1 client, throughput (q/s) with 1 and 8 clients")
+          f"interleaved; p50 with 1 client, throughput (q/s) with 1 and 8 clients; result cache: {cache}")
     print(f"{'query':<18} | {'urdfkb p50':>10} {'q/s 1c':>7} {'q/s 8c':>7} {'8c/1c':>6} | "
           f"{'oxi p50':>8} {'q/s 1c':>7} {'q/s 8c':>7} | {'kb/oxi 1c':>9} {'kb/oxi 8c':>9}")
     for name in queries:

@@ -14,7 +14,8 @@ from urdfkb import __version__, local_name
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.knowledge.formats import BY_NAME, RESULTS_BY_NAME
 from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_LINKS,
-                             MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, TEMPERATURE, VOTES, XACRO_TIMEOUT)
+                             MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, RESULT_CACHE, TEMPERATURE, VOTES,
+                             XACRO_TIMEOUT)
 
 if TYPE_CHECKING:
     from tqdm import tqdm
@@ -224,7 +225,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
           package_paths=args.package_path, trust_xacro=args.trust_xacro, max_result_rows=args.max_result_rows,
           max_result_bytes=args.max_result_bytes, max_connections=args.max_connections,
           channel_timeout=args.channel_timeout, header_timeout=args.header_timeout, body_timeout=args.body_timeout,
-          query_memory=args.query_memory * 2**20, **_limits(args))
+          query_memory=args.query_memory * 2**20, result_cache=args.result_cache * 2**20, **_limits(args))
     return 0
 
 
@@ -347,6 +348,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--query-memory", type=int, default=QUERY_MEMORY // 2**20, metavar="MIB",
                    help="address space one SPARQL worker may use; a query needing more is stopped with 503 "
                         f"(default {QUERY_MEMORY // 2**20:,} MiB)")
+    g.add_argument("--result-cache", type=int, default=RESULT_CACHE // 2**20, metavar="MIB",
+                   help="keep query answers in memory until the next write, at most this much, and answer the same "
+                        f"query again from there (default {RESULT_CACHE // 2**20} MiB; 0: keep none)")
     g.add_argument("--max-connections", type=int, default=MAX_CONNECTIONS, metavar="N",
                    help=f"open client connections at most; a new one then closes the connection waiting longest "
                         f"for its request (default {MAX_CONNECTIONS:,})")

@@ -25,6 +25,10 @@ worker (or queues it), and one answering thread waits on every worker's reply pi
 answer as one message, enforces the deadlines and calls back. No thread waits per operation, so the
 HTTP server's I/O thread can submit a query and go on serving (kb_server/sparql_front.py); `query` and
 `update` wait for the callback.
+
+Answers are kept in a result cache (kb_server/result_cache.py) until the next write: `put`, which every
+write of the store goes through, moves the cache to its next generation once the master and every worker
+have the write queued, and a query's answer is kept only under the generation it was submitted in.
 """
 from __future__ import annotations
 
@@ -48,11 +52,13 @@ from typing import Any, NoReturn
 
 import pyoxigraph as ox
 
+from urdfkb.kb_server.result_cache import ResultCache, cache_key
 from urdfkb.kb_server.results import ResultLimits, ResultTooLarge
 from urdfkb.kb_server.sparql import (NotAcceptable, QueryError, QueryTimeout, Result, graph_dump, graph_dumps, put_graph,
                               run_query, run_update)
 from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.reading.sandbox import add_rules
+from urdfkb.settings import RESULT_CACHE
 
 Changes = dict[str, tuple[bytes | None, bytes | None]]
 Done = Callable[[Any, BaseException | None], None]  # (value, None) or (None, the error)
@@ -245,10 +251,11 @@ class _Worker:
 
 class Index:
     """The master store plus `workers` query processes (0: evaluate in this process, no deadline);
-    every answer is bounded by `limits`."""
+    every answer is bounded by `limits`, and answers are kept in a cache of `cache_bytes` (0: none)."""
 
-    def __init__(self, graphs: Mapping[str, bytes], workers: int, limits: ResultLimits):
+    def __init__(self, graphs: Mapping[str, bytes], workers: int, limits: ResultLimits, cache_bytes: int = RESULT_CACHE):
         self.master, self.limits = ox.Store(), limits
+        self.cache = ResultCache(cache_bytes)
         for graph, data in graphs.items():
             put_graph(self.master, graph, data)
         self._ctx = mp.get_context("spawn")
@@ -309,17 +316,44 @@ class Index:
             raise error
         return value
 
+    def cached(self, text: str, accept: str | None, default_graphs: list[str] | None,
+               named_graphs: list[str] | None) -> Result | None:
+        """The answer the result cache holds for this query, as of the last write; None if it holds none."""
+        k = cache_key(text, accept, default_graphs, named_graphs) if self.cache.capacity else None
+        return None if k is None else self.cache.get(k)
+
+    def _keeper(self, text: str, accept: str | None, default_graphs: list[str] | None,
+                named_graphs: list[str] | None) -> Callable[[Result], None]:
+        """What keeps this query's answer in the result cache: under the generation of the data now, before the
+        query is submitted, so that an answer a write overtook is dropped."""
+        k = cache_key(text, accept, default_graphs, named_graphs) if self.cache.capacity else None
+        generation = self.cache.generation
+        return (lambda result: None) if k is None else (lambda result: self.cache.put(k, generation, result))
+
     def submit_query(self, text: str, accept: str | None, timeout: float, default_graphs: list[str] | None,
                      named_graphs: list[str] | None, done: Done) -> None:
-        """`query` answered through `done(Result or None, error or None)` (see `submit`); needs workers."""
-        self.submit("query", (text, accept, default_graphs, named_graphs), timeout, done)
+        """`query` answered through `done(Result or None, error or None)` (see `submit`), evaluated by a worker
+        whatever the cache holds (look there first with `cached`); a successful answer is kept. Needs workers."""
+        keep = self._keeper(text, accept, default_graphs, named_graphs)
 
-    def query(self, text: str, accept: str | None, timeout: float,
-              default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
-        """Evaluate a query on a free worker; QueryError, NotAcceptable, ResultTooLarge past the index's
-        limits, or QueryTimeout past `timeout`."""
+        def kept(value: Any, error: BaseException | None) -> None:
+            if error is None:
+                keep(value)
+            done(value, error)
+        self.submit("query", (text, accept, default_graphs, named_graphs), timeout, kept)
+
+    def query(self, text: str, accept: str | None, timeout: float, default_graphs: list[str] | None = None,
+              named_graphs: list[str] | None = None, fresh: bool = False) -> Result:
+        """The answer the result cache holds for this query (unless `fresh`: evaluated all the same), else
+        evaluate it on a free worker and keep its answer; QueryError, NotAcceptable, ResultTooLarge past the
+        index's limits, or QueryTimeout past `timeout`."""
         args = (text, accept, default_graphs, named_graphs)
-        return self._call("query", args, timeout) if self.workers else run_query(self.master, *args, limits=self.limits)
+        if not fresh and (kept := self.cached(*args)) is not None:
+            return kept
+        keep = self._keeper(*args)
+        result = self._call("query", args, timeout) if self.workers else run_query(self.master, *args, limits=self.limits)
+        keep(result)
+        return result
 
     def update(self, text: str, timeout: float) -> Changes:
         """Evaluate an update on one replica (the master without workers) and undo it there: returns
@@ -329,6 +363,8 @@ class Index:
                 changes = run_update(self.master, text)
                 for g, (before, _) in changes.items():
                     put_graph(self.master, g, before)
+                if changes:  # a query evaluated meanwhile may have read them
+                    self.cache.invalidate()
             return changes
         return self._call("update", (text,), timeout)
 
@@ -461,7 +497,8 @@ class Index:
             return graph_dump(self.master, graph)
 
     def put(self, graphs: Mapping[str, bytes | None]) -> None:
-        """Replace graphs (None drops one) in the master and every worker, in order with other writes."""
+        """Replace graphs (None drops one) in the master and every worker, in order with other writes; then no
+        answer kept before is given again (a query submitted from now on is evaluated after the replacement)."""
         if not graphs:
             return
         with self._guard:
@@ -469,6 +506,7 @@ class Index:
                 put_graph(self.master, g, data)
             for w in self._workers:
                 w.put(dict(graphs))
+            self.cache.invalidate()
 
     def close(self) -> None:
         """Stop the workers; operations still waiting or running fail with IndexClosed."""

@@ -21,8 +21,8 @@ from urdfkb.pipeline.errors import UrdfkbError
 from urdfkb.pipeline.runner import Settings
 from urdfkb.pipeline.reading.xacro_input import load_description, parse_package_paths
 from urdfkb.settings import (BODY_TIMEOUT, CHANNEL_TIMEOUT, HEADER_TIMEOUT, HOST, MAX_BYTES, MAX_CONNECTIONS, MAX_HEADER,
-                             MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, QUERY_TIMEOUT, THREADS,
-                             XACRO_TIMEOUT, job_waiters)
+                             MAX_LINKS, MAX_RESULT_BYTES, MAX_RESULT_ROWS, PORT, QUERY_MEMORY, QUERY_TIMEOUT, RESULT_CACHE,
+                             THREADS, XACRO_TIMEOUT, job_waiters)
 
 log = logging.getLogger(__name__)
 FD_RESERVE = 256  # descriptors besides the connections': store files, worker pipes, the listening socket
@@ -39,14 +39,14 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
                 max_result_rows: int = MAX_RESULT_ROWS, max_result_bytes: int = MAX_RESULT_BYTES,
                 max_connections: int = MAX_CONNECTIONS, channel_timeout: int = CHANNEL_TIMEOUT,
                 header_timeout: float = HEADER_TIMEOUT, body_timeout: float = BODY_TIMEOUT,
-                query_memory: int = QUERY_MEMORY) -> tuple[SparqlServer, Store, JobManager]:
+                query_memory: int = QUERY_MEMORY, result_cache: int = RESULT_CACHE) -> tuple[SparqlServer, Store, JobManager]:
     """Open the store and bind the server (port 0 picks a free port: see server.effective_port).
 
     A non-loopback `host` needs a token unless `insecure_no_token`; `allowed_hosts`,
     `model_dir` and `llm_urls` open what kb_server.security refuses by default. Request
     headers over `max_header` bytes are refused (431), query answers past `max_result_rows` or
     `max_result_bytes` (413); a query worker needing more than `query_memory` bytes is
-    stopped (503). At most `max_connections` clients are connected at once (slow ones
+    stopped (503). Up to `result_cache` bytes of answers are kept until the next write (0: none). At most `max_connections` clients are connected at once (slow ones
     hold no thread: waitress hands a request over once it has all of it); at the limit a new one
     closes the connection waiting longest for a complete request (kb_server.http_deadlines). A
     connection is closed when idle for `channel_timeout` seconds, or when a request's headers take
@@ -60,9 +60,12 @@ def make_server(store_path: str | Path | None = None, host: str = HOST, port: in
         raise UrdfkbError("--max-connections, --channel-timeout, --header-timeout and --body-timeout must be at least 1")
     if not xacro_timeout > 0:
         raise UrdfkbError("--xacro-timeout must be more than 0 seconds")
+    if result_cache < 0:
+        raise UrdfkbError("--result-cache must be 0 (no cache) or more MiB")
     policy = Policy(host, port, allowed_hosts, model_dir, llm_urls)
     connections = open_files_for(max_connections)
-    store = Store(check_store(store_path), limits=ResultLimits(max_result_rows, max_result_bytes, query_memory))
+    store = Store(check_store(store_path), limits=ResultLimits(max_result_rows, max_result_bytes, query_memory),
+                  result_cache=result_cache)
     jobs = JobManager(store, runner, RemoteStore(remote_store) if remote_store else None)
     app = create_app(store, jobs, token=token, max_body=max_body, query_timeout=query_timeout, policy=policy,
                      max_links=max_links, max_waiters=job_waiters(threads), package_paths=package_paths,

@@ -13,8 +13,9 @@ queue and Flask are set aside for the one request the endpoint answers most:
 `SparqlServer.add_task`, called where a request has been read whole, gives the request to `SparqlFront`.
 A SPARQL query (GET with `query`, a form POST with `query`, or an application/sparql-query POST, to
 /sparql) that passes the request checks of kb_server.security (Host; Origin and Sec-Fetch-Site of a POST)
-is handed to a free query worker (Index.submit_query), and the I/O thread goes on serving. The index's
-answering thread writes the answer, or the query's refusal, to the connection when it comes. Everything
+is answered at once from the result cache (kb_server/result_cache.py) if it holds the answer, in the thread that
+read it; else it is handed to a free query worker (Index.submit_query), and the I/O thread goes on serving. The
+index's answering thread writes the answer, or the query's refusal, to the connection when it comes. Everything
 else -- updates, the service description and the query page, every refusal of the request itself (a bad
 Host, a cross-site POST, both query and update, a malformed form), multipart forms -- goes to the Flask
 app as before; the app's /sparql route answers the same queries the same way under any other WSGI server.
@@ -37,13 +38,15 @@ from werkzeug.http import HTTP_STATUS_CODES
 from urdfkb.kb_server.http_bodies import MAX_BODY_HEADER, BodyLimitServer
 from urdfkb.kb_server.index import IndexClosed
 from urdfkb.kb_server.replies import SPARQL_PATH, SPARQL_REFUSAL_TYPE, results_type, sparql_refusal
+from urdfkb.kb_server.result_cache import no_cache
 from urdfkb.kb_server.services import Services
 from urdfkb.kb_server.sparql import SCAN_CACHE, SCAN_CACHE_TEXT, Result, protocol_dataset
 from urdfkb.pipeline.errors import UrdfkbError
 
 FORM = "application/x-www-form-urlencoded"
 QUERY_BODY = "application/sparql-query"
-Query = tuple[str, str | None, list[str] | None, list[str] | None]  # text, Accept, default and named graphs
+# text, Accept, default and named graphs, and whether the answer must be evaluated afresh (Cache-Control: no-cache)
+Query = tuple[str, str | None, list[str] | None, list[str] | None, bool]
 
 
 @lru_cache(maxsize=SCAN_CACHE)
@@ -105,26 +108,49 @@ class SparqlFront:
             return None
         default, named = protocol_dataset([v for k, v in fields if k == "default-graph-uri"],
                                           [v for k, v in fields if k == "named-graph-uri"])
-        return query, headers.get("ACCEPT"), default, named
+        return query, headers.get("ACCEPT"), default, named, no_cache(headers.get("CACHE_CONTROL"))
 
     def take(self, server: SparqlServer, channel: HTTPChannel) -> bool:
-        """Answer the channel's first request here if it is a query (see `query`); False: it is the app's."""
-        request = channel.requests[0]
-        query = self.query(request) if self.kb.store.index.workers else None  # no workers: the app evaluates in-process
-        if query is None:
-            return False
-        text, accept, default, named = query
-        try:
-            self.kb.store.submit_query(text, self.kb.query_timeout, accept, default, named,
+        """Answer the channel's first request here if it is a query (see `query`); False: it is the app's.
+
+        Called where waitress adds a task, with the channel's requests lock held. A query whose answer the result
+        cache holds is answered at once, in this thread, and so is each cached one pipelined after it; the first
+        that is not goes to a worker, or to the app."""
+        index = self.kb.store.index
+        while channel.requests:
+            if channel.close_when_flushed:  # read behind an answer that closes the connection: never answered
+                for waiting in channel.requests:
+                    waiting.close()
+                channel.requests = []
+                return True
+            request = channel.requests[0]
+            query = self.query(request) if index.workers else None  # no workers: the app evaluates in-process
+            if query is None:
+                return False
+            text, accept, default, named, fresh = query
+            kept = None if fresh or channel.total_outbufs_len else index.cached(text, accept, default, named)
+            if kept is None:  # (with output waiting, writing here could wait for this very thread to send it)
+                try:
+                    index.submit_query(text, accept, self.kb.query_timeout, default, named,
                                        functools.partial(self._answer, server, channel, request))
-        except IndexClosed:  # stopping: the app answers 503
-            return False
+                except IndexClosed:  # stopping: the app answers 503
+                    return False
+                return True
+            close = self._write(channel, request, kept, None)
+            self._next(server, channel, request, close, follow=False)
         return True
 
     def _answer(self, server: SparqlServer, channel: HTTPChannel, request: HTTPRequestParser,
                 result: Result | None, error: UrdfkbError | None) -> None:
         """(In the index's answering thread) write the answer, then serve the channel's next request, as
         waitress's HTTPChannel.service does after a task."""
+        close = self._write(channel, request, result, error)
+        with channel.requests_lock:  # type: ignore[attr-defined]  # waitress's, not in its stubs
+            self._next(server, channel, request, close, follow=True)
+
+    def _write(self, channel: HTTPChannel, request: HTTPRequestParser, result: Result | None,
+               error: UrdfkbError | None) -> bool:
+        """Send the answer (or the refusal) to `request`; True if the connection is to close after it."""
         if error is None:
             assert result is not None
             status, headers, body = 200, [("Content-Type", results_type(result.media_type))], result.body
@@ -143,25 +169,31 @@ class SparqlFront:
             # them full for an instant and leave the connection out of its poll for a whole loop timeout (1 s; seen).
             sent = channel.send(data, do_close=False) if channel.connected and not channel.total_outbufs_len else 0
         try:
-            if sent < len(data):  # the rest, sent by the I/O thread (woken below)
+            if sent < len(data):  # the rest, sent by the I/O thread (woken in _next)
                 channel.write_soon(data[sent:])
         except ClientDisconnected:
             close = True
-        with channel.requests_lock:  # type: ignore[attr-defined]  # waitress's, not in its stubs
-            request.close()
-            pipelined = len(channel.requests) > 1  # the I/O thread may have stopped reading the connection
-            if close:
-                channel.close_when_flushed = True
-                for waiting in channel.requests[1:]:
-                    waiting.close()
-                channel.requests = []
-            else:
-                channel.requests.pop(0)  # type: ignore[attr-defined]  # a list; the stubs say Sequence
-                if channel.connected and channel.requests:
+        return close
+
+    def _next(self, server: SparqlServer, channel: HTTPChannel, request: HTTPRequestParser, close: bool,
+              follow: bool) -> None:
+        """(With the channel's requests lock held) done with `request`: close the connection, or drop the request and,
+        if `follow`, hand the next one on (else the caller takes it); then have the I/O thread send what waits."""
+        request.close()
+        pipelined = len(channel.requests) > 1  # the I/O thread may have stopped reading the connection
+        if close:
+            channel.close_when_flushed = True
+            for waiting in channel.requests[1:]:
+                waiting.close()
+            channel.requests = []
+        else:
+            channel.requests.pop(0)  # type: ignore[attr-defined]  # a list; the stubs say Sequence
+            if channel.connected and channel.requests:
+                if follow:
                     server.add_task(channel)
-                elif channel.connected and (reading := channel.request) is not None and reading.expect_continue \
-                        and reading.headers_finished and not channel.sent_continue:
-                    channel.send_continue()
+            elif channel.connected and (reading := channel.request) is not None and reading.expect_continue \
+                    and reading.headers_finished and not channel.sent_continue:
+                channel.send_continue()
         channel.last_activity = time.time()
         if close or pipelined or channel.total_outbufs_len or not server.adj.channel_request_lookahead:
             server.pull_trigger()  # else the I/O thread polls the connection already (a request lookahead of 1)

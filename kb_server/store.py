@@ -52,7 +52,7 @@ from urdfkb.pipeline.knowledge.ontology import load_core
 from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.knowledge.shacl import violations
 from urdfkb.pipeline.reading.tree import KinematicTree
-from urdfkb.settings import QUERY_TIMEOUT, QUERY_WORKERS
+from urdfkb.settings import QUERY_TIMEOUT, QUERY_WORKERS, RESULT_CACHE
 
 log = logging.getLogger(__name__)
 
@@ -171,9 +171,10 @@ class Store:
     """The quadstore file at `path` (created with the core if new), safe to share between threads.
 
     `workers` query processes answer SPARQL (0: in this process, without a deadline, as most tests do),
-    each answer within `limits`."""
+    each answer within `limits`; answers are kept until the next write in a cache of `result_cache` bytes (0: none)."""
 
-    def __init__(self, path: str | Path | None = None, workers: int = QUERY_WORKERS, limits: ResultLimits = ResultLimits()):
+    def __init__(self, path: str | Path | None = None, workers: int = QUERY_WORKERS, limits: ResultLimits = ResultLimits(),
+                 result_cache: int = RESULT_CACHE):
         self.path = Path(path) if path else default_store_path()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.lock = threading.RLock()
@@ -200,7 +201,7 @@ class Store:
                 else:
                     graphs[graph] = data
             self.world.save()
-        self.index = Index(graphs, workers, limits)
+        self.index = Index(graphs, workers, limits, result_cache)
 
     def _open(self) -> None:
         self.world = rdf.open_world(self.path)
@@ -494,13 +495,16 @@ class Store:
     # --- SPARQL -------------------------------------------------------------------------------
 
     def query(self, text: str, timeout: float = QUERY_TIMEOUT, accept: str | None = None,
-              default_graphs: list[str] | None = None, named_graphs: list[str] | None = None) -> Result:
-        """Run a SPARQL query over everything stored (see Index.query); never waits for writers."""
-        return self.index.query(text, accept, timeout, default_graphs, named_graphs)
+              default_graphs: list[str] | None = None, named_graphs: list[str] | None = None,
+              fresh: bool = False) -> Result:
+        """Run a SPARQL query over everything stored, or take its answer from the result cache unless `fresh`
+        (see Index.query); never waits for writers."""
+        return self.index.query(text, accept, timeout, default_graphs, named_graphs, fresh)
 
     def submit_query(self, text: str, timeout: float, accept: str | None, default_graphs: list[str] | None,
                      named_graphs: list[str] | None, done: Done) -> None:
-        """`query` answered through `done(result, error)`, called from the index's answering thread (Index.submit)."""
+        """`query` evaluated by a worker (Index.submit_query: look in `index.cached` first) and answered through
+        `done(result, error)`, called from the index's answering thread (Index.submit)."""
         self.index.submit_query(text, accept, timeout, default_graphs, named_graphs, done)
 
     def update(self, text: str, timeout: float = QUERY_TIMEOUT) -> None:

@@ -2,6 +2,7 @@
 answers as the app's route, the same headers as the app's answers, keep-alive and pipelining as waitress
 does them; refusals of the request itself and everything else still reach the app."""
 import socket
+import threading
 import urllib.parse
 
 import pytest
@@ -113,3 +114,89 @@ def test_refusals_of_the_request_itself_are_the_apps(served, app_requests, reque
     method, path, body, headers = request_
     got, ctype, _ = http(method, base + path, body, headers)
     assert (got, ctype) == (status, "text/plain; charset=utf-8") and app_requests == ["/sparql"]
+
+
+@pytest.fixture
+def submitted(served, monkeypatch):
+    """The queries handed to the query workers from now on."""
+    _, _, store = served
+    ops = []
+    real = store.index.submit
+
+    def submit(op, args, timeout, done):
+        if op == "query":
+            ops.append(args[0])
+        real(op, args, timeout, done)
+    monkeypatch.setattr(store.index, "submit", submit)
+    return ops
+
+
+FRONT_VALUE = "SELECT ?o WHERE { GRAPH <urn:x:front> { <urn:x:s> <urn:x:p> ?o } }"
+
+
+def _set_front_value(base: str, value: int) -> None:
+    update = ("DELETE WHERE { GRAPH <urn:x:front> { <urn:x:s> <urn:x:p> ?o } }; "
+              f"INSERT DATA {{ GRAPH <urn:x:front> {{ <urn:x:s> <urn:x:p> {value} }} }}")
+    status, _, body = http("POST", f"{base}/sparql", update.encode(),
+                           {"Content-Type": "application/sparql-update", "Authorization": "Bearer t"})
+    assert status == 204, body
+
+
+def _front_value(base: str, headers: dict | None = None) -> bytes:
+    status, _, body = http("GET", f"{base}/sparql?{urllib.parse.urlencode({'query': FRONT_VALUE})}", None, headers)
+    assert status == 200, body
+    return body
+
+
+def test_a_query_asked_again_is_answered_from_the_cache_until_a_write(served, app_requests, submitted):
+    base, _, _ = served
+    _set_front_value(base, 1)
+    first = _front_value(base)
+    assert b'"value":"1"' in first and submitted == [FRONT_VALUE]
+    assert _front_value(base) == first and submitted == [FRONT_VALUE]  # no worker asked
+    assert _front_value(base, {"Cache-Control": "no-cache"}) == first and submitted == [FRONT_VALUE] * 2
+    _set_front_value(base, 2)
+    assert b'"value":"2"' in _front_value(base) and submitted == [FRONT_VALUE] * 3
+    refused = "SELECT * WHERE { SERVICE <http://example.org/> { ?s ?p ?o } }"
+    for _ in range(2):  # refused by its worker each time: never kept
+        status, _, body = http("GET", f"{base}/sparql?{urllib.parse.urlencode({'query': refused})}")
+        assert status == 400 and body.startswith(b"SERVICE")
+    assert submitted == [FRONT_VALUE] * 3 + [refused] * 2
+    assert app_requests == ["/sparql"] * 2  # the updates
+
+
+def test_pipelined_answers_from_the_cache_keep_their_order_and_nothing_follows_a_close(served, app_requests,
+                                                                                       submitted):
+    base, _, _ = served
+    ask = "ASK { ?s a ?c }"
+    expected = [_raw(base, _request("1.1", "close", query=q)).split(b"\r\n\r\n", 1)[1] for q in (QUERY, ask)]
+    out = _raw(base, _request("1.1", query=QUERY) + b"GET /robots HTTP/1.1\r\nHost: HOST\r\n\r\n"
+               + _request("1.1", query=ask) + _request("1.1", "close", query=QUERY) + _request("1.1", query=ask))
+    answers = out.split(b"HTTP/1.1 ")[1:]
+    assert [a[:3] for a in answers] == [b"200"] * 4
+    bodies = [a.split(b"\r\n\r\n", 1)[1] for a in answers]
+    assert [bodies[0], bodies[2], bodies[3]] == [expected[0], expected[1], expected[0]] and b'"name":"pr2"' in bodies[1]
+    assert app_requests == ["/robots"] and submitted == [QUERY, ask]  # the two asked first, before they were kept
+
+
+@pytest.mark.slow  # over a second of its own (make test-fast leaves it out)
+def test_a_query_sent_after_a_write_was_answered_sees_it_whatever_others_read_meanwhile(served):
+    base, _, _ = served
+    _set_front_value(base, 0)
+    stop, seen = threading.Event(), []
+
+    def read() -> None:
+        while not stop.is_set():
+            seen.append(_front_value(base))
+    readers = [threading.Thread(target=read) for _ in range(2)]
+    for r in readers:
+        r.start()
+    try:
+        for i in range(1, 16):
+            _set_front_value(base, i)
+            assert f'"value":"{i}"'.encode() in _front_value(base)
+    finally:
+        stop.set()
+        for r in readers:
+            r.join(10)
+    assert len(seen) > 15

@@ -30,6 +30,7 @@ QUERY_MEMORY = 1024 * 2**20  # bytes of address space one query worker may use (
 MAX_QUERY_NESTING = 256  # nested (), {} and []: far beyond any real query, far below the parser's stack: 400
 MAX_RESULT_ROWS = 100_000  # rows (or triples) of one query answer: --max-result-rows
 MAX_RESULT_BYTES = 32 * 1024 * 1024  # bytes of one serialised query answer: --max-result-bytes
+RESULT_CACHE = 64 * 2**20  # bytes of query answers kept until the next write (0: none): --result-cache
 
 # HTTP
 HOST = "127.0.0.1"  # the address `urdfkb serve` binds: --host

@@ -9,6 +9,7 @@ from rdflib.namespace import RDF
 from urdfkb.kb_server import ui
 from urdfkb.kb_server.errors import BadRequest, Forbidden, UnsupportedMediaType
 from urdfkb.kb_server.replies import SPARQL_PATH, results
+from urdfkb.kb_server.result_cache import no_cache
 from urdfkb.kb_server.services import services
 from urdfkb.kb_server.sparql import NotAcceptable, negotiate, protocol_dataset
 from urdfkb.pipeline.knowledge.formats import GRAPH_FORMATS, GRAPH_MEDIA, RESULTS_FORMATS
@@ -43,7 +44,8 @@ def protocol() -> Response | str:
         raise UnsupportedMediaType(usage) if request.mimetype not in FORM_TYPES else BadRequest(usage)
     dataset = request.values if request.mimetype in FORM_TYPES else request.args
     default, named = protocol_dataset(dataset.getlist("default-graph-uri"), dataset.getlist("named-graph-uri"))
-    return results(kb.store.query(query, kb.query_timeout, request.headers.get("Accept"), default, named))
+    return results(kb.store.query(query, kb.query_timeout, request.headers.get("Accept"), default, named,
+                                  fresh=no_cache(request.headers.get("Cache-Control"))))
 
 
 def _operation() -> tuple[str | None, str | None]:
