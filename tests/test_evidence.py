@@ -156,7 +156,7 @@ def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
     components = {c.subcomponents[-1].link: c for c in abstractor.run(bot).components}
     assert components["nose_scanner"].cls == "Lidar"  # gpu_ray: no question left to ask
     assert "pre:nose_scanner@Sensor" not in seen
-    assert seen["pre:tail_scanner@RangingSensor"].options == ("lidar", "sonar")
+    assert seen["pre:tail_scanner@RangingSensor"].options == ("lidar", "sonar", "other ranging sensor")
     assert components["mast_eye_optical"].cls in TAX.subclasses("Camera")  # the first option was "vision"
     assert abstractor.tally.declared >= 4 and any("declared ['gpu_ray']" in line for line in trace)
 
@@ -207,8 +207,9 @@ def test_a_declared_span_rules_out_the_ranging_kinds_it_is_too_narrow_for(seed):
 
     found = {c.subcomponents[-1].link: c.cls for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(load_urdf(urdf)).components}
     assert found[beam] == "RangingSensor" and found[cone] == "Sonar" and found[scanner] == "Lidar"
-    assert seen[f"pre:{wide}@RangingSensor"].options == ("lidar", "sonar")  # both kinds fit a 60-degree sweep
-    assert not any(k.startswith((f"pre:{beam}@", f"pre:{cone}@RangingSensor")) for k in seen)
+    assert seen[f"pre:{wide}@RangingSensor"].options == ("lidar", "sonar", "other ranging sensor")  # both kinds fit 60 degrees
+    assert seen[f"pre:{cone}@RangingSensor"].options == ("sonar", "other ranging sensor")  # core:otherAnswer stays offered
+    assert not any(k.startswith(f"pre:{beam}@") for k in seen)
 
 
 @pytest.mark.parametrize("seed", range(5))

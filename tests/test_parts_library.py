@@ -43,9 +43,6 @@ TOOLS = ["robotiq_2f85", "robotiq_2f140", "robotiq_hande", "robotiq_epick", "fra
          "cmu_leap_hand", "inspire_rh56_right", "barrett_bh282", "onrobot_rg2", "schunk_svh_right"]
 
 # Where the pipeline gets a part wrong today: the failure class, for the lead (strict: a fix shows as XPASS).
-CAP = ("one device, many components: a lidar's housing piece (the OS1's thermal cap) beside its scan frame is split "
-       "when the model names them apart: only a housing beside an optical frame is bound to its body, as on the truth "
-       "robots a scan frame's body also carries feet, shells and bumpers")
 TURNING_BASE = ("tool extent: a revolute joint inside a tool (the OnRobot RG2's body_joint, which turns the gripper body on "
                 "its quick-changer base) is read as the arm's last joint, so the tool is mounted on its body and its base "
                 "is left out")
@@ -61,7 +58,6 @@ FORK_BELOW_BASE = ("tool extent: a hand whose fingers fork from a frame below it
                    "right_hand_base_link) is mounted on its own base, which is left out of it; its middle finger, on a "
                    "fixed spread dummy beside mimicking spread joints, is read as a mechanism")
 KNOWN = {
-    ("group", "ouster_os1"): CAP, ("mount", "ouster_os1"): "mount: " + CAP,
     ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("group together", "carnegie_multisense_s21"): MOUNT_POINT,
     ("stay", "carnegie_multisense_s21"): MOUNT_POINT, ("mount", "carnegie_multisense_s21"): OPTICAL_ROOT,
     ("group", "realsense_l515"): IMU_UNDER_COLOUR, ("group together", "realsense_l515"): IMU_UNDER_COLOUR,

@@ -186,6 +186,23 @@ def test_descend_passes_through_lone_subclasses_without_asking():
     assert asked == ["pre:x@Sensor", "pre:x@Camera"]  # VisionSensor has one subclass: not asked
 
 
+def test_a_ranging_sensor_that_is_neither_lidar_nor_sonar_stays_a_ranging_sensor():
+    """The ontology's core:otherAnswer on RangingSensor is offered beside its kinds (a cliff or wall sensor
+    measures one beam), also where a declaration leaves one kind: the lone kind is then asked, not passed through."""
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        return "ranging sensor" if q.key.endswith("@Sensor") else "other ranging sensor"
+    subject = Subject("pre:x", "The link below belongs to a {concept}.", "Link: cliff_front_link")
+    (typed,) = descend(Oracle(ScriptedBackend(rule)), TAX, "Sensor", [subject], "pre")
+    assert typed.cls == "RangingSensor"
+    assert seen["pre:x@RangingSensor"] == ("lidar", "sonar", "other ranging sensor")
+    narrowed = Subject("pre:y", subject.framing, subject.evidence, frozenset({"Sonar"}))
+    (typed,) = descend(Oracle(ScriptedBackend(rule)), TAX, "Sensor", [narrowed], "pre")
+    assert typed.cls == "RangingSensor" and seen["pre:y@RangingSensor"] == ("lidar", "other ranging sensor")
+
+
 def test_name_prefixes_break_at_underscores_and_case_changes():
     assert name_prefixes("SurroundingFrontLaser_device_frame") == (
         "Surrounding", "SurroundingFront", "SurroundingFrontLaser", "SurroundingFrontLaser_device",

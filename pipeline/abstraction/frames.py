@@ -28,8 +28,9 @@ def is_frame(tree: KinematicTree, link: str) -> bool:
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     """The link both leaves hang from as parts of one body: by fixed joints through frames (is_frame), within
     CAMERA_BODY of it, each on a branch that leads to one imager alone (None where they do not). A leaf with
-    geometry fixed straight to that link, beside an optical frame (REP 103), is the camera body's own housing
-    piece (a camera's model frame): it belongs to the body too."""
+    geometry fixed straight to that link, beside an optical frame (REP 103) or a frame the file declares a
+    simulator sensor on, is the device's own housing piece (a camera's model frame, a lidar's cap): it belongs
+    to the body too."""
     body = fork_of(tree, [a, b])
     housings = 0
     for leaf, other in ((a, b), (b, a)):
@@ -37,7 +38,7 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
         branch = path[:path.index(body)]  # leaf ... the body's child
         if not branch or any(tree.edge_to(link).movable for link in branch):
             return None
-        if not is_frame(tree, leaf) and len(branch) == 1 and is_optical(tree, other):
+        if not is_frame(tree, leaf) and len(branch) == 1 and (is_optical(tree, other) or _declared(tree, other)):
             housings += 1
         elif not all(is_frame(tree, link) for link in branch):
             return None
@@ -46,6 +47,11 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
         if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
             return None
     return body if housings < 2 else None
+
+
+def _declared(tree: KinematicTree, link: str) -> bool:
+    facts = tree.evidence.get(link)
+    return facts is not None and bool(facts.sensors)
 
 
 def _imagers_below(tree: KinematicTree, link: str) -> int:

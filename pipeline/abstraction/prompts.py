@@ -105,9 +105,10 @@ def sensor_check(link: str, shown: str, ancestors: Sequence[str]) -> Question:
         " projector."
         f"\n- {DRIVE_PART}: a part of a motor or drive: screw, gear, slider, spring, linkage, dummy or helper link"
         " of an actuator."
-        "\n- reference frame: a virtual point used for looking, grasping or planning, with no device of its own."
-        f"\n- {PASSIVE_PART}: a part that measures nothing itself: battery, fiducial marker or tag, reflector that"
-        " other sensors locate."
+        "\n- reference frame: a virtual point used for looking, grasping or planning (a tool, flange or end-effector"
+        " frame), with no device of its own."
+        f"\n- {PASSIVE_PART}: a part that measures nothing itself: battery, standoff, spacer, mounting plate,"
+        " fiducial marker or tag, reflector that other sensors locate."
         f"\nReply with one of: sensor, emitter, {DRIVE_PART}, reference frame, {PASSIVE_PART}."
     )
     user = f"Leaf link: {shown}\nParents: {chain_text(ancestors)}"

@@ -119,6 +119,7 @@ class Vocabulary:
         self._elements: dict[str, tuple[float, float]] = {}  # sensor class → the sensing-frame counts it allows
         self._fields: dict[str, tuple[float, float]] = {}  # ray sensor class → the declared spans (rad) it allows
         self._rank: dict[str, float] = {}  # class → core:optionRank
+        self._other: dict[str, tuple[str, str]] = {}  # class → (core:otherAnswer, core:otherComment)
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
         for name in self._order:
             node = CORE[name]
@@ -153,6 +154,8 @@ class Vocabulary:
                 self._roles[name] = str(role)
             if (rank := graph.value(node, CORE.optionRank)) is not None:
                 self._rank[name] = float(str(rank))
+            if (other := graph.value(node, CORE.otherAnswer)) is not None:
+                self._other[name] = (str(other), str(graph.value(node, CORE.otherComment) or ""))
             if (question := graph.value(node, CORE.partQuestion)) is not None:
                 self._part_question[name] = str(question)
             if str(graph.value(node, CORE.numberedUnits)).strip().lower() in ("true", "1"):
@@ -328,6 +331,10 @@ class Vocabulary:
     def part_question(self, part: str) -> str | None:
         """The question refining a link taken as a required `part` (core:partQuestion), or None."""
         return self._part_question.get(self._check(part))
+
+    def other(self, name: str) -> tuple[str, str] | None:
+        """(answer, definition) offered beside `name`'s subclasses meaning `name` itself (core:otherAnswer), or None."""
+        return self._other.get(self._check(name))
 
     def has_numbered_units(self, name: str) -> bool:
         """A `name` device is made of numbered units read as one (core:numberedUnits on it or an ancestor)."""
