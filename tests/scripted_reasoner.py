@@ -52,7 +52,10 @@ def _symmetric(relation: dict[str, tuple[str, ...]]) -> dict[str, set[str]]:
 
 def _parts(parts: list[PartFacts]) -> list[str | None]:
     wheels = [_is_wheel(f) for f in parts]
-    return [_part(f, wheels) for f in parts]
+    first = [_part(f, wheels) for f in parts]
+    # a part off the ground carrying an arm and a head (classes the first round settled): a torso
+    return [("Torso" if cls is None and not f.reaches_ground and {"Arm", "Head"} <= {first[k] for k in f.carries}
+             else cls) for f, cls in zip(parts, first)]
 
 
 def _is_wheel(f: PartFacts) -> bool:
@@ -70,7 +73,7 @@ def _part(f: PartFacts, wheels: list[bool]) -> str | None:
     held = {
         "Wheel": _is_wheel(f),
         "Leg": ground and joints >= 2 and not tools,
-        "Arm": not ground and tools > 0,
+        "Arm": not ground and (tools > 0 or (joints >= 5 and not f.carries)),
         "Head": (not ground and any(tax.is_a(d, "Camera") for d in devices) and not tools and not f.carries
                  and joints <= 3),
         "MobileBase": joints == 1 and any(wheels[k] for k in f.carries) and not tools,

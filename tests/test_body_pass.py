@@ -10,7 +10,7 @@ from tests.body_robots import Built, legged, wheeled
 from tests.scripted_reasoner import scripted_reasoner
 from tests.urdf_writer import Writer
 from urdfkb.pipeline.abstraction.abstractor import BODY_PASS, Abstractor
-from urdfkb.pipeline.abstraction.components import Component, SubComponent
+from urdfkb.pipeline.abstraction.components import BodyPart, Component, SubComponent
 from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.knowledge.ontology import vocabulary
@@ -152,3 +152,70 @@ def test_an_arm_whose_gripper_points_below_its_base_is_an_arm(seed):
         raise AssertionError(f"unexpected question {question.key}")
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [gripper])
     assert [(p.cls, list(p.joints)) for p in parts] == [("Arm", joints)]
+
+
+def _arms_across(axis: int, left_sign: float):
+    """Two mirrored 3-joint arms on a trunk, reaching out across the root's `axis` (a CAD export with y up places
+    them across x), the left one on the `left_sign` side; their joints' names say which is left."""
+    w = Writer(random.Random(axis))
+    trunk = w.link('<box size="0.3 0.3 0.3"/>')
+    parts = {}
+    for side, sign in (("left", left_sign), ("right", -left_sign)):
+        parent, joints, links = trunk, [], []
+        for i in range(3):
+            child = w.link('<cylinder radius="0.03" length="0.2"/>')
+            offset = [0.0, 0.0, 0.0]
+            offset[axis] = 0.2 * sign
+            name = f"{side}_arm_{i}"
+            w.joints.append(f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+                            f'<origin xyz="{" ".join(map(str, offset))}"/>'
+                            '<axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>')
+            joints.append(name)
+            links.append(child)
+            parent = child
+        parts[side] = BodyPart(f"arm_{side}", "Arm", 1.0, trunk, tuple(joints), tuple(links))
+    return load_urdf(w.urdf()), parts
+
+
+def _names_say(left_first: bool, share: float = 1.0):
+    def rule(question):
+        assert question.key.startswith("side:")
+        left = next(o for o in question.options if o.startswith("left"))
+        return {o: (share if (o == left) == left_first else 1.0 - share) for o in question.options}
+    return rule
+
+
+@pytest.mark.parametrize("axis", [0, 2])
+@pytest.mark.parametrize("left_sign", [1.0, -1.0])
+def test_parts_paired_across_another_axis_take_their_sides_from_the_names(axis, left_sign):
+    """A robot drawn with another axis across it (no part pairs across y): the names alone say which is left."""
+    tree, parts = _arms_across(axis, left_sign)
+    oracle = Oracle(ScriptedBackend(_names_say(True)))
+    sided = body.sides(oracle, tree, list(parts.values()), None, lambda _msg: None)
+    assert {p.name: p.side for p in sided} == {"arm_left": "left", "arm_right": "right"}
+
+
+def test_parts_paired_across_another_axis_get_no_side_when_the_model_is_unsure():
+    tree, parts = _arms_across(0, 1.0)
+    oracle = Oracle(ScriptedBackend(_names_say(True, share=0.6)))
+    sided = body.sides(oracle, tree, list(parts.values()), None, lambda _msg: None)
+    assert {p.side for p in sided} == {None}
+
+
+def test_a_bare_arm_of_six_joints_is_an_arm_without_asking():
+    """An industrial arm with nothing on its flange (no end-effector found): five joints or more off the ground
+    carrying no further part are an arm by the ontology's definition (the scripted reasoner stands for HermiT,
+    test_reasoner_agreement), so the model is not asked."""
+    w = Writer(random.Random(11))
+    world, base = w.link(), w.link('<cylinder radius="0.1" length="0.2"/>')
+    w.joint("fixed", world, base)
+    link, joints = base, []
+    for i, z in enumerate((0.2, 0.1, 0.4, 0.1, 0.3, 0.1)):
+        child = w.link('<box size="0.06 0.06 0.2"/>')
+        joints.append(w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0)))
+        link = child
+    flange = w.link()
+    w.joint("fixed", link, flange, (0.0, 0.0, 0.05))
+    oracle = Oracle(ScriptedBackend(lambda q: pytest.fail(f"unexpected question {q.key}")))
+    parts, _ = body_pass(oracle, load_urdf(w.urdf()), [])
+    assert [(p.cls, p.joints) for p in parts] == [("Arm", tuple(joints))]

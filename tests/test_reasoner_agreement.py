@@ -47,11 +47,11 @@ def generated_body(built, tools_in_run: bool) -> Call:
 
 
 def boundaries() -> Call:
-    """Candidates on both sides of each body-part condition: one to four joints (one continuous), a camera,
+    """Candidates on both sides of each body-part condition: one to five joints (one continuous), a camera,
     a tool, another sensor, both or nothing, carrying a wheel, another part or none, on the ground or off it."""
     wheel, other = PartFacts(("continuous",), (), (), True), PartFacts(("revolute", "revolute"), (), (), False)
     joints = [("continuous",), ("revolute",), ("revolute", "continuous"), ("revolute", "revolute", "prismatic"),
-              ("revolute",) * 4]
+              ("revolute",) * 4, ("revolute",) * 5]
     devices = [(), ("MonocularCamera",), ("ParallelGripper",), ("Lidar",), ("RGBDCamera", "ParallelGripper")]
     return [], [wheel, other, *(PartFacts(j, d, carries, ground) for j in joints for d in devices
                                 for carries in ((), (0,), (1,)) for ground in (True, False))]
@@ -85,7 +85,7 @@ def bodies() -> Call:
 CASES = {
     "toy": (lambda: merged(toy_run()), {"ParallelGripper"}, {"Wheel", "Arm"}),
     "hands": (hands, {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand", "EndEffector"}, set()),
-    "bodies": (bodies, {"ParallelGripper"}, {"Wheel", "MobileBase", "Leg", "Arm", "Head", None}),
+    "bodies": (bodies, {"ParallelGripper"}, {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
     "boundaries": (boundaries, set(), {"Wheel", "MobileBase", "Leg", "Arm", "Head", None}),
 }
 

@@ -32,6 +32,7 @@ from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, r
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
+MIRROR_EPS = 0.02  # m: two parts this near each other's mirror image across a plane of the root pair across it
 Log = Callable[[str], None]
 
 
@@ -298,8 +299,14 @@ def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: 
           log: Log) -> list[BodyPart]:
     """left/right by the sign of y in the root frame for classes with parts on both sides; per such class,
     the model names the left one of its widest pair, and where it disagrees with geometry and is sure,
-    the names win for the whole class."""
-    y = {p.name: _mean_y(tree, _anchor(tree, p)) for p in parts}
+    the names win for the whole class.
+
+    A robot with no such pair in any class may be drawn with another axis across it (a CAD export with y
+    up): where a class's parts pair across the root's y-z or x-y plane instead, and every such class pairs
+    across the same one, geometry gives no left, so the names alone decide, when the model is sure."""
+    at = {p.name: _mean_position(tree, _anchor(tree, p)) for p in parts}
+    axis = _lateral_axis(parts, at)
+    y = {name: xyz[axis] for name, xyz in at.items()}
     sides = {p.name: ("left" if y[p.name] > 0 else "right") for p in parts if abs(y[p.name]) > SIDE_EPS}
     pairs = {}
     for cls in dict.fromkeys(p.cls for p in parts):
@@ -314,17 +321,41 @@ def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: 
     if pairs:
         questions = [side_question(cls.lower(), left.joints, right.joints) for cls, (left, right) in pairs.items()]
         for (cls, (_left, right)), q, verdict in zip(pairs.items(), questions, ask(oracle, questions, "sides", progress)):
-            if verdict.answer == q.options[1] and verdict.confidence >= NAMES_WIN:
-                log(f"sides of {cls}: names say {right.joints[0]} is left ({verdict.confidence:.2f}), "
-                    "against geometry: names win")
+            names_say_flipped = verdict.answer == q.options[1] and verdict.confidence >= NAMES_WIN
+            if axis != 1 and not (verdict.confidence >= NAMES_WIN):
+                log(f"sides of {cls}: paired across axis {'xyz'[axis]}, the names do not say which is left")
+                for p in parts:
+                    if p.cls == cls:
+                        sides.pop(p.name, None)
+            elif names_say_flipped:
+                log(f"sides of {cls}: names say {right.joints[0]} is left ({verdict.confidence:.2f})"
+                    + (", against geometry: names win" if axis == 1 else f" (paired across axis {'xyz'[axis]})"))
                 for p in parts:
                     if p.cls == cls and p.name in sides:
                         sides[p.name] = "right" if sides[p.name] == "left" else "left"
     return [replace(p, side=sides.get(p.name)) for p in parts]
 
 
-def _mean_y(tree: KinematicTree, links: list[str]) -> float:
-    return sum(tree.position_in(link, tree.root)[1] for link in links) / len(links)
+def _lateral_axis(parts: list[BodyPart], at: dict[str, Vector]) -> int:
+    """The root axis parts pair across: y, unless no class has parts on both sides of it and the classes whose
+    parts are mirror images (within MIRROR_EPS) across x or across z all pair across the same one."""
+    def across(axis: int) -> bool:
+        return any(a.cls == b.cls and at[a.name][axis] > SIDE_EPS and _mirrored(at[a.name], at[b.name], axis)
+                   for a in parts for b in parts)
+    if any(at[a.name][1] > SIDE_EPS and at[b.name][1] < -SIDE_EPS for a in parts for b in parts if a.cls == b.cls):
+        return 1
+    found = [axis for axis in (0, 2) if across(axis)]
+    return found[0] if len(found) == 1 else 1
+
+
+def _mirrored(a: Vector, b: Vector, axis: int) -> bool:
+    return all(abs(a[k] + b[k] if k == axis else a[k] - b[k]) <= MIRROR_EPS for k in range(3))
+
+
+def _mean_position(tree: KinematicTree, links: list[str]) -> Vector:
+    points = [tree.position_in(link, tree.root) for link in links]
+    return (sum(p[0] for p in points) / len(points), sum(p[1] for p in points) / len(points),
+            sum(p[2] for p in points) / len(points))
 
 
 def _anchor(tree: KinematicTree, part: BodyPart) -> list[str]:
