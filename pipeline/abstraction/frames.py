@@ -38,7 +38,7 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
         branch = path[:path.index(body)]  # leaf ... the body's child
         if not branch or any(tree.edge_to(link).movable for link in branch):
             return None
-        if not is_frame(tree, leaf) and len(branch) == 1 and (is_optical(tree, other) or _declared(tree, other)):
+        if not is_frame(tree, leaf) and len(branch) == 1 and (is_optical(tree, other) or declares_sensor(tree, other)):
             housings += 1
         elif not all(is_frame(tree, link) for link in branch):
             return None
@@ -49,7 +49,8 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     return body if housings < 2 else None
 
 
-def _declared(tree: KinematicTree, link: str) -> bool:
+def declares_sensor(tree: KinematicTree, link: str) -> bool:
+    """The file declares a simulator sensor on the link."""
     facts = tree.evidence.get(link)
     return facts is not None and bool(facts.sensors)
 

@@ -322,7 +322,7 @@ def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: 
         questions = [side_question(cls.lower(), left.joints, right.joints) for cls, (left, right) in pairs.items()]
         for (cls, (_left, right)), q, verdict in zip(pairs.items(), questions, ask(oracle, questions, "sides", progress)):
             names_say_flipped = verdict.answer == q.options[1] and verdict.confidence >= NAMES_WIN
-            if axis != 1 and not (verdict.confidence >= NAMES_WIN):
+            if axis != 1 and verdict.confidence < NAMES_WIN:
                 log(f"sides of {cls}: paired across axis {'xyz'[axis]}, the names do not say which is left")
                 for p in parts:
                     if p.cls == cls:

@@ -25,6 +25,7 @@ from urdfkb.pipeline.abstraction.prompts import DRIVE_PART, PASSIVE_PART, sensor
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.verification import Log
 from urdfkb.pipeline.abstraction.alike import alike_leaves
+from urdfkb.pipeline.abstraction.frames import declares_sensor
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 
@@ -56,7 +57,7 @@ def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors:
     """The leaves among `sensors` (leaf → share of identification's votes for 'sensor') with no declared
     simulator sensor that the check calls a part of a motor or drive or a passive part, or that neither question calls a
     sensor with a majority while both lean clearly against it."""
-    checked = [leaf for leaf in leaves if leaf in sensors and not _declared(tree, leaf)]
+    checked = [leaf for leaf in leaves if leaf in sensors and not declares_sensor(tree, leaf)]
     alike = alike_leaves(tree, checked)  # asked once, the first standing for all, as in identification
     questions = [sensor_check(group[0], named(tree.evidence, group[0]), tree.chain_to_root(group[0])[1:])
                  for group in alike]
@@ -73,8 +74,3 @@ def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors:
             log(f"not a sensor: {', '.join(group)} is a sensor for a minority of the votes twice "
                 f"(identification {sensors[leaf]:.2f}, check {checked_share:.2f})")
     return found
-
-
-def _declared(tree: KinematicTree, leaf: str) -> bool:
-    facts = tree.evidence.get(leaf)
-    return facts is not None and bool(facts.sensors)
