@@ -21,7 +21,7 @@ from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
-from urdfkb.pipeline.abstraction.hands import feet, hand_leaves, hand_mounts, hands, off_limb_ends
+from urdfkb.pipeline.abstraction.hands import feet, hand_leaves, hand_mounts, hands, limb_ends, off_limb_ends
 from urdfkb.pipeline.abstraction.frames import loop_closures
 
 TAX = vocabulary()
@@ -240,3 +240,39 @@ def test_frames_where_a_closed_loop_is_cut_are_no_component_and_not_asked(seed):
     claims = _identified(urdf, erring)
     assert {claims[c] for c in cuts} == {NONE} and not set(cuts) & set(asked)
     assert {claims[c] for c in camera} == {SENSOR_CLS}
+
+
+def _serial(w: Writer, parent: str, joints: int, ranges: tuple[float, float] | None = None) -> str:
+    """`joints` revolute links in series below `parent`, each with a box; the last one's name."""
+    link = parent
+    for i in range(joints):
+        child = w.link('<box size="0.05 0.05 0.15"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.15), (0.0, 0.0, 1.0) if i % 2 == 0 else (0.0, 1.0, 0.0), ranges)
+        link = child
+    return link
+
+
+def test_the_last_link_of_a_bare_arm_is_no_sensor_whatever_the_model_says():
+    """A bare arm (four to seven joints, nothing on its flange): the erring model calls its last link a sensor at 0.6
+    (an industrial arm's flange link became a camera, which then made the arm a head). A leaf moving on its own joint
+    at the end of a limb is the limb's, a jaw or a finger: it gets the model's next answer. One joint or two above a
+    leaf make no limb (a lidar's spinning head, a camera on a pan and tilt), and neither does a joint with no range."""
+    for seed, joints in ((0, 4), (1, 6), (2, 7)):
+        w = Writer(random.Random(seed))
+        base = w.link('<cylinder radius="0.1" length="0.2"/>')
+        end = _serial(w, base, joints)
+        tree = load_urdf(w.urdf())
+        assert limb_ends(tree) == {end}
+        options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1}
+        assert _identified(w.urdf(), lambda q: options if _leaf(q) == end else NONE)[end] == TOOL_CLS, seed
+    w = Writer(random.Random(3))
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    lidar = _serial(w, base, 1, (-3.1, 3.1))
+    camera = _serial(w, _serial(w, base, 1), 2)  # a camera on a pan and tilt: three joints from the base
+    held = w.link('<box size="0.02 0.02 0.02"/>')  # a force sensor's frame on a joint with no range, at an arm's end
+    w.joint("revolute", _serial(w, base, 6), held, limits=(0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    assert not limb_ends(tree) & {lidar, camera, held}
+    sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}
+    claims = _identified(w.urdf(), lambda q: sensor if _leaf(q) in (lidar, camera, held) else NONE)
+    assert [claims[leaf] for leaf in (lidar, camera, held)] == [SENSOR_CLS] * 3

@@ -1,5 +1,6 @@
 """What the robot's shape settles before any question: its hands and grippers (their leaves and mounts), the
-feet it stands on, and the leaves along a limb rather than at its end, where no end effector is.
+feet it stands on, the leaves along a limb rather than at its end, where no end effector is, and the limbs' own
+last links, which are no sensors.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers
 # hand's back or sides lie under half of it)
 FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
+LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 
 
 def hand_leaves(tree: KinematicTree) -> frozenset[str]:
@@ -136,6 +138,28 @@ def off_limb_ends(tree: KinematicTree, found: list[tuple[ToolStructure, list[str
     """Leaves at no limb's end, so never an end effector: where a limb goes on from their body (limb_goes_on),
     or bodies beside one of the hands `found` (beside_hands)."""
     return beside_hands(tree, found) | {leaf for leaf in tree.leaves() if limb_goes_on(tree, leaf)}
+
+
+def limb_ends(tree: KinematicTree) -> frozenset[str]:
+    """Leaves that move on a joint of their own at the end of a limb: LIMB_JOINTS movable joints or more in series
+    above them, nothing branching off up to the first link that carries more than one child (or the root). Such a
+    leaf is the limb's own last link (a bare arm's flange, a foot), a jaw that closes against it or a finger, never
+    a sensor, which is fixed to what it measures from (a lidar's spinning head or a bumper on its own hinge is
+    moved by one joint, not by a limb). A joint whose limits give it no range does not move it."""
+    ends = []
+    for leaf in tree.leaves():
+        edge = tree.edge_to(leaf)
+        if not edge.movable or (edge.limits is not None and edge.limits[0] == edge.limits[1]):
+            continue
+        joints, link = 0, leaf
+        while (up := tree.parent_edge(link)) is not None:
+            joints += up.movable
+            link = up.parent
+            if len(tree.children(link)) > 1:
+                break
+        if joints >= LIMB_JOINTS:
+            ends.append(leaf)
+    return frozenset(ends)
 
 
 def feet(tree: KinematicTree) -> frozenset[str]:
