@@ -21,7 +21,7 @@ from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
-from urdfkb.pipeline.abstraction.hands import feet, hand_leaves, hand_mounts, hands, limb_ends, off_limb_ends
+from urdfkb.pipeline.abstraction.hands import feet, hand_leaves, hand_mounts, hands, limb_ends, off_limb_ends, rolling
 from urdfkb.pipeline.abstraction.frames import loop_closures
 
 TAX = vocabulary()
@@ -276,3 +276,24 @@ def test_the_last_link_of_a_bare_arm_is_no_sensor_whatever_the_model_says():
     sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}
     claims = _identified(w.urdf(), lambda q: sensor if _leaf(q) in (lidar, camera, held) else NONE)
     assert [claims[leaf] for leaf in (lidar, camera, held)] == [SENSOR_CLS] * 3
+
+
+def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
+    """A bare industrial arm's flange link turns through more than half a turn (here +-3 rad, or without bound): the
+    erring model calls it an end effector at 0.6 and a sensor at 0.3 (a one-finger parallel gripper). No jaw or finger
+    turns so far, so neither stands; a jaw at the end of an arm (a quarter turn) stays the model's tool."""
+    for seed, kind in ((4, "revolute"), (5, "continuous")):
+        w = Writer(random.Random(seed))
+        base = w.link('<cylinder radius="0.1" length="0.2"/>')
+        flange = w.link('<cylinder radius="0.04" length="0.02"/>')
+        w.joint(kind, _serial(w, base, 5), flange, (0.0, 0.0, 0.1), limits=(-3.0, 3.0))
+        assert rolling(load_urdf(w.urdf()), flange)
+        erring = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
+        assert _identified(w.urdf(), lambda q: erring if _leaf(q) == flange else NONE)[flange] == NONE, seed
+    w = Writer(random.Random(6))
+    base = w.link('<cylinder radius="0.1" length="0.2"/>')
+    jaw = w.link('<box size="0.02 0.01 0.06"/>')
+    w.joint("revolute", _serial(w, base, 6), jaw, (0.02, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-1.57, 0.0))
+    assert not rolling(load_urdf(w.urdf()), jaw)
+    tool = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
+    assert _identified(w.urdf(), lambda q: tool if _leaf(q) == jaw else NONE)[jaw] == TOOL_CLS

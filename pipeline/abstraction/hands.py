@@ -1,6 +1,6 @@
 """What the robot's shape settles before any question: its hands and grippers (their leaves and mounts), the
 feet it stands on, the leaves along a limb rather than at its end, where no end effector is, and the limbs' own
-last links, which are no sensors.
+last links, which are no sensors (nor tools, where they roll).
 """
 from __future__ import annotations
 
@@ -160,6 +160,15 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
         if joints >= LIMB_JOINTS:
             ends.append(leaf)
     return frozenset(ends)
+
+
+def rolling(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf's joint turns through more than half a turn (or spins): a limb end so moved is a flange that rolls
+    or a wheel, not a jaw or a finger, which close over a bounded arc (under 2.5 rad in the hands, grippers and
+    arms of the truth robots and the parts library)."""
+    edge = tree.edge_to(leaf)
+    return edge.spins or (edge.joint_type in ("revolute", "continuous") and edge.limits is not None
+                          and edge.limits[1] - edge.limits[0] > math.pi)
 
 
 def feet(tree: KinematicTree) -> frozenset[str]:

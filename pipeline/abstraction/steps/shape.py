@@ -6,22 +6,23 @@ from urdfkb.pipeline.reading.evidence import LinkEvidence
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
-from urdfkb.pipeline.abstraction.hands import feet, hand_mounts, hands, limb_ends, off_limb_ends, palm
+from urdfkb.pipeline.abstraction.hands import feet, hand_mounts, hands, limb_ends, off_limb_ends, palm, rolling
 from urdfkb.pipeline.abstraction.frames import loop_closures
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
 
 
-@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "loop_frames", "palms",
-                      "declared_sensors"))
+@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "rolling_ends", "loop_frames",
+                      "palms", "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
     never tools (a foot that moves on its own joint is the leg's last link: part of the body, unasked), and
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint is never a
-    sensor (hands.limb_ends). Frames where a closed loop is cut (structure.loop_closures) are part of no component."""
+    sensor (hands.limb_ends), and never a tool where its joint turns through more than half a turn (hands.rolling:
+    a bare arm's flange link, a wheel). Frames where a closed loop is cut (structure.loop_closures) are part of no component."""
     robot = ctx.robot
     declared = {link for link, facts in robot.evidence.items() if facts.sensors}
     seen = hands(robot)
@@ -30,12 +31,14 @@ def shape(ctx: Context, found: Findings) -> None:
     found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
     found.off_ends = off_limb_ends(robot, seen)
     found.limb_ends = limb_ends(robot) - declared
+    found.rolling_ends = frozenset(leaf for leaf in found.limb_ends if rolling(robot, leaf))
     found.loop_frames = loop_closures(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
     found.declared_sensors = frozenset(leaf for leaf in robot.leaves() if _measures(ctx, robot, leaf))
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "moving_feet": sorted(found.moving_feet),
-               "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends), "loop_frames": sorted(found.loop_frames)})
+               "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
+               "rolling_ends": sorted(found.rolling_ends), "loop_frames": sorted(found.loop_frames)})
 
 
 def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
