@@ -11,6 +11,7 @@ from typing import Any, Callable, Mapping, TextIO
 
 from urdfkb.pipeline import cache
 from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.catalogue import catalogue
 from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.errors import BackendError, SettingsError, URDFError
 from urdfkb.pipeline.llm.base import Backend
@@ -154,7 +155,8 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
                         "(--structure-only writes its structure)", f"link '{tree.root}'")
     settings_key = {k: v for k, v in dataclasses.asdict(settings).items() if k != "use_cache"}
     model_file = _model_file(settings) if backend is None else {}  # its digest keys the cache: a replaced file misses
-    digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file], vocabulary().fingerprint, settings_key)
+    digest = cache.key(tree_digest(tree), [_backend_id(settings, backend), model_file],
+                       f"{vocabulary().fingerprint}/{catalogue().fingerprint}", settings_key)
     if settings.use_cache and (hit := cache.load(digest)) is not None:
         return hit.with_provenance({"result_cache": "hit", **stamp(tree)})
     owned = backend is None and backends is None

@@ -10,6 +10,7 @@ matches where a word of the name or mesh path starts (after a separator, a hyphe
 from __future__ import annotations
 
 import functools
+import hashlib
 import os
 import re
 from collections.abc import Iterable, Sequence
@@ -40,6 +41,8 @@ class Catalogue:
 
     def __init__(self, products: Iterable[Product]):
         self.products = tuple(products)
+        # what the catalogue says, for the result cache's key: an edited products file misses old results
+        self.fingerprint = hashlib.sha256(repr(self.products).encode()).hexdigest()[:16]
         # longest fragment first: "d435" before "realsense" never matters, "robotiq_140" before "robotiq" would
         self._patterns = sorted(((len(f), re.compile(_pattern(f)), p) for p in self.products for f in p.fragments),
                                 key=lambda t: -t[0])
