@@ -257,3 +257,38 @@ def test_a_frame_further_along_the_line_of_sight_sees_from_the_same_place(seed):
     tree = load_urdf(w.urdf())
     assert [viewpoints(tree, frames) for frames in eyes] == [1, 1]
     assert viewpoints(tree, eyes[0] + eyes[1]) == 2
+
+
+def _stereo_head(seed: int, shared_frame: bool) -> tuple[bytes, str, list[str]]:
+    """A head with two camera housings 0.1 m apart looking forward, an optical frame under each, and a simulator
+    camera declared on each housing; with `shared_frame` the right one publishes in the left's optical frame (the
+    Gazebo convention for a stereo pair). The URDF, the head and the two optical frames."""
+    w = Writer(random.Random(seed))
+    base, head = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.2 0.3 0.2"/>')
+    w.joint("revolute", base, head, (0.0, 0.0, 0.5))
+    frames, housings = [], []
+    for y in (0.05, -0.05):
+        housing, optical = w.link('<box size="0.03 0.03 0.03"/>'), w.link()
+        w.joint("fixed", head, housing, (0.1, y, 0.05))
+        w.joint("fixed", housing, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        housings.append(housing)
+        frames.append(optical)
+    published = [frames[0], frames[0] if shared_frame else frames[1]]
+    declared = "".join(f'<gazebo reference="{h}"><sensor name="{h}_s" type="camera"><plugin name="{h}_p" '
+                       f'filename="libgazebo_ros_camera.so"><frameName>{f}</frameName></plugin></sensor></gazebo>'
+                       for h, f in zip(housings, published))
+    return w.urdf().replace(b"</robot>", declared.encode() + b"</robot>"), head, frames
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_a_stereo_pair_publishing_in_one_frame_is_one_device_whatever_the_names_say(seed):
+    """The model names each camera of a stereo pair a device of its own (a humanoid's stereo head became two
+    monocular cameras). Where the right camera's declaration gives its images in the left camera's optical frame,
+    the two are one device; where each publishes in its own frame, only names could join them."""
+    for shared, devices in ((True, 1), (False, 2)):
+        urdf, head, frames = _stereo_head(seed, shared)
+        tree = load_urdf(urdf)
+        chains = [sub_chain(tree, frame, head) for frame in frames]
+        oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
+        groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
+        assert len(groups) == devices, (seed, shared)

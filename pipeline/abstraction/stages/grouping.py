@@ -26,6 +26,9 @@ to the camera (ontology.md). A housing piece fixed straight to that
 link beside an optical frame (a camera's model frame) is bound with them. A branch that carries several
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
 its own frames bind below it (frames.body_of).
+One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
+a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
+publishing in the left camera's optical frame), whatever their names.
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
@@ -115,6 +118,16 @@ def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return body is not None and body in a.links and body in b.links
 
 
+def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """A simulator sensor declared on a link of one sub-chain gives its data in a frame of the other (its plugin's
+    frameName): one device whose imagers share a frame, as the right camera of a stereo pair publishes in the left
+    camera's optical frame."""
+    def crosses(x: SubChain, y: SubChain) -> bool:
+        return any(s.reference in x.links and s.frame in y.links
+                   for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors)
+    return crosses(a, b) or crosses(b, a)
+
+
 def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str]) -> bool:
     """The two leaves are frames of one body and one of them was called a vision sensor: the other is the camera's
     own inertial, magnetic or temperature frame, or its model frame, which belongs to the camera whatever it
@@ -163,7 +176,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories)) and _near(tree, a, b)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
-        bound = [[could[i][j] and _one_body(tree, a, b) for j, b in enumerate(chains)] for i, a in enumerate(chains)]
+        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b)) for j, b in enumerate(chains)]
+                 for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
         device = _device_names(oracle, chains, joinable, partition(range(len(chains)), lambda i, j: bound[i][j]),
                                progress)
