@@ -146,3 +146,25 @@ def test_a_finger_that_branches_closes_along_the_path_to_its_tip():
         chains.append((jaw, tip, pad))
     s = tool_structure(load_urdf(w.urdf()), [leaf for _, tip, pad in chains for leaf in (tip, pad)])
     assert {f.name: f.opposes for f in s.fingers} == {chains[0][0]: (chains[1][0],), chains[1][0]: (chains[0][0],)}
+
+
+@pytest.mark.parametrize("cups", [1, 4])
+def test_a_suction_gripper_on_its_own_is_one_tool_and_a_cup_on_a_base_is_none(cups):
+    """A vacuum gripper described alone (its base is the URDF's root, its cups fixed to it): nothing moves and
+    nothing grasps, but every leaf of the robot is the tool's, so it is one tool. The same cups on a mobile base
+    with wheels beside them are no tool: a base is no arm's end."""
+    for wheels in (False, True):
+        w = Writer(random.Random(cups))
+        base = w.link('<cylinder radius="0.05" length="0.08"/>')
+        if wheels:
+            for y in (0.2, -0.2):
+                w.joint("continuous", base, w.link('<cylinder radius="0.1" length="0.04"/>'), (0.0, y, 0.0), (0.0, 1.0, 0.0))
+        leaves = []
+        for i in range(cups):
+            leaves.append(w.link('<cylinder radius="0.01" length="0.02"/>'))
+            w.joint("fixed", base, leaves[-1], (0.02 * (i % 2), 0.02 * (i // 2), 0.06))
+        tree = load_urdf(w.urdf())
+        notes: list[str] = []
+        result = settle(tree, [Group([sub_chain(tree, leaf, base) for leaf in leaves])], lambda leaf: leaf in leaves,
+                        notes.append)
+        assert [sorted(g.leaves) for g, _ in result] == ([] if wheels else [sorted(leaves)]), notes

@@ -4,7 +4,7 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
 - a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent
   moving joints (a caster on a base), or whose mount carries an arm beside the tool (a cover half-way
   up an arm), is no tool; unless nothing moving carries it and its fingers close against each
-  other: a gripper or hand described on its own;
+  other, or every leaf of the robot was identified as its own: a gripper, hand or suction cup described on its own;
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
   ARM_JOINTS independent moving joints reaching at least ARM_REACH of the fork's distance from the
   root, and at least ARM_MIN_REACH from its own first joint: an arm, not a finger of four joints) is
@@ -53,7 +53,7 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
     settled = []
     for leaves, structure, links in done:
         mount = structure.mount
-        alone = _joints_above(tree, mount) == 0 and structure.grasps()
+        alone = _joints_above(tree, mount) == 0 and (structure.grasps() or set(tree.leaves()) <= set(leaves))
         if (_joints_above(tree, mount) < 2 and not alone) or any(
                 _carries_arm(tree, child) for child in tree.children(mount) if child not in links):
             log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
