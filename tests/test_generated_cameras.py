@@ -259,10 +259,11 @@ def test_a_frame_further_along_the_line_of_sight_sees_from_the_same_place(seed):
     assert viewpoints(tree, eyes[0] + eyes[1]) == 2
 
 
-def _stereo_head(seed: int, shared_frame: bool) -> tuple[bytes, str, list[str]]:
-    """A head with two camera housings 0.1 m apart looking forward, an optical frame under each, and a simulator
-    camera declared on each housing; with `shared_frame` the right one publishes in the left's optical frame (the
-    Gazebo convention for a stereo pair). The URDF, the head and the two optical frames."""
+def _stereo_head(seed: int, declared: str) -> tuple[bytes, str, list[str]]:
+    """A head with two camera housings 0.1 m apart looking forward, an optical frame under each. `declared`: "own",
+    a simulator camera on each housing publishing in its own optical frame; "shared", the right one publishing in
+    the left's (the Gazebo convention for a stereo pair); "multicamera", one declaration of both cameras on the left
+    housing (SDF's multicamera). The URDF, the head and the two optical frames."""
     w = Writer(random.Random(seed))
     base, head = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.2 0.3 0.2"/>')
     w.joint("revolute", base, head, (0.0, 0.0, 0.5))
@@ -273,22 +274,26 @@ def _stereo_head(seed: int, shared_frame: bool) -> tuple[bytes, str, list[str]]:
         w.joint("fixed", housing, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
         housings.append(housing)
         frames.append(optical)
-    published = [frames[0], frames[0] if shared_frame else frames[1]]
-    declared = "".join(f'<gazebo reference="{h}"><sensor name="{h}_s" type="camera"><plugin name="{h}_p" '
-                       f'filename="libgazebo_ros_camera.so"><frameName>{f}</frameName></plugin></sensor></gazebo>'
-                       for h, f in zip(housings, published))
-    return w.urdf().replace(b"</robot>", declared.encode() + b"</robot>"), head, frames
+    if declared == "multicamera":
+        blocks = [(housings[0], "multicamera", frames[0])]
+    else:
+        blocks = [(h, "camera", frames[0] if declared == "shared" else f) for h, f in zip(housings, frames)]
+    text = "".join(f'<gazebo reference="{h}"><sensor name="{h}_s" type="{kind}"><plugin name="{h}_p" '
+                   f'filename="libgazebo_ros_camera.so"><frameName>{f}</frameName></plugin></sensor></gazebo>'
+                   for h, kind, f in blocks)
+    return w.urdf().replace(b"</robot>", text.encode() + b"</robot>"), head, frames
 
 
 @pytest.mark.parametrize("seed", range(10))
-def test_a_stereo_pair_publishing_in_one_frame_is_one_device_whatever_the_names_say(seed):
+def test_a_stereo_pair_declared_as_one_is_one_device_whatever_the_names_say(seed):
     """The model names each camera of a stereo pair a device of its own (a humanoid's stereo head became two
     monocular cameras). Where the right camera's declaration gives its images in the left camera's optical frame,
-    the two are one device; where each publishes in its own frame, only names could join them."""
-    for shared, devices in ((True, 1), (False, 2)):
-        urdf, head, frames = _stereo_head(seed, shared)
+    or one declaration is of both cameras, the two are one device; where each publishes in its own frame, only
+    names could join them."""
+    for declared, devices in (("shared", 1), ("multicamera", 1), ("own", 2)):
+        urdf, head, frames = _stereo_head(seed, declared)
         tree = load_urdf(urdf)
         chains = [sub_chain(tree, frame, head) for frame in frames]
         oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
         groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
-        assert len(groups) == devices, (seed, shared)
+        assert len(groups) == devices, (seed, declared)

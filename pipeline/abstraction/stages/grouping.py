@@ -28,7 +28,8 @@ imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar
 its own frames bind below it (frames.body_of).
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
-publishing in the left camera's optical frame), whatever their names.
+publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
+their names.
 Each sub-chain lands in exactly one group: a partition by construction.
 """
 from __future__ import annotations
@@ -44,12 +45,14 @@ from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
 from urdfkb.pipeline.abstraction.frames import body_of, is_frame
+from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
 VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
+MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 
 
 @dataclass
@@ -121,11 +124,12 @@ def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     """A simulator sensor declared on a link of one sub-chain gives its data in a frame of the other (its plugin's
     frameName): one device whose imagers share a frame, as the right camera of a stereo pair publishes in the left
-    camera's optical frame."""
-    def crosses(x: SubChain, y: SubChain) -> bool:
-        return any(s.reference in x.links and s.frame in y.links
-                   for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors)
-    return crosses(a, b) or crosses(b, a)
+    camera's optical frame; or one of them carries a declaration of several cameras at once (SDF's `multicamera`,
+    a stereo head's), whose other imager is its near neighbour's."""
+    def declared(x: SubChain) -> list[SimSensor]:
+        return [s for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors
+                if s.reference in x.links]
+    return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
 def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str]) -> bool:
