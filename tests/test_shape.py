@@ -21,7 +21,8 @@ from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
-from urdfkb.pipeline.abstraction.hands import feet, hand_leaves, hand_mounts, hands, limb_ends, off_limb_ends, rolling
+from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, limb_ends,
+                                              off_limb_ends, rolling)
 from urdfkb.pipeline.abstraction.frames import loop_closures
 
 TAX = vocabulary()
@@ -297,3 +298,30 @@ def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
     assert not rolling(load_urdf(w.urdf()), jaw)
     tool = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
     assert _identified(w.urdf(), lambda q: tool if _leaf(q) == jaw else NONE)[jaw] == TOOL_CLS
+
+
+def test_the_fingertips_of_a_hand_written_fixed_are_no_sensors():
+    """A hand whose finger joints are all written fixed (an export that froze them): four chains of three bodies
+    from a palm at an arm's end. The erring model calls each tip a touch sensor at 0.6: a finger is no sensor, so
+    the model's next answer stands. Standoffs stacked on a mobile base have the shape, but no limb carries them."""
+    w = Writer(random.Random(7))
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    palm = w.link('<box size="0.08 0.1 0.02"/>')
+    w.joint("revolute", _serial(w, base, 5), palm, (0.0, 0.0, 0.1))
+    stack_base = w.link('<box size="0.3 0.3 0.05"/>')
+    w.joint("fixed", base, stack_base, (0.0, 0.0, -0.2))
+    tips, stacks = [], []
+    for k in range(4):
+        for parent, out, size in ((palm, tips, "0.015 0.015 0.03"), (stack_base, stacks, "0.01 0.01 0.05")):
+            link = parent
+            for _ in range(3):
+                child = w.link(f'<box size="{size}"/>')
+                w.joint("fixed", link, child, (0.02 * k - 0.03, 0.0, 0.03) if link == parent else (0.0, 0.0, 0.03))
+                link = child
+            out.append(link)
+    tree = load_urdf(w.urdf())
+    assert frozen_fingertips(tree) == set(tips)
+    erring = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1}
+    claims = _identified(w.urdf(), lambda q: erring if _leaf(q) in tips + stacks else NONE)
+    assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, TOOL_CLS)
+    assert {leaf: claims[leaf] for leaf in stacks} == dict.fromkeys(stacks, SENSOR_CLS)

@@ -162,6 +162,29 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
     return frozenset(ends)
 
 
+def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
+    """The tips of a hand written with every finger joint fixed: three chains or more, each of two links or more
+    with geometry fixed in series (one child each) from one body at a limb's end (LIMB_JOINTS movable joints or more
+    above it), each tip within HAND_REACH of that body. Fingers, never sensors (a stack of standoffs on a mobile
+    base has the shape, but no limb carries it)."""
+    tips: list[str] = []
+    for body in tree.links:
+        if sum(tree.edge_to(link).movable for link in tree.chain_to_root(body)[:-1]) < LIMB_JOINTS:
+            continue
+        ends = []
+        for child in tree.children(body):
+            path = [child]
+            while not tree.edge_to(path[-1]).movable and len(below := tree.children(path[-1])) == 1:
+                path.append(below[0])
+            if tree.is_leaf(path[-1]) and not any(tree.edge_to(link).movable for link in path) \
+                    and sum(not is_frame(tree, link) for link in path) >= 2 \
+                    and norm(tree.position_in(path[-1], body)) <= HAND_REACH:
+                ends.append(path[-1])
+        if len(ends) >= 3:
+            tips += ends
+    return frozenset(tips)
+
+
 def rolling(tree: KinematicTree, leaf: str) -> bool:
     """The leaf's joint turns through more than half a turn (or spins): a limb end so moved is a flange that rolls
     or a wheel, not a jaw or a finger, which close over a bounded arc (under 2.5 rad in the hands, grippers and

@@ -6,7 +6,8 @@ from urdfkb.pipeline.reading.evidence import LinkEvidence
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
-from urdfkb.pipeline.abstraction.hands import feet, hand_mounts, hands, limb_ends, off_limb_ends, palm, rolling
+from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, limb_ends, off_limb_ends,
+                                              palm, rolling)
 from urdfkb.pipeline.abstraction.frames import loop_closures
 from urdfkb.pipeline.reading.tree import KinematicTree
 
@@ -20,8 +21,8 @@ def shape(ctx: Context, found: Findings) -> None:
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
     never tools (a foot that moves on its own joint is the leg's last link: part of the body, unasked), and
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
-    or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint is never a
-    sensor (hands.limb_ends), and never a tool where its joint turns through more than half a turn (hands.rolling:
+    or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
+    a finger written fixed, is never a sensor (hands.limb_ends, hands.frozen_fingertips), and never a tool where its joint turns through more than half a turn (hands.rolling:
     a bare arm's flange link, a wheel). Frames where a closed loop is cut (structure.loop_closures) are part of no component."""
     robot = ctx.robot
     declared = {link for link, facts in robot.evidence.items() if facts.sensors}
@@ -30,7 +31,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.feet = feet(robot)
     found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
     found.off_ends = off_limb_ends(robot, seen)
-    found.limb_ends = limb_ends(robot) - declared
+    found.limb_ends = (limb_ends(robot) | frozen_fingertips(robot)) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends if rolling(robot, leaf))
     found.loop_frames = loop_closures(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
