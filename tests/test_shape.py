@@ -325,3 +325,35 @@ def test_the_fingertips_of_a_hand_written_fixed_are_no_sensors():
     claims = _identified(w.urdf(), lambda q: erring if _leaf(q) in tips + stacks else NONE)
     assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, TOOL_CLS)
     assert {leaf: claims[leaf] for leaf in stacks} == dict.fromkeys(stacks, SENSOR_CLS)
+
+
+def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
+    """The frozen hand of the test above, through the whole pipeline with a scripted model that calls every
+    fingertip a sensor at 0.6: the tips go to one end effector, whose kind is asked with its structure said as
+    "4 fingers written fixed" and without the rigid tool (a probe, a ball) among the answers."""
+    from tests.scripted_reasoner import scripted_reasoner
+    from urdfkb.pipeline import runner
+    w = Writer(random.Random(7))
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    palm = w.link('<box size="0.08 0.1 0.02"/>')
+    w.joint("revolute", _serial(w, base, 5), palm, (0.0, 0.0, 0.1))
+    tips = []
+    for k in range(4):
+        link = palm
+        for _ in range(3):
+            child = w.link('<box size="0.015 0.015 0.03"/>')
+            w.joint("fixed", link, child, (0.02 * k - 0.03, 0.0, 0.03) if link == palm else (0.0, 0.0, 0.03))
+            link = child
+        tips.append(link)
+    asked: dict[str, Question] = {}
+
+    def erring(q: Question):
+        asked[q.key] = q
+        if q.key.startswith("identify:"):
+            return {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1} if _leaf(q) in tips else NONE
+        return q.options[0]
+    runner.run(load_urdf(w.urdf()), runner.Settings(use_cache=False), backend=ScriptedBackend(erring),
+               reasoner=scripted_reasoner)
+    post = [q for key, q in asked.items() if key.startswith("post:") and key.endswith("@EndEffector")]
+    assert len(post) == 1 and "Structure: 4 fingers written fixed" in post[0].user
+    assert "rigid tool" not in post[0].options

@@ -13,7 +13,7 @@ from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 
 
 @step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends",
-                               "rolling_ends", "loop_frames", "palms", "declared_sensors"),
+                               "rolling_ends", "frozen_tips", "loop_frames", "palms", "declared_sensors"),
       makes=("leaves", "claims", "shares"))
 def identification(ctx: Context, found: Findings) -> None:
     """The pass's leaves (not where an earlier pass condensed a device) and each one's kind: from shape and
@@ -38,7 +38,8 @@ def identification(ctx: Context, found: Findings) -> None:
             ctx.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
             claims[leaf], shares[leaf] = body, 1.0
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
-    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends))  # kinds a leaf's place rules out
+    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends | found.frozen_tips))  # kinds a
+    # leaf's place rules out
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
         if kind == tools and leaf in found.feet:  # the tip of a leg: part of the body, as the body pass will find

@@ -14,8 +14,8 @@ from urdfkb.pipeline.reading.tree import KinematicTree
 _NO_FACTS = LinkEvidence()
 
 
-@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "rolling_ends", "loop_frames",
-                      "palms", "declared_sensors"))
+@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "rolling_ends", "frozen_tips",
+                      "loop_frames", "palms", "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
@@ -31,7 +31,8 @@ def shape(ctx: Context, found: Findings) -> None:
     found.feet = feet(robot)
     found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
     found.off_ends = off_limb_ends(robot, seen)
-    found.limb_ends = (limb_ends(robot) | frozen_fingertips(robot)) - declared
+    found.limb_ends = limb_ends(robot) - declared
+    found.frozen_tips = frozen_fingertips(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends if rolling(robot, leaf))
     found.loop_frames = loop_closures(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
@@ -39,7 +40,7 @@ def shape(ctx: Context, found: Findings) -> None:
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "moving_feet": sorted(found.moving_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
-               "rolling_ends": sorted(found.rolling_ends), "loop_frames": sorted(found.loop_frames)})
+               "rolling_ends": sorted(found.rolling_ends), "frozen_tips": sorted(found.frozen_tips), "loop_frames": sorted(found.loop_frames)})
 
 
 def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:

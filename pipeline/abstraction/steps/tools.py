@@ -76,22 +76,25 @@ def _settled(device: str, inferred: list[reasoning.Inference]) -> str:
     return inference.cls if inference.settled else f"{device} (open)"
 
 
-@step("end-effector classification", needs=("groups", "structures", "inferred"), makes=("post",))
+@step("end-effector classification", needs=("groups", "structures", "inferred", "frozen_tips"), makes=("post",))
 def tool_classification(ctx: Context, found: Findings) -> None:
     """The model is asked the kind of the tools whose structure settles none, seeing what each is mounted
     on (a fingerless tool on a link whose mesh is a hand is a hand). A tool in which nothing moves
     (structure.nothing_moves) may also stay a plain end effector (prompts.RIGID_TOOL: a probe, a ball), which the
     ontology allows and no kind below it fits, unless its links name a catalogue product of a kind below
-    (a suction gripper's tip frame): then the kinds that product is not are not offered."""
+    (a suction gripper's tip frame): then the kinds that product is not are not offered. A tool holding the tips of
+    fingers written fixed (hands.frozen_fingertips) is described so, and is no rigid tool."""
     tree, top = ctx.tree, ctx.device_kind.cls
     open_groups = [(g, st) for g, st, i in zip(found.groups, found.structures, found.inferred) if not i.settled]
     ruled = [_product_rules_out(ctx, g, top) for g, _ in open_groups]
+    tips = found.frozen_tips
+    frozen = [sum(leaf in tips for leaf in g.leaves) for g, _ in open_groups]
     asked = descend(ctx.oracle, ctx.vocab, top, [
         Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
                 f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
-                f"\nStructure: {st.describe()}", out,
-                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out else None)
-        for (g, st), out in zip(open_groups, ruled)
+                f"\nStructure: {f'{n} fingers written fixed' if n else st.describe()}", out,
+                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not n else None)
+        for (g, st), out, n in zip(open_groups, ruled, frozen)
     ], "end-effector classification", ctx.progress)
     by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
     found.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(found.groups, found.inferred)]
