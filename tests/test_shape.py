@@ -310,7 +310,8 @@ def test_the_fingertips_of_a_hand_written_fixed_are_no_sensors():
     w.joint("revolute", _serial(w, base, 5), palm, (0.0, 0.0, 0.1))
     stack_base = w.link('<box size="0.3 0.3 0.05"/>')
     w.joint("fixed", base, stack_base, (0.0, 0.0, -0.2))
-    tips, stacks = [], []
+    tips: list[str] = []
+    stacks: list[str] = []
     for k in range(4):
         for parent, out, size in ((palm, tips, "0.015 0.015 0.03"), (stack_base, stacks, "0.01 0.01 0.05")):
             link = parent
