@@ -358,3 +358,7 @@ def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
     post = [q for key, q in asked.items() if key.startswith("post:") and key.endswith("@EndEffector")]
     assert len(post) == 1 and "Structure: 4 fingers written fixed" in post[0].user
     assert "rigid tool" not in post[0].options
+    fingers = {link for tip in tips for link in load_urdf(w.urdf()).chain_to_root(tip)[:3]}
+    parts = {key.split(":", 1)[1].split("@")[0]: q.options for key, q in asked.items() if key.startswith("part:")}
+    assert fingers <= set(parts)  # each finger link asked its role, as a finger or its contact surface, no palm
+    assert all(TAX.answer("Palm") not in parts[link] for link in fingers), {k: parts[k] for k in fingers}

@@ -25,16 +25,17 @@ from urdfkb.pipeline.reading.tree import KinematicTree
 
 def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
                   classes: list[Typed], structures: list[ToolStructure] | None = None,
-                  progress: Progress | None = None, known: dict[str, Typed] | None = None) -> dict[str, Typed]:
+                  progress: Progress | None = None, known: dict[str, Typed] | None = None,
+                  frozen_tips: frozenset[str] = frozenset()) -> dict[str, Typed]:
     """Each member link of `groups` (devices of `kind`, classified as `classes`) → its sub-part class;
     `structures`: the tools' structures (end-effectors only); `known`: required parts typed before the device
-    was (required_parts_first), kept."""
+    was (required_parts_first), kept; `frozen_tips`: tips of fingers written fixed (hands.frozen_fingertips)."""
     needed = _required_links(tax, groups, classes)
     kept = {link: t for link, t in (known or {}).items()
             if link in needed and t.cls not in tax.excluded_parts(needed[link])}  # still fits its device's class
     required = {link: cls for link, cls in needed.items() if link not in kept}
     framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
-    structural = _structural_parts(tax, tree, kind, groups, structures)
+    structural = _structural_parts(tax, tree, kind, groups, structures, frozen_tips)
     rest = [
         (link, Subject(f"part:{link}", framing,
                        f"Link: {named(tree.evidence, link)}\nDevice: {tax.label(t.cls)}",
@@ -102,12 +103,14 @@ def _required_branch(tax: Vocabulary, cls: str) -> frozenset[str]:
 
 
 def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
-                      structures: list[ToolStructure] | None) -> dict[str, frozenset[str]]:
+                      structures: list[ToolStructure] | None, frozen_tips: frozenset[str] = frozenset()
+                      ) -> dict[str, frozenset[str]]:
     """Sub-part classes a tool's structure rules out for its links (core:fingerChainRole): a link of
     a finger chain is a finger or its contact surface, and only the latter where it is a leaf fixed to the
     finger (a pad or tip frame: a finger is jointed); so is a link moved by a joint that does not spin in a
     tool with no finger chain (the jaw of a one-jaw gripper, closing against the fixed body; a spindle or
-    rotor spins: Edge.spins); any other link is no finger,
+    rotor spins: Edge.spins); a link of a finger written fixed (from a frozen tip up to the body its fingers part
+    from) is a finger or its contact surface; any other link is no finger,
     nor a palm if it is a leaf (nothing extends from it) or the tool has fingers and none hangs from it.
     (Nothing for sensors.)"""
     if structures is None:
@@ -116,18 +119,27 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
     on_finger = frozenset(set(tax.subclasses_below(kind.subparts)) - finger - tip)
     excluded = {}
     for group, structure in zip(groups, structures):
-        fingers = {link for f in structure.fingers for link in f.links}
+        frozen = {link for tip in frozen_tips if tip in group.members for link in _frozen_finger(tree, tip)}
+        fingers = {link for f in structure.fingers for link in f.links} | frozen
         jaws = set() if fingers else {link for link in group.members if _jaw(tree, link, structure.mount)}
         carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
         for link in group.members:
             if link in fingers or link in jaws:
-                fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable
+                fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable and link not in frozen
                 excluded[link] = on_finger | (finger if fixed_tip else frozenset())
             elif (fingers and link not in carriers) or tree.is_leaf(link):
                 excluded[link] = finger | carrier
             else:
                 excluded[link] = finger
     return excluded
+
+
+def _frozen_finger(tree: KinematicTree, tip: str) -> list[str]:
+    """The links of a finger written fixed: its tip and each link above that carries nothing else."""
+    links = [tip]
+    while (parent := tree.parent(links[-1])) is not None and len(tree.children(parent)) == 1:
+        links.append(parent)
+    return links
 
 
 def _jaw(tree: KinematicTree, link: str, mount: str) -> bool:

@@ -214,8 +214,9 @@ def subpart_typing(ctx: Context, found: Findings) -> None:
                                 ctx.progress, found.parts)
 
 
-@step("sub-part typing", needs=("groups", "post", "structures"), makes=("parts",))
+@step("sub-part typing", needs=("groups", "post", "structures", "frozen_tips"), makes=("parts",))
 def tool_subpart_typing(ctx: Context, found: Findings) -> None:
-    """Each tool link's sub-part class, its structure ruling classes out (stages.subparts.type_subparts)."""
+    """Each tool link's sub-part class, its structure (and its fingers written fixed) ruling classes out
+    (stages.subparts.type_subparts)."""
     found.parts = type_subparts(ctx.oracle, ctx.vocab, ctx.tree, ctx.device_kind, found.groups, found.post,
-                                found.structures, ctx.progress)
+                                found.structures, ctx.progress, frozen_tips=found.frozen_tips)
