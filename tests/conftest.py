@@ -78,3 +78,20 @@ def pr2_store(pr2_kb, tmp_path):
     s = Store(copied(pr2_kb, tmp_path), workers=0)
     yield s
     s.close()
+
+
+@pytest.fixture
+def user_products(tmp_path, monkeypatch):
+    """A user's product catalogue file (one camera, "Acme EyeCam", fragment "eyecam") named by URDFKB_PRODUCTS for the
+    test, the packaged catalogue's cache cleared before and after."""
+    from urdfkb.pipeline.abstraction import catalogue as catalogue_mod
+    own = tmp_path / "mine.ttl"
+    own.write_text('@prefix prod: <https://w3id.org/urdfkb/products#> . @prefix core: <https://w3id.org/urdfkb/core#> .\n'
+                   '@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> . @prefix dcterms: <http://purl.org/dc/terms/> .\n'
+                   'prod:Mine a prod:Product ; rdfs:label "Acme EyeCam" ; prod:kind core:MonocularCamera ;\n'
+                   '    prod:nameFragment "eyecam" ; dcterms:source "Acme, EyeCam" .\n')
+    monkeypatch.setenv(catalogue_mod.ENV, str(own))
+    catalogue_mod.catalogue.cache_clear()
+    yield own
+    monkeypatch.delenv(catalogue_mod.ENV)
+    catalogue_mod.catalogue.cache_clear()

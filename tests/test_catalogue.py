@@ -4,7 +4,6 @@ from __future__ import annotations
 import pytest
 from rdflib.namespace import OWL
 
-from urdfkb.pipeline.abstraction import catalogue as catalogue_mod
 from urdfkb.pipeline.abstraction.catalogue import Catalogue, Product, catalogue, load
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.knowledge.namespaces import CORE
@@ -43,20 +42,9 @@ def test_a_fragment_matches_where_a_word_starts(name, label):
     assert (found.label if found else None) == label
 
 
-def test_a_user_catalogue_adds_products(tmp_path, monkeypatch):
-    own = tmp_path / "mine.ttl"
-    own.write_text('@prefix prod: <https://w3id.org/urdfkb/products#> . @prefix core: <https://w3id.org/urdfkb/core#> .\n'
-                   '@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> . @prefix dcterms: <http://purl.org/dc/terms/> .\n'
-                   'prod:Mine a prod:Product ; rdfs:label "Acme EyeCam" ; prod:kind core:MonocularCamera ;\n'
-                   '    prod:nameFragment "eyecam" ; dcterms:source "Acme, EyeCam" .\n')
-    monkeypatch.setenv(catalogue_mod.ENV, str(own))
-    catalogue.cache_clear()
-    try:
-        found = catalogue().match(["left_eyecam_frame"])
-        assert found is not None and found.label == "Acme EyeCam"
-    finally:
-        monkeypatch.delenv(catalogue_mod.ENV)
-        catalogue.cache_clear()
+def test_a_user_catalogue_adds_products(user_products):
+    found = catalogue().match(["left_eyecam_frame"])
+    assert found is not None and found.label == "Acme EyeCam"
 
 
 def test_an_entry_of_no_core_class_is_refused(tmp_path):

@@ -34,26 +34,15 @@ def test_settings_from_user_input_are_typed_and_checked():
             Settings.from_mapping(bad)
 
 
-def test_an_edited_product_catalogue_misses_the_cache(tmp_path, monkeypatch):
+def test_an_edited_product_catalogue_misses_the_cache(request):
     """The catalogue decides questions (a named product is shown and rules kinds out), so a user's products file,
     added or edited, misses results computed without it."""
-    from urdfkb.pipeline.abstraction import catalogue as catalogue_mod
     first = run(load_urdf(TOY), Settings(), backend=ScriptedBackend(perfect))
     assert "result_cache" not in first.provenance
-    own = tmp_path / "mine.ttl"
-    own.write_text('@prefix prod: <https://w3id.org/urdfkb/products#> . @prefix core: <https://w3id.org/urdfkb/core#> .\n'
-                   '@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n'
-                   'prod:Mine a prod:Product ; rdfs:label "Acme EyeCam" ; prod:kind core:MonocularCamera ;\n'
-                   '    prod:nameFragment "eyecam" .\n')
-    monkeypatch.setenv(catalogue_mod.ENV, str(own))
-    catalogue_mod.catalogue.cache_clear()
-    try:
-        again = run(load_urdf(TOY), Settings(), backend=ScriptedBackend(perfect))
-        assert "result_cache" not in again.provenance
-        assert run(load_urdf(TOY), Settings(), backend=ScriptedBackend(perfect)).provenance["result_cache"] == "hit"
-    finally:
-        monkeypatch.delenv(catalogue_mod.ENV)
-        catalogue_mod.catalogue.cache_clear()
+    request.getfixturevalue("user_products")  # from here on, the user's file is part of the catalogue
+    again = run(load_urdf(TOY), Settings(), backend=ScriptedBackend(perfect))
+    assert "result_cache" not in again.provenance
+    assert run(load_urdf(TOY), Settings(), backend=ScriptedBackend(perfect)).provenance["result_cache"] == "hit"
 
 
 def test_structure_only_asks_nothing():

@@ -169,7 +169,7 @@ def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
     base has the shape, but no limb carries it)."""
     tips: list[str] = []
     for body in tree.links:
-        if sum(tree.edge_to(link).movable for link in tree.chain_to_root(body)[:-1]) < LIMB_JOINTS:
+        if _movable_above(tree, body) < LIMB_JOINTS:
             continue
         ends = []
         for child in tree.children(body):
@@ -202,6 +202,10 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     lowest = min(height.values())
     if height[tree.root] - lowest < STANCE:
         return frozenset()
-    limbs = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND
-             and sum(tree.edge_to(link).movable for link in tree.chain_to_root(leaf)[:-1]) >= 2]
+    limbs = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
     return frozenset(limbs) if len(limbs) >= 2 else frozenset()
+
+
+def _movable_above(tree: KinematicTree, link: str) -> int:
+    """Movable joints between the tree's root and `link`, its own included."""
+    return sum(tree.edge_to(x).movable for x in tree.chain_to_root(link)[:-1])

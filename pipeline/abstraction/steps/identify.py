@@ -38,8 +38,8 @@ def identification(ctx: Context, found: Findings) -> None:
             ctx.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
             claims[leaf], shares[leaf] = body, 1.0
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
-    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends | found.frozen_tips))  # kinds a
-    # leaf's place rules out
+    # the kinds a leaf's place rules out
+    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends | found.frozen_tips))
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
         if kind == tools and leaf in found.feet:  # the tip of a leg: part of the body, as the body pass will find

@@ -22,8 +22,9 @@ def shape(ctx: Context, found: Findings) -> None:
     never tools (a foot that moves on its own joint is the leg's last link: part of the body, unasked), and
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
-    a finger written fixed, is never a sensor (hands.limb_ends, hands.frozen_fingertips), and never a tool where its joint turns through more than half a turn (hands.rolling:
-    a bare arm's flange link, a wheel). Frames where a closed loop is cut (structure.loop_closures) are part of no component."""
+    a finger written fixed, is never a sensor (hands.limb_ends, hands.frozen_fingertips), and the former never a
+    tool where its joint turns through more than half a turn (hands.rolling: a bare arm's flange link, a wheel).
+    Frames where a closed loop is cut (structure.loop_closures) are part of no component."""
     robot = ctx.robot
     declared = {link for link, facts in robot.evidence.items() if facts.sensors}
     seen = hands(robot)
@@ -40,7 +41,8 @@ def shape(ctx: Context, found: Findings) -> None:
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "moving_feet": sorted(found.moving_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
-               "rolling_ends": sorted(found.rolling_ends), "frozen_tips": sorted(found.frozen_tips), "loop_frames": sorted(found.loop_frames)})
+               "rolling_ends": sorted(found.rolling_ends), "frozen_tips": sorted(found.frozen_tips),
+               "loop_frames": sorted(found.loop_frames)})
 
 
 def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
