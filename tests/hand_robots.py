@@ -277,3 +277,55 @@ def build_open_hand(seed: int) -> Built:
     leaves = sorted(c.links[-1] for c in chains)
     return Built(w.urdf(), "thumbed", "AnthropomorphicHand", flange, palm, tool_links, leaves, chains, flange,
                  f"open hand of {k} fingers, thumb on the {'+x' if side > 0 else '-x'} side", yaw_link)
+
+
+def build_flat_gripper(seed: int) -> Built:
+    """A three-finger gripper written flat, as the BarrettHand is: fingers laid out from the palm (+y for a pair
+    side by side at -/+x, -y for the one facing them), each curling up and in by one or two joints whose ranges lie
+    on one side of zero, the first furthest (the others often a <mimic>); each of the pair first turns on a spread joint about the
+    palm's axis (z), the third hangs on a knuckle fixed to the palm. At the zero pose every tip moves up (+z), the
+    pair's spread joints move their tips towards each other: only half closed do the fingers close on one another."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    box = '<box size="0.02 0.02 0.02"/>'
+    flange = w.link(box)
+    palm = w.link('<cylinder radius="0.045" length="0.08"/>')
+    w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
+    curl = rng.choice([1.0, -1.0])  # which sign of the range curls the fingers: files write both
+    spread = rng.choice([(0.0, math.pi), (-0.6, 0.6)])
+    height, offset = rng.uniform(0.03, 0.05), rng.uniform(0.03, 0.05)
+
+    def finger(parent: str, xyz, along: float, joints: int) -> tuple[list[str], str]:
+        """A finger from `xyz` on `parent` laid along `along` * y, curling up by `joints` joints."""
+        links, drive, start, first = [], "", xyz, 1.0
+        for j in range(joints):
+            child = w.link(box)
+            reach = rng.uniform(1.6, 2.5) if j == 0 else rng.uniform(0.6, 1.0)  # the first joint curls furthest
+            first = reach if j == 0 else first
+            limits = (0.0, reach) if curl > 0 else (-reach, 0.0)
+            joint = w.joint("revolute", parent, child, start, (along * curl, 0.0, 0.0), limits,
+                            mimic=drive if j and rng.random() < 0.5 else None, multiplier=round(reach / first, 3))
+            drive = drive or joint
+            links.append(child)
+            parent, start = child, (0.0, along * rng.uniform(0.05, 0.07), 0.0)
+        tip = w.link()
+        w.joint("fixed", parent, tip, start)
+        return [*links, tip], drive
+
+    chains, tool_links = [], {palm}
+    for side in (1.0, -1.0):
+        base = w.link(box)
+        axis = (0.0, 0.0, side * rng.choice([1.0, -1.0]))
+        turn = w.joint("revolute", palm, base, (side * rng.uniform(0.02, 0.03), 0.0, height), axis, spread)
+        links, _ = finger(base, (0.0, offset, 0.0), 1.0, 2)
+        chains.append(Chain([base, *links], turn, "pivoting", None, "finger"))
+    knuckle = w.link(box)
+    w.joint("fixed", palm, knuckle, (0.0, 0.0, height))
+    tool_links.add(knuckle)
+    links, drive = finger(knuckle, (0.0, -offset, 0.0), -1.0, rng.randint(2, 3))
+    chains.append(Chain(links, drive, "pivoting", None, "thumb"))
+    for c in chains:
+        tool_links.update(c.links)
+    leaves = sorted(c.links[-1] for c in chains)
+    return Built(w.urdf(), "flat", "MultiFingerGripper", flange, palm, tool_links, leaves, chains, flange,
+                 f"flat three-finger gripper, curl {curl:+.0f}, spread {spread}", chains[-1].name)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from tests.hand_robots import Built, build, build_open_hand
+from tests.hand_robots import Built, build, build_flat_gripper, build_open_hand
 from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.reading.ingest import load_urdf
@@ -121,7 +121,8 @@ def test_the_generator_covers_every_layout():
 
 @pytest.mark.reasoner
 def test_the_reasoner_infers_each_kind():
-    builds = [build(seed) for seed in REASONED] + [build_open_hand(seed) for seed in range(4)]
+    builds = [build(seed) for seed in REASONED] + [build_open_hand(seed) for seed in range(4)] \
+        + [build_flat_gripper(seed) for seed in range(4)]
     structures = [settled(b)[1][0][1] for b in builds]
     inferred, _ = classify(structures)
     assert [i.cls for i in inferred] == [b.kind for b in builds]
@@ -168,3 +169,12 @@ def test_a_suction_gripper_on_its_own_is_one_tool_and_a_cup_on_a_base_is_none(cu
         result = settle(tree, [Group([sub_chain(tree, leaf, base) for leaf in leaves])], lambda leaf: leaf in leaves,
                         notes.append)
         assert [sorted(g.leaves) for g, _ in result] == ([] if wheels else [sorted(leaves)]), notes
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_a_gripper_written_flat_is_seen_half_closed(seed):
+    """Three fingers laid out flat, two side by side on spread joints and one facing them: at the zero pose every
+    tip moves up and the pair's spread joints bring their tips together, as a parallel gripper's jaws would; half
+    closed, the pair move together and the third closes on both (a gripper of three chains)."""
+    built = build_flat_gripper(seed)
+    assert problems(built) == [], built.description

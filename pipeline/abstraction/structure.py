@@ -16,7 +16,8 @@
   follows another joint moves as that joint moves positively: a jaw mimicking the other with
   multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
-  halfway through its range. A driven
+  halfway through its range; where a chain with a body then closes on none, once more half closed, a finger's
+  spread joints (square to the parallel joints that curl it) left as written and not its closing joint. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
   floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
   fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
@@ -49,6 +50,7 @@ APPROACH = 0.4   # separate tips: share of each tip's motion along the line join
 _PLANE = 0.5     # sine of the angle between two tips' motions above which they span a plane
 _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
+_SQUARE = 0.2    # |cosine| below which two joint axes are square to each other (above 1 - it: parallel)
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
 MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
 
@@ -126,16 +128,31 @@ def _top_body(tree: KinematicTree, link: str) -> str:
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
-    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms."""
+    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Where a chain with a
+    body closes on none at the written pose, the fingers are looked at again half closed (_half_closed), and
+    that look is kept where more chains close on others (fingers written flat, curling the same way at first)."""
     fork = fork_of(tree, leaves)
     chains: dict[str, tuple[tuple[str, ...], Edge, str]] = {}
     for child in moving_children(tree, fork):
         links = (child, *tree.descendants(child))
         tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), norm(tree.position_in(link, fork))))
         chains[child] = (links, tree.edge_to(child), tip)
-    pose = _configuration(tree)
     bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose) if a in bodies or not bodies else []
+    pose = _configuration(tree)
+    structure = _structure_at(tree, fork, chains, bodies, pose)
+    if len(bodies) >= 3 and len(structure.fingers) < len(bodies):
+        spreads = {joint for a in bodies for joint in _spreads(tree, chains[a][0])}
+        again = _structure_at(tree, fork, chains, bodies, _half_closed(tree, chains, bodies, pose, spreads), spreads)
+        if len(again.fingers) > len(structure.fingers):
+            return again
+    return structure
+
+
+def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
+                  bodies: set[str], pose: dict[str, float], spreads: frozenset[str] | set[str] = frozenset()) -> ToolStructure:
+    """The tool's fingers and mechanisms as its chains move from `pose`, none closing by a joint of `spreads`
+    where it moves by another."""
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads) if a in bodies or not bodies else []
                for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
@@ -163,6 +180,38 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         for links, drive, _ in [chains[a]]
     )
     return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names))
+
+
+def _half_closed(tree: KinematicTree, chains: dict[str, tuple[tuple[str, ...], Edge, str]], bodies: set[str],
+                 pose: dict[str, float], spreads: set[str]) -> dict[str, float]:
+    """`pose` with every joint of the chains with bodies that moves on its own and does not spread its finger
+    (`spreads`) halfway through its range, and the joints following them by <mimic> with them: a hand written
+    flat, its fingers curling the same way at first, seen as it grasps."""
+    moved = dict(pose)
+    for a in bodies:
+        links, _, _ = chains[a]
+        edges = [e for link in links if (e := tree.edge_to(link)).independent and e.limits is not None]
+        for e in edges:
+            if e.joint not in spreads and e.joint_type in ("revolute", "prismatic"):
+                moved[e.joint] = sum(e.limits) / 2  # type: ignore[arg-type]
+    for e in tree.edges:
+        if e.movable and e.mimic is not None and e.mimic in moved:
+            moved[e.joint] = e.mimic_multiplier * moved[e.mimic]
+    return moved
+
+
+def _spreads(tree: KinematicTree, links: tuple[str, ...]) -> set[str]:
+    """Joints that spread a finger sideways: a pivot whose axis is square to those of two or more other pivots of
+    its chain that are parallel to one another (the joints that curl it)."""
+    pivots = [(e.joint, axis) for link in links if (e := tree.edge_to(link)).joint_type in ("revolute", "continuous")
+              and (axis := unit(_in_frame(tree, link, links[0], e.axis, {}, True)))]
+    found = set()
+    for joint, axis in pivots:
+        others = [other for name, other in pivots if name != joint]
+        if len(others) >= 2 and all(abs(dot(axis, o)) < _SQUARE for o in others) \
+                and all(abs(dot(others[0], o)) > 1 - _SQUARE for o in others[1:]):
+            found.add(joint)
+    return found
 
 
 def _thumb_closing(a: str, own: list[Motion], closing: dict[str, Motion | None]) -> tuple[Motion, tuple[str, ...]] | None:
@@ -195,13 +244,15 @@ def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
     return max(rated, key=lambda r: r[:2])[2] if rated else None
 
 
-def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float]) -> list[Motion]:
+def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float],
+                   spreads: frozenset[str] | set[str] = frozenset()) -> list[Motion]:
     """The tip's motion under each joint between the drive and the tip that moves on its own (the drive
     first, then every joint following no <mimic>, each with the joints coupled to it), where the tip
-    moves at all."""
+    moves at all; a joint of `spreads` only where no other moves it."""
     path = tree.chain_to_root(tip)
     below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.edge_to(link)).independent]
-    return [m for e in [drive, *below] if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose))]
+    found = [(e.joint, m) for e in [drive, *below] if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose))]
+    return [m for joint, m in found if joint not in spreads] or [m for _, m in found]
 
 
 def moving_children(tree: KinematicTree, fork: str) -> list[str]:
