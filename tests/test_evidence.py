@@ -90,6 +90,7 @@ def test_the_numbers_of_both_forms_are_read_in_si_units(shared):
 def test_evidence_stored_before_the_numbers_were_kept_still_loads(bot):
     old = {"meshes": [], "shape": "", "mass": None, "sensors": [{"type": "ray", "plugins": ["p"], "detail": "8 rays"}]}
     assert LinkEvidence.from_dict(old).sensors == (SimSensor("ray", ("p",)),)
+    assert not LinkEvidence.from_dict(old).collision_only
     again = LinkEvidence.from_dict(json.loads(json.dumps(bot.to_dict()["evidence"]["mast_eye_optical"])))
     assert again == bot.evidence["mast_eye_optical"]
 
@@ -227,3 +228,13 @@ def test_a_leaf_the_file_declares_a_measuring_sensor_on_is_a_sensor_unasked(seed
     found = {c.subcomponents[-1].link for c in abstractor.run(load_urdf(urdf)).components if c.kind == "sensor"}
     assert found == set(leaves[:2])
     assert [k for k in asked if k.startswith("identify:")] == [f"identify:{leaves[2]}"]
+
+
+def test_a_link_drawn_for_collision_alone_is_told_from_one_drawn_to_be_seen():
+    urdf = (b'<robot name="r"><link name="a"><visual><geometry><box size="1 1 1"/></geometry></visual>'
+            b'<collision><geometry><box size="1 1 1"/></geometry></collision></link>'
+            b'<link name="b"><collision><geometry><sphere radius="0.1"/></geometry></collision></link><link name="c"/>'
+            b'<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint>'
+            b'<joint name="k" type="fixed"><parent link="a"/><child link="c"/></joint></robot>')
+    evidence = load_urdf(urdf).evidence
+    assert [evidence[link].collision_only for link in "abc"] == [False, True, False]

@@ -23,7 +23,7 @@ from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, limb_ends,
                                               off_limb_ends, rolling)
-from urdfkb.pipeline.abstraction.frames import loop_closures
+from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -362,3 +362,38 @@ def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
     parts = {key.split(":", 1)[1].split("@")[0]: q.options for key, q in asked.items() if key.startswith("part:")}
     assert fingers <= set(parts)  # each finger link asked its role, as a finger or its contact surface, no palm
     assert all(TAX.answer("Palm") not in parts[link] for link in fingers), {k: parts[k] for k in fingers}
+
+
+def _collision_only(w: Writer, parent: str, geometry: str, xyz=(0.0, 0.0, 0.0)) -> str:
+    """A leaf fixed to `parent` at `xyz` with `geometry` as its <collision> and no <visual>."""
+    name = w.name()
+    w.links.append(f'<link name="{name}"><collision><geometry>{geometry}</geometry></collision></link>')
+    w.joint("fixed", parent, name, xyz)
+    return name
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_collision_volumes_at_their_parents_origin_are_no_component_and_not_asked(seed):
+    """An arm whose links each carry a self-collision capsule, a leaf fixed at the link's origin with collision
+    geometry alone: the erring model calls every leaf a sensor at 0.7 (a dual arm's capsules became tactile and
+    force-torque sensors). They are more of their links' bodies: no component, not asked. A small pad drawn for
+    collision alone away from its link's origin (a foot's pressure sensor) is asked as ever."""
+    w = Writer(random.Random(seed))
+    base = w.link('<cylinder radius="0.1" length="0.2"/>')
+    link, capsules = base, []
+    for i in range(random.Random(seed).randint(4, 7)):
+        child = w.link('<box size="0.05 0.05 0.15"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.15), (0.0, 0.0, 1.0) if i % 2 == 0 else (0.0, 1.0, 0.0))
+        capsules.append(_collision_only(w, child, '<cylinder radius="0.06" length="0.2"/>'))
+        link = child
+    pad = _collision_only(w, base, '<box size="0.01 0.01 0.005"/>', (0.05, 0.03, -0.1))
+    tree = load_urdf(w.urdf())
+    assert collision_volumes(tree) == set(capsules)
+    asked = []
+
+    def erring(q):
+        asked.append(_leaf(q))
+        return {TAX.answer(SENSOR_CLS): 0.7, NONE: 0.3}
+    claims = _identified(w.urdf(), erring)
+    assert {claims[c] for c in capsules} == {NONE} and not set(capsules) & set(asked)
+    assert claims[pad] == SENSOR_CLS and pad in asked

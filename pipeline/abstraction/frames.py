@@ -1,5 +1,5 @@
 """Frames rather than bodies: the leaves that only mark a frame, the frames of one body, where a camera sees
-from, and the frames where a closed kinematic loop is cut.
+from, the frames where a closed kinematic loop is cut, and the leaves that only add to a body's collision shape.
 """
 from __future__ import annotations
 
@@ -125,6 +125,16 @@ def loop_closures(tree: KinematicTree) -> frozenset[str]:
                 if a != b and math.dist(pa, pb) <= LOOP_GAP and _moves_between(tree, a, b):
                     found.update((a, b))
     return frozenset(found)
+
+
+def collision_volumes(tree: KinematicTree) -> frozenset[str]:
+    """Leaves that only add to their parent's collision shape (a self-collision capsule): fixed at the parent's
+    origin, with <collision> geometry and no <visual>. A device has a place of its own on the body it is
+    mounted on; a link in the same place drawn for collision checking alone is more of that body."""
+    return frozenset(
+        leaf for leaf in tree.leaves()
+        if (edge := tree.parent_edge(leaf)) is not None and not edge.movable
+        and norm(edge.origin.xyz) == 0.0 and (facts := tree.evidence.get(leaf)) is not None and facts.collision_only)
 
 
 def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:

@@ -47,11 +47,13 @@ class LinkEvidence:
     shape: str = ""            # "box 0.1x0.2x0.3 m", "cylinder r=0.05 l=0.1 m", "sphere r=0.02 m", or ""
     mass: float | None = None  # None when the link has no <inertial>
     sensors: tuple[SimSensor, ...] = ()
+    collision_only: bool = False  # it has <collision> geometry and no <visual>
 
     @classmethod
     def from_dict(cls, data: dict) -> LinkEvidence:
-        """Inverse of dataclasses.asdict."""
-        return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])))
+        """Inverse of dataclasses.asdict (a tree stored before `collision_only` was kept reads it False)."""
+        return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])),
+                   bool(data.get("collision_only", False)))
 
     @property
     def is_pure_frame(self) -> bool:
@@ -96,7 +98,8 @@ def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
         name = link.get("name", "")
         if name in known:
             declared = tuple(dict.fromkeys(sensors.get(name, ())))  # one sensor may name a link twice
-            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared)
+            collision_only = link.find("collision/geometry") is not None and link.find("visual/geometry") is None
+            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared, collision_only)
     return found
 
 

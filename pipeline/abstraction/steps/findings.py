@@ -44,6 +44,7 @@ class Findings:
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
     rolling_ends: frozenset[str] = _lasting(frozenset())  # those turning through more than half a turn: never tools
     loop_frames: frozenset[str] = _lasting(frozenset())  # frames a closed kinematic loop is cut at: no component
+    collision_volumes: frozenset[str] = _lasting(frozenset())  # leaves only adding to a body's collision shape
     palms: frozenset[str] = _lasting(frozenset())  # the bodies of the hands found: they carry tool frames and sensors
     declared_sensors: frozenset[str] = _lasting(frozenset())  # leaves the file declares a measuring sensor on
     # lasting, from identification

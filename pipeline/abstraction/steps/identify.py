@@ -13,7 +13,8 @@ from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 
 
 @step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends",
-                               "rolling_ends", "frozen_tips", "loop_frames", "palms", "declared_sensors"),
+                               "rolling_ends", "frozen_tips", "loop_frames", "collision_volumes", "palms",
+                               "declared_sensors"),
       makes=("leaves", "claims", "shares"))
 def identification(ctx: Context, found: Findings) -> None:
     """The pass's leaves (not where an earlier pass condensed a device) and each one's kind: from shape and
@@ -28,6 +29,9 @@ def identification(ctx: Context, found: Findings) -> None:
     for leaf in found.leaves:
         if leaf in found.loop_frames and leaf not in claims:
             ctx.log(f"{leaf}: where a closed kinematic loop is cut (it coincides with a frame across a moving joint)")
+            claims[leaf], shares[leaf] = NONE, 1.0
+        elif leaf in found.collision_volumes and leaf not in claims:
+            ctx.log(f"{leaf}: drawn at its parent's origin for collision checking alone: more of that body")
             claims[leaf], shares[leaf] = NONE, 1.0
         elif tools and leaf in found.hand_mounts and leaf not in claims:
             claims[leaf], shares[leaf] = tools, 1.0

@@ -8,14 +8,14 @@ from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, limb_ends, off_limb_ends,
                                               palm, rolling)
-from urdfkb.pipeline.abstraction.frames import loop_closures
+from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
 
 
 @step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "rolling_ends", "frozen_tips",
-                      "loop_frames", "palms", "declared_sensors"))
+                      "loop_frames", "collision_volumes", "palms", "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
@@ -24,7 +24,8 @@ def shape(ctx: Context, found: Findings) -> None:
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
     a finger written fixed, is never a sensor (hands.limb_ends, hands.frozen_fingertips), and the former never a
     tool where its joint turns through more than half a turn (hands.rolling: a bare arm's flange link, a wheel).
-    Frames where a closed loop is cut (structure.loop_closures) are part of no component."""
+    Frames where a closed loop is cut (frames.loop_closures), and leaves drawn at their parent's origin for collision
+    checking alone (frames.collision_volumes), are part of no component."""
     robot = ctx.robot
     declared = {link for link, facts in robot.evidence.items() if facts.sensors}
     seen = hands(robot)
@@ -36,13 +37,14 @@ def shape(ctx: Context, found: Findings) -> None:
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends if rolling(robot, leaf))
     found.loop_frames = loop_closures(robot) - declared
+    found.collision_volumes = collision_volumes(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
     found.declared_sensors = frozenset(leaf for leaf in robot.leaves() if _measures(ctx, robot, leaf))
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "moving_feet": sorted(found.moving_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
                "rolling_ends": sorted(found.rolling_ends), "frozen_tips": sorted(found.frozen_tips),
-               "loop_frames": sorted(found.loop_frames)})
+               "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
 
 
 def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
