@@ -281,22 +281,24 @@ def build_open_hand(seed: int) -> Built:
 
 def build_flat_gripper(seed: int) -> Built:
     """A three-finger gripper written flat, as the BarrettHand is: fingers laid out from the palm (+y for a pair
-    side by side at -/+x, -y for the one facing them), each curling up and in by one or two joints whose ranges lie
-    on one side of zero, the first furthest (the others often a <mimic>); each of the pair first turns on a spread joint about the
-    palm's axis (z), the third hangs on a knuckle fixed to the palm. At the zero pose every tip moves up (+z), the
-    pair's spread joints move their tips towards each other: only half closed do the fingers close on one another."""
+    side by side at -/+x, -y for the one facing them), each curling up and in by two or three joints whose ranges
+    lie on one side of zero (either side, finger by finger), the first furthest (the others often a <mimic>); each
+    of the pair first turns on a spread joint about the palm's axis (z), the third hangs on a knuckle fixed to the
+    palm. At the zero pose every tip moves up (+z), the pair's spread joints move their tips towards each other:
+    only half closed do the fingers close on one another."""
     rng = random.Random(seed)
     w = Writer(rng)
     box = '<box size="0.02 0.02 0.02"/>'
     flange = w.link(box)
     palm = w.link('<cylinder radius="0.045" length="0.08"/>')
     w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
-    curl = rng.choice([1.0, -1.0])  # which sign of the range curls the fingers: files write both
     spread = rng.choice([(0.0, math.pi), (-0.6, 0.6)])
     height, offset = rng.uniform(0.03, 0.05), rng.uniform(0.03, 0.05)
 
     def finger(parent: str, xyz, along: float, joints: int) -> tuple[list[str], str]:
-        """A finger from `xyz` on `parent` laid along `along` * y, curling up by `joints` joints."""
+        """A finger from `xyz` on `parent` laid along `along` * y, curling up by `joints` joints, its ranges on the
+        side of zero a coin picks (files write both, and mirror some fingers only)."""
+        curl = rng.choice([1.0, -1.0])
         links, drive, start, first = [], "", xyz, 1.0
         for j in range(joints):
             child = w.link(box)
@@ -328,4 +330,4 @@ def build_flat_gripper(seed: int) -> Built:
         tool_links.update(c.links)
     leaves = sorted(c.links[-1] for c in chains)
     return Built(w.urdf(), "flat", "MultiFingerGripper", flange, palm, tool_links, leaves, chains, flange,
-                 f"flat three-finger gripper, curl {curl:+.0f}, spread {spread}", chains[-1].name)
+                 f"flat three-finger gripper, spread {spread}", chains[-1].name)

@@ -377,7 +377,8 @@ def test_collision_volumes_at_their_parents_origin_are_no_component_and_not_aske
     """An arm whose links each carry a self-collision capsule, a leaf fixed at the link's origin with collision
     geometry alone: the erring model calls every leaf a sensor at 0.7 (a dual arm's capsules became tactile and
     force-torque sensors). They are more of their links' bodies: no component, not asked. A small pad drawn for
-    collision alone away from its link's origin (a foot's pressure sensor) is asked as ever."""
+    collision alone away from its link's origin (a foot's pressure sensor), a leaf drawn to be seen at its link's
+    origin, and a leaf drawn for collision alone at the origin of a bare mount frame are asked as ever."""
     w = Writer(random.Random(seed))
     base = w.link('<cylinder radius="0.1" length="0.2"/>')
     link, capsules = base, []
@@ -387,6 +388,11 @@ def test_collision_volumes_at_their_parents_origin_are_no_component_and_not_aske
         capsules.append(_collision_only(w, child, '<cylinder radius="0.06" length="0.2"/>'))
         link = child
     pad = _collision_only(w, base, '<box size="0.01 0.01 0.005"/>', (0.05, 0.03, -0.1))
+    seen = w.link('<box size="0.03 0.03 0.03"/>')  # drawn to be seen, at its link's origin
+    w.joint("fixed", base, seen)
+    mount = w.link()  # a bare mount frame, and a device drawn for collision alone at its origin
+    w.joint("fixed", base, mount, (0.1, 0.0, 0.1))
+    device = _collision_only(w, mount, '<cylinder radius="0.03" length="0.04"/>')
     tree = load_urdf(w.urdf())
     assert collision_volumes(tree) == set(capsules)
     asked = []
@@ -396,4 +402,4 @@ def test_collision_volumes_at_their_parents_origin_are_no_component_and_not_aske
         return {TAX.answer(SENSOR_CLS): 0.7, NONE: 0.3}
     claims = _identified(w.urdf(), erring)
     assert {claims[c] for c in capsules} == {NONE} and not set(capsules) & set(asked)
-    assert claims[pad] == SENSOR_CLS and pad in asked
+    assert all(claims[leaf] == SENSOR_CLS and leaf in asked for leaf in (pad, seen, device))

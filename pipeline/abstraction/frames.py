@@ -13,6 +13,7 @@ FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) on
 CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
+SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
 
 
 def is_frame(tree: KinematicTree, link: str) -> bool:
@@ -128,13 +129,14 @@ def loop_closures(tree: KinematicTree) -> frozenset[str]:
 
 
 def collision_volumes(tree: KinematicTree) -> frozenset[str]:
-    """Leaves that only add to their parent's collision shape (a self-collision capsule): fixed at the parent's
-    origin, with <collision> geometry and no <visual>. A device has a place of its own on the body it is
-    mounted on; a link in the same place drawn for collision checking alone is more of that body."""
+    """Leaves that only add to their parent's collision shape (a self-collision capsule): fixed at the origin of a
+    parent that is a body (is_frame), with <collision> geometry and no <visual>. A device has a place of its own on
+    the body it is mounted on; a link in the same place drawn for collision checking alone is more of that body
+    (on a bare mount frame, it is the device itself)."""
     return frozenset(
         leaf for leaf in tree.leaves()
-        if (edge := tree.parent_edge(leaf)) is not None and not edge.movable
-        and norm(edge.origin.xyz) == 0.0 and (facts := tree.evidence.get(leaf)) is not None and facts.collision_only)
+        if (edge := tree.parent_edge(leaf)) is not None and not edge.movable and norm(edge.origin.xyz) < SAME_PLACE
+        and (facts := tree.evidence.get(leaf)) is not None and facts.collision_only and not is_frame(tree, edge.parent))
 
 
 def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:

@@ -16,8 +16,9 @@
   follows another joint moves as that joint moves positively: a jaw mimicking the other with
   multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
-  halfway through its range; where a chain with a body then closes on none, once more half closed, a finger's
-  spread joints (square to the parallel joints that curl it) left as written and not its closing joint. A driven
+  halfway through its range; where, of three chains with bodies or more, one then closes on none, once more
+  half closed (_half_closed), a finger's spread joints (square to the parallel joints that curl it) left where
+  they were and not its closing joint. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
   floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
   fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
@@ -38,6 +39,7 @@ definitions do that, applied by a reasoner (pipeline.knowledge.reasoning).
 """
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
 from urdfkb.pipeline.abstraction.frames import is_frame
@@ -50,7 +52,8 @@ APPROACH = 0.4   # separate tips: share of each tip's motion along the line join
 _PLANE = 0.5     # sine of the angle between two tips' motions above which they span a plane
 _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slide)
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
-_SQUARE = 0.2    # |cosine| below which two joint axes are square to each other (above 1 - it: parallel)
+_SQUARE = 0.2    # |cosine| below which two joint axes are square to each other (within about 12 degrees)
+_PARALLEL = 0.95  # |cosine| above which two joint axes are parallel (within about 18 degrees)
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
 MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
 
@@ -128,9 +131,10 @@ def _top_body(tree: KinematicTree, link: str) -> str:
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
-    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Where a chain with a
-    body closes on none at the written pose, the fingers are looked at again half closed (_half_closed), and
-    that look is kept where more chains close on others (fingers written flat, curling the same way at first)."""
+    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Where, of three chains
+    with bodies or more, one closes on none at the written pose, the fingers are looked at again half closed
+    (_half_closed), and that look is kept where more chains close on others (fingers written flat, curling the
+    same way at first)."""
     fork = fork_of(tree, leaves)
     chains: dict[str, tuple[tuple[str, ...], Edge, str]] = {}
     for child in moving_children(tree, fork):
@@ -142,17 +146,20 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     structure = _structure_at(tree, fork, chains, bodies, pose)
     if len(bodies) >= 3 and len(structure.fingers) < len(bodies):
         spreads = {joint for a in bodies for joint in _spreads(tree, chains[a][0])}
-        again = _structure_at(tree, fork, chains, bodies, _half_closed(tree, chains, bodies, pose, spreads), spreads)
+        again = _structure_at(tree, fork, chains, bodies, _half_closed(tree, chains, bodies, pose, spreads), spreads,
+                              closing_sense=True)
         if len(again.fingers) > len(structure.fingers):
             return again
     return structure
 
 
 def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
-                  bodies: set[str], pose: dict[str, float], spreads: frozenset[str] | set[str] = frozenset()) -> ToolStructure:
+                  bodies: set[str], pose: dict[str, float], spreads: AbstractSet[str] = frozenset(),
+                  closing_sense: bool = False) -> ToolStructure:
     """The tool's fingers and mechanisms as its chains move from `pose`, none closing by a joint of `spreads`
-    where it moves by another."""
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads) if a in bodies or not bodies else []
+    where it moves by another; `closing_sense`: each joint moving the way its range reaches further wherever it
+    stands (_closes_backwards), so fingers written with mirrored signs close alike away from zero too."""
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense) if a in bodies or not bodies else []
                for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
@@ -183,33 +190,37 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
 
 
 def _half_closed(tree: KinematicTree, chains: dict[str, tuple[tuple[str, ...], Edge, str]], bodies: set[str],
-                 pose: dict[str, float], spreads: set[str]) -> dict[str, float]:
-    """`pose` with every joint of the chains with bodies that moves on its own and does not spread its finger
-    (`spreads`) halfway through its range, and the joints following them by <mimic> with them: a hand written
-    flat, its fingers curling the same way at first, seen as it grasps."""
+                 pose: dict[str, float], spreads: AbstractSet[str]) -> dict[str, float]:
+    """`pose` with every revolute or prismatic joint of the chains with bodies that has a range, moves on its own
+    and does not spread its finger (`spreads`) halfway through that range, and the joints following those by
+    <mimic> with them: a hand written flat, its fingers curling the same way at first, seen as it grasps. Spread
+    joints and joints without a range (continuous) stay where `pose` has them."""
     moved = dict(pose)
+    changed = set()
     for a in bodies:
-        links, _, _ = chains[a]
-        edges = [e for link in links if (e := tree.edge_to(link)).independent and e.limits is not None]
-        for e in edges:
-            if e.joint not in spreads and e.joint_type in ("revolute", "prismatic"):
-                moved[e.joint] = sum(e.limits) / 2  # type: ignore[arg-type]
+        for link in chains[a][0]:
+            e = tree.edge_to(link)
+            if e.independent and e.limits is not None and e.joint not in spreads \
+                    and e.joint_type in ("revolute", "prismatic"):
+                lower, upper = e.limits
+                moved[e.joint] = (lower + upper) / 2
+                changed.add(e.joint)
     for e in tree.edges:
-        if e.movable and e.mimic is not None and e.mimic in moved:
-            moved[e.joint] = e.mimic_multiplier * moved[e.mimic]
+        if e.movable and e.mimic in changed:
+            moved[e.joint] = e.mimic_multiplier * moved[e.mimic]  # type: ignore[index]
     return moved
 
 
 def _spreads(tree: KinematicTree, links: tuple[str, ...]) -> set[str]:
-    """Joints that spread a finger sideways: a pivot whose axis is square to those of two or more other pivots of
-    its chain that are parallel to one another (the joints that curl it)."""
+    """Joints that spread a finger sideways: a pivot of a chain of three pivots or more whose axis is square to
+    the axis of every other pivot of the chain, those all parallel to one another (the joints that curl it)."""
     pivots = [(e.joint, axis) for link in links if (e := tree.edge_to(link)).joint_type in ("revolute", "continuous")
               and (axis := unit(_in_frame(tree, link, links[0], e.axis, {}, True)))]
     found = set()
     for joint, axis in pivots:
         others = [other for name, other in pivots if name != joint]
         if len(others) >= 2 and all(abs(dot(axis, o)) < _SQUARE for o in others) \
-                and all(abs(dot(others[0], o)) > 1 - _SQUARE for o in others[1:]):
+                and all(abs(dot(others[0], o)) > _PARALLEL for o in others[1:]):
             found.add(joint)
     return found
 
@@ -245,13 +256,14 @@ def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
 
 
 def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float],
-                   spreads: frozenset[str] | set[str] = frozenset()) -> list[Motion]:
+                   spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False) -> list[Motion]:
     """The tip's motion under each joint between the drive and the tip that moves on its own (the drive
     first, then every joint following no <mimic>, each with the joints coupled to it), where the tip
     moves at all; a joint of `spreads` only where no other moves it."""
     path = tree.chain_to_root(tip)
     below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.edge_to(link)).independent]
-    found = [(e.joint, m) for e in [drive, *below] if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose))]
+    found = [(e.joint, m) for e in [drive, *below]
+             if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose, closing_sense))]
     return [m for joint, m in found if joint not in spreads] or [m for _, m in found]
 
 
@@ -267,9 +279,11 @@ def moving_children(tree: KinematicTree, fork: str) -> list[str]:
     return found
 
 
-def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float]) -> Motion | None:
-    """Where the tip is and the direction it moves in as the drive moves positively, with every joint
-    of the chain coupled to it by <mimic>, all joints at `pose` (None: it does not move)."""
+def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float],
+                closing_sense: bool = False) -> Motion | None:
+    """Where the tip is and the direction it moves in as the drive moves positively (as it closes, by
+    _closes_backwards), with every joint of the chain coupled to it by <mimic>, all joints at `pose` (None: it
+    does not move)."""
     point = _in_frame(tree, tip, fork, (0.0, 0.0, 0.0), pose)
     path = tree.chain_to_root(tip)
     velocity = (0.0, 0.0, 0.0)
@@ -284,16 +298,17 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
             velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
     if drive.mimic is not None and drive.mimic_multiplier < 0:  # the drive turns against the joint it follows
         velocity = (-velocity[0], -velocity[1], -velocity[2])
-    if _closes_backwards(drive, pose):
+    if _closes_backwards(drive, pose, closing_sense):
         velocity = (-velocity[0], -velocity[1], -velocity[2])
     direction = unit(velocity) if dot(velocity, velocity) >= _STILL else None
     return None if direction is None else (point, direction)
 
 
-def _closes_backwards(drive: Edge, pose: dict[str, float]) -> bool:
-    """A joint at zero in the pose whose range reaches further below zero than above it: written open, it closes
-    by moving negatively (a finger of range [-1.7, 0], a mirrored thumb of range [-1.0, 0.6])."""
-    if drive.limits is None or drive.mimic is not None or pose.get(drive.joint, 0.0) != 0.0:
+def _closes_backwards(drive: Edge, pose: dict[str, float], anywhere: bool = False) -> bool:
+    """A joint at zero in the pose (`anywhere`: wherever it stands) whose range reaches further below zero than
+    above it: written open, it closes by moving negatively (a finger of range [-1.7, 0], a mirrored thumb of range
+    [-1.0, 0.6])."""
+    if drive.limits is None or drive.mimic is not None or (not anywhere and pose.get(drive.joint, 0.0) != 0.0):
         return False
     lower, upper = drive.limits
     return -lower > upper
