@@ -300,26 +300,36 @@ def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
     assert _identified(w.urdf(), lambda q: tool if _leaf(q) == jaw else NONE)[jaw] == TOOL_CLS
 
 
+def _fixed_chains(w: Writer, parent: str, size: str) -> list[str]:
+    """Four chains of three boxes of `size` fixed in series on `parent`, side by side; their tips."""
+    tips = []
+    for k in range(4):
+        link = parent
+        for _ in range(3):
+            child = w.link(f'<box size="{size}"/>')
+            w.joint("fixed", link, child, (0.02 * k - 0.03, 0.0, 0.03) if link == parent else (0.0, 0.0, 0.03))
+            link = child
+        tips.append(link)
+    return tips
+
+
+def _frozen_hand(w: Writer) -> tuple[str, list[str]]:
+    """A base, an arm of six joints, and on it a palm with four fingers written fixed; the base and the fingertips."""
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    palm = w.link('<box size="0.08 0.1 0.02"/>')
+    w.joint("revolute", _serial(w, base, 5), palm, (0.0, 0.0, 0.1))
+    return base, _fixed_chains(w, palm, "0.015 0.015 0.03")
+
+
 def test_the_fingertips_of_a_hand_written_fixed_are_no_sensors():
     """A hand whose finger joints are all written fixed (an export that froze them): four chains of three bodies
     from a palm at an arm's end. The erring model calls each tip a touch sensor at 0.6: a finger is no sensor, so
     the model's next answer stands. Standoffs stacked on a mobile base have the shape, but no limb carries them."""
     w = Writer(random.Random(7))
-    base = w.link('<box size="0.4 0.3 0.2"/>')
-    palm = w.link('<box size="0.08 0.1 0.02"/>')
-    w.joint("revolute", _serial(w, base, 5), palm, (0.0, 0.0, 0.1))
+    base, tips = _frozen_hand(w)
     stack_base = w.link('<box size="0.3 0.3 0.05"/>')
     w.joint("fixed", base, stack_base, (0.0, 0.0, -0.2))
-    tips: list[str] = []
-    stacks: list[str] = []
-    for k in range(4):
-        for parent, out, size in ((palm, tips, "0.015 0.015 0.03"), (stack_base, stacks, "0.01 0.01 0.05")):
-            link = parent
-            for _ in range(3):
-                child = w.link(f'<box size="{size}"/>')
-                w.joint("fixed", link, child, (0.02 * k - 0.03, 0.0, 0.03) if link == parent else (0.0, 0.0, 0.03))
-                link = child
-            out.append(link)
+    stacks = _fixed_chains(w, stack_base, "0.01 0.01 0.05")
     tree = load_urdf(w.urdf())
     assert frozen_fingertips(tree) == set(tips)
     erring = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1}
@@ -335,17 +345,7 @@ def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
     from tests.scripted_reasoner import scripted_reasoner
     from urdfkb.pipeline import runner
     w = Writer(random.Random(7))
-    base = w.link('<box size="0.4 0.3 0.2"/>')
-    palm = w.link('<box size="0.08 0.1 0.02"/>')
-    w.joint("revolute", _serial(w, base, 5), palm, (0.0, 0.0, 0.1))
-    tips = []
-    for k in range(4):
-        link = palm
-        for _ in range(3):
-            child = w.link('<box size="0.015 0.015 0.03"/>')
-            w.joint("fixed", link, child, (0.02 * k - 0.03, 0.0, 0.03) if link == palm else (0.0, 0.0, 0.03))
-            link = child
-        tips.append(link)
+    _, tips = _frozen_hand(w)
     asked: dict[str, Question] = {}
 
     def erring(q: Question):
@@ -366,8 +366,7 @@ def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
 
 def _collision_only(w: Writer, parent: str, geometry: str, xyz=(0.0, 0.0, 0.0)) -> str:
     """A leaf fixed to `parent` at `xyz` with `geometry` as its <collision> and no <visual>."""
-    name = w.name()
-    w.links.append(f'<link name="{name}"><collision><geometry>{geometry}</geometry></collision></link>')
+    name = w.link(collision=geometry)
     w.joint("fixed", parent, name, xyz)
     return name
 

@@ -28,11 +28,12 @@ class Writer:
                 self.used.add(stem)
                 return stem
 
-    def link(self, geometry: str = "") -> str:
-        """A new link; `geometry` (a URDF geometry element) gives it a visual."""
+    def link(self, geometry: str = "", collision: str = "") -> str:
+        """A new link; `geometry` (a URDF geometry element) gives it a visual, `collision` a collision shape."""
         name = self.name()
         visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
-        self.links.append(f'<link name="{name}">{visual}</link>')
+        shape = f"<collision><geometry>{collision}</geometry></collision>" if collision else ""
+        self.links.append(f'<link name="{name}">{visual}{shape}</link>')
         return name
 
     def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
