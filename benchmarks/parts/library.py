@@ -192,7 +192,7 @@ def joint_element(j: dict) -> ET.Element:
     ET.SubElement(joint, "origin", xyz=_vec(j.get("xyz", (0, 0, 0))), rpy=_vec(j.get("rpy", (0, 0, 0))))
     if kind in MOVING:
         ET.SubElement(joint, "axis", xyz=_vec(j.get("axis", (0, 0, 1))))
-    if kind in ("revolute", "prismatic"):
+    if kind in ("revolute", "prismatic") or (kind == "continuous" and "limit" in j):  # files bound linkage bars so
         lo, hi = j["limit"]
         ET.SubElement(joint, "limit", lower=f"{lo:g}", upper=f"{hi:g}", effort="10", velocity="1")
     if "mimic" in j:
