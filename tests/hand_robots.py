@@ -17,6 +17,8 @@ Fingers have 1-4 joints; joints of one finger are sometimes coupled to its first
 plate on it) or straight on the arm's last moving link; fingertip frames (fixed links at the tips)
 and a TCP frame are optional. `asides=True` also bolts a small box on the arm's first moving link and, where
 the hand has a palm, one on the link the palm is bolted to, beside the hand: bodies at no limb's end.
+`linkages=True` adds four-bar linkages written as branches (cranks beside the fingers, bars on their pins): the
+cranks are mechanisms (`Built.linkages`), the bars their fingers' links.
 
 The truth (`Built`) follows pipeline/abstraction/structure.py's definitions and the ontology's class
 definitions: the mount is the link the palm is bolted to (the flange, or the adapter), or the
@@ -64,13 +66,46 @@ class Built:
     thumb: str | None = None   # first link of the thumb chain
     notes: list[str] = field(default_factory=list)
     asides: list[str] = field(default_factory=list)  # boxes along the arm and beside the hand (asides=True)
+    linkages: list[str] = field(default_factory=list)  # first links of the fingers' cranks (linkages=True)
 
 
-def build(seed: int, alone: bool = False, asides: bool = False) -> Built:
+def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool = False) -> Built:
     """One random arm and end-effector (or, `alone`, the end-effector only); the same seed builds the
-    same robot (`asides` adds boxes, and changes nothing else)."""
+    same robot (`asides` adds boxes, and changes nothing else). `linkages`: four-bar linkages written as
+    branches, as a URDF tree cannot close a loop. Beside each finger that pivots by a flexing first joint and
+    flexes by two joints or more, a crank hung on the same link by a joint of its own at the finger's first joint,
+    about the same axis, with a bar at its end, both shorter than the finger, its range sometimes wholly below
+    zero, as such files write it;
+    on a finger's later pins, where the finger goes on beyond them, a bar beside the joint (on the link before
+    it) and one on the link after it, at its origin: short, written continuous, with a range below zero or none."""
     rng = random.Random(seed)
     w = Writer(rng)
+    lrng = random.Random(seed + 7919)
+    cranks: list[str] = []
+    heads: list[str] = []  # each crank's first link
+
+    def bar(parent: str, xyz, axis, side: float) -> list[str]:
+        """With `linkages`, a linkage's bar on `parent` pivoting about `axis` at `xyz`, shorter than the finger,
+        written continuous (with a range, or none), and the link at its end, off to `side` (x) of the pin, so
+        that two bars on one pin do not end in one place: the bar and that link."""
+        if not linkages:
+            return []
+        bar_link, end = w.link(), w.link()
+        w.joint("continuous", parent, bar_link, xyz, axis, (-1.4, -0.9) if lrng.random() < 0.5 else None)
+        w.joint("fixed", bar_link, end, (side * lrng.uniform(0.004, 0.008), 0.0, lrng.uniform(0.004, 0.008)))
+        return [bar_link, end]
+
+    def linkage(parent: str, xyz, axis) -> None:
+        """A crank on `parent` pivoting about `axis` at `xyz` (a finger's first joint), with a bar at its end."""
+        if not linkages:
+            return
+        crank, bar = w.link(), w.link()
+        lower = lrng.uniform(-2.2, -1.0)
+        below = lrng.random() < 0.5
+        w.joint("revolute", parent, crank, xyz, axis, (lower, lower + 0.9) if below else (-0.5, 0.5))
+        w.joint("continuous", crank, bar, (0.0, lrng.uniform(-0.003, 0.003), lrng.uniform(0.006, 0.012)), axis)
+        cranks.extend([crank, bar])
+        heads.append(crank)
     # the arm
     link = w.link()
     arm = [link]
@@ -108,6 +143,7 @@ def build(seed: int, alone: bool = False, asides: bool = False) -> Built:
         joints: list[str] = []
         flex = None
         xyz = start
+        ends = tips or count - (first_axis is not None) == 1  # a tip frame will follow the last segment
         for j in range(count):
             child = w.link()
             abduct = j == 0 and first_axis is not None
@@ -117,14 +153,20 @@ def build(seed: int, alone: bool = False, asides: bool = False) -> Built:
             elif not abduct and flex is not None and couple:
                 mimic, mult = flex, rng.choice([0.8, 1.0, 1.2])
             lim = first_limits if abduct else limits()
+            if j == 0 and not abduct and count - (first_axis is not None) >= 2:  # a crank curls a jointed finger
+                linkage(parent, xyz, axis)
+            elif j and not abduct and (j < count - 1 or ends):
+                links.extend(bar(parent, xyz, axis, -1.0))  # beside the joint into `child`, on the same pin
             joint = w.joint("revolute", parent, child, xyz, first_axis if abduct else axis, lim, mimic, mult)
+            if j and not abduct and (j < count - 1 or ends):  # beside the rest of the finger, on the pin `child` turns on
+                links.extend(bar(child, (0.0, 0.0, 0.0), axis, 1.0))
             if not abduct and flex is None:
                 flex = joint
             joints.append(joint)
             links.append(child)
             parent = child
             xyz = (0.0, 0.0, 0.012) if abduct else (0.0, 0.0, rng.uniform(*lengths))
-        if tips or count - (first_axis is not None) == 1:  # a lone flexing joint's own frame sits on its
+        if ends:  # a lone flexing joint's own frame sits on its
             # axis, and a joint turning the chain about its length moves nothing: its tip frame shows it move
             tip = w.link()
             w.joint("fixed", parent, tip, xyz if count else start)
@@ -214,6 +256,7 @@ def build(seed: int, alone: bool = False, asides: bool = False) -> Built:
         description = f"{k} fingers and a thumb ({thumb_mode})"
     for c in chains:
         tool_links.update(c.links)
+    tool_links.update(cranks)
     if rng.random() < 0.5:  # a TCP frame
         tcp = w.link()
         w.joint("fixed", base, tcp, (0.0, 0.0, base_z + 0.1))
@@ -235,7 +278,8 @@ def build(seed: int, alone: bool = False, asides: bool = False) -> Built:
     has_child = set(parent_of.values())
     leaves = sorted(x for x in tool_links if x not in has_child)
     return Built(urdf, layout, kind, mount, base, tool_links, leaves, chains, flange,
-                 f"{description}, {'on a palm' if on_palm else 'on the flange'}", thumb, asides=boxes)
+                 f"{description}, {'on a palm' if on_palm else 'on the flange'}", thumb, asides=boxes,
+                 linkages=heads)
 
 
 def build_open_hand(seed: int) -> Built:

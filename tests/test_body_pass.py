@@ -219,3 +219,21 @@ def test_a_bare_arm_of_six_joints_is_an_arm_without_asking():
     oracle = Oracle(ScriptedBackend(lambda q: pytest.fail(f"unexpected question {q.key}")))
     parts, _ = body_pass(oracle, load_urdf(w.urdf()), [])
     assert [(p.cls, p.joints) for p in parts] == [("Arm", tuple(joints))]
+
+
+def test_a_continuous_joint_its_file_bounds_to_less_than_half_a_turn_does_not_spin():
+    """A linkage's bar written continuous with a range all the same (as Drake's Robotiq 3-finger gripper writes its
+    bars): held by the loop it closes, it does not spin, so no wheel, and the reasoner is told it is revolute. A
+    continuous joint with no range, or one of half a turn or more (-3.14 to 3.14, as wheels are written), spins;
+    one following another by <mimic> (a rear wheel of a skid-steer base) is told continuous, as written."""
+    w = Writer(random.Random(3))
+    base = w.link('<box size="0.5 0.3 0.1"/>')
+    bounded, free, wide, rear = (w.link('<cylinder radius="0.01" length="0.04"/>') for _ in range(4))
+    w.joint("continuous", base, bounded, (0.2, 0.0, 0.0), (0, 1, 0), (1.09, 1.94))
+    front = w.joint("continuous", base, free, (-0.2, 0.0, 0.0), (0, 1, 0))
+    w.joint("continuous", base, wide, (0.0, 0.2, 0.0), (0, 1, 0), (-3.14, 3.14))
+    w.joint("continuous", base, rear, (-0.4, 0.0, 0.0), (0, 1, 0), mimic=front)
+    tree = load_urdf(w.urdf())
+    links = (bounded, free, wide, rear)
+    assert [tree.edge_to(link).spins for link in links] == [False, True, True, False]
+    assert [body._motion(tree.edge_to(link)) for link in links] == ["revolute", "continuous", "continuous", "continuous"]

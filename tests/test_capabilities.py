@@ -51,6 +51,17 @@ def test_reach_is_the_largest_distance_within_the_limits():
     assert capabilities.reach(planar_arm((0.5, 1.0)), "elbow", "upper") is None  # not below that joint
 
 
+def test_a_continuous_joint_its_file_bounds_reaches_within_its_range():
+    """An elbow written continuous with a range of under half a turn (as a linkage's bars are written) moves within
+    that range; written continuous without one, it turns all the way and the arm reaches straight out."""
+    bounded = replace(planar_arm((0.5, 1.0)), edges=tuple(replace(e, joint_type="continuous") if e.joint == "elbow"
+                                                               else e for e in planar_arm((0.5, 1.0)).edges))
+    free = replace(bounded, edges=tuple(replace(e, limits=None) if e.joint == "elbow" else e for e in bounded.edges))
+    bent = math.sqrt(0.3 ** 2 + 0.2 ** 2 + 2 * 0.3 * 0.2 * math.cos(0.5))
+    assert capabilities.reach(bounded, "shoulder", "hand") == pytest.approx(bent)
+    assert capabilities.reach(free, "shoulder", "hand") == pytest.approx(0.5)
+
+
 def slide_gripper(upper: float = 0.04, mimic: bool = True) -> KinematicTree:
     """A palm with two jaws sliding apart along ±y, the right one following the left by <mimic>."""
     return KinematicTree("slider", ("palm", "left", "right"), (

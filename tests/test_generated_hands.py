@@ -18,7 +18,7 @@ from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.grouping import Group
 from urdfkb.pipeline.abstraction.stages.tools import settle
 from urdfkb.pipeline.abstraction.hands import hands
-from urdfkb.pipeline.abstraction.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.abstraction.structure import ToolStructure, linkage_bars, tool_structure
 
 SEEDS = range(400)
 REASONED = list(range(0, 400, 25))  # one reasoner run over every layout
@@ -103,6 +103,21 @@ def test_a_gripper_or_hand_on_its_own_is_one_tool(seed):
 
 
 @pytest.mark.parametrize("seed", range(60))
+def test_a_fingers_linkage_written_as_a_chain_of_its_own_is_no_finger(seed):
+    """Beside each finger, a four-bar's crank hung on the same link at the finger's first joint, pivoting about
+    the same axis, shorter than the finger, and bars on the finger's own pins, written continuous (a URDF tree
+    cannot close the loop): the crank is the finger's linkage, not a finger of its own, the bars neither end the
+    finger nor count among its joints, and neither stops the hand being found."""
+    built = build(seed, linkages=True)
+    assert problems(built) == [], built.description
+    tree, result, _ = settled(built)
+    assert set(result[0][1].mechanisms) == set(built.linkages), built.description
+    moving = set().union(*(c.links for c in built.chains), *((h, *tree.descendants(h)) for h in built.linkages))
+    found = hands(tree)  # on the arm, before any question: bars aside, each finger is hand-sized
+    assert found and {leaf for leaf in built.leaves if leaf in moving} <= set(found[0][1]), built.description
+
+
+@pytest.mark.parametrize("seed", range(60))
 def test_a_hand_written_open_is_found_by_its_thumb(seed):
     """Fingers curling side by side into the palm and a thumb beside it that closes on them (no fingertip moves
     towards the thumb's tip at the zero pose): the shape shows a hand, its thumb opposes every finger."""
@@ -122,7 +137,7 @@ def test_the_generator_covers_every_layout():
 @pytest.mark.reasoner
 def test_the_reasoner_infers_each_kind():
     builds = [build(seed) for seed in REASONED] + [build_open_hand(seed) for seed in range(4)] \
-        + [build_flat_gripper(seed) for seed in range(4)]
+        + [build_flat_gripper(seed) for seed in range(4)] + [build(seed, linkages=True) for seed in range(0, 400, 50)]
     structures = [settled(b)[1][0][1] for b in builds]
     inferred, _ = classify(structures)
     assert [i.cls for i in inferred] == [b.kind for b in builds]
@@ -147,6 +162,46 @@ def test_a_finger_that_branches_closes_along_the_path_to_its_tip():
         chains.append((jaw, tip, pad))
     s = tool_structure(load_urdf(w.urdf()), [leaf for _, tip, pad in chains for leaf in (tip, pad)])
     assert {f.name: f.opposes for f in s.fingers} == {chains[0][0]: (chains[1][0],), chains[1][0]: (chains[0][0],)}
+
+
+@pytest.mark.parametrize("share", [1.0, 0.6])
+def test_jaws_sharing_one_pin_stay_jaws_whatever_their_lengths(share):
+    """Two rigid jaws pivoting on one pin (scissors), the second's tip frame at `share` of the first's distance:
+    neither is the other's linkage, which only a finger jointed beyond its drive has."""
+    w = Writer(random.Random(11))
+    flange, palm = w.link(), w.link('<box size="0.04 0.04 0.02"/>')
+    w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
+    jaws = []
+    for length, axis in ((0.08, (1.0, 0.0, 0.0)), (0.08 * share, (-1.0, 0.0, 0.0))):
+        jaw, tip = w.link('<box size="0.01 0.01 0.06"/>'), w.link()
+        w.joint("revolute", palm, jaw, (0.0, 0.0, 0.03), axis, (-0.3, 0.6))
+        w.joint("fixed", jaw, tip, (0.0, 0.02 if axis[0] > 0 else -0.02, length))
+        jaws.append((jaw, tip))
+    tree = load_urdf(w.urdf())
+    s = tool_structure(tree, [tip for _, tip in jaws])
+    assert {f.name: f.opposes for f in s.fingers} == {jaws[0][0]: (jaws[1][0],), jaws[1][0]: (jaws[0][0],)}
+    assert s.linkages == () and [sorted(leaves) for _, leaves in hands(tree)][0] == sorted(tip for _, tip in jaws)
+
+
+def test_a_joint_written_twice_in_series_carries_the_rest_of_the_finger():
+    """Each finger's drive followed, at the same place and about the same axis, by a spring joint that carries the
+    rest of the finger (nothing beside it): not a bar, so the finger still ends at its tip and closes."""
+    w = Writer(random.Random(12))
+    flange, palm = w.link(), w.link('<box size="0.04 0.04 0.02"/>')
+    w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
+    tips = []
+    for side in (1.0, -1.0):
+        proximal, spring, distal = (w.link('<box size="0.01 0.01 0.03"/>') for _ in range(3))
+        tip = w.link()
+        w.joint("revolute", palm, proximal, (0.0, side * 0.02, 0.03), (side, 0.0, 0.0), (-0.8, 1.2))
+        w.joint("revolute", proximal, spring, (0.0, 0.0, 0.0), (side, 0.0, 0.0), (0.0, 0.7))
+        w.joint("revolute", spring, distal, (0.0, 0.0, 0.07), (side, 0.0, 0.0), (-1.2, 0.8))
+        w.joint("fixed", distal, tip, (0.0, -side * 0.005, 0.04))
+        tips.append((proximal, tip))
+    tree = load_urdf(w.urdf())
+    s = tool_structure(tree, [tip for _, tip in tips])
+    assert {f.name for f in s.fingers} == {proximal for proximal, _ in tips} and s.grasps()
+    assert not linkage_bars(tree, (tips[0][0], *tree.descendants(tips[0][0])))
 
 
 @pytest.mark.parametrize("cups", [1, 4])

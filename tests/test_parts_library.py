@@ -58,9 +58,6 @@ OPTICAL_ROOT = ("mount: a camera whose description starts at its optical frame (
 FORK_BELOW_BASE = ("tool extent: a hand whose fingers fork from a frame below its base (the Schunk SVH's e1, fixed under "
                    "right_hand_base_link) is mounted on its own base, which is left out of it; its middle finger, on a "
                    "fixed spread dummy beside mimicking spread joints, is read as a mechanism")
-LINKAGE_BRANCHES = ("hands lost: a finger's four-bar linkage written as branches (the Robotiq 3-finger gripper's crank beside "
-                    "each finger, bars on its phalanges, written continuous) makes each finger too many joints for a "
-                    "hand's and its bars wheels, so the hand is not seen before any question")
 KNOWN = {
     ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("group together", "carnegie_multisense_s21"): MOUNT_POINT,
     ("stay", "carnegie_multisense_s21"): MOUNT_POINT, ("mount", "carnegie_multisense_s21"): OPTICAL_ROOT,
@@ -68,7 +65,6 @@ KNOWN = {
     ("stay", "realsense_l515"): IMU_UNDER_COLOUR,
     ("tool", "onrobot_rg2"): TURNING_BASE,
     ("tool", "schunk_svh_right"): FORK_BELOW_BASE, ("seen", "schunk_svh_right"): FORK_BELOW_BASE,
-    ("seen", "robotiq_3f"): LINKAGE_BRANCHES,
 }
 
 

@@ -101,6 +101,20 @@ def test_fingertips_the_model_takes_for_sensors_go_to_the_tool():
         assert {leaf: claims[leaf] for leaf in tips} == dict.fromkeys(tips, TOOL_CLS), seed
 
 
+def test_the_leaves_of_a_fingers_linkage_the_model_takes_for_sensors_go_to_the_tool():
+    """A hand whose four-bar linkages are written as branches (a crank beside each finger, bars on its pins), the
+    erring model saying "sensor" at 0.6 for every leaf of it, as it said of such bars: the cranks' and the bars'
+    leaves go to the tool with the fingertips."""
+    for seed in range(0, 300, 7):
+        built = build(seed, linkages=True)
+        tree = load_urdf(built.urdf)
+        moving = set().union(*(c.links for c in built.chains), *((h, *tree.descendants(h)) for h in built.linkages))
+        leaves = {leaf for leaf in built.leaves if leaf in moving}
+        options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.4}
+        claims = _identified(built.urdf, lambda q: options if _leaf(q) in leaves else NONE)
+        assert {leaf: claims[leaf] for leaf in leaves} == dict.fromkeys(leaves, TOOL_CLS), seed
+
+
 def test_feet_the_model_takes_for_tools_are_no_tools():
     """The erring model calls every leg tip a tool at 0.7 (a quadruped's four lower legs became four grippers):
     they are parts of the body."""

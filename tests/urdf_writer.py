@@ -41,7 +41,7 @@ class Writer:
               rpy=(0.0, 0.0, 0.0)) -> str:
         name = self.name()
         limit = ""
-        if kind in ("revolute", "prismatic"):
+        if kind in ("revolute", "prismatic") or (kind == "continuous" and limits):  # files bound linkage bars so
             lo, hi = limits or (-1.0, 1.0)
             limit = f'<limit lower="{_number(lo)}" upper="{_number(hi)}" effort="10" velocity="1"/>'
         mimic_tag = f'<mimic joint="{mimic}" multiplier="{multiplier}" offset="0"/>' if mimic else ""

@@ -223,11 +223,12 @@ def _unit(axis: Vector) -> np.ndarray:
 
 
 def _bounds(edge: Edge) -> tuple[float, float]:
-    """Where a joint may go: its limits; a full turn for a continuous joint or a revolute one without
-    limits; nowhere (0) for a prismatic one without limits."""
-    if edge.joint_type == "continuous" or (edge.limits is None and edge.joint_type == "revolute"):
+    """Where a joint may go: its limits (those of a continuous joint its file bounds too: Edge.bounded); a full
+    turn for another continuous joint or a revolute one without limits; nowhere (0) for a prismatic one without
+    limits."""
+    if (edge.joint_type == "continuous" and not edge.bounded) or (edge.limits is None and edge.joint_type == "revolute"):
         return (-math.pi, math.pi)
-    if edge.limits is None or edge.joint_type not in ("revolute", "prismatic"):
+    if edge.limits is None or edge.joint_type not in ("revolute", "prismatic", "continuous"):
         return (0.0, 0.0)
     return (min(edge.limits), max(edge.limits))
 

@@ -7,7 +7,8 @@ from __future__ import annotations
 import math
 
 from urdfkb.pipeline.abstraction.frames import is_frame
-from urdfkb.pipeline.abstraction.structure import FingerChain, ToolStructure, moving_children, tool_structure
+from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
+                                                   tool_structure)
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector
 from urdfkb.pipeline.abstraction.vectors import dot, norm, sub
 
@@ -36,7 +37,8 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     """Every hand or gripper the tree's shape shows, with its leaves. A hand is a fork (tool_structure) with two
     finger chains or more among its hand-sized moving subtrees (at most MAX_FINGER_JOINTS joints, each with a
     range: a wheel or a caster spins freely; every link within HAND_REACH). Its leaves are those of its
-    finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), and
+    finger chains, of its other hand-sized moving subtrees (the drive of a hand that opens as a whole), of its
+    fingers' linkages (a four-bar's crank beside a finger, whatever its bars' joints), and
     the pure frames fixed to its rigid body that lie out among the fingertips (_among_tips): tool centre points,
     on the hand itself or on the flange it is bolted to.
     A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
@@ -53,6 +55,8 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
             continue
+        leaves += [link for c in structure.linkages if c not in small for link in (c, *tree.descendants(c))
+                   if tree.is_leaf(link)]
         found.append((structure, list(dict.fromkeys([*leaves, *_tool_points(tree, structure.fork, fingers)]))))
     return found
 
@@ -96,15 +100,21 @@ def _among_tips(point: Vector, centre: Vector, span: float) -> bool:
 
 def _hand_sized(tree: KinematicTree, fork: str, child: str) -> bool:
     """The moving subtree `child` of `fork` could be a finger: within a hand's size (_within_hand), with no
-    joint that spins (a wheel's, a caster's)."""
+    joint that spins (a wheel's, a caster's) but for a linkage's bars (linkage_bars), often written continuous."""
     links = (child, *tree.descendants(child))
-    return _within_hand(tree, fork, links) and not any(tree.edge_to(link).spins for link in links)
+    if not _within_hand(tree, fork, links):
+        return False
+    spinning = {link for link in links if tree.edge_to(link).spins}
+    return not spinning or not spinning - linkage_bars(tree, links)
 
 
 def _within_hand(tree: KinematicTree, fork: str, links: tuple[str, ...]) -> bool:
-    """At most MAX_FINGER_JOINTS movable joints among `links`, each within HAND_REACH of `fork`."""
-    return (sum(tree.edge_to(link).movable for link in links) <= MAX_FINGER_JOINTS
-            and all(norm(tree.position_in(link, fork)) <= HAND_REACH for link in links))
+    """At most MAX_FINGER_JOINTS movable joints among `links` but for the bars of a linkage among them
+    (linkage_bars), each link within HAND_REACH of `fork`."""
+    if not all(norm(tree.position_in(link, fork)) <= HAND_REACH for link in links):
+        return False
+    moving = {link for link in links if tree.edge_to(link).movable}
+    return len(moving) <= MAX_FINGER_JOINTS or len(moving - linkage_bars(tree, links)) <= MAX_FINGER_JOINTS
 
 
 def rigid_body(tree: KinematicTree, link: str) -> tuple[str, ...]:

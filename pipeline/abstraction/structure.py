@@ -18,7 +18,8 @@
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
   halfway through its range; where, of three chains with bodies or more, one then closes on none, once more
   half closed (_half_closed), a finger's spread joints (square to the parallel joints that curl it) left where
-  they were and not its closing joint. A driven
+  they were and not its closing joint. A chain pivoting about the same axis as another chain's drive and reaching
+  less far (_linkages: a four-bar's crank beside the finger it moves) is that finger's linkage. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
   floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
   fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
@@ -54,6 +55,7 @@ _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slid
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
 _SQUARE = 0.2    # |cosine| below which two joint axes are square to each other (within about 12 degrees)
 _PARALLEL = 0.95  # |cosine| above which two joint axes are parallel (within about 18 degrees)
+_LINKAGE = 0.7    # a chain pivoting on another's axis and reaching less than this share as far is its linkage
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
 MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
 
@@ -80,6 +82,7 @@ class ToolStructure:
     mount: str
     fingers: tuple[FingerChain, ...]
     mechanisms: tuple[str, ...]  # first links of movable subtrees that are not fingers
+    linkages: tuple[str, ...] = ()  # those of them that are fingers' linkages (_linkages)
 
     def grasps(self) -> bool:
         """Some of its fingers close against each other."""
@@ -131,35 +134,44 @@ def _top_body(tree: KinematicTree, link: str) -> str:
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
-    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Where, of three chains
-    with bodies or more, one closes on none at the written pose, the fingers are looked at again half closed
-    (_half_closed), and that look is kept where more chains close on others (fingers written flat, curling the
-    same way at first)."""
+    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Fingers' linkages
+    (_linkages) close on nothing, and with the bars inside fingers (linkage_bars) neither end a finger nor decide
+    the pose; where, of three other chains with bodies or more, one closes on none at the written pose, the
+    fingers are looked at again half closed (_half_closed), and that look is kept where more chains close on
+    others (fingers written flat, curling the same way at first)."""
     fork = fork_of(tree, leaves)
     chains: dict[str, tuple[tuple[str, ...], Edge, str]] = {}
+    bars: set[str] = set()
     for child in moving_children(tree, fork):
         links = (child, *tree.descendants(child))
-        tip = max(links, key=lambda link: (len(tree.chain_to_root(link)), norm(tree.position_in(link, fork))))
+        own_bars = linkage_bars(tree, links)
+        bars |= own_bars
+        tip = max((link for link in links if link not in own_bars),  # the finger's own links, its bars aside
+                  key=lambda link: (len(tree.chain_to_root(link)), norm(tree.position_in(link, fork))))
         chains[child] = (links, tree.edge_to(child), tip)
     bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
-    pose = _configuration(tree)
-    structure = _structure_at(tree, fork, chains, bodies, pose)
-    if len(bodies) >= 3 and len(structure.fingers) < len(bodies):
-        spreads = {joint for a in bodies for joint in _spreads(tree, chains[a][0])}
-        again = _structure_at(tree, fork, chains, bodies, _half_closed(tree, chains, bodies, pose, spreads), spreads,
-                              closing_sense=True)
+    linkages = _linkages(tree, fork, chains)
+    held = {tree.edge_to(link).joint for link in [*bars, *(link for a in linkages for link in chains[a][0])]}
+    pose = _configuration(tree, held)
+    structure = _structure_at(tree, fork, chains, bodies, linkages, pose)
+    if len(fingered := bodies - linkages) >= 3 and len(structure.fingers) < len(fingered):
+        spreads = {joint for a in fingered for joint in _spreads(tree, chains[a][0])}
+        again = _structure_at(tree, fork, chains, bodies, linkages, _half_closed(tree, chains, fingered, pose, spreads),
+                              spreads, closing_sense=True)
         if len(again.fingers) > len(structure.fingers):
             return again
     return structure
 
 
 def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
-                  bodies: set[str], pose: dict[str, float], spreads: AbstractSet[str] = frozenset(),
-                  closing_sense: bool = False) -> ToolStructure:
+                  bodies: set[str], linkages: AbstractSet[str], pose: dict[str, float],
+                  spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False) -> ToolStructure:
     """The tool's fingers and mechanisms as its chains move from `pose`, none closing by a joint of `spreads`
-    where it moves by another; `closing_sense`: each joint moving the way its range reaches further wherever it
-    stands (_closes_backwards), so fingers written with mirrored signs close alike away from zero too."""
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense) if a in bodies or not bodies else []
+    where it moves by another, and none of `linkages` (other chains' linkages) closing at all; `closing_sense`:
+    each joint moving the way its range reaches further wherever it stands (_closes_backwards), so fingers
+    written with mirrored signs close alike away from zero too."""
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense)
+               if (a in bodies or not bodies) and a not in linkages else []
                for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
@@ -186,7 +198,67 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
         for a in finger_names
         for links, drive, _ in [chains[a]]
     )
-    return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names))
+    return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names),
+                         tuple(a for a in chains if a in linkages))
+
+
+def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]]) -> set[str]:
+    """Chains that are another chain's linkage: a chain whose drive pivots about the same axis as another chain's
+    drive (the pivots within _TOUCHING of each other, the axes parallel), that other chain jointed beyond its drive
+    (a finger that the linkage curls), and whose link origins lie less than _LINKAGE as far from that pivot at the
+    written pose (a four-bar's crank beside the finger it moves, written as a chain of its own because a URDF tree
+    cannot close a loop). Which way a crank turns is arbitrary where it follows no <mimic>, so whether it closes
+    on its finger says nothing; two jaws sharing one pin, each one rigid link, stay fingers."""
+    pivots = []
+    for a, (links, drive, _) in chains.items():
+        if drive.joint_type in ("revolute", "continuous") and (axis := unit(_in_frame(tree, a, fork, drive.axis, {}, True))):
+            at = _in_frame(tree, a, fork, (0.0, 0.0, 0.0), {})
+            reach = max(norm(sub(_in_frame(tree, link, fork, (0.0, 0.0, 0.0), {}), at)) for link in links)
+            jointed = any(tree.edge_to(link).movable for link in links[1:])
+            pivots.append((a, at, axis, reach, jointed))
+    found = set()
+    for a, at, axis, reach, _ in pivots:
+        for b, other_at, other_axis, other_reach, other_jointed in pivots:
+            if b != a and other_jointed and norm(sub(at, other_at)) < _TOUCHING \
+                    and abs(dot(axis, other_axis)) > _PARALLEL and reach < _LINKAGE * other_reach:
+                found.add(a)
+    return found
+
+
+def linkage_bars(tree: KinematicTree, links: tuple[str, ...]) -> frozenset[str]:
+    """The links of `links` (a moving subtree, top first) that are bars of a linkage inside it rather than a
+    finger's own segments: each subtree hung by a pivot on a link of it at a joint of that link's own, about the
+    same axis (at the link's origin about the axis it turns on, or where another child of it pivots), whose link
+    origins lie less than _LINKAGE as far from there as those of the link's other children (those on that pin, in
+    the second case). A four-bar's bars are so written as branches, since a URDF tree cannot close a loop; a joint
+    written twice in series (a spring beside a drive: no other child beside it) carries the rest of the finger
+    and is no bar."""
+    found = set[str]()
+
+    def pivot(link: str) -> tuple[Vector, Vector] | None:  # where the link's joint lies and its axis, in the parent's frame
+        e = tree.edge_to(link)
+        axis = unit(rotate_rpy(e.origin.rpy, e.axis)) if e.joint_type in ("revolute", "continuous") else None
+        return None if axis is None else (e.origin.xyz, axis)
+
+    def reach(link: str, at: Vector) -> float:
+        return max(norm(sub(tree.position_in(x, tree.edge_to(link).parent), at)) for x in (link, *tree.descendants(link)))
+
+    for link in links[1:]:
+        if link in found or (own := pivot(link)) is None:
+            continue
+        at, parent = own[0], tree.edge_to(link).parent
+        above = tree.edge_to(parent) if parent != tree.root else None
+        on_own_pin = above is not None and above.joint_type in ("revolute", "continuous") and norm(at) < _TOUCHING \
+            and (axis := unit(above.axis)) is not None and abs(dot(own[1], axis)) > _PARALLEL
+        others = [other for other in tree.children(parent) if other != link]
+        sharing = [other for other in others if (theirs := pivot(other)) is not None
+                   and norm(sub(at, theirs[0])) < _TOUCHING and abs(dot(own[1], theirs[1])) > _PARALLEL]
+        if not (on_own_pin or sharing):
+            continue
+        rivals = others if on_own_pin else sharing  # the rest of the finger, which a bar reaches less far than
+        if rivals and reach(link, at) < _LINKAGE * max(reach(other, at) for other in rivals):
+            found.update((link, *tree.descendants(link)))
+    return frozenset(found)
 
 
 def _half_closed(tree: KinematicTree, chains: dict[str, tuple[tuple[str, ...], Edge, str]], bodies: set[str],
@@ -314,12 +386,13 @@ def _closes_backwards(drive: Edge, pose: dict[str, float], anywhere: bool = Fals
     return -lower > upper
 
 
-def _configuration(tree: KinematicTree) -> dict[str, float]:
-    """Every joint at zero where zero is within every joint's range (fingers as written, open on most
-    hands), else every joint halfway through its range (0 without limits); mimic joints following their
-    joint."""
+def _configuration(tree: KinematicTree, held: AbstractSet[str] = frozenset()) -> dict[str, float]:
+    """Every joint at zero where zero is within the range of every joint but those `held` (fingers as
+    written, open on most hands; a linkage's joints, held by the loop they close, say nothing of where the
+    fingers stand), else every joint halfway through its range (0 without limits); mimic joints following
+    their joint."""
     movable = [e for e in tree.edges if e.movable]
-    at_zero = all(e.limits is None or e.limits[0] <= 0.0 <= e.limits[1] for e in movable)
+    at_zero = all(e.limits is None or e.limits[0] <= 0.0 <= e.limits[1] for e in movable if e.joint not in held)
     chosen = {e.joint: (0.0 if at_zero or not e.limits else sum(e.limits) / 2) for e in movable}
     return {e.joint: e.mimic_multiplier * chosen.get(e.mimic, 0.0) if e.mimic is not None else chosen[e.joint]
             for e in movable}

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
-from math import cos, sin
+from math import cos, pi, sin
 
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.reading.evidence import LinkEvidence
@@ -56,10 +56,17 @@ class Edge:
         return self.movable and self.mimic is None
 
     @property
+    def bounded(self) -> bool:
+        """A continuous joint its file gives a range of less than half a turn all the same (a linkage's bar, free
+        in the tree but held by the loop it closes): it moves within that range."""
+        return self.joint_type == "continuous" and self.limits is not None \
+            and 0.0 < self.limits[1] - self.limits[0] < pi
+
+    @property
     def spins(self) -> bool:
-        """Turns without bound, following no other joint: continuous, or revolute with no range given (the
-        URDF spec would read such a joint as locked at 0; files write wheels so, meaning continuous)."""
-        return self.mimic is None and (self.joint_type == "continuous"
+        """Turns without bound, following no other joint: continuous but not `bounded`, or revolute with no range
+        given (the URDF spec would read such a joint as locked at 0; files write wheels so, meaning continuous)."""
+        return self.mimic is None and ((self.joint_type == "continuous" and not self.bounded)
                                        or (self.joint_type == "revolute" and self.limits is None))
 
 

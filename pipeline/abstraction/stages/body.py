@@ -110,8 +110,10 @@ def _split_lifts(run: list[Edge]) -> list[list[Edge]]:
 
 def _motion(edge: Edge) -> str:
     """The joint type the reasoner is told: what the joint does, so a joint that spins (Edge.spins) is continuous
-    whatever the file wrote."""
-    return "continuous" if edge.spins else edge.joint_type
+    whatever the file wrote, and a continuous one its file bounds (Edge.bounded) revolute."""
+    if edge.spins:
+        return "continuous"
+    return "revolute" if edge.bounded else edge.joint_type
 
 
 def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
