@@ -270,16 +270,17 @@ def _serial(w: Writer, parent: str, joints: int, ranges: tuple[float, float] | N
 def test_the_last_link_of_a_bare_arm_is_no_sensor_whatever_the_model_says():
     """A bare arm (four to seven joints, nothing on its flange): the erring model calls its last link a sensor at 0.6
     (an industrial arm's flange link became a camera, which then made the arm a head). A leaf moving on its own joint
-    at the end of a limb is the limb's, a jaw or a finger: it gets the model's next answer. One joint or two above a
-    leaf make no limb (a lidar's spinning head, a camera on a pan and tilt), and neither does a joint with no range."""
-    for seed, joints in ((0, 4), (1, 6), (2, 7)):
+    at the end of a limb is the limb's, a jaw or a finger: it gets the model's next answer (none where it rolls, as the
+    seventh joint here turns about the line out to it). One joint or two above a leaf make no limb (a lidar's
+    spinning head, a camera on a pan and tilt), and neither does a joint with no range."""
+    for seed, joints, answer in ((0, 4, TOOL_CLS), (1, 6, TOOL_CLS), (2, 7, NONE)):
         w = Writer(random.Random(seed))
         base = w.link('<cylinder radius="0.1" length="0.2"/>')
         end = _serial(w, base, joints)
         tree = load_urdf(w.urdf())
-        assert limb_ends(tree) == {end}
+        assert limb_ends(tree) == {end} and rolling(tree, end) == (answer == NONE)
         options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1}
-        assert _identified(w.urdf(), lambda q: options if _leaf(q) == end else NONE)[end] == TOOL_CLS, seed
+        assert _identified(w.urdf(), lambda q: options if _leaf(q) == end else NONE)[end] == answer, seed
     w = Writer(random.Random(3))
     base = w.link('<box size="0.4 0.3 0.2"/>')
     lidar = _serial(w, base, 1, (-3.1, 3.1))
@@ -294,14 +295,16 @@ def test_the_last_link_of_a_bare_arm_is_no_sensor_whatever_the_model_says():
 
 
 def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
-    """A bare industrial arm's flange link turns through more than half a turn (here +-3 rad, or without bound): the
-    erring model calls it an end effector at 0.6 and a sensor at 0.3 (a one-finger parallel gripper). No jaw or finger
-    turns so far, so neither stands; a jaw at the end of an arm (a quarter turn) stays the model's tool."""
-    for seed, kind in ((4, "revolute"), (5, "continuous")):
+    """A bare industrial arm's flange link turns through more than half a turn (here +-3 rad, or without bound), or
+    about the line out to it from the link before, whatever its range (a quarter turn each way, as some files limit
+    a wrist roll): the erring model calls it an end effector at 0.6 and a sensor at 0.3 (a one-finger parallel
+    gripper). No jaw or finger turns so far, or about the line it hangs out along, so neither stands; a jaw at the
+    end of an arm (a quarter turn about a hinge across that line) stays the model's tool."""
+    for seed, kind, limits in ((4, "revolute", (-3.0, 3.0)), (5, "continuous", None), (7, "revolute", (-1.57, 1.57))):
         w = Writer(random.Random(seed))
         base = w.link('<cylinder radius="0.1" length="0.2"/>')
         flange = w.link('<cylinder radius="0.04" length="0.02"/>')
-        w.joint(kind, _serial(w, base, 5), flange, (0.0, 0.0, 0.1), limits=(-3.0, 3.0))
+        w.joint(kind, _serial(w, base, 5), flange, (0.0, 0.0, 0.1), limits=limits)
         assert rolling(load_urdf(w.urdf()), flange)
         erring = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
         assert _identified(w.urdf(), lambda q: erring if _leaf(q) == flange else NONE)[flange] == NONE, seed

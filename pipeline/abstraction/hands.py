@@ -9,8 +9,8 @@ import math
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
-from urdfkb.pipeline.reading.tree import KinematicTree, Vector
-from urdfkb.pipeline.abstraction.vectors import dot, norm, sub
+from urdfkb.pipeline.reading.tree import KinematicTree, Vector, rotate_rpy
+from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
 MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
@@ -20,6 +20,8 @@ TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers
 FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
+ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
+ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
 
 
 def hand_leaves(tree: KinematicTree) -> frozenset[str]:
@@ -196,12 +198,20 @@ def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
 
 
 def rolling(tree: KinematicTree, leaf: str) -> bool:
-    """The leaf's joint turns through more than half a turn (or spins): a limb end so moved is a flange that rolls
-    or a wheel, not a jaw or a finger, which close over a bounded arc (under 2.5 rad in the hands, grippers and
-    arms of the truth robots and the parts library)."""
+    """The leaf's joint turns through more than half a turn (or spins), or turns about the line from its parent's
+    origin out to it (ROLL_OFFSET or more along its own axis: a wrist roll, the limb running along that axis),
+    whatever its range: a limb end so moved is a flange that rolls or a wheel, not a jaw or a finger, which close
+    over a bounded arc (under 2.5 rad in the hands, grippers and arms of the truth robots and the parts library)
+    about a hinge across the line they hang out along."""
     edge = tree.edge_to(leaf)
-    return edge.spins or (edge.joint_type in ("revolute", "continuous") and edge.limits is not None
-                          and edge.limits[1] - edge.limits[0] > math.pi)
+    if edge.spins:
+        return True
+    if edge.joint_type not in ("revolute", "continuous"):
+        return False
+    if edge.limits is not None and edge.limits[1] - edge.limits[0] > math.pi:
+        return True
+    out, axis = edge.origin.xyz, unit(rotate_rpy(edge.origin.rpy, edge.axis))
+    return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
 
 
 def feet(tree: KinematicTree) -> frozenset[str]:
