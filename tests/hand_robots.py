@@ -67,6 +67,13 @@ class Built:
     notes: list[str] = field(default_factory=list)
     asides: list[str] = field(default_factory=list)  # boxes along the arm and beside the hand (asides=True)
     linkages: list[str] = field(default_factory=list)  # first links of the fingers' cranks (linkages=True)
+    crank_links: list[str] = field(default_factory=list)  # every link of those cranks
+
+    @property
+    def moving_leaves(self) -> set[str]:
+        """The tool's leaves on its fingers and their cranks (not a TCP frame fixed to its palm)."""
+        on = set(self.crank_links).union(*(c.links for c in self.chains))
+        return {leaf for leaf in self.leaves if leaf in on}
 
 
 def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool = False) -> Built:
@@ -279,7 +286,7 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
     leaves = sorted(x for x in tool_links if x not in has_child)
     return Built(urdf, layout, kind, mount, base, tool_links, leaves, chains, flange,
                  f"{description}, {'on a palm' if on_palm else 'on the flange'}", thumb, asides=boxes,
-                 linkages=heads)
+                 linkages=heads, crank_links=cranks)
 
 
 def build_open_hand(seed: int) -> Built:

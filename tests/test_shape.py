@@ -107,9 +107,7 @@ def test_the_leaves_of_a_fingers_linkage_the_model_takes_for_sensors_go_to_the_t
     leaves go to the tool with the fingertips."""
     for seed in range(0, 300, 7):
         built = build(seed, linkages=True)
-        tree = load_urdf(built.urdf)
-        moving = set().union(*(c.links for c in built.chains), *((h, *tree.descendants(h)) for h in built.linkages))
-        leaves = {leaf for leaf in built.leaves if leaf in moving}
+        leaves = built.moving_leaves
         options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.4}
         claims = _identified(built.urdf, lambda q: options if _leaf(q) in leaves else NONE)
         assert {leaf: claims[leaf] for leaf in leaves} == dict.fromkeys(leaves, TOOL_CLS), seed

@@ -212,8 +212,8 @@ def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str,
     pivots = []
     for a, (links, drive, _) in chains.items():
         if drive.joint_type in ("revolute", "continuous") and (axis := unit(_in_frame(tree, a, fork, drive.axis, {}, True))):
-            at = _in_frame(tree, a, fork, (0.0, 0.0, 0.0), {})
-            reach = max(norm(sub(_in_frame(tree, link, fork, (0.0, 0.0, 0.0), {}), at)) for link in links)
+            at = tree.position_in(a, fork)
+            reach = max(norm(sub(tree.position_in(link, fork), at)) for link in links)
             jointed = any(tree.edge_to(link).movable for link in links[1:])
             pivots.append((a, at, axis, reach, jointed))
     found = set()
