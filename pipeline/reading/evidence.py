@@ -1,4 +1,4 @@
-"""What a URDF says about each link besides its name: meshes, geometry, mass, simulator sensors.
+"""What a URDF says about each link besides its name: meshes, geometry, mass, simulator sensors and plugins.
 
 Extracted once at ingestion from the validated document and carried by the KinematicTree, then
 rendered as a few words in the questions that concern a link (the model still decides). Simulator
@@ -8,6 +8,8 @@ as the same types. A declaration is attached to the link it references and to th
 plugin publishes in (`frameName`), when that is another link of the robot. The numbers it states
 (rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
 (the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
+A simulator plugin outside any sensor (a vacuum gripper's, a grasp helper's) that names a link of the robot in
+one of its elements gives that link its library's stem, read like a mesh's: what the link is simulated as.
 """
 from __future__ import annotations
 
@@ -41,19 +43,22 @@ class SimSensor:
 
 @dataclass(frozen=True)
 class LinkEvidence:
-    """Facts about one link: mesh file stems, its first primitive shape, mass, declared sensors."""
+    """Facts about one link: mesh file stems, its first primitive shape, mass, declared sensors, the stems of the
+    simulator plugins that name it (outside sensors)."""
 
     meshes: tuple[str, ...] = ()
     shape: str = ""            # "box 0.1x0.2x0.3 m", "cylinder r=0.05 l=0.1 m", "sphere r=0.02 m", or ""
     mass: float | None = None  # None when the link has no <inertial>
     sensors: tuple[SimSensor, ...] = ()
     collision_only: bool = False  # it has <collision> geometry and no <visual>
+    plugins: tuple[str, ...] = ()
 
     @classmethod
     def from_dict(cls, data: dict) -> LinkEvidence:
-        """Inverse of dataclasses.asdict (a tree stored before `collision_only` was kept reads it False)."""
+        """Inverse of dataclasses.asdict (a tree stored before `collision_only` or `plugins` was kept reads them
+        empty)."""
         return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])),
-                   bool(data.get("collision_only", False)))
+                   bool(data.get("collision_only", False)), tuple(data.get("plugins", ())))
 
     @property
     def is_pure_frame(self) -> bool:
@@ -93,13 +98,15 @@ def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
     """Evidence for every link of a validated <robot> element."""
     known = set(links)
     sensors = _declared_sensors(robot, known)
+    plugins = _naming_plugins(robot, known)
     found = {}
     for link in robot.findall("link"):
         name = link.get("name", "")
         if name in known:
             declared = tuple(dict.fromkeys(sensors.get(name, ())))  # one sensor may name a link twice
             collision_only = link.find("collision/geometry") is not None and link.find("visual/geometry") is None
-            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared, collision_only)
+            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared, collision_only,
+                                       tuple(plugins.get(name, ())))
     return found
 
 
@@ -198,6 +205,23 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
                                **_numbers(element, sensor_type))
             for link in dict.fromkeys([reference, *frames]):
                 found.setdefault(link, []).append(sensor)
+    return found
+
+
+def _naming_plugins(robot: ET.Element, known: set[str]) -> dict[str, list[str]]:
+    """link → stems of the plugins outside sensors (in any `<gazebo>` block) that name it in one of their elements
+    (`<bodyName>`, `<link_name>`, `<gripper_link>`...)."""
+    found: dict[str, list[str]] = {}
+    for gazebo in robot.findall("gazebo"):
+        sensors = {id(e) for s in gazebo.iter() if _sensor_type(s) is not None for e in s.iter()}
+        for plugin in gazebo.iter():
+            if _local(plugin.tag)[1] != "plugin" or id(plugin) in sensors:
+                continue
+            stems = _plugins(plugin)
+            for element in plugin.iter():
+                name = (element.text or "").strip().lstrip("/")
+                if element is not plugin and name in known:
+                    found.setdefault(name, []).extend(s for s in stems if s not in found[name])
     return found
 
 

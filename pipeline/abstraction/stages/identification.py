@@ -23,13 +23,13 @@ from urdfkb.pipeline.abstraction.stages.attachment import SubChain
 
 
 def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
-    """The catalogue product the first of `links` names (its name, then its meshes), or failing that the
-    link the last of them is fixed to (a frame of a camera body whose mesh names the camera)."""
+    """The catalogue product the first of `links` names (its name, then its meshes and the plugins naming it), or
+    failing that the link the last of them is fixed to (a frame of a camera body whose mesh names the camera)."""
     edge = tree.parent_edge(links[-1])
     above = [edge.parent] if edge is not None and not edge.movable else []
     for link in [*links, *above]:
         facts = tree.evidence.get(link)
-        if product := catalogue().match([link, *(facts.meshes if facts else ())]):
+        if product := catalogue().match([link, *(facts.meshes + facts.plugins if facts else ())]):
             return product
     return None
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.prompts import NONE
-from urdfkb.pipeline.abstraction.stages.identification import identify
+from urdfkb.pipeline.abstraction.stages.identification import identify, named_product
 from urdfkb.pipeline.abstraction.stages.sensor_check import coupled, not_sensors
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
@@ -57,19 +57,26 @@ def _one_kind_per_body(ctx: Context, found: Findings) -> None:
     """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
     split them between the device passes' kinds, the kind with the larger sum of vote shares over them
     takes them all (a hand's leaf, known from structure, counts one). Not on a hand's palm, which carries
-    its tool frames beside its sensors' frames (an IMU)."""
-    devices = {ctx.vocab.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in ctx.vocab.kinds}
+    its tool frames beside its sensors' frames (an IMU). Where frames of that body name catalogue products of one
+    kind only, that kind takes them all: a product settles a kind as a declaration does (a vacuum gripper's cup
+    beside the arm's unnamed tool frame)."""
+    vocab = ctx.vocab
+    devices = {vocab.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in vocab.kinds}
     claims = found.claims
     claimed = [leaf for leaf in found.leaves if claims.get(leaf) in devices]
     for frames in frames_of_one_body(ctx.tree, claimed):
         if len(frames) > 1 and body_of(ctx.tree, frames[0], frames[1]) in found.palms:
             continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
+        named = {kind for leaf in frames if (product := named_product(ctx.tree, [leaf])) and product.cls in vocab
+                 for kind in devices if vocab.is_a(product.cls, kind)}
         totals: dict[str, float] = {}
         for leaf in frames:
             totals[claims[leaf]] = totals.get(claims[leaf], 0.0) + found.shares[leaf]
         if len(totals) > 1:
-            kind = max(totals, key=totals.__getitem__)
-            ctx.log(f"frames of one body {frames}: all {kind} ({', '.join(f'{k} {v:.2f}' for k, v in totals.items())})")
+            kind = next(iter(named)) if len(named) == 1 else max(totals, key=totals.__getitem__)
+            why = "the kind of the product they name" if len(named) == 1 else \
+                ", ".join(f"{k} {v:.2f}" for k, v in totals.items())
+            ctx.log(f"frames of one body {frames}: all {kind} ({why})")
             for leaf in frames:
                 claims[leaf] = kind
 
