@@ -22,7 +22,7 @@ from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, limb_ends,
-                                              off_limb_ends, rolling)
+                                              off_limb_ends, rolling, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 
 TAX = vocabulary()
@@ -290,6 +290,36 @@ def test_the_last_link_of_a_bare_arm_is_no_sensor_whatever_the_model_says():
     sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}
     claims = _identified(w.urdf(), lambda q: sensor if _leaf(q) in (lidar, camera, held) else NONE)
     assert [claims[leaf] for leaf in (lidar, camera, held)] == [SENSOR_CLS] * 3
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_bars_swinging_beside_an_arm_are_no_sensors(seed):
+    """An arm whose parallelogram bars are written as branches, each on its own joint beside the joint that carries
+    the arm on (as small desktop arms' files do): the erring model calls every bar a sensor at 0.6 (they became
+    cameras). They get its next answer. A camera that ends a pan and tilt, and a lidar tilting on its own joint on a
+    lift beside the lift's pan and tilt, are still the model's sensors."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    upper = _serial(w, _serial(w, base, 1), 1)
+    forearm = w.link('<box size="0.04 0.04 0.15"/>')
+    w.joint("revolute", upper, forearm, (0.0, 0.0, 0.15), (0.0, 1.0, 0.0), (-2.0, 2.0))
+    _serial(w, forearm, 2)
+    bars = []
+    for link in (upper, forearm):  # each bar beside the joint that carries the arm on
+        bars.append(w.link('<box size="0.01 0.01 0.12"/>'))
+        w.joint("revolute", link, bars[-1], (0.0, rng.uniform(0.01, 0.03), 0.0), (0.0, 1.0, 0.0), (-1.5, 1.5))
+    camera = _serial(w, base, 2)  # a camera ending a pan and tilt
+    lift = w.link('<box size="0.2 0.2 0.1"/>')
+    w.joint("prismatic", base, lift, (0.0, 0.0, 0.3), (0.0, 0.0, 1.0), (0.0, 0.4))
+    tilting = _serial(w, lift, 1, (-0.5, 0.5))  # on a lift, beside the lift's own pan and tilt
+    _serial(w, lift, 2)
+    tree = load_urdf(w.urdf())
+    assert swinging_leaves(tree) == set(bars)
+    sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}
+    claims = _identified(w.urdf(), lambda q: sensor if _leaf(q) in (*bars, camera, tilting) else NONE)
+    assert [claims[leaf] for leaf in bars] == [NONE, NONE]
+    assert claims[camera] == claims[tilting] == SENSOR_CLS
 
 
 def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():

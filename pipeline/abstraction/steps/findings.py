@@ -40,7 +40,7 @@ class Findings:
     feet: frozenset[str] = _lasting(frozenset())  # limb tips the robot stands on: never tools
     moving_feet: frozenset[str] = _lasting(frozenset())  # feet that are a leg's own last link: body, unasked
     off_ends: frozenset[str] = _lasting(frozenset())  # leaves at no limb's end: never tools
-    limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links, moving on their own joint: never sensors
+    limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links and leaves swinging on a moving chain: never sensors
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
     rolling_ends: frozenset[str] = _lasting(frozenset())  # those turning through more than half a turn: never tools
     loop_frames: frozenset[str] = _lasting(frozenset())  # frames a closed kinematic loop is cut at: no component

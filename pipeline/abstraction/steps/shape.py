@@ -7,7 +7,7 @@ from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, limb_ends, off_limb_ends,
-                                              palm, rolling)
+                                              palm, rolling, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 from urdfkb.pipeline.reading.tree import KinematicTree
 
@@ -22,8 +22,9 @@ def shape(ctx: Context, found: Findings) -> None:
     never tools (a foot that moves on its own joint is the leg's last link: part of the body, unasked), and
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
-    a finger written fixed, is never a sensor (hands.limb_ends, hands.frozen_fingertips), and the former never a
-    tool where its joint turns through more than half a turn (hands.rolling: a bare arm's flange link, a wheel).
+    a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
+    is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), and the first two never a
+    tool where the joint rolls (hands.rolling: a bare arm's flange link, a wheel, a bar turning a full turn).
     Frames where a closed loop is cut (frames.loop_closures), and leaves drawn at their parent's origin for collision
     checking alone (frames.collision_volumes), are part of no component."""
     robot = ctx.robot
@@ -33,7 +34,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.feet = feet(robot)
     found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
     found.off_ends = off_limb_ends(robot, seen)
-    found.limb_ends = limb_ends(robot) - declared
+    found.limb_ends = (limb_ends(robot) | swinging_leaves(robot)) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends if rolling(robot, leaf))
     found.loop_frames = loop_closures(robot) - declared
