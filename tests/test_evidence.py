@@ -1,6 +1,7 @@
 """Evidence read from the whole URDF, and how it reaches the model and narrows its options."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import random
@@ -75,6 +76,26 @@ def test_a_declaration_also_reaches_the_frame_its_plugin_publishes_in(bot):
     assert bot.evidence["mast_eye_optical"].sensors == (camera,)
 
 
+def test_a_plugin_outside_sensors_gives_the_links_it_names_its_library_as_evidence():
+    """A plugin names a link through an element whose tag says link, body or frame; not through a namespace, a
+    topic or a joint that shares the link's name. A plugin inside a sensor, or nested in another plugin, speaks for
+    itself, not for the plugin around it."""
+    w = Writer(random.Random(5))
+    links = [w.link('<box size="0.1 0.1 0.1"/>') for _ in range(5)]
+    for parent, child in zip(links, links[1:]):
+        w.joint("fixed", parent, child, (0.0, 0.0, 0.1))
+    a, b, c, d, e = links
+    blocks = (f'<gazebo><plugin name="p" filename="libouter_grip.so"><robotNamespace>/{b}</robotNamespace>'
+              f'<bodyName>{a}</bodyName><topicName>{b}</topicName><jointName>{b}</jointName>'
+              f'<sensor type="contact"><plugin filename="libinner.so"><bodyName>{c}</bodyName></plugin></sensor>'
+              f'<plugin filename="libnested.so"><link_name>{d}</link_name></plugin></plugin></gazebo>'
+              f'<gazebo reference="{e}"><visual><plugin filename="libcolor.so"><gripper_link>{e}</gripper_link>'
+              f'</plugin></visual></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", blocks.encode() + b"</robot>"))
+    assert {link: tree.evidence[link].plugins for link in links} == {
+        a: ("outer_grip",), b: (), c: (), d: ("nested",), e: ("color",)}
+
+
 def test_the_numbers_of_both_forms_are_read_in_si_units(shared):
     pr2 = load_urdf(shared / "urdf" / "pr2.urdf").evidence
     [rgb] = pr2["head_mount_kinect_rgb_optical_frame"].sensors  # old form: hfov 57 (degrees), imageSize "640 480"
@@ -90,7 +111,9 @@ def test_the_numbers_of_both_forms_are_read_in_si_units(shared):
 def test_evidence_stored_before_the_numbers_were_kept_still_loads(bot):
     old = {"meshes": [], "shape": "", "mass": None, "sensors": [{"type": "ray", "plugins": ["p"], "detail": "8 rays"}]}
     assert LinkEvidence.from_dict(old).sensors == (SimSensor("ray", ("p",)),)
-    assert not LinkEvidence.from_dict(old).collision_only
+    assert not LinkEvidence.from_dict(old).collision_only and LinkEvidence.from_dict(old).plugins == ()
+    named = LinkEvidence(meshes=("cup",), plugins=("gazebo_ros_vacuum_gripper",))
+    assert LinkEvidence.from_dict(json.loads(json.dumps(dataclasses.asdict(named)))) == named
     again = LinkEvidence.from_dict(json.loads(json.dumps(bot.to_dict()["evidence"]["mast_eye_optical"])))
     assert again == bot.evidence["mast_eye_optical"]
 

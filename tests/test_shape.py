@@ -296,8 +296,9 @@ def test_the_last_link_of_a_bare_arm_is_no_sensor_whatever_the_model_says():
 def test_bars_swinging_beside_an_arm_are_no_sensors(seed):
     """An arm whose parallelogram bars are written as branches, each on its own joint beside the joint that carries
     the arm on (as small desktop arms' files do): the erring model calls every bar a sensor at 0.6 (they became
-    cameras). They get its next answer. A camera that ends a pan and tilt, and a lidar tilting on its own joint on a
-    lift beside the lift's pan and tilt, are still the model's sensors."""
+    cameras). They get its next answer. A camera that ends a pan and tilt, a lidar tilting on its own joint on a lift
+    beside the lift's pan and tilt, and two antennas on a head (beside each other, not beside a chain going on) are
+    not bars: the model decides."""
     rng = random.Random(seed)
     w = Writer(rng)
     base = w.link('<box size="0.4 0.3 0.2"/>')
@@ -314,6 +315,10 @@ def test_bars_swinging_beside_an_arm_are_no_sensors(seed):
     w.joint("prismatic", base, lift, (0.0, 0.0, 0.3), (0.0, 0.0, 1.0), (0.0, 0.4))
     tilting = _serial(w, lift, 1, (-0.5, 0.5))  # on a lift, beside the lift's own pan and tilt
     _serial(w, lift, 2)
+    head = _serial(w, base, 2)  # a head at the end of a neck of two joints, two antennas on their own joints
+    for side in (1.0, -1.0):  # (each beside a leaf: no chain goes on beside them)
+        w.joint("revolute", head, w.link('<cylinder radius="0.005" length="0.1"/>'), (0.0, side * 0.05, 0.1),
+                (1.0, 0.0, 0.0), (-1.57, 1.57))
     tree = load_urdf(w.urdf())
     assert swinging_leaves(tree) == set(bars)
     sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}

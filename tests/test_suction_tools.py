@@ -18,7 +18,8 @@ from urdfkb.pipeline.reading.ingest import load_urdf
 PLUGINS = [("libgazebo_ros_vacuum_gripper.so", "bodyName"), ("libVacuumGripperPlugin.so", "gripper_link")]
 
 
-def _arm_with_cup(seed: int, plugin: tuple[str, str] | None, mesh: str = "", contact: bool = False) -> tuple[bytes, str, str]:
+def _arm_with_cup(seed: int, plugin: tuple[str, str] | None, mesh: str = "",
+                  contact: bool = False) -> tuple[bytes, str, str]:
     """A six-joint arm of meaningless names whose last link carries a cup body (a flat cylinder, or `mesh`).
     Without `contact`, the cup carries the tool centre point; with it, the cup is a leaf on which the file declares
     a contact sensor (as simulated vacuum grippers do), beside the arm's massless tool frame (z out, REP 103).
@@ -44,7 +45,8 @@ def _arm_with_cup(seed: int, plugin: tuple[str, str] | None, mesh: str = "", con
         blocks += (f'<gazebo><plugin name="{w.name()}" filename="{library}"><{tag}>{cup}</{tag}>'
                    f'<maxForce>50</maxForce></plugin></gazebo>')
     if contact:
-        blocks += f'<gazebo reference="{cup}"><sensor name="{w.name()}" type="contact"><update_rate>10</update_rate></sensor></gazebo>'
+        blocks += (f'<gazebo reference="{cup}"><sensor name="{w.name()}" type="contact">'
+                   '<update_rate>10</update_rate></sensor></gazebo>')
     return w.urdf().replace(b"</robot>", blocks.encode() + b"</robot>"), cup, other
 
 
@@ -80,3 +82,36 @@ def test_a_cup_the_file_calls_a_vacuum_gripper_is_the_arms_suction_gripper(seed,
     assert not [c for c in result.components if c.kind == "sensor"]
     (tool,) = [c for c in result.components if c.kind == "end_effector"]
     assert tool.cls == "SuctionGripper" and {cup, other} <= set(tool.links), (tool.cls, tool.links)
+
+
+def _abstract(urdf: bytes):
+    abstractor = Abstractor(Oracle(ScriptedBackend(_sensor_first)), vocabulary(), reasoner=scripted_reasoner,
+                            placer=scripted_placements)
+    return abstractor.run(load_urdf(urdf)).components
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_camera_the_file_declares_beside_a_named_cup_stays_a_camera(seed):
+    """The frame beside the cup is a camera the file declares (an optical frame with a simulator camera on it): the
+    cup's product does not make it part of the suction gripper."""
+    urdf, cup, frame = _arm_with_cup(seed, None, "vacuum_cup", contact=True)
+    urdf = urdf.replace(f'<gazebo reference="{cup}"><sensor'.encode(), f'<gazebo reference="{frame}"><sensor'.encode())
+    urdf = urdf.replace(b'type="contact"', b'type="camera"')
+    sensors = [c for c in _abstract(urdf) if c.kind == "sensor"]
+    assert any(frame in c.links for c in sensors), [(c.cls, c.links) for c in _abstract(urdf)]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_vacuum_plugin_naming_the_flange_names_no_body_bolted_beside_it(seed):
+    """A vacuum plugin names the arm's last link (as some files attach it to a flange or a finger), which carries
+    the cup and, beside it, a camera housing of an opaque name: the housing is not thereby a suction gripper (the
+    model's sensor stands)."""
+    urdf, cup, _ = _arm_with_cup(seed, PLUGINS[0])
+    flange = load_urdf(urdf).parent(cup)
+    urdf = urdf.replace(f"<bodyName>{cup}</bodyName>".encode(), f"<bodyName>{flange}</bodyName>".encode())
+    housing = '<link name="qoxuvi"><visual><geometry><box size="0.03 0.09 0.03"/></geometry></visual></link>' \
+              f'<joint name="qoxuvi_joint" type="fixed"><parent link="{flange}"/><child link="qoxuvi"/>' \
+              '<origin xyz="0.06 0 0.02" rpy="0 0 0"/></joint>'
+    components = _abstract(urdf.replace(b"</robot>", housing.encode() + b"</robot>"))
+    assert [c.cls for c in components if "qoxuvi" in c.links] == ["MonocularCamera"], \
+        [(c.cls, c.links) for c in components]

@@ -22,8 +22,9 @@ STANCE = 0.15  # m: how far above its lowest points the root of a robot that sta
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
-SWING_JOINTS = 2  # movable joints moving the link a leaf swings from beside the joint carrying its chain on (a
+SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
 # sensor tilting on its own joint hangs from a trunk or a lift: fewer)
+_SWINGS = ("revolute", "continuous", "prismatic")  # a floating or planar root joint moves a whole robot, not a limb
 
 
 def hand_leaves(tree: KinematicTree) -> frozenset[str]:
@@ -179,17 +180,20 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
 def swinging_leaves(tree: KinematicTree) -> frozenset[str]:
     """Leaves that swing on a joint of their own beside the joint that carries a moving chain on: the joint moves
     them through a range (it neither spins, as a wheel or a lidar's head, nor is its range empty), the link they
-    hang from carries the chain on through another joint with movable joints beyond it, and SWING_JOINTS movable
-    joints or more move that link. A parallelogram arm's bars written as branches beside the arm they follow;
-    never a sensor, which is fixed to what it measures from or, tilting on its own joint, hangs from a trunk or a
-    lift (a tilting lidar, a bumper on its hinge) or ends a chain (a camera on a pan and tilt)."""
+    hang from carries the chain on through another joint with movable joints beyond it, and SWING_JOINTS joints or
+    more turn or slide that link, its own among them. A parallelogram arm's bars written as branches beside the arm
+    they follow; never a sensor, which is fixed to what it measures from or, tilting on its own joint, hangs from a
+    trunk or a lift (a tilting lidar, a bumper on its hinge) or ends a chain (a camera on a pan and tilt)."""
+    def goes_on(child: str) -> bool:
+        return tree.edge_to(child).movable and any(tree.edge_to(d).movable for d in tree.descendants(child))
+
     swinging = []
     for leaf in tree.leaves():
         edge = tree.edge_to(leaf)
-        if edge.movable and not edge.spins and (edge.limits is None or edge.limits[0] != edge.limits[1]) \
-                and _movable_above(tree, edge.parent) >= SWING_JOINTS \
-                and any(tree.edge_to(c).movable and any(tree.edge_to(d).movable for d in tree.descendants(c))
-                        for c in tree.children(edge.parent) if c != leaf):
+        if not edge.movable or edge.spins or (edge.limits is not None and edge.limits[0] == edge.limits[1]):
+            continue
+        moved = sum(tree.edge_to(link).joint_type in _SWINGS for link in tree.chain_to_root(edge.parent)[:-1])
+        if moved >= SWING_JOINTS and any(goes_on(c) for c in tree.children(edge.parent) if c != leaf):
             swinging.append(leaf)
     return frozenset(swinging)
 

@@ -9,7 +9,8 @@ plugin publishes in (`frameName`), when that is another link of the robot. The n
 (rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
 (the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
 A simulator plugin outside any sensor (a vacuum gripper's, a grasp helper's) that names a link of the robot in
-one of its elements gives that link its library's stem, read like a mesh's: what the link is simulated as.
+an element naming a link, body or frame gives that link its library's stem, which the product catalogue reads as it
+reads mesh stems (pipeline.abstraction.stages.identification.named_product); questions do not show it.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ import math
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, fields
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Iterator, Mapping
 
 MAX_MESHES = 2  # mesh stems shown per link (visual first)
 _PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
@@ -209,20 +210,33 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
 
 
 def _naming_plugins(robot: ET.Element, known: set[str]) -> dict[str, list[str]]:
-    """link → stems of the plugins outside sensors (in any `<gazebo>` block) that name it in one of their elements
-    (`<bodyName>`, `<link_name>`, `<gripper_link>`...)."""
+    """link → stems of the plugins outside sensors (in any `<gazebo>` block) that name it in an element of their
+    own whose tag says it names a link, a body or a frame (`<bodyName>`, `<gripper_link>`, `<palm_link>`,
+    `<colorOpticalframeName>`; not a namespace, topic or joint)."""
     found: dict[str, list[str]] = {}
     for gazebo in robot.findall("gazebo"):
-        sensors = {id(e) for s in gazebo.iter() if _sensor_type(s) is not None for e in s.iter()}
-        for plugin in gazebo.iter():
-            if _local(plugin.tag)[1] != "plugin" or id(plugin) in sensors:
+        for plugin in (e for e in _outside_sensors(gazebo, into_plugins=True) if _local(e.tag)[1] == "plugin"):
+            match = _PLUGIN_STEM.match((plugin.get("filename") or plugin.get("plugin") or "").rsplit("/", 1)[-1])
+            if not match:
                 continue
-            stems = _plugins(plugin)
-            for element in plugin.iter():
-                name = (element.text or "").strip().lstrip("/")
-                if element is not plugin and name in known:
-                    found.setdefault(name, []).extend(s for s in stems if s not in found[name])
+            for element in (e for e in _outside_sensors(plugin, into_plugins=False) if _local(e.tag)[1] != "plugin"):
+                tag, name = _local(element.tag)[1].lower(), (element.text or "").strip().lstrip("/")
+                if name in known and "joint" not in tag and any(w in tag for w in ("link", "body", "frame")):
+                    stems = found.setdefault(name, [])
+                    if match.group(1) not in stems:
+                        stems.append(match.group(1))
     return found
+
+
+def _outside_sensors(element: ET.Element, into_plugins: bool) -> Iterator[ET.Element]:
+    """The elements below `element` that no sensor holds; inside the plugins among them too if `into_plugins` (a
+    plugin's own elements are not those of the plugins it holds)."""
+    for child in element:
+        if child.tag == "sensor" or _sensor_type(child) is not None:
+            continue
+        yield child
+        if into_plugins or _local(child.tag)[1] != "plugin":
+            yield from _outside_sensors(child, into_plugins)
 
 
 def _local(tag: str) -> tuple[str, str]:

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from typing import Callable
 
 from urdfkb.pipeline.abstraction.catalogue import Product, catalogue
+from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.oracle import Oracle, Verdict
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.prompts import NONE, Choice, kind_choice
@@ -24,12 +25,14 @@ from urdfkb.pipeline.abstraction.stages.attachment import SubChain
 
 def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
     """The catalogue product the first of `links` names (its name, then its meshes and the plugins naming it), or
-    failing that the link the last of them is fixed to (a frame of a camera body whose mesh names the camera)."""
+    failing that the link the last of them is fixed to (a frame of a camera body whose mesh names the camera), that
+    link's plugins only for a frame (a plugin naming an arm's flange names no body bolted beside it)."""
     edge = tree.parent_edge(links[-1])
     above = [edge.parent] if edge is not None and not edge.movable else []
     for link in [*links, *above]:
         facts = tree.evidence.get(link)
-        if product := catalogue().match([link, *(facts.meshes + facts.plugins if facts else ())]):
+        plugins = facts.plugins if facts and (link in links or is_frame(tree, links[-1])) else ()
+        if product := catalogue().match([link, *(facts.meshes if facts else ()), *plugins]):
             return product
     return None
 

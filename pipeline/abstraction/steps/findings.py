@@ -40,9 +40,10 @@ class Findings:
     feet: frozenset[str] = _lasting(frozenset())  # limb tips the robot stands on: never tools
     moving_feet: frozenset[str] = _lasting(frozenset())  # feet that are a leg's own last link: body, unasked
     off_ends: frozenset[str] = _lasting(frozenset())  # leaves at no limb's end: never tools
-    limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links and leaves swinging on a moving chain: never sensors
+    limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links, moving on their own joint: never sensors
+    swinging: frozenset[str] = _lasting(frozenset())  # bars swinging beside the joint carrying a chain on: no sensors
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
-    rolling_ends: frozenset[str] = _lasting(frozenset())  # those turning through more than half a turn: never tools
+    rolling_ends: frozenset[str] = _lasting(frozenset())  # those of both that roll (hands.rolling): never tools
     loop_frames: frozenset[str] = _lasting(frozenset())  # frames a closed kinematic loop is cut at: no component
     collision_volumes: frozenset[str] = _lasting(frozenset())  # leaves only adding to a body's collision shape
     palms: frozenset[str] = _lasting(frozenset())  # the bodies of the hands found: they carry tool frames and sensors

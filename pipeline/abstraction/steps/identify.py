@@ -13,7 +13,7 @@ from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 
 
 @step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends",
-                               "rolling_ends", "frozen_tips", "loop_frames", "collision_volumes", "palms",
+                               "swinging", "rolling_ends", "frozen_tips", "loop_frames", "collision_volumes", "palms",
                                "declared_sensors"),
       makes=("leaves", "claims", "shares"))
 def identification(ctx: Context, found: Findings) -> None:
@@ -43,7 +43,7 @@ def identification(ctx: Context, found: Findings) -> None:
             claims[leaf], shares[leaf] = body, 1.0
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
     # the kinds a leaf's place rules out
-    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends | found.frozen_tips))
+    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends | found.swinging | found.frozen_tips))
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
         if kind == tools and leaf in found.feet:  # the tip of a leg: part of the body, as the body pass will find
@@ -56,29 +56,33 @@ def identification(ctx: Context, found: Findings) -> None:
 def _one_kind_per_body(ctx: Context, found: Findings) -> None:
     """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
     split them between the device passes' kinds, the kind with the larger sum of vote shares over them
-    takes them all (a hand's leaf, known from structure, counts one). Not on a hand's palm, which carries
-    its tool frames beside its sensors' frames (an IMU). Where frames of that body name catalogue products of one
-    kind only, that kind takes them all: a product settles a kind as a declaration does (a vacuum gripper's cup
-    beside the arm's unnamed tool frame)."""
+    takes them all (a hand's leaf, known from structure, counts one), unless products they name are of one kind
+    only and no frame of another kind is settled by a declaration or the shape: then the products' kind takes them
+    (a vacuum gripper's cup beside the arm's unnamed tool frame). Not on a hand's palm, which carries its tool
+    frames beside its sensors' frames (an IMU)."""
     vocab = ctx.vocab
     devices = {vocab.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in vocab.kinds}
     claims = found.claims
+    settled = found.declared_sensors | set(found.hand_mounts)
     claimed = [leaf for leaf in found.leaves if claims.get(leaf) in devices]
     for frames in frames_of_one_body(ctx.tree, claimed):
         if len(frames) > 1 and body_of(ctx.tree, frames[0], frames[1]) in found.palms:
             continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
-        named = {kind for leaf in frames if (product := named_product(ctx.tree, [leaf])) and product.cls in vocab
-                 for kind in devices if vocab.is_a(product.cls, kind)}
         totals: dict[str, float] = {}
         for leaf in frames:
             totals[claims[leaf]] = totals.get(claims[leaf], 0.0) + found.shares[leaf]
-        if len(totals) > 1:
-            kind = next(iter(named)) if len(named) == 1 else max(totals, key=totals.__getitem__)
-            why = "the kind of the product they name" if len(named) == 1 else \
-                ", ".join(f"{k} {v:.2f}" for k, v in totals.items())
-            ctx.log(f"frames of one body {frames}: all {kind} ({why})")
-            for leaf in frames:
-                claims[leaf] = kind
+        if len(totals) < 2:
+            continue
+        named = {kind for leaf in frames if (product := named_product(ctx.tree, [leaf])) and product.cls in vocab
+                 for kind in devices if vocab.is_a(product.cls, kind)}
+        if len(named) == 1 and not any(claims[leaf] not in named for leaf in frames if leaf in settled):
+            kind, why = next(iter(named)), "the kind of the product they name"
+        else:
+            kind = max(totals, key=totals.__getitem__)
+            why = ", ".join(f"{k} {v:.2f}" for k, v in totals.items())
+        ctx.log(f"frames of one body {frames}: all {kind} ({why})")
+        for leaf in frames:
+            claims[leaf] = kind
 
 
 def claimed(ctx: Context, found: Findings) -> set[str]:

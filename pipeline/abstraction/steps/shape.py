@@ -14,7 +14,8 @@ from urdfkb.pipeline.reading.tree import KinematicTree
 _NO_FACTS = LinkEvidence()
 
 
-@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "rolling_ends", "frozen_tips",
+@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
+                      "frozen_tips",
                       "loop_frames", "collision_volumes", "palms", "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
@@ -24,7 +25,8 @@ def shape(ctx: Context, found: Findings) -> None:
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
     is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), and the first two never a
-    tool where the joint rolls (hands.rolling: a bare arm's flange link, a wheel, a bar turning a full turn).
+    tool where the joint rolls (hands.rolling: turning through more than half a turn, or about the line out to the
+    leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin).
     Frames where a closed loop is cut (frames.loop_closures), and leaves drawn at their parent's origin for collision
     checking alone (frames.collision_volumes), are part of no component."""
     robot = ctx.robot
@@ -34,9 +36,10 @@ def shape(ctx: Context, found: Findings) -> None:
     found.feet = feet(robot)
     found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
     found.off_ends = off_limb_ends(robot, seen)
-    found.limb_ends = (limb_ends(robot) | swinging_leaves(robot)) - declared
+    found.limb_ends = limb_ends(robot) - declared
+    found.swinging = swinging_leaves(robot) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
-    found.rolling_ends = frozenset(leaf for leaf in found.limb_ends if rolling(robot, leaf))
+    found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf))
     found.loop_frames = loop_closures(robot) - declared
     found.collision_volumes = collision_volumes(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
@@ -44,6 +47,7 @@ def shape(ctx: Context, found: Findings) -> None:
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "moving_feet": sorted(found.moving_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
+               "swinging": sorted(found.swinging),
                "rolling_ends": sorted(found.rolling_ends), "frozen_tips": sorted(found.frozen_tips),
                "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
 
