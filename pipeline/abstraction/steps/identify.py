@@ -43,7 +43,8 @@ def identification(ctx: Context, found: Findings) -> None:
             claims[leaf], shares[leaf] = body, 1.0
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
     # the kinds a leaf's place rules out
-    rules = ((tools, found.off_ends | found.rolling_ends), (sensors, found.limb_ends | found.swinging | found.frozen_tips))
+    rules = ((tools, found.off_ends | found.rolling_ends),
+             (sensors, found.limb_ends | found.swinging | found.frozen_tips))
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
         if kind == tools and leaf in found.feet:  # the tip of a leg: part of the body, as the body pass will find

@@ -15,8 +15,7 @@ _NO_FACTS = LinkEvidence()
 
 
 @step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
-                      "frozen_tips",
-                      "loop_frames", "collision_volumes", "palms", "declared_sensors"))
+                      "frozen_tips", "loop_frames", "collision_volumes", "palms", "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
