@@ -164,7 +164,7 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
     ends = []
     for leaf in tree.leaves():
         edge = tree.edge_to(leaf)
-        if not edge.movable or (edge.limits is not None and edge.limits[0] == edge.limits[1]):
+        if not edge.moves:
             continue
         joints, link = 0, leaf
         while (up := tree.parent_edge(link)) is not None:
@@ -190,7 +190,7 @@ def swinging_leaves(tree: KinematicTree) -> frozenset[str]:
     swinging = []
     for leaf in tree.leaves():
         edge = tree.edge_to(leaf)
-        if not edge.movable or edge.spins or (edge.limits is not None and edge.limits[0] == edge.limits[1]):
+        if not edge.moves or edge.spins:
             continue
         moved = sum(tree.edge_to(link).joint_type in _SWINGS for link in tree.chain_to_root(edge.parent)[:-1])
         if moved >= SWING_JOINTS and any(goes_on(c) for c in tree.children(edge.parent) if c != leaf):

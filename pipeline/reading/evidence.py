@@ -216,15 +216,14 @@ def _naming_plugins(robot: ET.Element, known: set[str]) -> dict[str, list[str]]:
     found: dict[str, list[str]] = {}
     for gazebo in robot.findall("gazebo"):
         for plugin in (e for e in _outside_sensors(gazebo, into_plugins=True) if _local(e.tag)[1] == "plugin"):
-            match = _PLUGIN_STEM.match((plugin.get("filename") or plugin.get("plugin") or "").rsplit("/", 1)[-1])
-            if not match:
+            if not (stem := _library_stem(plugin)):
                 continue
             for element in (e for e in _outside_sensors(plugin, into_plugins=False) if _local(e.tag)[1] != "plugin"):
                 tag, name = _local(element.tag)[1].lower(), (element.text or "").strip().lstrip("/")
                 if name in known and "joint" not in tag and any(w in tag for w in ("link", "body", "frame")):
                     stems = found.setdefault(name, [])
-                    if match.group(1) not in stems:
-                        stems.append(match.group(1))
+                    if stem not in stems:
+                        stems.append(stem)
     return found
 
 
@@ -259,13 +258,14 @@ def _sensor_type(element: ET.Element) -> str | None:
 
 
 def _plugins(sensor: ET.Element) -> tuple[str, ...]:
-    stems = []
-    for element in sensor.iter():
-        library = element.get("filename") or element.get("plugin")
-        if library and (match := _PLUGIN_STEM.match(library.rsplit("/", 1)[-1])):
-            if match.group(1) not in stems:
-                stems.append(match.group(1))
-    return tuple(stems)
+    return tuple(dict.fromkeys(stem for element in sensor.iter() if (stem := _library_stem(element))))
+
+
+def _library_stem(element: ET.Element) -> str | None:
+    """The stem of the library an element loads (`filename`, or `plugin` in SDF's older form), or None."""
+    library = element.get("filename") or element.get("plugin")
+    match = _PLUGIN_STEM.match(library.rsplit("/", 1)[-1]) if library else None
+    return match.group(1) if match else None
 
 
 def _output_frames(sensor: ET.Element, known: set[str]) -> list[str]:

@@ -51,6 +51,11 @@ class Edge:
         return self.joint_type != "fixed" or self.actuated
 
     @property
+    def moves(self) -> bool:
+        """Movable, and not held still by limits that give it no range (lower = upper)."""
+        return self.movable and not (self.limits is not None and self.limits[0] == self.limits[1])
+
+    @property
     def independent(self) -> bool:
         """Moves of its own: movable and following no other joint through <mimic>."""
         return self.movable and self.mimic is None
