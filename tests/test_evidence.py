@@ -261,3 +261,79 @@ def test_a_link_drawn_for_collision_alone_is_told_from_one_drawn_to_be_seen():
             b'<joint name="k" type="fixed"><parent link="a"/><child link="c"/></joint></robot>')
     evidence = load_urdf(urdf).evidence
     assert [evidence[link].collision_only for link in "abc"] == [False, True, False]
+
+
+def _depth_camera(seed: int, image_topic: str) -> tuple[bytes, str]:
+    """A base with a camera body and its optical frame, meaningless names; a Gazebo classic depth sensor on the body
+    whose openni plugin publishes its image on `image_topic` (and depth beside it) in the optical frame."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    body, frame = w.link('<box size="0.03 0.18 0.03"/>'), w.link()
+    w.joint("fixed", base, body, xyz=(0.2, 0.0, 0.3))
+    w.joint("fixed", body, frame, xyz=(0.0, 0.02, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+    gazebo = (f'<gazebo reference="{body}"><sensor name="s" type="depth"><camera><horizontal_fov>1.0</horizontal_fov>'
+              f'<image><format>B8G8R8</format><width>640</width><height>480</height></image></camera>'
+              f'<plugin name="p" filename="libgazebo_ros_openni_kinect.so"><imageTopicName>{image_topic}</imageTopicName>'
+              f'<depthImageTopicName>depth/image_raw</depthImageTopicName><frameName>{frame}</frameName></plugin>'
+              f'</sensor></gazebo>')
+    return w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>"), frame
+
+
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("topic, colour", [
+    ("color/image_raw", True), ("/head_camera/rgb/image_raw", True), ("rgbd/image_rect_color", True),
+    ("ir/image_raw", False), ("image_raw", False), ("/scene/colorless_map", False)])
+def test_a_depth_sensor_publishing_colour_is_an_rgbd_camera_whatever_the_model_says(seed, topic, colour):
+    """The real model read a RealSense's declared depth sensor (its openni plugin publishing color/image_raw) as a depth
+    camera: a depth declaration whose image topic is in the colour stream amounts to SDF's rgbd_camera and rules the
+    depth camera out; an infrared or unnamed image leaves the choice to the model."""
+    urdf, frame = _depth_camera(seed, topic)
+    tree = load_urdf(urdf)
+    (sensor,) = tree.evidence[frame].sensors
+    assert sensor.colour is colour and sensor.sdf_type == ("rgbd_camera" if colour else "depth")
+
+    def rule(q: Question):  # finds the sensor and prefers a depth camera wherever one is offered
+        stage = q.key.partition(":")[0]
+        if stage in ("check", "identify"):
+            return "sensor"
+        return "depth camera" if "depth camera" in q.options else q.options[0]
+    (camera,) = Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(tree).components
+    assert camera.cls == ("RGBDCamera" if colour else "DepthCamera")
+
+
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("pixels, colour", [("B8G8R8", True), ("RGB_INT8", True), ("L8", False), ("L_INT8", False)])
+def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(seed, pixels, colour):
+    """A torso camera written as the simulator's plain camera on one imager's frame and a depth sensor of no topics on
+    another's, both under one housing, was typed a depth camera: a camera giving colour and a depth sensor declared
+    on one device's links amount to SDF's rgbd_camera; beside a monochrome (infrared) imager the model decides."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    housing = w.link('<box size="0.03 0.12 0.03"/>')
+    w.joint("fixed", base, housing, xyz=(0.2, 0.0, 0.3))
+    imagers = [w.link(), w.link()]
+    for side, imager in zip((1, -1), imagers):
+        w.joint("fixed", housing, imager, xyz=(0.0, 0.025 * side, 0.0))
+
+    def sensor(kind: str, fmt: str) -> str:
+        return (f'<sensor name="{kind}" type="{kind}"><camera><horizontal_fov>1.2</horizontal_fov><image>'
+                f'<format>{fmt}</format><width>640</width><height>400</height></image></camera>'
+                f'<plugin name="{kind}_p" filename="libgazebo_ros_camera.so"/></sensor>')
+    gazebo = (f'<gazebo reference="{imagers[0]}">{sensor("camera", pixels)}{sensor("depth", "B8G8R8")}</gazebo>'
+              f'<gazebo reference="{imagers[1]}">{sensor("camera", "L8")}</gazebo>')
+    urdf = w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>")
+    for imager in imagers:  # the imagers' names begin with the housing's, so the model can name one device
+        urdf = urdf.replace(f'"{imager}"'.encode(), f'"{housing}_{imager}"'.encode())
+    tree = load_urdf(urdf)
+
+    def rule(q: Question):  # finds the sensors, mounts them on the base, names one device, and sees depth wherever
+        stage = q.key.partition(":")[0]  # it is offered: a depth camera of depth frames (as the real model did)
+        if stage in ("check", "identify"):
+            return "sensor"
+        if stage == "root":
+            return base
+        if stage == "device":
+            return min(q.options, key=len)
+        return next((o for o in q.options if o.startswith("depth ")), q.options[0])
+    cameras = Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(tree).components
+    assert [c.cls for c in cameras] == ["RGBDCamera" if colour else "DepthCamera"]

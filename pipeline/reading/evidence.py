@@ -8,6 +8,7 @@ as the same types. A declaration is attached to the link it references and to th
 plugin publishes in (`frameName`), when that is another link of the robot. The numbers it states
 (rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
 (the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
+A `depth` sensor whose plugin publishes its image in a colour topic reads as SDF's `rgbd_camera` (SimSensor.sdf_type).
 A simulator plugin outside any sensor (a vacuum gripper's, a grasp helper's) that names a link of the robot in
 an element naming a link, body or frame gives that link its library's stem, which the product catalogue reads as it
 reads mesh stems (pipeline.abstraction.stages.identification.named_product); questions do not show it.
@@ -40,6 +41,13 @@ class SimSensor:
     min_range: float | None = None    # m: a ray sensor's nearest and farthest measured distance
     max_range: float | None = None
     resolution: float | None = None   # m: a ray sensor's range resolution
+    colour: bool = False              # it gives colour images (_gives_colour)
+
+    @property
+    def sdf_type(self) -> str:
+        """The SDF sensor type the declaration amounts to: a Gazebo classic `depth` sensor whose plugin publishes a
+        colour image beside the depth (the openni_kinect plugin's RGB-D mode) is SDF's `rgbd_camera`."""
+        return "rgbd_camera" if self.type == "depth" and self.colour else self.type
 
 
 @dataclass(frozen=True)
@@ -203,7 +211,7 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
                 continue
             frames = _output_frames(element, known)
             sensor = SimSensor(sensor_type, _plugins(element), reference, frames[0] if frames else None,
-                               **_numbers(element, sensor_type))
+                               **_numbers(element, sensor_type), colour=_gives_colour(element, sensor_type))
             for link in dict.fromkeys([reference, *frames]):
                 found.setdefault(link, []).append(sensor)
     return found
@@ -277,6 +285,27 @@ def _output_frames(sensor: ET.Element, known: set[str]) -> list[str]:
             if name in known:
                 frames.append(name)
     return frames
+
+
+_COLOUR_WORDS = frozenset({"rgb", "color", "colour"})
+_COLOUR_FORMATS = frozenset({"r8g8b8", "b8g8r8", "rgb_int8", "bgr_int8"})  # SDF's pixel formats of colour images
+
+
+def _gives_colour(sensor: ET.Element, sensor_type: str) -> bool:
+    """A camera gives colour when its `<format>` is a colour one. A `depth` sensor's format is only that of its
+    preview image: it gives colour when its plugin names its image topic (`imageTopicName`, the ROS camera and openni
+    plugins' parameter) in the colour stream of the ROS camera conventions: an `rgb/` or `color/` namespace
+    (rgbd_launch, RealSense), or a name ending `_color` (image_proc's `image_rect_color`). An `ir/` or unnamed image,
+    or no format, says nothing."""
+    if sensor_type != "depth":
+        return any(_local(e.tag)[1] == "format" and (e.text or "").strip().lower() in _COLOUR_FORMATS
+                   for e in sensor.iter())
+    for element in sensor.iter():
+        if _local(element.tag)[1] == "imageTopicName":
+            words = re.split(r"[/_\s]+", (element.text or "").lower())
+            if _COLOUR_WORDS.intersection(words):
+                return True
+    return False
 
 
 def _child_text(element: ET.Element, path: str) -> str | None:

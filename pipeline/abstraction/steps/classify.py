@@ -42,14 +42,21 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
 
+RGBD = "rgbd_camera"  # SDF's sensor type of a camera giving colour and depth
+
+
 def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: str, key: str) -> frozenset[str]:
     """Classes under `below` that the simulator sensors declared on `links` rule out: by their type (the
-    ontology's core:simulatorSensorType alignment) and by the span a ray sensor sweeps
-    (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar); each narrowing is
-    counted and logged."""
+    ontology's core:simulatorSensorType alignment; where a depth sensor and a camera giving colour are declared on
+    the links, every declaration an RGB-D camera fits is SDF's `rgbd_camera`: the colour, depth and infrared
+    imagers of one device) and by the span a ray sensor sweeps (core:horizontalFieldOfViewRadians
+    restrictions: a 10-degree beam is no lidar); each narrowing is counted and logged."""
     vocab = ctx.vocab
     sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
-    types = {s.type for s in sensors}
+    types = {s.sdf_type for s in sensors}
+    if any(s.type == "depth" for s in sensors) and any(s.colour for s in sensors):  # colour and depth: RGB-D
+        rgbd = vocab.declared_classes([RGBD])
+        types = {RGBD if any(vocab.is_a(r, c) for r in rgbd for c in vocab.declared_classes([t])) else t for t in types}
     declared = vocab.declared_classes(types)
     ruled_out = vocab.disagreeing(declared, below)
     spans = [s.fov for s in sensors if s.fov is not None and s.samples is not None]  # ray sensors' sweeps
@@ -128,12 +135,26 @@ def post_classification(ctx: Context, found: Findings) -> None:
         results = descend(ctx.oracle, vocab, start, [
             Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                     "Frames: " + "; ".join(f"{leaf} ({vocab.label(pre[leaf].cls)})" for leaf in g.leaves),
-                    _ruled_out(ctx, tree, g.members, start, f"post:{g.leaves[0]}") | counted_out[id(g)]
-                    | unfit.get(id(g), frozenset()))
+                    _declared_first(ctx, g, start, counted_out[id(g)], unfit.get(id(g), frozenset())))
             for g in members
         ], "post-classification", ctx.progress)
         typed.update({id(g): t for g, t in zip(members, results)})
     found.post = [typed[id(g)] for g in found.groups]
+
+
+def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str], unfit: frozenset[str]) -> frozenset[str]:
+    """The classes under `start` a multi-chain group is not offered: those its declarations, its count and its frames'
+    kinds rule out; where together they leave none and the declarations narrowed, the frames' kinds (the model's reading of each frame) give way to
+    the declarations (the file's statement of the device: a camera giving colour and a depth sensor make an RGB-D
+    camera whose frames the model called depth only)."""
+    key = f"post:{g.leaves[0]}"
+    declared = _ruled_out(ctx, ctx.tree, g.members, start, key)
+    ruled_out = declared | counted
+    offered = set(ctx.vocab.subclasses_below(start)) - ruled_out
+    if declared and offered and offered <= unfit:
+        ctx.log(f"{key}: its declarations leave no class its frames allow: the declarations stand")
+        return ruled_out
+    return ruled_out | unfit
 
 
 def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str,

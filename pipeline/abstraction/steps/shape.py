@@ -59,5 +59,5 @@ def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
     if SENSOR not in vocab.kinds:
         return False
     top, contact = vocab.kinds[SENSOR].cls, vocab.declared_classes(["contact"])  # SDF's sensor type
-    declared = vocab.declared_classes(s.type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
+    declared = vocab.declared_classes(s.sdf_type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
     return any(vocab.is_a(c, top) and not any(vocab.is_a(c, k) for k in contact) for c in declared)
