@@ -7,7 +7,8 @@ which verification must reject. (The mount of a device abstracted in an earlier 
 inside: a sensor on a gripper's palm.) A sensor is rigidly fixed to its mount, so for sensors the
 candidates also end below the first joint that moves: the link above that joint moves relative to
 the sensor and cannot be what it is fixed to. (Only a leaf whose own joint moves, which no sensor
-frame should, keeps its parent as the one candidate.)
+frame should, keeps its parent as the one candidate.) Nor is a sensor's own body offered: a fixed link the file
+declares a simulator sensor on that carries nothing but the chain down to the leaf.
 """
 from __future__ import annotations
 
@@ -42,17 +43,28 @@ def sub_chain(tree: KinematicTree, leaf: str, root: str) -> SubChain:
 
 def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bool], rigid: bool = False) -> list[str]:
     """Ancestors that could be the mount, nearest first; `rigid`: the device is fixed to its mount, so none
-    lies above a joint that moves."""
+    lies above a joint that moves, and none is the sensor's own body (_own_body)."""
     candidates: list[str] = []
     chain = tree.chain_to_root(leaf)
     for below, ancestor in zip(chain, chain[1:1 + MAX_CANDIDATES]):
         moved = tree.edge_to(below).joint_type != "fixed"
         if rigid and moved and candidates:
             break  # `below` moves relative to `ancestor`, and so would the sensor fixed to `below`
-        candidates.append(ancestor)
+        if not (rigid and _own_body(tree, ancestor, leaf)):
+            candidates.append(ancestor)
         if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)) or (rigid and moved):
             break
     return candidates
+
+
+def _own_body(tree: KinematicTree, link: str, leaf: str) -> bool:
+    """`link` is the body of the sensor `leaf` belongs to, not its mount: the file declares a simulator sensor on it
+    (the `<gazebo reference>` of a camera or lidar is the device), it is fixed to a parent, and it carries nothing but
+    the chain down to `leaf` (a body part carries other things)."""
+    facts = tree.evidence.get(link)
+    edge = tree.parent_edge(link)
+    return (facts is not None and any(s.reference == link for s in facts.sensors) and edge is not None
+            and not edge.movable and set(tree.descendants(link)) <= set(tree.chain_to_root(leaf)))
 
 
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: Kind,
