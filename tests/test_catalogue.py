@@ -34,7 +34,7 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("zed2_left_camera_frame", "Stereolabs ZED"),
     ("oak-d-pro_frame", "Luxonis OAK-D"),  # a hyphen parts words too
     ("head/swissranger_frame", "MESA SwissRanger"),
-    ("front_tfmini_link", "Benewake TFmini / TF-Luna"),
+    ("front_tfmini_link", "Benewake TFmini / TF-Luna / TF02"),
     ("base_lidar_lite_v3", "Garmin LIDAR-Lite"),
     ("left_sdh_palm", "Schunk SDH"),
     ("sdhx_frame", None),         # "sdh" followed by letters

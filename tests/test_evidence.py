@@ -282,7 +282,8 @@ def _depth_camera(seed: int, image_topic: str) -> tuple[bytes, str]:
 @pytest.mark.parametrize("seed", range(3))
 @pytest.mark.parametrize("topic, colour", [
     ("color/image_raw", True), ("/head_camera/rgb/image_raw", True), ("rgbd/image_rect_color", True),
-    ("ir/image_raw", False), ("image_raw", False), ("/scene/colorless_map", False)])
+    ("ir/image_raw", False), ("image_raw", False), ("/scene/colorless_map", False),
+    ("aligned_depth_to_color/image_raw", False)])
 def test_a_depth_sensor_publishing_colour_is_an_rgbd_camera_whatever_the_model_says(seed, topic, colour):
     """The real model read a RealSense's declared depth sensor (its openni plugin publishing color/image_raw) as a depth
     camera: a depth declaration whose image topic is in the colour stream amounts to SDF's rgbd_camera and rules the
@@ -302,11 +303,15 @@ def test_a_depth_sensor_publishing_colour_is_an_rgbd_camera_whatever_the_model_s
 
 
 @pytest.mark.parametrize("seed", range(3))
-@pytest.mark.parametrize("pixels, colour", [("B8G8R8", True), ("RGB_INT8", True), ("L8", False), ("L_INT8", False)])
-def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(seed, pixels, colour):
-    """A torso camera written as the simulator's plain camera on one imager's frame and a depth sensor of no topics on
-    another's, both under one housing, was typed a depth camera: a camera giving colour and a depth sensor declared
-    on one device's links amount to SDF's rgbd_camera; beside a monochrome (infrared) imager the model decides."""
+@pytest.mark.parametrize("pixels, together, colour", [("B8G8R8", True, True), ("RGB_INT8", True, True),
+                                                      ("L8", True, False), ("L_INT8", True, False),
+                                                      ("B8G8R8", False, False)])
+def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(seed, pixels, together, colour):
+    """A torso camera written as the simulator's plain camera and a depth sensor of no topics on one imager's frame,
+    a monochrome camera on the other's, all under one housing, was typed a depth camera: a camera giving colour and a
+    depth sensor declared on one link are one device's, SDF's rgbd_camera, and so are the device's other imagers;
+    beside a monochrome camera, or with the colour camera declared on another link (two devices the grouping may
+    have joined), the model decides."""
     w = Writer(random.Random(seed))
     base = w.link('<box size="0.4 0.3 0.1"/>')
     housing = w.link('<box size="0.03 0.12 0.03"/>')
@@ -319,8 +324,9 @@ def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(s
         return (f'<sensor name="{kind}" type="{kind}"><camera><horizontal_fov>1.2</horizontal_fov><image>'
                 f'<format>{fmt}</format><width>640</width><height>400</height></image></camera>'
                 f'<plugin name="{kind}_p" filename="libgazebo_ros_camera.so"/></sensor>')
-    gazebo = (f'<gazebo reference="{imagers[0]}">{sensor("camera", pixels)}{sensor("depth", "B8G8R8")}</gazebo>'
-              f'<gazebo reference="{imagers[1]}">{sensor("camera", "L8")}</gazebo>')
+    first, second = (sensor("camera", pixels), sensor("camera", "L8"))[::1 if together else -1]
+    gazebo = (f'<gazebo reference="{imagers[0]}">{first}{sensor("depth", "B8G8R8")}</gazebo>'
+              f'<gazebo reference="{imagers[1]}">{second}</gazebo>')
     urdf = w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>")
     for imager in imagers:  # the imagers' names begin with the housing's, so the model can name one device
         urdf = urdf.replace(f'"{imager}"'.encode(), f'"{housing}_{imager}"'.encode())

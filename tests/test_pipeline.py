@@ -372,20 +372,26 @@ def test_a_leaf_on_a_joint_others_follow_drives_them_and_is_no_sensor(tmp_path):
 def test_the_link_a_sensor_is_declared_on_is_its_body_not_its_mount(seed):
     """The model mounted a quadruped's face camera on the camera's own housing (the link its depth sensor is declared
     on, carrying only the optical frame): a fixed link that declares a sensor and carries nothing but the sensor's
-    chain is the sensor's body, never offered as its mount; a trunk declaring an IMU still carries other things."""
+    chain is the sensor's body, never offered as its mount; a trunk declaring an IMU still carries other things, and a
+    lidar's spinning head keeps its body as the one candidate it had."""
     w = Writer(random.Random(seed))
-    trunk = w.link('<box size="0.4 0.2 0.1"/>')
+    footprint, trunk = w.link(), w.link('<box size="0.4 0.2 0.1"/>')
     housing, optical, leg = w.link('<box size="0.001 0.001 0.001"/>'), w.link(), w.link('<box size="0.05 0.05 0.2"/>')
-    imu = w.link()
+    imu, lidar, rotor = w.link(), w.link('<cylinder radius="0.04" length="0.05"/>'), w.link()
+    w.joint("fixed", footprint, trunk, xyz=(0.0, 0.0, 0.3))
+    w.joint("fixed", trunk, lidar, xyz=(0.0, 0.0, 0.08))
+    w.joint("continuous", lidar, rotor, xyz=(0.0, 0.0, 0.02))
     w.joint("fixed", trunk, housing, xyz=(0.28, 0.0, 0.0))
     w.joint("fixed", housing, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
     w.joint("revolute", trunk, leg, xyz=(0.2, 0.1, 0.0), axis=(0.0, 1.0, 0.0))
     w.joint("fixed", trunk, imu)
     gazebo = (f'<gazebo reference="{housing}"><sensor name="c" type="depth"><plugin name="p" filename="libcam.so">'
               f'<frameName>{optical}</frameName></plugin></sensor></gazebo>'
-              f'<gazebo reference="{trunk}"><sensor name="i" type="imu"/></gazebo>')
+              f'<gazebo reference="{trunk}"><sensor name="i" type="imu"/></gazebo>'
+              f'<gazebo reference="{lidar}"><sensor name="l" type="gpu_ray"/></gazebo>')
     tree = load_urdf(w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>"))
     never = lambda link: False  # noqa: E731
-    assert mount_candidates(tree, optical, never, rigid=True) == [trunk]
-    assert mount_candidates(tree, optical, never) == [housing, trunk]  # a tool's links are not sensor bodies
-    assert mount_candidates(tree, imu, never, rigid=True) == [trunk]
+    assert mount_candidates(tree, optical, never, rigid=True) == [trunk, footprint]
+    assert mount_candidates(tree, optical, never) == [housing, trunk, footprint]  # a tool's links are no sensor's body
+    assert mount_candidates(tree, imu, never, rigid=True) == [trunk, footprint]  # a trunk carries other things
+    assert mount_candidates(tree, rotor, never, rigid=True) == [lidar]  # a leaf spinning on its body keeps it

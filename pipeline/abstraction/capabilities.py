@@ -79,7 +79,7 @@ def _declarations(tree: KinematicTree, vocab: Vocabulary, comp: Component) -> li
     """The declarations on the sensor's links whose type agrees with its class, each once."""
     top = vocab.kinds[comp.kind].cls
     found = (s for link in comp.links if link in tree.evidence for s in tree.evidence[link].sensors)
-    return [s for s in dict.fromkeys(found) if comp.cls not in vocab.disagreeing(vocab.declared_classes([s.sdf_type]), top)]
+    return [s for s in dict.fromkeys(found) if comp.cls not in vocab.disagreeing(vocab.declared_classes([s.type]), top)]
 
 
 def _agreed(values: Iterable):

@@ -294,16 +294,16 @@ _COLOUR_FORMATS = frozenset({"r8g8b8", "b8g8r8", "rgb_int8", "bgr_int8"})  # SDF
 def _gives_colour(sensor: ET.Element, sensor_type: str) -> bool:
     """A camera gives colour when its `<format>` is a colour one. A `depth` sensor's format is only that of its
     preview image: it gives colour when its plugin names its image topic (`imageTopicName`, the ROS camera and openni
-    plugins' parameter) in the colour stream of the ROS camera conventions: an `rgb/` or `color/` namespace
-    (rgbd_launch, RealSense), or a name ending `_color` (image_proc's `image_rect_color`). An `ir/` or unnamed image,
-    or no format, says nothing."""
+    plugins' parameter) in the colour stream of the ROS camera conventions: an `rgb/`, `color/` or `colour/`
+    namespace (rgbd_launch, RealSense), or a name ending `_color` (image_proc's `image_rect_color`). An `ir/` or
+    unnamed image (`aligned_depth_to_color/...` names a depth image), or no format, says nothing."""
     if sensor_type != "depth":
         return any(_local(e.tag)[1] == "format" and (e.text or "").strip().lower() in _COLOUR_FORMATS
                    for e in sensor.iter())
     for element in sensor.iter():
         if _local(element.tag)[1] == "imageTopicName":
-            words = re.split(r"[/_\s]+", (element.text or "").lower())
-            if _COLOUR_WORDS.intersection(words):
+            segments = [p for p in (element.text or "").strip().lower().split("/") if p]
+            if _COLOUR_WORDS.intersection(segments[:-1]) or (segments and segments[-1].endswith("_color")):
                 return True
     return False
 

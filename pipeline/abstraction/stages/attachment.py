@@ -54,7 +54,7 @@ def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bo
             candidates.append(ancestor)
         if blocked(ancestor) or any(blocked(d) for d in tree.descendants(ancestor)) or (rigid and moved):
             break
-    return candidates
+    return candidates or list(chain[1:2])  # a leaf moving on its own joint below its body: that body, as before
 
 
 def _own_body(tree: KinematicTree, link: str, leaf: str) -> bool:

@@ -47,14 +47,15 @@ RGBD = "rgbd_camera"  # SDF's sensor type of a camera giving colour and depth
 
 def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: str, key: str) -> frozenset[str]:
     """Classes under `below` that the simulator sensors declared on `links` rule out: by their type (the
-    ontology's core:simulatorSensorType alignment; where a depth sensor and a camera giving colour are declared on
-    the links, every declaration an RGB-D camera fits is SDF's `rgbd_camera`: the colour, depth and infrared
-    imagers of one device) and by the span a ray sensor sweeps (core:horizontalFieldOfViewRadians
-    restrictions: a 10-degree beam is no lidar); each narrowing is counted and logged."""
+    ontology's core:simulatorSensorType alignment; where one link declares a depth sensor and a sensor giving colour,
+    one device gives both, and every declaration on the links an RGB-D camera fits is SDF's `rgbd_camera`: the
+    colour, depth and infrared imagers of that device) and by the span a ray sensor sweeps
+    (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar); each narrowing is counted and
+    logged."""
     vocab = ctx.vocab
     sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
     types = {s.sdf_type for s in sensors}
-    if any(s.type == "depth" for s in sensors) and any(s.colour for s in sensors):  # colour and depth: RGB-D
+    if any(d.type == "depth" and any(c.colour and c.reference == d.reference for c in sensors) for d in sensors):
         rgbd = vocab.declared_classes([RGBD])
         types = {RGBD if any(vocab.is_a(r, c) for r in rgbd for c in vocab.declared_classes([t])) else t for t in types}
     declared = vocab.declared_classes(types)
@@ -142,11 +143,12 @@ def post_classification(ctx: Context, found: Findings) -> None:
     found.post = [typed[id(g)] for g in found.groups]
 
 
-def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str], unfit: frozenset[str]) -> frozenset[str]:
+def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str],
+                    unfit: frozenset[str]) -> frozenset[str]:
     """The classes under `start` a multi-chain group is not offered: those its declarations, its count and its frames'
-    kinds rule out; where together they leave none and the declarations narrowed, the frames' kinds (the model's reading of each frame) give way to
-    the declarations (the file's statement of the device: a camera giving colour and a depth sensor make an RGB-D
-    camera whose frames the model called depth only)."""
+    kinds rule out; where together they leave none and the declarations narrowed, the frames' kinds (the model's
+    reading of each frame) give way to the declarations (the file's statement of the device: a camera giving colour
+    and a depth sensor make an RGB-D camera whose frames the model called depth only)."""
     key = f"post:{g.leaves[0]}"
     declared = _ruled_out(ctx, ctx.tree, g.members, start, key)
     ruled_out = declared | counted
