@@ -95,12 +95,14 @@ def test_frames_of_one_body_mounted_apart_share_the_highest_mount_and_one_device
 
 
 @pytest.mark.slow  # many generated robots
-def test_frames_all_mounted_on_their_bare_housing_are_mounted_on_its_parent_as_one_device():
-    """The model mounts every frame of a bare-frame housing on that frame itself (a camera's own camera_link), where
-    no device name can join them (the names they share begin the mount's): the bare frame is the device's own,
-    so they are mounted on the link it is fixed to, and the housing binds them into one device."""
+@pytest.mark.parametrize("bare", [False, True])
+def test_frames_all_mounted_on_their_own_housing_are_mounted_on_its_parent_as_one_device(bare):
+    """The model mounts every frame of a housing on the housing itself (a camera's own camera_link, bare or drawn as
+    a box: a tracking camera's body carrying its two fisheye frames), where no device name can join them (the names
+    they share begin the mount's): a body fixed to its parent that carries nothing but the device's frames is the
+    device's own, so they are mounted on the link it is fixed to, and the housing binds them into one device."""
     for seed in SEEDS:
-        built = build(seed, bare=True)
+        built = build(seed, bare=bare)
         tree = load_urdf(built.urdf)
         frames = [frame for device in built.devices for frame in device]
         chains = one_mount(tree, [sub_chain(tree, frame, built.housing[frame]) for frame in frames])
@@ -114,6 +116,23 @@ def test_frames_all_mounted_on_their_bare_housing_are_mounted_on_its_parent_as_o
                        dict.fromkeys(frames, "VisionSensor"))
         assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(fs) for fs in by_housing.values()), \
             (seed, built.description)
+
+
+def test_a_body_carrying_more_than_the_frames_is_where_they_are_mounted():
+    """A fixed head with a colour and a depth frame, and a lidar beside them: the head carries more than the camera's
+    frames, so it is where the camera is mounted, not its housing."""
+    w = Writer(random.Random(3))
+    base = w.link('<box size="0.4 0.4 0.2"/>')
+    head = w.link('<box size="0.1 0.2 0.1"/>')
+    w.joint("fixed", base, head, (0.0, 0.0, 0.8))
+    frames = [w.link(), w.link()]
+    for k, frame in enumerate(frames):
+        w.joint("fixed", head, frame, (0.05, 0.02 * k, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+    lidar = w.link('<cylinder radius="0.03" length="0.04"/>')
+    w.joint("fixed", head, lidar, (0.0, 0.0, 0.08))
+    tree = load_urdf(w.urdf())
+    chains = one_mount(tree, [sub_chain(tree, frame, head) for frame in frames])
+    assert {c.root for c in chains} == {head}
 
 
 def _answer(prefer):

@@ -22,7 +22,7 @@ from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, limb_ends,
-                                              off_limb_ends, rolling, swinging_leaves)
+                                              off_limb_ends, rolling, spinning_on_trunk, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 
 TAX = vocabulary()
@@ -348,6 +348,31 @@ def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
     assert not rolling(load_urdf(w.urdf()), jaw)
     tool = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
     assert _identified(w.urdf(), lambda q: tool if _leaf(q) == jaw else NONE)[jaw] == TOOL_CLS
+
+
+def test_a_leaf_spinning_from_the_trunk_is_no_tool():
+    """An underwater vehicle's thrusters (or a drone's rotors) spin on continuous joints from the hull: the erring model
+    calls each an end effector at 0.5 (eight thrusters became one hand of eight tool frames). No tool spins there; a
+    gripper's own drive screw, spinning below the arm's joints, and a jaw on a bounded hinge stay the model's tools."""
+    for seed in range(5):
+        w = Writer(random.Random(seed))
+        hull = w.link('<box size="0.5 0.3 0.2"/>')
+        thrusters = []
+        for k in range(6):
+            thruster = w.link('<cylinder radius="0.04" length="0.03"/>')
+            yaw = k * math.pi / 3
+            w.joint("continuous", hull, thruster, (0.25 * math.cos(yaw), 0.15 * math.sin(yaw), 0.0), (1.0, 0.0, 0.0))
+            thrusters.append(thruster)
+        wrist = _serial(w, hull, 4, (-2.0, 2.0))
+        screw, jaw = w.link('<cylinder radius="0.005" length="0.04"/>'), w.link('<box size="0.02 0.01 0.06"/>')
+        w.joint("continuous", wrist, screw, (0.0, 0.0, 0.05), (0.0, 0.0, 1.0))
+        w.joint("revolute", wrist, jaw, (0.02, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-0.5, 0.0))
+        tree = load_urdf(w.urdf())
+        assert spinning_on_trunk(tree) == set(thrusters), seed
+        erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.2, NONE: 0.3}
+        claims = _identified(w.urdf(), lambda q: erring)
+        assert {claims[t] for t in thrusters} == {NONE}, seed
+        assert claims[screw] == claims[jaw] == TOOL_CLS, seed
 
 
 def _fixed_chains(w: Writer, parent: str, size: str) -> list[str]:

@@ -238,6 +238,16 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
     return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
 
 
+def spinning_on_trunk(tree: KinematicTree) -> frozenset[str]:
+    """Leaves that spin on their own joint (continuous, or revolute with no range given) from the trunk: no joint
+    that moves the robot's parts (floating and planar joints place the whole robot) between the root and the link
+    they hang from. A wheel, a rotor, a propeller or a thruster; never a tool, whose jaws and fingers close over a
+    bounded arc at a limb's end (a gripper's own spinning drive screw hangs below the arm's joints)."""
+    def on_trunk(link: str) -> bool:
+        return not any(tree.edge_to(x).joint_type in _SWINGS for x in tree.chain_to_root(link)[:-1])
+    return frozenset(leaf for leaf in tree.leaves() if tree.edge_to(leaf).spins and on_trunk(tree.edge_to(leaf).parent))
+
+
 def feet(tree: KinematicTree) -> frozenset[str]:
     """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
     of the robot's lowest link origin at the zero pose, on a robot whose root lies STANCE above that point

@@ -143,8 +143,9 @@ def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
     """Frames of one body (frames.body_of) that the model mounted apart, some on a link above the body and some on
     the body or below it, all mounted on the highest of those mounts above the body: the body is then
     inside every chain, and group merging binds them into one device. Where the model mounted them all on the body
-    or below it and the body is a bare frame fixed to its parent (a camera's own `camera_link` with colour, depth
-    and infrared frames below it), that frame is the device's own: they are mounted on its parent."""
+    or below it and the body is fixed to its parent and is the device's own (_devices_own: a camera's bare
+    `camera_link` with colour, depth and infrared frames below it, or a housing carrying nothing but such frames),
+    they are mounted on its parent."""
     out = {c.leaf: c for c in chains}
     bodies = [(a.leaf, b.leaf, body) for i, a in enumerate(chains) for b in chains[:i]
               if (body := body_of(tree, a.leaf, b.leaf)) is not None]
@@ -158,12 +159,19 @@ def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
                 top = max(mounts, key=above.index)
                 out[a], out[b] = sub_chain(tree, a, top), sub_chain(tree, b, top)
                 moved = True
-    for body in dict.fromkeys(body for _, _, body in bodies):  # a bare frame the device's frames all hang from
+    for body in dict.fromkeys(body for _, _, body in bodies):  # the device's own body its frames all hang from
         bound = {leaf for a, b, on in bodies if on == body for leaf in (a, b)}
-        if is_frame(tree, body) and tree.parent(body) is not None and not tree.edge_to(body).movable \
+        if _devices_own(tree, body, bound) and tree.parent(body) is not None and not tree.edge_to(body).movable \
                 and all(body in tree.chain_to_root(out[leaf].root) for leaf in bound):
             out.update((leaf, sub_chain(tree, leaf, tree.parent(body))) for leaf in bound)  # type: ignore[arg-type]
     return [out[c.leaf] for c in chains]
+
+
+def _devices_own(tree: KinematicTree, body: str, frames: set[str]) -> bool:
+    """The body that `frames` hang from is their device's own: a bare frame (a camera's `camera_link`), or a housing
+    with geometry that carries nothing but them (a tracking camera's body with its two fisheye and inertial frames);
+    a body carrying anything else (a head with a lidar beside its cameras) is where devices are mounted."""
+    return is_frame(tree, body) or all(leaf in frames for leaf in tree.descendants(body) if tree.is_leaf(leaf))
 
 
 def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:

@@ -7,7 +7,7 @@ from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, limb_ends, off_limb_ends,
-                                              palm, rolling, swinging_leaves)
+                                              palm, rolling, spinning_on_trunk, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 from urdfkb.pipeline.reading.tree import KinematicTree
 
@@ -25,7 +25,8 @@ def shape(ctx: Context, found: Findings) -> None:
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
     is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), and the first two never a
     tool where the joint rolls (hands.rolling: turning through more than half a turn, or about the line out to the
-    leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin).
+    leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin), nor is a leaf spinning on its own joint
+    from the trunk (hands.spinning_on_trunk: a wheel, a rotor, a thruster).
     Frames where a closed loop is cut (frames.loop_closures), and leaves drawn at their parent's origin for collision
     checking alone (frames.collision_volumes), are part of no component."""
     robot = ctx.robot
@@ -38,7 +39,8 @@ def shape(ctx: Context, found: Findings) -> None:
     found.limb_ends = limb_ends(robot) - declared
     found.swinging = swinging_leaves(robot) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
-    found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf))
+    found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
+        | spinning_on_trunk(robot) - declared
     found.loop_frames = loop_closures(robot) - declared
     found.collision_volumes = collision_volumes(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
