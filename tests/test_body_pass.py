@@ -3,6 +3,7 @@ hundreds of seeds (structure only), and whole passes with the scripted reasoner 
 from __future__ import annotations
 
 import random
+from dataclasses import replace
 
 import pytest
 
@@ -36,6 +37,24 @@ def test_candidate_chains_are_the_parts_over_many_seeds(make):
         expected = {tuple(p.joints) for p in built.parts if p.cls != "MobileBase"}
         expected |= {(j,) for p in built.parts if p.cls == "MobileBase" for j in p.joints}
         assert _candidates(built) == expected, seed
+
+
+@pytest.mark.parametrize("seed", range(0, 60, 7))
+def test_virtual_joints_that_place_the_whole_robot_are_no_part(seed):
+    """A file that moves its mobile base without its wheels writes virtual x, y and yaw joints between bare frames
+    above the base (a planar base as joints; the model called them an arm): they place the whole robot, so the
+    candidates are the robot's own parts, as without them."""
+    built = wheeled(seed)
+    root = load_urdf(built.urdf).root
+    virtual = ('<link name="v_world"/><link name="v_x"/><link name="v_y"/>'
+               '<joint name="v_jx" type="prismatic"><parent link="v_world"/><child link="v_x"/><axis xyz="1 0 0"/>'
+               '<limit lower="-5" upper="5" effort="1" velocity="1"/></joint>'
+               '<joint name="v_jy" type="prismatic"><parent link="v_x"/><child link="v_y"/><axis xyz="0 1 0"/>'
+               '<limit lower="-5" upper="5" effort="1" velocity="1"/></joint>'
+               f'<joint name="v_jz" type="continuous"><parent link="v_y"/><child link="{root}"/><axis xyz="0 0 1"/></joint>')
+    placed = replace(built, urdf=built.urdf.replace(b"</robot>", virtual.encode() + b"</robot>"))
+    assert load_urdf(placed.urdf).root == "v_world"
+    assert _candidates(placed) == _candidates(built)
 
 
 def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
