@@ -113,6 +113,84 @@ def test_the_leaves_of_a_fingers_linkage_the_model_takes_for_sensors_go_to_the_t
         assert {leaf: claims[leaf] for leaf in leaves} == dict.fromkeys(leaves, TOOL_CLS), seed
 
 
+def _hand(w: Writer, palm: str, sign: float) -> tuple[list[str], list[str]]:
+    """A thumb facing two fingers that follow it by <mimic> (multiplier -2), as some exports write a hand; `sign`
+    -1 mirrors the ranges (a right hand written with the left one's axes: the thumb closes negatively). Its finger
+    chains (their first links) and their tip frames."""
+    chains, tips = [], []
+    for k, x in enumerate((0.0, 0.025, -0.025)):
+        finger, tip = w.link('<box size="0.02 0.02 0.045"/>'), w.link()
+        closing = (0.0, 0.785) if (k == 0) == (sign > 0) else (-0.785, 0.0)
+        if k == 0:
+            drive = w.joint("revolute", palm, finger, (x, -0.023 * sign, -0.08), (1.0, 0.0, 0.0), limits=closing)
+        else:
+            w.joint("revolute", palm, finger, (x, 0.006 * sign, -0.1), (1.0, 0.0, 0.0),
+                    limits=(2 * closing[0], 2 * closing[1]), mimic=drive, multiplier=-2.0)
+        w.joint("fixed", finger, tip, (0.0, 0.0, -0.045))
+        chains.append(finger)
+        tips.append(tip)
+    return chains, tips
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_fingers_following_a_thumb_that_closes_negatively_still_close_on_it(sign):
+    """A hand whose fingers follow the thumb turning the other way (<mimic>, multiplier -2): the thumb closes as its
+    range reaches, and the fingers as it closes. The right hand of a file that wrote it with mirrored ranges (its
+    thumb closing negatively) was three mechanisms and no hand, its fingers typed arms and a head."""
+    w = Writer(random.Random(11))
+    palm = w.link('<box size="0.08 0.03 0.08"/>')
+    wrist = _serial(w, palm, 0)
+    chains, _ = _hand(w, wrist, sign)
+    found = hands(load_urdf(w.urdf()))
+    assert [sorted(f.name for f in structure.fingers) for structure, _ in found] == [sorted(chains)]
+
+
+def test_an_upper_bodys_hands_hanging_lowest_are_no_feet():
+    """A torso on a pedestal, a head and two arms hanging down, each ending in a hand: the fingertips are the lowest
+    links, as a standing robot's feet are, but their limbs leave a torso that carries a head: they are hands (the
+    fingertips read as feet became buttons and gyroscopes, and every limb a leg)."""
+    w = Writer(random.Random(12))
+    pedestal = w.link('<box size="0.3 0.3 0.5"/>')
+    torso = w.link('<box size="0.3 0.2 0.4"/>')
+    w.joint("revolute", pedestal, torso, (0.0, 0.0, 0.5), limits=(-1.0, 1.0))
+    head = w.link('<box size="0.15 0.15 0.15"/>')
+    w.joint("revolute", torso, head, (0.0, 0.0, 0.3), limits=(-1.0, 1.0))
+    tips = []
+    for y in (0.2, -0.2):
+        link = torso
+        for k in range(4):
+            child = w.link('<box size="0.05 0.05 0.3"/>')
+            w.joint("revolute", link, child, (0.0, y, 0.2) if k == 0 else (0.0, 0.0, -0.3),
+                    (0.0, 1.0, 0.0) if k % 2 == 0 else (1.0, 0.0, 0.0), limits=(-1.5, 1.5))
+            link = child
+        tips += _hand(w, link, 1.0 if y > 0 else -1.0)[1]
+    tree = load_urdf(w.urdf())
+    assert tree.position_in(tips[0], tree.root)[2] < -0.15  # the fingertips hang lowest, below the root
+    assert feet(tree) == frozenset()
+    assert sorted(leaf for _, leaves in hands(tree) for leaf in leaves) == sorted(tips)
+
+
+def test_the_jaws_of_an_arm_hanging_below_a_vehicle_are_no_feet():
+    """An underwater vehicle's arm hangs below its hull and ends in two jaws, the lowest links: but legs part where
+    the feet meet with two joints or more each, and the jaws part at the gripper with one each: no feet."""
+    w = Writer(random.Random(13))
+    hull = w.link('<box size="1.0 0.6 0.4"/>')
+    link = hull
+    for k in range(5):
+        child = w.link('<box size="0.05 0.05 0.15"/>')
+        w.joint("revolute", link, child, (0.4, 0.0, -0.2) if k == 0 else (0.0, 0.0, -0.15),
+                (0.0, 1.0, 0.0) if k % 2 else (0.0, 0.0, 1.0), limits=(-1.5, 1.5))
+        link = child
+    jaws = []
+    for y in (0.03, -0.03):
+        jaw = w.link('<box size="0.01 0.01 0.06"/>')
+        w.joint("revolute", link, jaw, (0.0, y, -0.1), (1.0, 0.0, 0.0), limits=(0.0, 1.0))
+        jaws.append(jaw)
+    tree = load_urdf(w.urdf())
+    assert all(tree.position_in(jaw, tree.root)[2] < -0.7 for jaw in jaws)
+    assert feet(tree) == frozenset()
+
+
 def test_feet_the_model_takes_for_tools_are_no_tools():
     """The erring model calls every leg tip a tool at 0.7 (a quadruped's four lower legs became four grippers):
     they are parts of the body."""

@@ -9,7 +9,7 @@ import math
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
-from urdfkb.pipeline.reading.tree import KinematicTree, Vector, rotate_rpy
+from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of, rotate_rpy
 from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
@@ -250,14 +250,42 @@ def spinning_on_trunk(tree: KinematicTree) -> frozenset[str]:
 
 def feet(tree: KinematicTree) -> frozenset[str]:
     """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
-    of the robot's lowest link origin at the zero pose, on a robot whose root lies STANCE above that point
-    and that has two such tips at least. Where a limb ends there is a foot, not a tool."""
+    of the robot's lowest link origin at the zero pose, reached from the trunk by legs (_from_trunk_by_legs) that
+    part where they all meet with two movable joints or more each (the jaws of an underwater vehicle's gripper,
+    hanging lowest, part with one each), on a robot whose root lies STANCE above that point and that has two such
+    tips at least. Where a limb ends there is a foot, not a tool."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
     if height[tree.root] - lowest < STANCE:
         return frozenset()
-    limbs = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
-    return frozenset(limbs) if len(limbs) >= 2 else frozenset()
+    low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
+    limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low))]
+    if len(limbs) < 2:
+        return frozenset()
+    meet = fork_of(tree, limbs)  # legs part there, each with two joints or more of its own
+    legs = [leaf for leaf in limbs if _movable_between(tree, leaf, meet) >= 2]
+    return frozenset(legs) if len(legs) >= 2 else frozenset()
+
+
+def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:
+    """Movable joints on the path up from `link` to `ancestor`."""
+    path = tree.chain_to_root(link)
+    return sum(tree.edge_to(x).movable for x in path[:path.index(ancestor)])
+
+
+def _from_trunk_by_legs(tree: KinematicTree, tip: str, tips: set[str]) -> bool:
+    """Between the trunk (the root's rigid body: no joint that turns or slides above it) and `tip`, no link carries a
+    moving subtree that ends at none of `tips`: the limb leaves the trunk, or a pelvis carrying only legs, as a leg
+    does. The fingertips of an upper body's hands hanging lowest pass a torso that carries a head or an arm: no
+    feet."""
+    path = tree.chain_to_root(tip)
+    for link in path[1:]:
+        if not any(tree.edge_to(x).joint_type in _SWINGS for x in tree.chain_to_root(link)[:-1]):
+            return True  # the trunk: limbs leave it
+        for child in tree.children(link):
+            if child not in path and tree.edge_to(child).movable and not tips & {child, *tree.descendants(child)}:
+                return False
+    return True
 
 
 def _movable_above(tree: KinematicTree, link: str) -> int:

@@ -13,8 +13,9 @@
   other joint following no <mimic>), each moving positively with the joints coupled to it by
   <mimic>, the one whose motion closes most directly on another chain's tip; a joint that only
   spreads a finger sideways or turns a thumb about its own length does not (a drive that itself
-  follows another joint moves as that joint moves positively: a jaw mimicking the other with
-  multiplier -1 and the same axis turns the other way). Motions are taken with every joint at zero,
+  follows another joint moves as that joint closes: a jaw mimicking the other with multiplier -1 and
+  the same axis turns the other way; fingers following a thumb whose range reaches below zero close as
+  it turns negatively). Motions are taken with every joint at zero,
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
   halfway through its range; where, of three chains with bodies or more, one then closes on none, once more
   half closed (_half_closed), a finger's spread joints (square to the parallel joints that curl it) left where
@@ -354,8 +355,9 @@ def moving_children(tree: KinematicTree, fork: str) -> list[str]:
 def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float],
                 closing_sense: bool = False) -> Motion | None:
     """Where the tip is and the direction it moves in as the drive moves positively (as it closes, by
-    _closes_backwards), with every joint of the chain coupled to it by <mimic>, all joints at `pose` (None: it
-    does not move)."""
+    _closes_backwards; a drive that follows another joint by <mimic>, as that joint closes: a hand's fingers
+    following its thumb, which closes negatively), with every joint of the chain coupled to it by <mimic>, all
+    joints at `pose` (None: it does not move)."""
     point = _in_frame(tree, tip, fork, (0.0, 0.0, 0.0), pose)
     path = tree.chain_to_root(tip)
     velocity = (0.0, 0.0, 0.0)
@@ -370,7 +372,8 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
             velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
     if drive.mimic is not None and drive.mimic_multiplier < 0:  # the drive turns against the joint it follows
         velocity = (-velocity[0], -velocity[1], -velocity[2])
-    if _closes_backwards(drive, pose, closing_sense):
+    followed = next((e for e in tree.edges if e.joint == drive.mimic), None) if drive.mimic is not None else None
+    if _closes_backwards(followed or drive, pose, closing_sense):  # as the joint that drives it closes
         velocity = (-velocity[0], -velocity[1], -velocity[2])
     direction = unit(velocity) if dot(velocity, velocity) >= _STILL else None
     return None if direction is None else (point, direction)
