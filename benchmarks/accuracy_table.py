@@ -8,8 +8,8 @@ say it too, so a change's table shows what moved.
 """
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
 import yaml
@@ -29,9 +29,13 @@ def row(label: str, scores: dict, extra: list[str]) -> str:
     return "| " + " | ".join([label, *(cell(scores[scope][m]) for _, scope, m in COLUMNS), *extra]) + " |"
 
 
-def main(argv: list[str]) -> None:
-    run = json.loads(Path(argv[0]).read_text())
-    before = json.loads(Path(argv[1]).read_text()) if len(argv) > 1 else None
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="python -m benchmarks.accuracy_table", description=__doc__.splitlines()[0])
+    p.add_argument("eval_json", metavar="EVAL.json", help="a run written by `urdfkb eval --json`")
+    p.add_argument("before_json", metavar="BEFORE.json", nargs="?", help="an earlier run, for a typed F1 before column")
+    args = p.parse_args(argv)
+    run = json.loads(Path(args.eval_json).read_text())
+    before = json.loads(Path(args.before_json).read_text()) if args.before_json else None
     fold_of = {r: f for f, robots in yaml.safe_load(FOLDS.read_text()).items() for r in robots}
     head = ["robot", *(c for c, _, _ in COLUMNS), "LLM decodes", "prompt tokens", "wall time"]
     head += ["typed F1 before"] if before else []
@@ -50,4 +54,4 @@ def main(argv: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
