@@ -57,6 +57,20 @@ def test_virtual_joints_that_place_the_whole_robot_are_no_part(seed):
     assert _candidates(placed) == _candidates(built)
 
 
+def test_an_arms_first_joint_on_a_bare_root_frame_is_the_arms():
+    """An arm whose first joint hangs straight on a bare root frame (no fixed base link between): that joint moves a
+    body and follows no other, so it is the arm's, not a joint placing the robot."""
+    w = Writer(random.Random(9))
+    root = w.link()
+    link, joints = root, []
+    for k in range(5):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        joints.append(w.joint("revolute", link, child, (0.0, 0.0, 0.2 if k else 0.0)))
+        link = child
+    tree = load_urdf(w.urdf())
+    assert [[e.joint for e in c.joints] for c in body.chains(tree, set(), set())] == [joints]
+
+
 def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
     """Files write wheels as revolute joints with a <limit> that gives no range ("actually continuous"): such a
     joint spins, so a wheel at the end of a leg is a wheel candidate of its own, as a continuous one is."""

@@ -91,9 +91,16 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
 
 
 def places_robot(tree: KinematicTree, edge: Edge) -> bool:
-    """The joint hangs from nothing but frames from the root down: above the robot's first body, it places the whole
-    robot (a planar base's virtual x, y and yaw joints written to move it without its wheels, a floating joint)."""
-    return all(is_frame(tree, link) for link in tree.chain_to_root(edge.parent))
+    """The joint places the whole robot: it hangs from nothing but frames from the root down, above the robot's first
+    body, and it is floating or planar, or moves a frame, or follows another such joint (a planar base's virtual x, y
+    and yaw joints, written to move it without its wheels). An arm's first joint hung on a bare root frame moves a
+    body and follows none; a file with no geometry at all has no first body."""
+    above = tree.chain_to_root(edge.parent)
+    if not all(is_frame(tree, link) for link in above) \
+            or all(is_frame(tree, link) for link in (edge.child, *tree.descendants(edge.child))):
+        return False
+    return edge.joint_type in ("floating", "planar") or is_frame(tree, edge.child) \
+        or any(tree.edge_to(link).movable for link in above[:-1])
 
 
 def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
