@@ -71,6 +71,26 @@ def test_an_arms_first_joint_on_a_bare_root_frame_is_the_arms():
     assert [[e.joint for e in c.joints] for c in body.chains(tree, set(), set())] == [joints]
 
 
+def test_a_rail_or_a_pan_and_tilt_on_a_bare_root_is_no_virtual_base():
+    """A rail under an arm on a bare carriage, and a pan and tilt whose pan link is a bare frame, both on a bare root
+    frame: their joints move the robot's parts (no floating or planar joint, no two sliding joints square to each
+    other), so they stay candidates."""
+    w = Writer(random.Random(10))
+    world, carriage = w.link(), w.link()
+    rail = w.joint("prismatic", world, carriage, axis=(1.0, 0.0, 0.0), limits=(0.0, 2.0))
+    link, arm = carriage, []
+    for k in range(6):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        arm.append(w.joint("revolute", link, child, (0.0, 0.0, 0.2 if k else 0.0)))
+        link = child
+    assert {tuple(e.joint for e in c.joints) for c in body.chains(load_urdf(w.urdf()), set(), set())} \
+        == {(rail,), tuple(arm)}
+    w = Writer(random.Random(11))
+    root, pan, camera = w.link(), w.link(), w.link('<box size="0.05 0.1 0.05"/>')
+    joints = [w.joint("revolute", root, pan), w.joint("revolute", pan, camera, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0))]
+    assert [[e.joint for e in c.joints] for c in body.chains(load_urdf(w.urdf()), set(), set())] == [joints]
+
+
 def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
     """Files write wheels as revolute joints with a <limit> that gives no range ("actually continuous"): such a
     joint spins, so a wheel at the end of a leg is a wheel candidate of its own, as a continuous one is."""

@@ -191,6 +191,58 @@ def test_the_jaws_of_an_arm_hanging_below_a_vehicle_are_no_feet():
     assert feet(tree) == frozenset()
 
 
+def _biped(w: Writer, trunk: str, rod: bool) -> list[str]:
+    """Two legs of four joints hanging from `trunk`, each ending in a sole frame, `rod`: with a bar on its own
+    continuous joint hanging from each thigh (a loop-cut linkage rod). The soles."""
+    soles = []
+    for y in (0.1, -0.1):
+        link = trunk
+        for k in range(4):
+            child = w.link('<box size="0.05 0.05 0.2"/>')
+            w.joint("revolute", link, child, (0.0, y, -0.1) if k == 0 else (0.0, 0.0, -0.2), (0.0, 1.0, 0.0),
+                    limits=(-1.0, 1.0))
+            if rod and k == 1:
+                bar = w.link('<cylinder radius="0.01" length="0.2"/>')
+                w.joint("continuous", child, bar, (0.03, 0.0, 0.0), (0.0, 1.0, 0.0))
+            link = child
+        sole = w.link()
+        w.joint("fixed", link, sole, (0.0, 0.0, -0.2))
+        soles.append(sole)
+    return soles
+
+
+@pytest.mark.parametrize("rod", [False, True])
+def test_a_legs_own_bars_and_a_trunks_arm_leave_its_feet_feet(rod):
+    """A biped whose thighs carry linkage rods on joints of their own (as Cassie's do), and a quadruped carrying an arm
+    on a trunk that virtual x, y and yaw joints place: the rods belong to the legs and the arm to the trunk, so the
+    soles are feet."""
+    w = Writer(random.Random(14))
+    pelvis = w.link('<box size="0.2 0.3 0.1"/>')
+    soles = _biped(w, pelvis, rod)
+    assert feet(load_urdf(w.urdf())) == set(soles)
+    w = Writer(random.Random(15))
+    world, vx, vy = w.link(), w.link(), w.link()
+    w.joint("prismatic", world, vx, axis=(1.0, 0.0, 0.0), limits=(-5.0, 5.0))
+    w.joint("prismatic", vx, vy, axis=(0.0, 1.0, 0.0), limits=(-5.0, 5.0))
+    trunk = w.link('<box size="0.6 0.3 0.15"/>')
+    w.joint("continuous", vy, trunk, (0.0, 0.0, 0.9))
+    soles = _biped(w, trunk, rod) + _biped(w, trunk, rod)
+    _serial(w, trunk, 5)
+    assert feet(load_urdf(w.urdf())) == set(soles)
+
+
+def test_a_lone_spinner_is_left_to_the_model():
+    """One leaf spinning from the trunk (a spindle, a mower's blade) may be the robot's tool: the model's "end
+    effector" stands; two or more (wheels, rotors, thrusters) are no tools."""
+    w = Writer(random.Random(16))
+    chassis = w.link('<box size="0.5 0.4 0.1"/>')
+    blade = w.link('<cylinder radius="0.2" length="0.01"/>')
+    w.joint("continuous", chassis, blade, (0.0, 0.0, -0.05))
+    tool = {TAX.answer(TOOL_CLS): 0.9, TAX.answer(SENSOR_CLS): 0.05, NONE: 0.05}
+    assert spinning_on_trunk(load_urdf(w.urdf())) == frozenset()
+    assert _identified(w.urdf(), lambda q: tool)[blade] == TOOL_CLS
+
+
 def test_feet_the_model_takes_for_tools_are_no_tools():
     """The erring model calls every leg tip a tool at 0.7 (a quadruped's four lower legs became four grippers):
     they are parts of the body."""

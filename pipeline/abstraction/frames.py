@@ -11,6 +11,7 @@ from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
 
 FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) only marks where a frame is
 CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
+SQUARE = 0.1  # |cosine| under which two unit axes are square to each other
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
@@ -24,6 +25,22 @@ def is_frame(tree: KinematicTree, link: str) -> bool:
         return True
     extent = facts.extent
     return extent is not None and extent <= FRAME_MARK
+
+
+def placing_joints(tree: KinematicTree) -> frozenset[str]:
+    """The joints that place the whole robot rather than move a part of it: the run of movable joints hanging from
+    frames alone from the root, above a first body, where that run holds a floating or planar joint or two prismatic
+    joints on axes square to each other (a planar base's virtual x, y and yaw joints, written to move it without its
+    wheels). A rail under an arm, a pan and tilt or an arm's first joint on a bare root frame is no such run."""
+    run = [e for e in tree.edges if e.movable and all(is_frame(tree, link) for link in tree.chain_to_root(e.parent))
+           and not all(is_frame(tree, link) for link in (e.child, *tree.descendants(e.child)))]
+    def direction(link: str, axis: Vector) -> Vector | None:  # a joint's axis, in the root's frame
+        origin = tree.position_in(link, tree.root)
+        return unit(sub(tree.position_in(link, tree.root, axis), origin))
+    sliding = [d for e in run if e.joint_type == "prismatic" and (d := direction(e.child, e.axis)) is not None]
+    square = any(abs(dot(a, b)) < SQUARE for i, a in enumerate(sliding) for b in sliding[:i])
+    placing = square or any(e.joint_type in ("floating", "planar") for e in run)
+    return frozenset(e.joint for e in run) if placing else frozenset()
 
 
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.abstraction.frames import is_frame, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of, rotate_rpy
@@ -163,6 +163,8 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
     moved by one joint, not by a limb). A joint whose limits give it no range does not move it."""
     ends = []
     for leaf in tree.leaves():
+        if tree.parent(leaf) is None:  # a robot of one link
+            continue
         edge = tree.edge_to(leaf)
         if not edge.moves:
             continue
@@ -239,24 +241,35 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
 
 
 def spinning_on_trunk(tree: KinematicTree) -> frozenset[str]:
-    """Leaves that spin on their own joint (continuous, or revolute with no range given) from the trunk: no joint
-    that moves the robot's parts (floating and planar joints place the whole robot) between the root and the link
-    they hang from. A wheel, a rotor, a propeller or a thruster; never a tool, whose jaws and fingers close over a
-    bounded arc at a limb's end (a gripper's own spinning drive screw hangs below the arm's joints)."""
-    def on_trunk(link: str) -> bool:
-        return not any(tree.edge_to(x).joint_type in _SWINGS for x in tree.chain_to_root(link)[:-1])
-    return frozenset(leaf for leaf in tree.leaves() if tree.edge_to(leaf).spins and on_trunk(tree.edge_to(leaf).parent))
+    """Leaves that spin on their own joint (continuous, or revolute with no range given) from the trunk (_on_trunk),
+    two or more of them: wheels, rotors, propellers, thrusters; never a tool, whose jaws and fingers close over a
+    bounded arc at a limb's end (a gripper's own spinning drive screw hangs below the arm's joints). A lone spinner
+    (a spindle, a mower's blade) is left to the model."""
+    placing = placing_joints(tree)
+    spinning = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None and tree.edge_to(leaf).spins
+                and _on_trunk(tree, tree.edge_to(leaf).parent, placing)]
+    return frozenset(spinning) if len(spinning) >= 2 else frozenset()
+
+
+def _on_trunk(tree: KinematicTree, link: str, placing: frozenset[str]) -> bool:
+    """No joint that turns or slides lies between the root and `link` but those placing the whole robot
+    (frames.placing_joints): the link is part of the trunk."""
+    return not any(tree.edge_to(x).joint_type in _SWINGS and tree.edge_to(x).joint not in placing
+                   for x in tree.chain_to_root(link)[:-1])
 
 
 def feet(tree: KinematicTree) -> frozenset[str]:
     """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
     of the robot's lowest link origin at the zero pose, reached from the trunk by legs (_from_trunk_by_legs) that
     part where they all meet with two movable joints or more each (the jaws of an underwater vehicle's gripper,
-    hanging lowest, part with one each), on a robot whose root lies STANCE above that point and that has two such
-    tips at least. Where a limb ends there is a foot, not a tool."""
+    hanging lowest, part with one each), on a robot whose root (or trunk, below joints placing it: frames.placing_joints)
+    lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
-    if height[tree.root] - lowest < STANCE:
+    placing = placing_joints(tree)  # where joints place the robot from a frame on the floor, the trunk below them
+    top = max((e.child for e in tree.edges if e.joint in placing), key=lambda x: len(tree.chain_to_root(x)),
+              default=tree.root)
+    if height[top] - lowest < STANCE:
         return frozenset()
     low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
     limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low))]
@@ -274,14 +287,16 @@ def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:
 
 
 def _from_trunk_by_legs(tree: KinematicTree, tip: str, tips: set[str]) -> bool:
-    """Between the trunk (the root's rigid body: no joint that turns or slides above it) and `tip`, no link carries a
-    moving subtree that ends at none of `tips`: the limb leaves the trunk, or a pelvis carrying only legs, as a leg
-    does. The fingertips of an upper body's hands hanging lowest pass a torso that carries a head or an arm: no
-    feet."""
-    path = tree.chain_to_root(tip)
+    """Between the trunk (_on_trunk) and `tip`, no link where limbs to two of `tips` or more part carries a moving
+    subtree that ends at none of them: the limb leaves the trunk, or a pelvis carrying only legs, as a leg does (its
+    own bars, toes and springs aside). The fingertips of an upper body's hands hanging lowest pass a torso that
+    carries a head beside the arms: no feet."""
+    path, placing = tree.chain_to_root(tip), placing_joints(tree)
     for link in path[1:]:
-        if not any(tree.edge_to(x).joint_type in _SWINGS for x in tree.chain_to_root(link)[:-1]):
+        if _on_trunk(tree, link, placing):
             return True  # the trunk: limbs leave it
+        if sum(bool(tips & {c, *tree.descendants(c)}) for c in tree.children(link)) < 2:
+            continue  # along one limb: its own bars, toes and springs
         for child in tree.children(link):
             if child not in path and tree.edge_to(child).movable and not tips & {child, *tree.descendants(child)}:
                 return False

@@ -1,7 +1,7 @@
 """The body pass: every movable joint not owned by a device, grouped into body parts and classified.
 
 Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
-joints (not those hanging from frames alone from the root down, which place the whole robot) between branch points (a link from which two or more chains go on), cut after a sliding
+joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from which two or more chains go on), cut after a sliding
 joint that lifts turning ones, with a trailing joint that spins (continuous, or revolute with no range) and
 carries nothing split off as a wheel candidate. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
@@ -26,7 +26,7 @@ from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
-from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.abstraction.frames import placing_joints
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
 
@@ -70,7 +70,8 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
     """Candidate chains of body joints, in document order of their first joints."""
-    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints and not places_robot(tree, e)]
+    placing = placing_joints(tree)
+    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints and e.joint not in placing]
     names = {e.joint for e in body}
     upper = {e.joint: _upper(tree, e, names) for e in body}
     below: dict[str | None, list[Edge]] = {}
@@ -88,19 +89,6 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
     for chain in out:
         chain.links = [link for e in chain.joints for link in _moved(tree, e.child, names, owned_links)]
     return out
-
-
-def places_robot(tree: KinematicTree, edge: Edge) -> bool:
-    """The joint places the whole robot: it hangs from nothing but frames from the root down, above the robot's first
-    body, and it is floating or planar, or moves a frame, or follows another such joint (a planar base's virtual x, y
-    and yaw joints, written to move it without its wheels). An arm's first joint hung on a bare root frame moves a
-    body and follows none; a file with no geometry at all has no first body."""
-    above = tree.chain_to_root(edge.parent)
-    if not all(is_frame(tree, link) for link in above) \
-            or all(is_frame(tree, link) for link in (edge.child, *tree.descendants(edge.child))):
-        return False
-    return edge.joint_type in ("floating", "planar") or is_frame(tree, edge.child) \
-        or any(tree.edge_to(link).movable for link in above[:-1])
 
 
 def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
