@@ -68,6 +68,12 @@ def test_position_in_composes_translation_and_rotation(small):
     assert small.position_in("hand", "hand") == (0.0, 0.0, 0.0)
 
 
+def test_direction_in_turns_a_direction_without_moving_it(small):
+    # arm is yawed 90 degrees: hand's x axis points along base's y axis, wherever hand lies.
+    assert_close(small.direction_in("hand", "base", (1.0, 0.0, 0.0)), (0.0, 1.0, 0.0))
+    assert_close(small.direction_in("hand", "arm", (1.0, 0.0, 0.0)), (1.0, 0.0, 0.0))
+
+
 def test_position_in_uses_urdf_rpy_convention():
     """R = Rz(yaw) Ry(pitch) Rx(roll), checked against trimesh's static-xyz Euler matrices."""
     rng = random.Random(7)

@@ -34,10 +34,8 @@ def placing_joints(tree: KinematicTree) -> frozenset[str]:
     wheels). A rail under an arm, a pan and tilt or an arm's first joint on a bare root frame is no such run."""
     run = [e for e in tree.edges if e.movable and all(is_frame(tree, link) for link in tree.chain_to_root(e.parent))
            and not all(is_frame(tree, link) for link in (e.child, *tree.descendants(e.child)))]
-    def direction(link: str, axis: Vector) -> Vector | None:  # a joint's axis, in the root's frame
-        origin = tree.position_in(link, tree.root)
-        return unit(sub(tree.position_in(link, tree.root, axis), origin))
-    sliding = [d for e in run if e.joint_type == "prismatic" and (d := direction(e.child, e.axis)) is not None]
+    sliding = [d for e in run if e.joint_type == "prismatic"
+               and (d := unit(tree.direction_in(e.child, tree.root, e.axis))) is not None]
     square = any(abs(dot(a, b)) < SQUARE for i, a in enumerate(sliding) for b in sliding[:i])
     placing = square or any(e.joint_type in ("floating", "planar") for e in run)
     return frozenset(e.joint for e in run) if placing else frozenset()

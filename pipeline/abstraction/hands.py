@@ -272,7 +272,7 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     if height[top] - lowest < STANCE:
         return frozenset()
     low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
-    limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low))]
+    limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low), placing)]
     if len(limbs) < 2:
         return frozenset()
     meet = fork_of(tree, limbs)  # legs part there, each with two joints or more of its own
@@ -286,20 +286,20 @@ def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:
     return sum(tree.edge_to(x).movable for x in path[:path.index(ancestor)])
 
 
-def _from_trunk_by_legs(tree: KinematicTree, tip: str, tips: set[str]) -> bool:
+def _from_trunk_by_legs(tree: KinematicTree, tip: str, tips: set[str], placing: frozenset[str]) -> bool:
     """Between the trunk (_on_trunk) and `tip`, no link where limbs to two of `tips` or more part carries a moving
     subtree that ends at none of them: the limb leaves the trunk, or a pelvis carrying only legs, as a leg does (its
     own bars, toes and springs aside). The fingertips of an upper body's hands hanging lowest pass a torso that
     carries a head beside the arms: no feet."""
-    path, placing = tree.chain_to_root(tip), placing_joints(tree)
+    path = tree.chain_to_root(tip)
     for link in path[1:]:
         if _on_trunk(tree, link, placing):
             return True  # the trunk: limbs leave it
-        if sum(bool(tips & {c, *tree.descendants(c)}) for c in tree.children(link)) < 2:
+        ends_at_tip = {c: bool(tips & {c, *tree.descendants(c)}) for c in tree.children(link)}
+        if sum(ends_at_tip.values()) < 2:
             continue  # along one limb: its own bars, toes and springs
-        for child in tree.children(link):
-            if child not in path and tree.edge_to(child).movable and not tips & {child, *tree.descendants(child)}:
-                return False
+        if any(c not in path and tree.edge_to(c).movable and not ends for c, ends in ends_at_tip.items()):
+            return False
     return True
 
 

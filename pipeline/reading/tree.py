@@ -271,6 +271,11 @@ class KinematicTree:
         """
         return self._express(link, ancestor, point, _to_parent)
 
+    def direction_in(self, link: str, ancestor: str, vector: Vector) -> Vector:
+        """A direction given in `link`'s frame (a joint's axis, in its child's frame), expressed in `ancestor`'s
+        frame (joints at zero): turned, not moved."""
+        return self._express(link, ancestor, vector, lambda origin, v: rotate_rpy(origin.rpy, v))
+
     def _express(self, link: str, ancestor: str, value: Vector, step) -> Vector:
         self._known(ancestor)
         current = self._known(link)

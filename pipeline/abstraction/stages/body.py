@@ -1,8 +1,8 @@
 """The body pass: every movable joint not owned by a device, grouped into body parts and classified.
 
 Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
-joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from which two or more chains go on), cut after a sliding
-joint that lifts turning ones, with a trailing joint that spins (continuous, or revolute with no range) and
+joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from
+which two or more chains go on), cut after a sliding joint that lifts turning ones, with a trailing joint that spins (continuous, or revolute with no range) and
 carries nothing split off as a wheel candidate. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
 the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
@@ -28,7 +28,7 @@ from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import placing_joints
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
-from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
@@ -142,11 +142,7 @@ def _moved(tree: KinematicTree, link: str, body: set[str], owned_links: set[str]
 
 def _direction(tree: KinematicTree, edge: Edge) -> str:
     """The joint axis in the root frame at the zero pose, in words (REP 103: x forward, y left, z up)."""
-    axis: Vector = edge.axis
-    current = edge.child
-    while (parent := tree.parent_edge(current)) is not None:
-        axis = rotate_rpy(parent.origin.rpy, axis)
-        current = parent.parent
+    axis = tree.direction_in(edge.child, tree.root, edge.axis)
     dominant = max(range(3), key=lambda i: abs(axis[i]))
     if edge.joint_type == "prismatic":
         return ("slides forward-back", "slides sideways", "slides up-down")[dominant]
