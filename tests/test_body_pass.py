@@ -207,6 +207,44 @@ def test_an_arm_whose_gripper_points_below_its_base_is_an_arm(seed):
     assert [(p.cls, list(p.joints)) for p in parts] == [("Arm", joints)]
 
 
+def test_an_upper_bodys_bare_arms_hanging_lowest_are_no_legs():
+    """A dual-arm upper body (a waist joint, a head, two bare six-joint arms hanging straight down at the zero pose)
+    whose stand the file leaves out: the arms' ends are its lowest links, so each arm "reached the ground" and the
+    reasoner made both legs. Nothing stands on them (no feet: hands.feet), so the reasoner's Arm axiom applies, as it
+    does to the legs of a robot standing on them (test_the_pass_finds_every_part_with_its_class_side_and_devices)."""
+    w = Writer(random.Random(21))
+    waist = w.link('<box size="0.3 0.3 0.2"/>')
+    chest = w.link('<box size="0.3 0.4 0.3"/>')
+    torso = [w.joint("revolute", waist, chest, (0.0, 0.0, 0.2), limits=(-1.5, 1.5))]
+    neck = w.link('<box size="0.05 0.05 0.05"/>')
+    head = [w.joint("revolute", chest, neck, (0.0, 0.0, 0.3), limits=(-1.5, 1.5))]
+    skull = w.link('<box size="0.15 0.15 0.15"/>')
+    head.append(w.joint("revolute", neck, skull, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0), (-0.5, 0.5)))
+    lens = w.link()
+    w.joint("fixed", skull, lens, (0.08, 0.0, 0.0))
+    camera = Component("camera", "sensor", "Camera", 1.0, skull, (SubComponent(lens, "RgbFrame", 1.0),))
+    arms = []
+    for y in (0.25, -0.25):
+        link, joints = chest, []
+        for k in range(6):
+            child = w.link('<box size="0.06 0.06 0.15"/>')
+            joints.append(w.joint("revolute", link, child, (0.0, y, 0.2) if k == 0 else (0.0, 0.0, -0.15),
+                                  (0.0, 0.0, 1.0) if k in (0, 3) else (0.0, 1.0, 0.0), (-2.0, 2.0)))
+            link = child
+        arms.append(joints)
+    tree = load_urdf(w.urdf())
+    assert min(tree.position_in(link, tree.root)[2] for link in tree.links) < -0.3  # the arms' ends hang lowest
+
+    def rule(question):
+        if question.key.startswith("side:"):
+            return question.options[0]
+        assert question.key == f"body:{torso[0]}", question.key  # the joint turning arms and head: asked
+        return "torso"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(
+        [("Arm", arms[0]), ("Arm", arms[1]), ("Head", head), ("Torso", torso)])
+
+
 def _arms_across(axis: int, left_sign: float):
     """Two mirrored 3-joint arms on a trunk, reaching out across the root's `axis` (a CAD export with y up places
     them across x), the left one on the `left_sign` side; their joints' names say which is left."""

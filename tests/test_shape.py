@@ -480,6 +480,59 @@ def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
     assert _identified(w.urdf(), lambda q: tool if _leaf(q) == jaw else NONE)[jaw] == TOOL_CLS
 
 
+def _servo_humanoid(seed: int, servo: tuple[float, float], grippers: bool = False) -> tuple[bytes, list[str], list[str]]:
+    """A small humanoid whose joints all turn through `servo`: two legs of six joints, two arms of three hanging
+    beside the trunk (as long as a large hand's fingers), a head on a pan and tilt; with `grippers`, two jaws of 3 cm
+    on each forearm. The arms' last links and the jaws."""
+    w = Writer(random.Random(seed))
+    trunk = w.link('<box size="0.1 0.15 0.12"/>')
+    forearms, jaws = [], []
+    for y in (0.08, -0.08):
+        link = trunk
+        for k in range(6):
+            child = w.link('<box size="0.03 0.03 0.04"/>')
+            w.joint("revolute", link, child, (0.0, y / 2, -0.06) if k == 0 else (0.0, 0.0, -0.04),
+                    (0.0, 0.0, 1.0) if k == 0 else (0.0, 1.0, 0.0), limits=servo)
+            link = child
+        link = trunk
+        for k in range(3):
+            child = w.link('<box size="0.03 0.03 0.08"/>')
+            w.joint("revolute", link, child, (0.0, y, 0.05) if k == 0 else (0.0, 0.0, -0.08),
+                    (0.0, 1.0, 0.0) if k == 0 else (1.0, 0.0, 0.0), limits=servo)
+            link = child
+        forearms.append(link)
+        for side in (1.0, -1.0) if grippers else ():
+            jaws.append(w.link('<box size="0.005 0.01 0.03"/>'))
+            w.joint("prismatic", link, jaws[-1], (side * 0.01, 0.0, -0.09), (side, 0.0, 0.0), limits=(-0.01, 0.0))
+    pan = w.link('<cylinder radius="0.02" length="0.02"/>')
+    w.joint("revolute", trunk, pan, (0.0, 0.0, 0.08), limits=servo)
+    tilt = w.link('<box size="0.06 0.06 0.06"/>')
+    w.joint("revolute", pan, tilt, (0.0, 0.0, 0.03), (0.0, 1.0, 0.0), limits=servo)
+    w.joint("fixed", tilt, w.link())
+    return w.urdf(), forearms, jaws
+
+
+def test_a_small_humanoids_arms_are_no_fingers_and_end_in_no_tool():
+    """A small humanoid of hobby servos, every joint turning +-2.8 rad: its arms are as short as a large hand's
+    fingers, so its trunk was read as a palm and each forearm became a one-finger gripper (or, with the hand gone, a
+    gyroscope). Fingers reach less than half as far as the legs the robot stands on, and no jaw nor sensor ends a
+    limb on a joint turning through more than half a turn: the forearms are the arms' own. With bounded ranges the
+    forearms are left to the model; jaws of 3 cm on them make two grippers."""
+    urdf, forearms, _ = _servo_humanoid(13, (-2.8, 2.8))
+    tree = load_urdf(urdf)
+    assert len(feet(tree)) == 2 and hands(tree) == [] and set(forearms) <= limb_ends(tree)
+    erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.2}
+    claims = _identified(urdf, lambda q: erring if _leaf(q) in forearms else NONE)
+    assert [claims[f] for f in forearms] == [NONE, NONE]
+    urdf, forearms, _ = _servo_humanoid(13, (-1.5, 1.5))
+    tree = load_urdf(urdf)
+    assert hands(tree) == [] and not set(forearms) & limb_ends(tree)
+    claims = _identified(urdf, lambda q: erring if _leaf(q) in forearms else NONE)
+    assert [claims[f] for f in forearms] == [TOOL_CLS, TOOL_CLS]
+    urdf, _, jaws = _servo_humanoid(13, (-2.8, 2.8), grippers=True)
+    assert sorted(leaf for _, leaves in hands(load_urdf(urdf)) for leaf in leaves) == sorted(jaws)
+
+
 def test_a_leaf_spinning_from_the_trunk_is_no_tool():
     """An underwater vehicle's thrusters (or a drone's rotors) spin on continuous joints from the hull: the erring model
     calls each an end effector at 0.5 (eight thrusters became one hand of eight tool frames). No tool spins there; a

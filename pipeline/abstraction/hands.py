@@ -13,6 +13,8 @@ from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of, rotate_
 from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
+HAND_TO_LEG = 0.5  # a hand's fingers reach less than this share of the legs' length (at most 0.25 in the truth
+# robots' and probes' hands; a small humanoid's arms reach 0.67 and 1.0 of its legs)
 MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
 TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' span across the hand, at most
 TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
@@ -46,9 +48,11 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
     fingers' linkages (a four-bar's crank beside a finger, whatever its bars' joints), and
     the pure frames fixed to its rigid body that lie out among the fingertips (_among_tips): tool centre points,
     on the hand itself or on the flange it is bolted to.
-    A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's."""
+    A joint that spins (Edge.spins) is a wheel's or a caster's, never a finger's. On a robot standing on legs, the
+    fingers reach less than HAND_TO_LEG of the legs' length from where they part (_leg_length)."""
     found = []
     standing = feet(tree)
+    legs = _leg_length(tree, standing)
     for fork in tree.links:
         small = [c for c in moving_children(tree, fork) if _hand_sized(tree, fork, c)]
         if len(small) < 2:
@@ -60,10 +64,21 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
         fingers = [f for f in structure.fingers if f.name in small]
         if len(fingers) < 2:
             continue
+        if max(norm(tree.position_in(link, fork)) for f in fingers for link in f.links) >= HAND_TO_LEG * legs:
+            continue  # a small robot's arms on its trunk, as long as its legs
         leaves += [link for c in structure.linkages if c not in small for link in (c, *tree.descendants(c))
                    if tree.is_leaf(link)]
         found.append((structure, list(dict.fromkeys([*leaves, *_tool_points(tree, structure.fork, fingers)]))))
     return found
+
+
+def _leg_length(tree: KinematicTree, standing: frozenset[str]) -> float:
+    """How high the link where the legs ending at the feet `standing` meet lies above them (infinite where the robot
+    stands on no legs)."""
+    if not standing:
+        return math.inf
+    meet = fork_of(tree, sorted(standing))
+    return tree.position_in(meet, tree.root)[2] - min(tree.position_in(foot, tree.root)[2] for foot in standing)
 
 
 def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
@@ -157,10 +172,12 @@ def off_limb_ends(tree: KinematicTree, found: list[tuple[ToolStructure, list[str
 
 def limb_ends(tree: KinematicTree) -> frozenset[str]:
     """Leaves that move on a joint of their own at the end of a limb: LIMB_JOINTS movable joints or more in series
-    above them, nothing branching off up to the first link that carries more than one child (or the root). Such a
-    leaf is the limb's own last link (a bare arm's flange, a foot), a jaw that closes against it or a finger, never
-    a sensor, which is fixed to what it measures from (a lidar's spinning head or a bumper on its own hinge is
-    moved by one joint, not by a limb). A joint whose limits give it no range does not move it."""
+    above them, nothing branching off up to the first link that carries more than one child (or the root), or two
+    or more where the leaf's revolute joint turns through more than half a turn (a small servo robot's forearm at
+    its elbow). Such a leaf is the limb's own last link (a bare arm's flange, a foot), a jaw that
+    closes against it or a finger, never a sensor, which is fixed to what it measures from (a lidar's spinning head
+    or a bumper on its own hinge is moved by one joint, not by a limb; a camera on a pan and tilt tilts over a
+    bounded arc). A joint whose limits give it no range does not move it."""
     ends = []
     for leaf in tree.leaves():
         if tree.parent(leaf) is None:  # a robot of one link
@@ -174,7 +191,8 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
             link = up.parent
             if len(tree.children(link)) > 1:
                 break
-        if joints >= LIMB_JOINTS:
+        if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and edge.limits is not None
+                                     and edge.limits[1] - edge.limits[0] > math.pi):
             ends.append(leaf)
     return frozenset(ends)
 

@@ -27,6 +27,7 @@ from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import placing_joints
+from urdfkb.pipeline.abstraction.hands import feet
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 
@@ -196,10 +197,11 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     """Each candidate's devices (the components whose mount it holds), followers and ground contact."""
     by_link = {link: ch for ch in found for link in ch.links}
     lowest = min(_height(tree, link) for link in tree.links if link != tree.root)
+    standing = feet(tree)
     devices = [[c for c in components if _nearest(tree, c.root, by_link) is chain] for chain in found]
     carries = [[i for i, other in enumerate(found) if other is not chain and other.mount in chain.links] for chain in found]
     tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
-    grounded = [_reaches_ground(tree, chain, lowest, tools) for chain in found]
+    grounded = [_reaches_ground(tree, chain, lowest, tools, standing) for chain in found]
     facts = [reasoning.PartFacts(tuple(_motion(e) for e in chain.joints), tuple(c.cls for c in held),
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
@@ -234,12 +236,17 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
         found[i].confidence = verdict.confidence
 
 
-def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float, tools: set[str]) -> bool:
+def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float, tools: set[str],
+                    standing: frozenset[str]) -> bool:
     """What the chain moves comes down to the robot's lowest frame, below where it hangs from (an arm on a
     fixed base holds the lowest frames too, but above its mount). An end-effector's links (`tools`) do not count:
-    a gripper an arm points down below its own base at the zero pose does not make the arm a leg."""
+    a gripper an arm points down below its own base at the zero pose does not make the arm a leg. A chain of two
+    joints or more comes down there at a foot the robot stands on (`standing`, hands.feet) or a wheel (a joint
+    that spins): the arms of an upper body on a stand the file leaves out hang lowest, but nothing stands on them."""
     moved = [link for e in chain.joints for link in (e.child, *tree.descendants(e.child)) if link not in tools]
     if not moved:
+        return False
+    if len(chain.joints) >= 2 and not standing & set(moved) and not any(tree.edge_to(link).spins for link in moved):
         return False
     reach = min(_height(tree, link) for link in moved)
     return reach <= lowest + GROUND_EPS and reach < _height(tree, chain.mount) - GROUND_EPS
