@@ -330,6 +330,48 @@ def build_open_hand(seed: int) -> Built:
                  f"open hand of {k} fingers, thumb on the {'+x' if side > 0 else '-x'} side", yaw_link)
 
 
+def build_flat_pair(seed: int) -> Built:
+    """A two-finger gripper written fully open, as underactuated ones are: two fingers laid out flat from the palm
+    (+y and -y, half a turn apart), each curling up and in by two joints whose ranges lie on one side of zero
+    (either side, finger by finger; the second often a <mimic> of the first, the second finger's drive sometimes
+    following the first finger's). At the zero pose both tips move up (+z), alongside: only half closed do they
+    close on each other."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    box = '<box size="0.02 0.02 0.02"/>'
+    flange = w.link(box)
+    palm = w.link('<box size="0.08 0.1 0.05"/>')
+    w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
+    coupled = rng.random() < 0.5  # the second finger's drive follows the first's
+    chains: list[Chain] = []
+    curls: list[float] = []
+    for along in (1.0, -1.0):
+        curl = rng.choice([1.0, -1.0])
+        parent, start, links, drive = palm, (0.0, along * 0.03, 0.05), [], ""
+        reaches = (rng.uniform(1.6, 2.0), rng.uniform(0.8, 1.2))
+        for j, reach in enumerate(reaches):
+            child = w.link(box)
+            limits = (0.0, reach) if curl > 0 else (-reach, 0.0)
+            if j:
+                follows, multiplier = (drive if rng.random() < 0.5 else None), round(reach / reaches[0], 3)
+            else:
+                follows, multiplier = (chains[0].drive if chains and coupled else None), curl * (curls or [1.0])[0]
+            joint = w.joint("revolute", parent, child, start, (along * curl, 0.0, 0.0), limits, mimic=follows,
+                            multiplier=multiplier)
+            drive = drive or joint
+            links.append(child)
+            parent, start = child, (0.0, along * rng.uniform(0.04, 0.06), 0.0)
+        tip = w.link()
+        w.joint("fixed", parent, tip, start)
+        mimics = chains[0].name if chains and coupled else None
+        chains.append(Chain([*links, tip], drive, "pivoting", mimics, "jaw"))
+        curls.append(curl)
+    tool_links = {palm}.union(*(c.links for c in chains))
+    leaves = sorted(c.links[-1] for c in chains)
+    return Built(w.urdf(), "flat", "ParallelGripper", flange, palm, tool_links, leaves, chains, flange,
+                 f"flat two-finger gripper, curls {curls}, coupled {coupled}")
+
+
 def build_flat_gripper(seed: int) -> Built:
     """A three-finger gripper written flat, as the BarrettHand is: fingers laid out from the palm (+y for a pair
     side by side at -/+x, -y for the one facing them), each curling up and in by two or three joints whose ranges

@@ -9,7 +9,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from tests.hand_robots import Built, build, build_flat_gripper, build_open_hand
+from tests.hand_robots import Built, build, build_flat_gripper, build_flat_pair, build_open_hand
 from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.reading.ingest import load_urdf
@@ -136,7 +136,8 @@ def test_the_generator_covers_every_layout():
 @pytest.mark.reasoner
 def test_the_reasoner_infers_each_kind():
     builds = [build(seed) for seed in REASONED] + [build_open_hand(seed) for seed in range(4)] \
-        + [build_flat_gripper(seed) for seed in range(4)] + [build(seed, linkages=True) for seed in range(0, 400, 50)]
+        + [build_flat_gripper(seed) for seed in range(4)] + [build_flat_pair(seed) for seed in range(4)] \
+        + [build(seed, linkages=True) for seed in range(0, 400, 50)]
     structures = [settled(b)[1][0][1] for b in builds]
     inferred, _ = classify(structures)
     assert [i.cls for i in inferred] == [b.kind for b in builds]
@@ -223,6 +224,15 @@ def test_a_suction_gripper_on_its_own_is_one_tool_and_a_cup_on_a_base_is_none(cu
         result = settle(tree, [Group([sub_chain(tree, leaf, base) for leaf in leaves])], lambda leaf: leaf in leaves,
                         notes.append)
         assert [sorted(g.leaves) for g, _ in result] == ([] if wheels else [sorted(leaves)]), notes
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_a_two_finger_gripper_written_flat_is_seen_half_closed(seed):
+    """Two fingers laid out flat, half a turn apart (an underactuated gripper written fully open): at the zero pose
+    both tips move up, alongside, so no pair closed and the fingers were typed two arms. Half closed they close on
+    each other: a parallel gripper of two jaws."""
+    built = build_flat_pair(seed)
+    assert problems(built) == [], built.description
 
 
 @pytest.mark.parametrize("seed", range(40))

@@ -191,6 +191,29 @@ def test_the_jaws_of_an_arm_hanging_below_a_vehicle_are_no_feet():
     assert feet(tree) == frozenset()
 
 
+def test_the_fingers_of_a_gripper_hanging_lowest_on_an_arm_are_no_feet():
+    """A free flyer's arm hangs below its body and ends in a gripper of two fingers of two joints each, its lowest
+    links: they part with two joints each, as legs do, but a few centimetres above their tips, where legs part
+    STANCE or more above their feet: no feet (the arm and gripper were typed three legs), a gripper."""
+    w = Writer(random.Random(17))
+    body = w.link('<box size="0.3 0.3 0.3"/>')
+    proximal, distal = w.link('<box size="0.03 0.03 0.1"/>'), w.link('<box size="0.03 0.03 0.1"/>')
+    w.joint("revolute", body, proximal, (0.0, 0.0, -0.15), (0.0, 1.0, 0.0), limits=(-1.5, 1.5))
+    w.joint("revolute", proximal, distal, (0.0, 0.0, -0.1), (0.0, 1.0, 0.0), limits=(-1.5, 1.5))
+    tips = []
+    for y in (0.02, -0.02):
+        link, start = distal, (0.0, y, -0.05)
+        for k in range(2):
+            child = w.link('<box size="0.01 0.01 0.02"/>')
+            w.joint("revolute", link, child, start, (y / abs(y), 0.0, 0.0), limits=(-1.0, 0.0) if k else (0.0, 1.0))
+            link, start = child, (0.0, 0.0, -0.02)
+        tips.append(link)
+    tree = load_urdf(w.urdf())
+    assert all(tree.position_in(tip, tree.root)[2] < -0.25 for tip in tips)  # the lowest links, 0.3 below the body
+    assert feet(tree) == frozenset()
+    assert sorted(leaf for _, leaves in hands(tree) for leaf in leaves) == sorted(tips)
+
+
 def _biped(w: Writer, trunk: str, rod: bool) -> list[str]:
     """Two legs of four joints hanging from `trunk`, each ending in a sole frame, `rod`: with a bar on its own
     continuous joint hanging from each thigh (a loop-cut linkage rod). The soles."""

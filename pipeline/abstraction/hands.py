@@ -279,8 +279,9 @@ def _on_trunk(tree: KinematicTree, link: str, placing: frozenset[str]) -> bool:
 def feet(tree: KinematicTree) -> frozenset[str]:
     """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
     of the robot's lowest link origin at the zero pose, reached from the trunk by legs (_from_trunk_by_legs) that
-    part where they all meet with two movable joints or more each (the jaws of an underwater vehicle's gripper,
-    hanging lowest, part with one each), on a robot whose root (or trunk, below joints placing it: frames.placing_joints)
+    part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
+    underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
+    arm, parts a few centimetres above its fingertips), on a robot whose root (or trunk, below joints placing it: frames.placing_joints)
     lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
@@ -293,7 +294,9 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low), placing)]
     if len(limbs) < 2:
         return frozenset()
-    meet = fork_of(tree, limbs)  # legs part there, each with two joints or more of its own
+    meet = fork_of(tree, limbs)  # legs part there, STANCE above the feet, each with two joints or more of its own
+    if height[meet] - lowest < STANCE:
+        return frozenset()
     legs = [leaf for leaf in limbs if _movable_between(tree, leaf, meet) >= 2]
     return frozenset(legs) if len(legs) >= 2 else frozenset()
 

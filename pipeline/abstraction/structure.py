@@ -137,7 +137,7 @@ def _top_body(tree: KinematicTree, link: str) -> str:
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Fingers' linkages
     (_linkages) close on nothing, and with the bars inside fingers (linkage_bars) neither end a finger nor decide
-    the pose; where, of three other chains with bodies or more, one closes on none at the written pose, the
+    the pose; where, of two chains with bodies or more, one closes on none at the written pose, the
     fingers are looked at again half closed (_half_closed), and that look is kept where more chains close on
     others (fingers written flat, curling the same way at first)."""
     fork = fork_of(tree, leaves)
@@ -155,7 +155,7 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     held = {tree.edge_to(link).joint for link in [*bars, *(link for a in linkages for link in chains[a][0])]}
     pose = _configuration(tree, held)
     structure = _structure_at(tree, fork, chains, bodies, linkages, pose)
-    if len(fingered := bodies - linkages) >= 3 and len(structure.fingers) < len(fingered):
+    if len(fingered := bodies - linkages) >= 2 and len(structure.fingers) < len(fingered):
         spreads = {joint for a in fingered for joint in _spreads(tree, chains[a][0])}
         again = _structure_at(tree, fork, chains, bodies, linkages, _half_closed(tree, chains, fingered, pose, spreads),
                               spreads, closing_sense=True)
