@@ -51,6 +51,7 @@ from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 _WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
 VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
+INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 
@@ -132,11 +133,13 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
-def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str]) -> bool:
+def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str], apart: frozenset[str]) -> bool:
     """The two leaves are frames of one body and one of them was called a vision sensor: the other is the camera's
     own inertial, magnetic or temperature frame, or its model frame, which belongs to the camera whatever it
-    measures (ontology.md: a camera's own inertial frames belong to it)."""
-    return VISION in (categories[a.leaf], categories[b.leaf]) and _one_body(tree, a, b)
+    measures (ontology.md: a camera's own inertial frames belong to it), unless the file declares on it a sensor of
+    its own that no camera carries (`apart`: a sonar beside a downward camera)."""
+    return VISION in (categories[a.leaf], categories[b.leaf]) and not {a.leaf, b.leaf} & apart \
+        and _one_body(tree, a, b)
 
 
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
@@ -180,12 +183,14 @@ def _meet_inside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 
 
 def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str, categories: dict[str, str],
-          progress: Progress | None = None) -> list[Group]:
-    """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category."""
+          progress: Progress | None = None, apart: frozenset[str] = frozenset()) -> list[Group]:
+    """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category; `apart`:
+    leaves declared as sensors of their own that no camera carries (never a camera's built-in frame)."""
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories)) and _near(tree, a, b)
+        could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
+                  and _near(tree, a, b)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b)) for j, b in enumerate(chains)]

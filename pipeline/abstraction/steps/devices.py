@@ -8,7 +8,7 @@ from typing import Callable
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
-from urdfkb.pipeline.abstraction.stages.grouping import Group, merge, one_mount
+from urdfkb.pipeline.abstraction.stages.grouping import INERTIAL, VISION, Group, merge, one_mount
 from urdfkb.pipeline.abstraction.stages.verification import group_root, verify
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
@@ -54,7 +54,22 @@ def group_merging(ctx: Context, found: Findings) -> None:
     """Sub-chains into devices, sub-chains of one sensor category together (stages.grouping.merge)."""
     kind = ctx.device_kind
     categories = {leaf: category(ctx, t.cls, kind.cls) for leaf, t in found.pre.items()}
-    found.groups = merge(ctx.oracle, ctx.tree, found.chains, kind.name, categories, ctx.progress)
+    found.groups = merge(ctx.oracle, ctx.tree, found.chains, kind.name, categories, ctx.progress,
+                         _measuring_apart(ctx, [c.leaf for c in found.chains]))
+
+
+def _measuring_apart(ctx: Context, leaves: list[str]) -> frozenset[str]:
+    """Leaves the file declares, on themselves, a simulator sensor of that no camera carries: of a category other
+    than vision and inertial (a sonar's frame beside a downward camera). A camera's own inertial frames belong to it;
+    such a frame measures apart from any camera beside it."""
+    carried = {c for c in ctx.vocab.subclasses(ctx.device_kind.cls) if c in (VISION, INERTIAL)}
+    apart = []
+    for leaf in leaves:
+        own = [s.type for s in ctx.tree.evidence[leaf].sensors if s.reference == leaf] if leaf in ctx.tree.evidence else []
+        declared = ctx.vocab.declared_classes(own)
+        if declared and not any(ctx.vocab.is_a(c, k) for c in declared for k in carried):
+            apart.append(leaf)
+    return frozenset(apart)
 
 
 @step("group merging", needs=("chains",), makes=("groups",))
