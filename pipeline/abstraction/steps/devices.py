@@ -59,13 +59,14 @@ def group_merging(ctx: Context, found: Findings) -> None:
 
 
 def _measuring_apart(ctx: Context, leaves: list[str]) -> frozenset[str]:
-    """Leaves the file declares, on themselves, a simulator sensor of that no camera carries: of a category other
+    """Leaves the file declares, on themselves, a simulator sensor of a kind no camera carries: of a category other
     than vision and inertial (a sonar's frame beside a downward camera). A camera's own inertial frames belong to it;
     such a frame measures apart from any camera beside it."""
     carried = {c for c in ctx.vocab.subclasses(ctx.device_kind.cls) if c in (VISION, INERTIAL)}
     apart = []
     for leaf in leaves:
-        own = [s.type for s in ctx.tree.evidence[leaf].sensors if s.reference == leaf] if leaf in ctx.tree.evidence else []
+        facts = ctx.tree.evidence.get(leaf)
+        own = [s.sdf_type for s in facts.sensors if s.reference == leaf] if facts is not None else []
         declared = ctx.vocab.declared_classes(own)
         if declared and not any(ctx.vocab.is_a(c, k) for c in declared for k in carried):
             apart.append(leaf)
