@@ -330,54 +330,60 @@ def build_open_hand(seed: int) -> Built:
                  f"open hand of {k} fingers, thumb on the {'+x' if side > 0 else '-x'} side", yaw_link)
 
 
+def _flat_finger(w: Writer, rng: random.Random, parent: str, xyz, along: float, joints: int,
+                 follows: tuple[str, float] | None = None) -> tuple[list[str], str, float]:
+    """A finger from `xyz` on `parent` laid flat along `along` * y, curling up by `joints` joints whose ranges lie on
+    the side of zero a coin picks (files write both, and mirror some fingers only), the first furthest, the others
+    often a <mimic> of it; `follows`: a joint its drive follows and that joint's curl (a finger driven by another).
+    Its links (the tip frame last), its drive and its curl."""
+    curl = rng.choice([1.0, -1.0])
+    links, drive, start, first = [], "", xyz, 1.0
+    for j in range(joints):
+        child = w.link('<box size="0.02 0.02 0.02"/>')
+        reach = rng.uniform(1.6, 2.5) if j == 0 else rng.uniform(0.6, 1.0)  # the first joint curls furthest
+        first = reach if j == 0 else first
+        limits = (0.0, reach) if curl > 0 else (-reach, 0.0)
+        if j:
+            mimic, multiplier = (drive if rng.random() < 0.5 else None), round(reach / first, 3)
+        else:  # following a finger of the other curl, it turns the other way
+            mimic, multiplier = (follows[0], curl * follows[1]) if follows else (None, 1.0)
+        joint = w.joint("revolute", parent, child, start, (along * curl, 0.0, 0.0), limits, mimic=mimic,
+                        multiplier=multiplier)
+        drive = drive or joint
+        links.append(child)
+        parent, start = child, (0.0, along * rng.uniform(0.05, 0.07), 0.0)
+    tip = w.link()
+    w.joint("fixed", parent, tip, start)
+    return [*links, tip], drive, curl
+
+
 def build_flat_pair(seed: int) -> Built:
     """A two-finger gripper written fully open, as underactuated ones are: two fingers laid out flat from the palm
-    (+y and -y, half a turn apart), each curling up and in by two joints whose ranges lie on one side of zero
-    (either side, finger by finger; the second often a <mimic> of the first, the second finger's drive sometimes
-    following the first finger's). At the zero pose both tips move up (+z), alongside: only half closed do they
+    (+y and -y, half a turn apart), each curling up and in by two joints (_flat_finger), the second finger's drive
+    sometimes following the first's. At the zero pose both tips move up (+z), alongside: only half closed do they
     close on each other."""
     rng = random.Random(seed)
     w = Writer(rng)
-    box = '<box size="0.02 0.02 0.02"/>'
-    flange = w.link(box)
+    flange = w.link('<box size="0.02 0.02 0.02"/>')
     palm = w.link('<box size="0.08 0.1 0.05"/>')
     w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
     coupled = rng.random() < 0.5  # the second finger's drive follows the first's
-    chains: list[Chain] = []
-    curls: list[float] = []
-    for along in (1.0, -1.0):
-        curl = rng.choice([1.0, -1.0])
-        parent, start, links, drive = palm, (0.0, along * 0.03, 0.05), [], ""
-        reaches = (rng.uniform(1.6, 2.0), rng.uniform(0.8, 1.2))
-        for j, reach in enumerate(reaches):
-            child = w.link(box)
-            limits = (0.0, reach) if curl > 0 else (-reach, 0.0)
-            if j:
-                follows, multiplier = (drive if rng.random() < 0.5 else None), round(reach / reaches[0], 3)
-            else:
-                follows, multiplier = (chains[0].drive if chains and coupled else None), curl * (curls or [1.0])[0]
-            joint = w.joint("revolute", parent, child, start, (along * curl, 0.0, 0.0), limits, mimic=follows,
-                            multiplier=multiplier)
-            drive = drive or joint
-            links.append(child)
-            parent, start = child, (0.0, along * rng.uniform(0.04, 0.06), 0.0)
-        tip = w.link()
-        w.joint("fixed", parent, tip, start)
-        mimics = chains[0].name if chains and coupled else None
-        chains.append(Chain([*links, tip], drive, "pivoting", mimics, "jaw"))
-        curls.append(curl)
+    first, drive, curl = _flat_finger(w, rng, palm, (0.0, 0.03, 0.05), 1.0, 2)
+    second, follower, other = _flat_finger(w, rng, palm, (0.0, -0.03, 0.05), -1.0, 2,
+                                           follows=(drive, curl) if coupled else None)
+    chains = [Chain(first, drive, "pivoting", None, "jaw"),
+              Chain(second, follower, "pivoting", first[0] if coupled else None, "jaw")]
     tool_links = {palm}.union(*(c.links for c in chains))
     leaves = sorted(c.links[-1] for c in chains)
     return Built(w.urdf(), "flat", "ParallelGripper", flange, palm, tool_links, leaves, chains, flange,
-                 f"flat two-finger gripper, curls {curls}, coupled {coupled}")
+                 f"flat two-finger gripper, curls {[curl, other]}, coupled {coupled}")
 
 
 def build_flat_gripper(seed: int) -> Built:
     """A three-finger gripper written flat, as the BarrettHand is: fingers laid out from the palm (+y for a pair
-    side by side at -/+x, -y for the one facing them), each curling up and in by two or three joints whose ranges
-    lie on one side of zero (either side, finger by finger), the first furthest (the others often a <mimic>); each
-    of the pair first turns on a spread joint about the palm's axis (z), the third hangs on a knuckle fixed to the
-    palm. At the zero pose every tip moves up (+z), the pair's spread joints move their tips towards each other:
+    side by side at -/+x, -y for the one facing them), each curling up and in by two or three joints (_flat_finger);
+    each of the pair first turns on a spread joint about the palm's axis (z), the third hangs on a knuckle fixed to
+    the palm. At the zero pose every tip moves up (+z), the pair's spread joints move their tips towards each other:
     only half closed do the fingers close on one another."""
     rng = random.Random(seed)
     w = Writer(rng)
@@ -387,37 +393,17 @@ def build_flat_gripper(seed: int) -> Built:
     w.joint("fixed", flange, palm, (0.0, 0.0, 0.02))
     spread = rng.choice([(0.0, math.pi), (-0.6, 0.6)])
     height, offset = rng.uniform(0.03, 0.05), rng.uniform(0.03, 0.05)
-
-    def finger(parent: str, xyz, along: float, joints: int) -> tuple[list[str], str]:
-        """A finger from `xyz` on `parent` laid along `along` * y, curling up by `joints` joints, its ranges on the
-        side of zero a coin picks (files write both, and mirror some fingers only)."""
-        curl = rng.choice([1.0, -1.0])
-        links, drive, start, first = [], "", xyz, 1.0
-        for j in range(joints):
-            child = w.link(box)
-            reach = rng.uniform(1.6, 2.5) if j == 0 else rng.uniform(0.6, 1.0)  # the first joint curls furthest
-            first = reach if j == 0 else first
-            limits = (0.0, reach) if curl > 0 else (-reach, 0.0)
-            joint = w.joint("revolute", parent, child, start, (along * curl, 0.0, 0.0), limits,
-                            mimic=drive if j and rng.random() < 0.5 else None, multiplier=round(reach / first, 3))
-            drive = drive or joint
-            links.append(child)
-            parent, start = child, (0.0, along * rng.uniform(0.05, 0.07), 0.0)
-        tip = w.link()
-        w.joint("fixed", parent, tip, start)
-        return [*links, tip], drive
-
     chains, tool_links = [], {palm}
     for side in (1.0, -1.0):
         base = w.link(box)
         axis = (0.0, 0.0, side * rng.choice([1.0, -1.0]))
         turn = w.joint("revolute", palm, base, (side * rng.uniform(0.02, 0.03), 0.0, height), axis, spread)
-        links, _ = finger(base, (0.0, offset, 0.0), 1.0, 2)
+        links, _, _ = _flat_finger(w, rng, base, (0.0, offset, 0.0), 1.0, 2)
         chains.append(Chain([base, *links], turn, "pivoting", None, "finger"))
     knuckle = w.link(box)
     w.joint("fixed", palm, knuckle, (0.0, 0.0, height))
     tool_links.add(knuckle)
-    links, drive = finger(knuckle, (0.0, -offset, 0.0), -1.0, rng.randint(2, 3))
+    links, drive, _ = _flat_finger(w, rng, knuckle, (0.0, -offset, 0.0), -1.0, rng.randint(2, 3))
     chains.append(Chain(links, drive, "pivoting", None, "thumb"))
     for c in chains:
         tool_links.update(c.links)

@@ -9,7 +9,7 @@ import math
 from urdfkb.pipeline.abstraction.frames import is_frame, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
-from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of, rotate_rpy
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
 from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
@@ -191,8 +191,7 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
             link = up.parent
             if len(tree.children(link)) > 1:
                 break
-        if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and edge.limits is not None
-                                     and edge.limits[1] - edge.limits[0] > math.pi):
+        if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and _past_half_turn(edge)):
             ends.append(leaf)
     return frozenset(ends)
 
@@ -252,10 +251,15 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
         return True
     if edge.joint_type not in ("revolute", "continuous"):
         return False
-    if edge.limits is not None and edge.limits[1] - edge.limits[0] > math.pi:
+    if _past_half_turn(edge):
         return True
     out, axis = edge.origin.xyz, unit(rotate_rpy(edge.origin.rpy, edge.axis))
     return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
+
+
+def _past_half_turn(edge: Edge) -> bool:
+    """The joint's limits give it a range of more than half a turn."""
+    return edge.limits is not None and edge.limits[1] - edge.limits[0] > math.pi
 
 
 def spinning_on_trunk(tree: KinematicTree) -> frozenset[str]:

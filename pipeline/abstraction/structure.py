@@ -17,7 +17,7 @@
   the same axis turns the other way; fingers following a thumb whose range reaches below zero close as
   it turns negatively). Motions are taken with every joint at zero,
   as written (open, on most hands), or, where zero lies outside some joint's range, every joint
-  halfway through its range; where, of three chains with bodies or more, one then closes on none, once more
+  halfway through its range; where, of two chains with bodies or more, one then closes on none, once more
   half closed (_half_closed), a finger's spread joints (square to the parallel joints that curl it) left where
   they were and not its closing joint. A chain pivoting about the same axis as another chain's drive and reaching
   less far (_linkages: a four-bar's crank beside the finger it moves) is that finger's linkage. A driven
