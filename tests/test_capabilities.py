@@ -282,6 +282,34 @@ def test_hermit_finds_a_monocular_camera_that_sees_from_two_places_inconsistent(
         owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
 
 
+@pytest.mark.reasoner
+def test_what_a_ranging_sensor_emits_is_stored_and_checked_by_the_reasoner():
+    """Population writes core:rangingRadiation as the range plugin states it; HermiT finds the populated robot
+    consistent, and the same sensor typed a sonar inconsistent (a sonar emits ultrasound)."""
+    from tests.test_evidence import _range_plugins
+    from urdfkb.pipeline.knowledge.export import robot_graph
+    from urdfkb.pipeline.llm.scripted import ScriptedBackend
+    from urdfkb.pipeline.runner import Settings, run
+    urdf, _ = _range_plugins(3, [("infrared", 0.3, None)])
+    tree = load_urdf(urdf)
+    found = run(tree, Settings(use_cache=False), backend=ScriptedBackend(lambda q: q.options[0]))
+    [ranger] = [c for c in found.components if c.kind == SENSOR]
+    assert ranger.cls == "RangingSensor"
+    world = owlready2.World()
+    robot = build_robot(world, tree, "floor", found)
+    graph = robot_graph(robot)
+    [ind] = graph.subjects(CORE.rangingRadiation, None)
+    assert str(graph.value(ind, CORE.rangingRadiation)) == "infrared"
+    owlready2.sync_reasoner(world, infer_property_values=False, debug=0)
+    wrong = owlready2.World()
+    build_robot(wrong, tree, "floor", replace(found, components=tuple(replace(c, cls="Sonar") if c is ranger else c
+                                                                      for c in found.components)))
+    sonar = next(wrong.sparql("SELECT ?s WHERE { ?s a <%sSonar> }" % CORE))[0]
+    wrong[str(CORE.rangingRadiation)][sonar].append("infrared")  # what population leaves out for a sonar
+    with pytest.raises(owlready2.OwlReadyInconsistentOntologyError):
+        owlready2.sync_reasoner(wrong, infer_property_values=False, debug=0)
+
+
 def test_population_finds_where_each_capability_goes_in_the_ontology():
     assert (TAX.domain("reachMetres"), TAX.domain("panRangeRadians"), TAX.domain("maxOpeningMetres")) == ("Arm", "Head", "Gripper")
     assert (TAX.domain("hasOpticalFrame"), TAX.range("hasOpticalFrame")) == ("Camera", "OpticalFrame")

@@ -108,6 +108,26 @@ def test_the_numbers_of_both_forms_are_read_in_si_units(shared):
     assert (xtion.type, xtion.image, xtion.fov, xtion.rate) == ("depth", (640, 480), pytest.approx(1.0995574), 30.0)
 
 
+def test_a_range_plugin_states_what_its_sensor_emits_and_without_a_scan_its_cone(shared):
+    """sensor_msgs/Range's radiation type, as ROS 1's gazebo_ros_range (`radiation`) and ROS 2's gazebo_ros_ray_sensor
+    (`radiation_type`) state it; the plugin's `fov` is the span where the ray block states no scan, never beside one."""
+    def ranger(ray: str, plugin: str) -> SimSensor:
+        [sensor] = load_urdf(f'<robot name="r"><link name="a"/><gazebo reference="a"><sensor name="s" type="ray">'
+                             f'<ray>{ray}<range><min>0.01</min><max>0.1</max></range></ray>'
+                             f'<plugin filename="libgazebo_ros_range.so" name="p">{plugin}</plugin></sensor></gazebo>'
+                             f'</robot>'.encode()).evidence["a"].sensors
+        return sensor
+    cone = ranger("", "<radiation>infrared</radiation><fov>0.3</fov>")
+    assert (cone.fov, cone.samples, cone.radiation, cone.ranging) == (0.3, None, "infrared", True)
+    scan = "<scan><horizontal><samples>5</samples><min_angle>-0.25</min_angle><max_angle>0.25</max_angle></horizontal></scan>"
+    swept = ranger(scan, "<radiation_type> Ultrasound </radiation_type><fov>1.5</fov>")
+    assert (swept.fov, swept.samples, swept.radiation) == (0.5, 5, "ultrasound")
+    assert ranger("", "<radiation>laser</radiation>").radiation is None  # not one of the message's two
+    assert ranger("", "<radiation>infrared</radiation><radiation_type>ultrasound</radiation_type>").radiation is None
+    [sonar, *_] = load_urdf(shared / "urdf" / "pepper.urdf").evidence["SonarFront_frame"].sensors
+    assert (sonar.radiation, sonar.samples) == ("ultrasound", 5)
+
+
 def test_evidence_stored_before_the_numbers_were_kept_still_loads(bot):
     old = {"meshes": [], "shape": "", "mass": None, "sensors": [{"type": "ray", "plugins": ["p"], "detail": "8 rays"}]}
     assert LinkEvidence.from_dict(old).sensors == (SimSensor("ray", ("p",)),)
@@ -234,6 +254,56 @@ def test_a_declared_span_rules_out_the_ranging_kinds_it_is_too_narrow_for(seed):
     assert seen[f"pre:{wide}@RangingSensor"].options == ("lidar", "sonar", "other ranging sensor")  # both kinds fit 60 degrees
     assert seen[f"pre:{cone}@RangingSensor"].options == ("sonar", "other ranging sensor")  # core:otherAnswer stays offered
     assert not any(k.startswith(f"pre:{beam}@") for k in seen)
+
+
+def _range_plugins(seed: int, rangers: list[tuple[str, float, float | None]]) -> tuple[bytes, list[str]]:
+    """A base with one `ray` sensor per (radiation, plugin cone in rad, scan span in rad or None), each publishing
+    sensor_msgs/Range through gazebo_ros_range, each a bare frame of meaningless name."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    leaves, gazebo = [], []
+    for i, (radiation, cone, span) in enumerate(rangers):
+        leaf = w.link()
+        w.joint("fixed", base, leaf, xyz=(0.2, 0.05 * i, 0.05))
+        scan = (f"<scan><horizontal><samples>5</samples><min_angle>{-span / 2}</min_angle><max_angle>{span / 2}"
+                f"</max_angle></horizontal></scan>" if span is not None else "")
+        gazebo.append(f'<gazebo reference="{leaf}"><sensor name="s{i}" type="ray"><ray>{scan}<range><min>0.01</min>'
+                      f'<max>0.2</max></range></ray><plugin filename="libgazebo_ros_range.so" name="p{i}">'
+                      f'<frameName>{leaf}</frameName><radiation>{radiation}</radiation><fov>{cone}</fov></plugin>'
+                      f'</sensor></gazebo>')
+        leaves.append(leaf)
+    return w.urdf().replace(b"</robot>", "".join(gazebo).encode() + b"</robot>"), leaves
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_what_a_ranging_sensor_emits_rules_out_the_kinds_that_emit_otherwise(seed):
+    """core:rangingRadiation values: a sonar emits ultrasound, a lidar infrared light. The erring model answers
+    "lidar" first (as the real one did for a small robot's two infrared floor sensors, each a 0.3 rad cone
+    stated by its range plugin alone): an infrared cone too narrow for a lidar is a ranging sensor of no more
+    specific kind, unasked; an ultrasound cone wide enough for a lidar is offered no lidar."""
+    urdf, (floor, wide_sonar, scanned_ir) = _range_plugins(seed, [("infrared", 0.3, None), ("ultrasound", 1.0, 1.05),
+                                                                  ("infrared", 0.5, 0.5)])
+    seen: dict[str, Question] = {}
+
+    def rule(q: Question):
+        seen[q.key] = q
+        return {"check": "sensor", "identify": "sensor"}.get(q.key.partition(":")[0], q.options[0])
+
+    trace: list[str] = []
+    found = {c.subcomponents[-1].link: c.cls
+             for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX, log=trace.append).run(load_urdf(urdf)).components}
+    assert found[floor] == "RangingSensor" and not any(k.startswith(f"pre:{floor}@") for k in seen)
+    assert seen[f"pre:{wide_sonar}@RangingSensor"].options == ("sonar", "other ranging sensor")
+    assert found[wide_sonar] == "Sonar"
+    assert found[scanned_ir] == "RangingSensor"  # 0.5 rad of infrared: too narrow for a lidar, and no sonar
+    assert any("emitting infrared, not ['Sonar']" in line for line in trace)
+
+
+def test_the_ontology_says_what_each_ranging_kind_emits():
+    assert TAX.emitting_otherwise("infrared", "RangingSensor") == {"Sonar"}
+    assert TAX.emitting_otherwise("ultrasound", "RangingSensor") == {"Lidar"}
+    assert TAX.emitting_otherwise("infrared", "Sensor") == {"Sonar"}
+    assert TAX.domain("rangingRadiation") == "RangingSensor"
 
 
 @pytest.mark.parametrize("seed", range(5))

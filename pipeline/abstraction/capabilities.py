@@ -64,6 +64,7 @@ class SensorSpec:
     min_range: float | None = None     # m
     max_range: float | None = None     # m
     resolution: float | None = None    # m
+    radiation: str | None = None       # what a ranging sensor emits ("ultrasound", "infrared")
 
 
 def sensor_spec(tree: KinematicTree, vocab: Vocabulary, comp: Component) -> SensorSpec:
@@ -71,7 +72,7 @@ def sensor_spec(tree: KinematicTree, vocab: Vocabulary, comp: Component) -> Sens
     declared = _declarations(tree, vocab, comp)
     named = [s.frame or s.reference for s in declared]
     numbers = {f: _agreed(getattr(s, f) for s in declared)
-               for f in ("rate", "fov", "image", "samples", "min_range", "max_range", "resolution")}
+               for f in ("rate", "fov", "image", "samples", "min_range", "max_range", "resolution", "radiation")}
     return SensorSpec(tuple(dict.fromkeys(named)) or _own_frames(tree, vocab, comp), **numbers)
 
 

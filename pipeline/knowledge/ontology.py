@@ -20,7 +20,7 @@ from rdflib.namespace import OWL, RDF, RDFS, SH, SKOS
 from urdfkb.pipeline.knowledge import rdf
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.knowledge.namespaces import CORE, CORE_IRI, CORE_ONTOLOGY_IRI
-from urdfkb.pipeline.knowledge.ontology_axioms import count_range, local_name, needed_parts, placement_of, restricted_parts
+from urdfkb.pipeline.knowledge.ontology_axioms import count_range, local_name, needed_parts, placement_of, restricted_parts, stated_value
 
 _LOADED_MARK = CORE_IRI + "ontologyVersion"
 FINGER_CHAIN_ROLES = ("link", "tip", "carrier")  # the values core:fingerChainRole may take
@@ -118,6 +118,7 @@ class Vocabulary:
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
         self._elements: dict[str, tuple[float, float]] = {}  # sensor class → the sensing-frame counts it allows
         self._fields: dict[str, tuple[float, float]] = {}  # ray sensor class → the declared spans (rad) it allows
+        self._radiation: dict[str, str] = {}  # ranging sensor class → what it emits (core:rangingRadiation value)
         self._rank: dict[str, float] = {}  # class → core:optionRank
         self._other: dict[str, tuple[str, str]] = {}  # class → (core:otherAnswer, core:otherComment)
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
@@ -140,6 +141,8 @@ class Vocabulary:
                 self._elements[name] = elements
             if (field := count_range(graph, node, CORE.horizontalFieldOfViewRadians)) is not None:
                 self._fields[name] = field
+            if (radiation := stated_value(graph, node, CORE.rangingRadiation)) is not None:
+                self._radiation[name] = radiation
             if (placement := placement_of(graph, node)) is not None:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
@@ -380,6 +383,12 @@ class Vocabulary:
         """Classes under `below` that a sensor declared to sweep `span` radians cannot be
         (core:horizontalFieldOfViewRadians restrictions: a lidar sweeps a wide field, a sonar a cone)."""
         return self._outside(self._fields, span, below)
+
+    def emitting_otherwise(self, radiation: str, below: str) -> frozenset[str]:
+        """Classes under `below` that a ranging sensor declared to emit `radiation` cannot be (core:rangingRadiation
+        values stated on them or on a class above them: a sonar emits ultrasound, a lidar infrared light)."""
+        return frozenset(c for c in self.subclasses_below(below)
+                         if any(self._radiation.get(a, radiation) != radiation for a in (c, *self.ancestors(c))))
 
     def _outside(self, ranges: dict[str, tuple[float, float]], count: float, below: str) -> frozenset[str]:
         def allows(name: str) -> bool:

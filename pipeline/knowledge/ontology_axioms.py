@@ -60,6 +60,15 @@ def count_range(graph: rdflib.Graph, node: rdflib.URIRef, prop: rdflib.URIRef) -
     return None
 
 
+def stated_value(graph: rdflib.Graph, node: rdflib.URIRef, prop: rdflib.URIRef) -> str | None:
+    """v from `node ⊑ (prop value v)`, None without such an axiom."""
+    values = {str(graph.value(r, OWL.hasValue)) for r in graph.objects(node, RDFS.subClassOf)
+              if graph.value(r, OWL.onProperty) == prop and graph.value(r, OWL.hasValue) is not None}
+    if len(values) > 1:
+        raise OntologyError(f"{local_name(node)} states {local_name(prop)} twice: {sorted(values)}")
+    return values.pop() if values else None
+
+
 def placement_of(graph: rdflib.Graph, node: rdflib.URIRef) -> str | None:
     """X, as text, from `node ⊑ ∀isLocatedOn.X`; None without such an axiom."""
     fillers = [graph.value(r, OWL.allValuesFrom) for r in graph.objects(node, RDFS.subClassOf)

@@ -276,7 +276,7 @@ def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab
     """A camera's viewpoint count (frames.viewpoints over its leaf links, so that a reasoner can check its class
     against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
     specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
-    properties, the others as core data."""
+    properties, the others as core data, and what a ranging sensor emits where its class allows it."""
     if vocab.is_a(comp.cls, vocab.domain("viewpointCount")):
         leaves = [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
         _set(world, "viewpointCount", ind, viewpoints(tree, leaves))
@@ -289,6 +289,9 @@ def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab
         _set(world, "hasReferenceFrame", ind, links[link])
     numbers.decimal(CORE_IRI + "horizontalFieldOfViewRadians", ind, spec.fov)
     numbers.integer(CORE_IRI + "raySamples", ind, spec.samples)
+    ranging = vocab.domain("rangingRadiation")
+    if spec.radiation and vocab.is_a(comp.cls, ranging) and comp.cls not in vocab.emitting_otherwise(spec.radiation, ranging):
+        _set(world, "rangingRadiation", ind, spec.radiation)
     if spec.image is not None:
         numbers.integer(CORE_IRI + "imageWidthPixels", ind, spec.image[0])
         numbers.integer(CORE_IRI + "imageHeightPixels", ind, spec.image[1])

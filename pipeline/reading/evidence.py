@@ -8,6 +8,9 @@ as the same types. A declaration is attached to the link it references and to th
 plugin publishes in (`frameName`), when that is another link of the robot. The numbers it states
 (rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
 (the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
+A ray sensor publishing ROS range messages (one distance valid over a cone) states in its plugin what it emits
+(`radiation`, `radiation_type`: the message's ultrasound or infrared) and, where the ray block states no scan,
+the cone's angle (`fov`), read as the span it measures across.
 A `depth` sensor whose plugin publishes its image in a colour topic reads as SDF's `rgbd_camera` (SimSensor.sdf_type).
 A simulator plugin outside any sensor (a vacuum gripper's, a grasp helper's) that names a link of the robot in
 an element naming a link, body or frame gives that link its library's stem, which the product catalogue reads as it
@@ -42,6 +45,12 @@ class SimSensor:
     max_range: float | None = None
     resolution: float | None = None   # m: a ray sensor's range resolution
     colour: bool = False              # it gives colour images (_gives_colour)
+    radiation: str | None = None      # what a one-beam ranger emits, as its ROS range plugin states it (_RADIATIONS)
+
+    @property
+    def ranging(self) -> bool:
+        """A ray sensor (SDF `ray`, `gpu_ray`, `lidar`, `gpu_lidar`): its `fov` is the span it measures across."""
+        return _is_ranging(self.type)
 
     @property
     def sdf_type(self) -> str:
@@ -345,9 +354,13 @@ def _numbers(sensor: ET.Element, sensor_type: str) -> dict:
         found["fov"] = _positive(math.radians(hfov) if hfov is not None else None)
         size = (_child_text(sensor, "imageSize") or "").split()
         found["image"] = _image(*map(_float, size)) if len(size) == 2 else None
-    if sensor_type.endswith("ray") or sensor_type.endswith("lidar"):
+    if _is_ranging(sensor_type):
         found.update(_ray_numbers(sensor))
     return found
+
+
+def _is_ranging(sensor_type: str) -> bool:
+    return sensor_type.endswith("ray") or sensor_type.endswith("lidar")
 
 
 def _image(width: float | None, height: float | None) -> tuple[int, int] | None:
@@ -369,9 +382,26 @@ def _ray_numbers(sensor: ET.Element) -> dict:
         low, high = _number(sensor, "minAngle"), _number(sensor, "maxAngle")
         span = math.radians(high - low) if low is not None and high is not None else None
         minimum, maximum, resolution = (_number(sensor, n) for n in ("minRange", "maxRange", "resRange"))
+    if span is None:  # a range plugin's cone (gazebo_ros_range's `fov`), where no scan is stated
+        span = next((n for p in _plugin_elements(sensor) if (n := _number(p, "fov")) is not None), None)
     return {"samples": int(samples) if samples is not None and samples >= 1 else None, "fov": _positive(span),
             "min_range": minimum if minimum is not None and minimum >= 0 else None,
-            "max_range": _positive(maximum), "resolution": _positive(resolution)}
+            "max_range": _positive(maximum), "resolution": _positive(resolution), "radiation": _radiation(sensor)}
+
+
+_RADIATIONS = frozenset({"ultrasound", "infrared"})  # sensor_msgs/Range's radiation types
+
+
+def _plugin_elements(sensor: ET.Element) -> list[ET.Element]:
+    return [e for e in sensor.iter() if _local(e.tag)[1] == "plugin"]
+
+
+def _radiation(sensor: ET.Element) -> str | None:
+    """What a range plugin says its sensor emits: `radiation` (ROS 1 gazebo_ros_range) or `radiation_type` (ROS 2
+    gazebo_ros_ray_sensor), when it is one of sensor_msgs/Range's two; None where stated by none or differently."""
+    stated = {(text or "").strip().lower() for p in _plugin_elements(sensor)
+              for e in p if _local(e.tag)[1] in ("radiation", "radiation_type") for text in [e.text]}
+    return stated.pop() if len(stated) == 1 and stated <= _RADIATIONS else None
 
 
 def _float(text: str) -> float | None:

@@ -50,8 +50,8 @@ def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: s
     ontology's core:simulatorSensorType alignment; where one link declares a depth sensor and a sensor giving colour,
     one device gives both, and every declaration on the links an RGB-D camera fits is SDF's `rgbd_camera`: the
     colour, depth and infrared imagers of that device) and by the span a ray sensor sweeps
-    (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar); each narrowing is counted and
-    logged."""
+    (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar) and by what a ranging sensor
+    emits (core:rangingRadiation values: an infrared beam is no sonar); each narrowing is counted and logged."""
     vocab = ctx.vocab
     sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
     types = {s.sdf_type for s in sensors}
@@ -60,13 +60,17 @@ def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: s
         types = {RGBD if any(vocab.is_a(r, c) for r in rgbd for c in vocab.declared_classes([t])) else t for t in types}
     declared = vocab.declared_classes(types)
     ruled_out = vocab.disagreeing(declared, below)
-    spans = [s.fov for s in sensors if s.fov is not None and s.samples is not None]  # ray sensors' sweeps
+    spans = [s.fov for s in sensors if s.fov is not None and s.ranging]  # ray sensors' sweeps
     narrow = vocab.too_narrow(max(spans), below) - ruled_out if spans else frozenset()
-    if ruled_out or narrow:
+    radiations = {s.radiation for s in sensors if s.radiation is not None}
+    radiation = radiations.pop() if len(radiations) == 1 else None
+    emitting = vocab.emitting_otherwise(radiation, below) - ruled_out - narrow if radiation else frozenset()
+    if ruled_out or narrow or emitting:
         ctx.tally.declared += 1
         ctx.log(f"{key}: declared {sorted(types)} -> {sorted(declared)}"
-                + (f"; sweeping {max(spans):.2f} rad, not {sorted(narrow)}" if narrow else ""))
-    return ruled_out | narrow
+                + (f"; sweeping {max(spans):.2f} rad, not {sorted(narrow)}" if narrow else "")
+                + (f"; emitting {radiation}, not {sorted(emitting)}" if emitting else ""))
+    return ruled_out | narrow | emitting
 
 
 @step("pre-classification", needs=("chains",), makes=("pre",))
