@@ -82,3 +82,27 @@ def test_a_descent_shows_the_products_kinds_in_the_words_it_offers():
             if TAX.is_a(product.cls, kind.cls) and product.cls != kind.cls:
                 first = product_text(TAX, product, kind.cls).split("(", 1)[1].split(" > ")[0].rstrip(")")
                 assert first in {TAX.answer(c) for c in level_options(TAX, kind.cls)}, product.label
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_simulator_sensors_name_names_its_product(seed):
+    """A file may name a camera's product only in its simulator declaration (`<sensor name="...">` on a bare
+    frame): the catalogue reads that name as it reads link names, meshes and plugins, and the question shows it.
+    A declaration on the body a frame is fixed to names no product for a frame beside it that is no frame of
+    its own (as a plugin naming a flange)."""
+    import random
+    from urdfkb.pipeline.abstraction.stages.identification import named_product
+    from urdfkb.pipeline.reading.ingest import load_urdf
+    from tests.urdf_writer import Writer
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    eye, other = w.link(), w.link('<box size="0.02 0.02 0.02"/>')
+    w.joint("fixed", base, eye, xyz=(0.2, 0.0, 0.1))
+    w.joint("fixed", base, other, xyz=(0.2, 0.1, 0.1))
+    declared = (f'<gazebo reference="{eye}"><sensor name="front_d435_sensor" type="camera"><camera>'
+                f'<horizontal_fov>1.2</horizontal_fov></camera></sensor></gazebo>'
+                f'<gazebo reference="{base}"><sensor name="base_vlp16" type="ray"/></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", declared.encode() + b"</robot>"))
+    camera, lidar = named_product(tree, [eye]), named_product(tree, [base])
+    assert camera is not None and camera.label == "Intel RealSense D435"
+    assert lidar is not None and lidar.label == "Velodyne lidar" and named_product(tree, [other]) is None

@@ -59,9 +59,9 @@ def test_a_link_is_named_with_its_facts_in_parentheses_and_bare_without(bot):
 def test_sdf_sensor_declarations_with_plugin_and_numbers(bot):
     assert bot.evidence["nose_scanner"].sensors == (
         SimSensor("gpu_ray", ("gazebo_ros_gpu_laser",), "nose_scanner", samples=720, fov=3.1416, min_range=0.1,
-                  max_range=30.0),)
+                  max_range=30.0, name="nose"),)
     assert bot.evidence["hull"].sensors == ()  # a <gazebo> block without a sensor declares nothing
-    assert bot.evidence["echo_1_link"].sensors == (SimSensor("ray", ("gazebo_ros_range",), "echo_1_link"),)  # states no number
+    assert bot.evidence["echo_1_link"].sensors == (SimSensor("ray", ("gazebo_ros_range",), "echo_1_link", name="echo_1"),)  # no number
 
 
 def test_old_gazebo_sensor_form_is_read_as_the_same_type_with_angles_in_degrees(bot):
@@ -71,7 +71,8 @@ def test_old_gazebo_sensor_form_is_read_as_the_same_type_with_angles_in_degrees(
 
 
 def test_a_declaration_also_reaches_the_frame_its_plugin_publishes_in(bot):
-    camera = SimSensor("camera", ("gazebo_ros_camera",), "mast_eye_body", "mast_eye_optical", image=(1280, 720))
+    camera = SimSensor("camera", ("gazebo_ros_camera",), "mast_eye_body", "mast_eye_optical", image=(1280, 720),
+                       name="eye")
     assert bot.evidence["mast_eye_body"].sensors == (camera,)
     assert bot.evidence["mast_eye_optical"].sensors == (camera,)
 
