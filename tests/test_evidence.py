@@ -300,6 +300,29 @@ def test_what_a_ranging_sensor_emits_rules_out_the_kinds_that_emit_otherwise(see
     assert any("emitting infrared, not ['Sonar']" in line for line in trace)
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_each_ranger_declared_on_its_own_is_a_device_of_its_own(seed):
+    """The erring model names every ranger by the stem their names share (the real one put a small robot's seven
+    infrared proximity sensors, `<stem>_<place>_link`, into two devices): a ray sensor gives one scan or range
+    reading, so sub-chains each declaring its own are separate devices."""
+    urdf, leaves = _range_plugins(seed, [("infrared", 0.3, None)] * 4)
+    stem = "qazu"
+    for leaf in leaves:
+        urdf = urdf.replace(f'"{leaf}"'.encode(), f'"{stem}_{leaf}"'.encode()).replace(
+            f">{leaf}<".encode(), f">{stem}_{leaf}<".encode())
+    asked: list[str] = []
+
+    def rule(q: Question):
+        asked.append(q.key)
+        return {"check": "sensor", "identify": "sensor"}.get(q.key.partition(":")[0], q.options[0])
+
+    found = [c for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(load_urdf(urdf)).components
+             if c.kind == "sensor"]
+    assert sorted(c.subcomponents[-1].link for c in found) == sorted(f"{stem}_{leaf}" for leaf in leaves)
+    assert all(c.cls == "RangingSensor" and len(c.subcomponents) == 1 for c in found)
+    assert not any(k.startswith("device:") for k in asked)  # no partition left to the names
+
+
 def test_the_ontology_says_what_each_ranging_kind_emits():
     assert TAX.emitting_otherwise("infrared", "RangingSensor") == {"Sonar"}
     assert TAX.emitting_otherwise("ultrasound", "RangingSensor") == {"Lidar"}

@@ -26,6 +26,8 @@ to the camera (ontology.md). A housing piece fixed straight to that
 link beside an optical frame (a camera's model frame) is bound with them. A branch that carries several
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
 its own frames bind below it (frames.body_of).
+One ranger, one device: two sub-chains each declaring a ray sensor of its own (no declaration in common) are two
+devices whatever their names (a robot's infrared floor sensors, each with its own range plugin).
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
 publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
@@ -133,6 +135,13 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
+def _rangers(tree: KinematicTree, chain: SubChain) -> frozenset[SimSensor]:
+    """The ray sensors declared on the sub-chain's links below its mount: each is one device (one scan or range
+    reading), so two sub-chains each declaring its own are two devices."""
+    return frozenset(s for link in chain.links if link in tree.evidence
+                     for s in tree.evidence[link].sensors if s.ranging)
+
+
 def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str], apart: frozenset[str]) -> bool:
     """The two leaves are frames of one body and one of them was called a vision sensor: the other is the camera's
     own inertial, magnetic or temperature frame, or its model frame, which belongs to the camera whatever it
@@ -189,8 +198,9 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
+        rangers = [_rangers(tree, c) for c in chains]
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
-                  and _near(tree, a, b)
+                  and not (rangers[i] and rangers[j] and rangers[i].isdisjoint(rangers[j])) and _near(tree, a, b)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b)) for j, b in enumerate(chains)]
