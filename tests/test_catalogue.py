@@ -88,17 +88,18 @@ def test_a_descent_shows_the_products_kinds_in_the_words_it_offers():
 def test_a_simulator_sensors_name_names_its_product(seed):
     """A file may name a camera's product only in its simulator declaration (`<sensor name="...">` on a bare
     frame): the catalogue reads that name as it reads link names, meshes and plugins, and the question shows it.
-    A declaration on the body a frame is fixed to names no product for a frame beside it that is no frame of
-    its own (as a plugin naming a flange)."""
+    A sensor declared on the body a link is fixed to names no product for that link, a frame or a piece with
+    geometry (a lidar declared on a base names neither the IMU frame nor the bracket beside it)."""
     import random
     from urdfkb.pipeline.abstraction.stages.identification import named_product
     from urdfkb.pipeline.reading.ingest import load_urdf
     from tests.urdf_writer import Writer
     w = Writer(random.Random(seed))
     base = w.link('<box size="0.4 0.3 0.1"/>')
-    eye, other = w.link(), w.link('<box size="0.02 0.02 0.02"/>')
+    eye, other, frame = w.link(), w.link('<box size="0.02 0.02 0.02"/>'), w.link()
     w.joint("fixed", base, eye, xyz=(0.2, 0.0, 0.1))
     w.joint("fixed", base, other, xyz=(0.2, 0.1, 0.1))
+    w.joint("fixed", base, frame, xyz=(0.0, 0.1, 0.1))
     declared = (f'<gazebo reference="{eye}"><sensor name="front_d435_sensor" type="camera"><camera>'
                 f'<horizontal_fov>1.2</horizontal_fov></camera></sensor></gazebo>'
                 f'<gazebo reference="{base}"><sensor name="base_vlp16" type="ray"/></gazebo>')
@@ -106,3 +107,4 @@ def test_a_simulator_sensors_name_names_its_product(seed):
     camera, lidar = named_product(tree, [eye]), named_product(tree, [base])
     assert camera is not None and camera.label == "Intel RealSense D435"
     assert lidar is not None and lidar.label == "Velodyne lidar" and named_product(tree, [other]) is None
+    assert named_product(tree, [frame]) is None  # a lidar declared on the base names no bare frame fixed to it

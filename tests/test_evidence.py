@@ -5,6 +5,7 @@ import dataclasses
 import json
 import math
 import random
+import re
 from pathlib import Path
 
 import pytest
@@ -125,6 +126,7 @@ def test_a_range_plugin_states_what_its_sensor_emits_and_without_a_scan_its_cone
     assert (swept.fov, swept.samples, swept.radiation) == (0.5, 5, "ultrasound")
     assert ranger("", "<radiation>laser</radiation>").radiation is None  # not one of the message's two
     assert ranger("", "<radiation>infrared</radiation><radiation_type>ultrasound</radiation_type>").radiation is None
+    assert ranger("", "<radiation/><radiation_type> infrared</radiation_type>").radiation == "infrared"  # one stated
     [sonar, *_] = load_urdf(shared / "urdf" / "pepper.urdf").evidence["SonarFront_frame"].sensors
     assert (sonar.radiation, sonar.samples) == ("ultrasound", 5)
 
@@ -207,13 +209,19 @@ def test_a_declaration_narrows_the_classes_offered_and_is_counted(bot):
 
 
 def test_numbered_units_named_as_one_device_stay_separate_unless_an_array(bot):
-    seen: dict[str, Question] = {}
-    trace: list[str] = []
-    found = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append).run(bot).components
-    echoes = [c for c in found if c.subcomponents[0].link.startswith("echo")]
-    assert [c.subcomponents[0].link for c in echoes] == ["echo_1_link", "echo_2_link", "echo_3_link"]
-    assert all(c.cls == "Lidar" and c.root == "hull" for c in echoes)  # each its own first-option ranging sensor
-    assert any(line.startswith("split numbered units") for line in trace)
+    """The three echo rangers, each declared a ray sensor of its own, are never one device; without their
+    declarations the model's one device name for them is split by their numbers."""
+    for undeclared in (False, True):
+        seen: dict[str, Question] = {}
+        trace: list[str] = []
+        rover = load_urdf(re.sub(rb'<gazebo reference="echo_\d_link">.*?</gazebo>', b"", BOT.read_bytes())) \
+            if undeclared else bot
+        found = Abstractor(Oracle(ScriptedBackend(_rover_model(seen))), TAX, log=trace.append).run(rover).components
+        echoes = [c for c in found if c.subcomponents[0].link.startswith("echo")]
+        assert [c.subcomponents[0].link for c in echoes] == ["echo_1_link", "echo_2_link", "echo_3_link"]
+        assert all(c.root == "hull" and len(c.subcomponents) == 1 for c in echoes)
+        assert {c.cls for c in echoes} == ({echoes[0].cls} if undeclared else {"Lidar"})  # first-option rangers
+        assert any(line.startswith("split numbered units") for line in trace) == undeclared
 
 
 def test_provenance_reports_how_many_decisions_a_declaration_constrained(bot):
@@ -314,6 +322,8 @@ def test_each_ranger_declared_on_its_own_is_a_device_of_its_own(seed):
 
     def rule(q: Question):
         asked.append(q.key)
+        if q.key.startswith(f"pre:{stem}_mid@Sensor"):
+            return "ranging sensor"
         return {"check": "sensor", "identify": "sensor"}.get(q.key.partition(":")[0], q.options[0])
 
     found = [c for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(load_urdf(urdf)).components
@@ -321,6 +331,20 @@ def test_each_ranger_declared_on_its_own_is_a_device_of_its_own(seed):
     assert sorted(c.subcomponents[-1].link for c in found) == sorted(f"{stem}_{leaf}" for leaf in leaves)
     assert all(c.cls == "RangingSensor" and len(c.subcomponents) == 1 for c in found)
     assert not any(k.startswith("device:") for k in asked)  # no partition left to the names
+    # a frame of the same stem that declares nothing, called a ranging sensor, joins one of them at most, never two
+    # through itself
+    bare = f'<link name="{stem}_mid"/><joint name="{stem}_mid_joint" type="fixed"><parent link="{_base(urdf)}"/>' \
+           f'<child link="{stem}_mid"/><origin xyz="0.2 0.07 0.05" rpy="0 0 0"/></joint>'
+    found = [c for c in Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(
+        load_urdf(urdf.replace(b"</robot>", bare.encode() + b"</robot>"))).components if c.kind == "sensor"]
+    assert all(len([s for s in c.subcomponents if s.link != f"{stem}_mid"]) <= 1 for c in found)
+    assert sorted(s.link for c in found for s in c.subcomponents if s.link != f"{stem}_mid") == \
+        sorted(f"{stem}_{leaf}" for leaf in leaves)
+
+
+def _base(urdf: bytes) -> str:
+    """The first link of a generated robot (its base)."""
+    return urdf.split(b'<link name="', 1)[1].split(b'"', 1)[0].decode()
 
 
 def test_the_ontology_says_what_each_ranging_kind_emits():

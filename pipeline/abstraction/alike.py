@@ -31,10 +31,14 @@ def alike_sets(tree: KinematicTree, leaves: list[str], same: Callable[[str, str]
 T = TypeVar("T")
 
 
-def partition(items: Sequence[T], joined: Callable[[T, T], bool]) -> list[list[T]]:
+def partition(items: Sequence[T], joined: Callable[[T, T], bool],
+              apart: Callable[[T, T], bool] | None = None) -> list[list[T]]:
     """`items` in the classes of the transitive closure of `joined` (asked once for each pair of items not
-    already in one class), each class in the items' order, the classes in the order of their first items."""
+    already in one class), each class in the items' order, the classes in the order of their first items.
+    `apart`: two classes holding a pair it keeps apart are never joined (a pair joined through a third item
+    no more than directly)."""
     parent = list(range(len(items)))
+    members = [[i] for i in range(len(items))]
 
     def find(i: int) -> int:
         while parent[i] != i:
@@ -44,8 +48,11 @@ def partition(items: Sequence[T], joined: Callable[[T, T], bool]) -> list[list[T
 
     for i, a in enumerate(items):
         for j, b in enumerate(items[:i]):
-            if find(i) != find(j) and joined(a, b):
-                parent[find(i)] = find(j)
+            ri, rj = find(i), find(j)
+            if ri != rj and joined(a, b) and not (apart is not None and any(
+                    apart(items[x], items[y]) for x in members[ri] for y in members[rj])):
+                parent[ri] = rj
+                members[rj] += members[ri]
     classes: dict[int, list[T]] = {}
     for i, item in enumerate(items):
         classes.setdefault(find(i), []).append(item)

@@ -384,7 +384,7 @@ def _ray_numbers(sensor: ET.Element) -> dict:
         low, high = _number(sensor, "minAngle"), _number(sensor, "maxAngle")
         span = math.radians(high - low) if low is not None and high is not None else None
         minimum, maximum, resolution = (_number(sensor, n) for n in ("minRange", "maxRange", "resRange"))
-    if span is None:  # a range plugin's cone (gazebo_ros_range's `fov`), where no scan is stated
+    if span is None:  # a range plugin's cone (gazebo_ros_range's `fov`), where the ray block states no span
         span = next((n for p in _plugin_elements(sensor) if (n := _number(p, "fov")) is not None), None)
     return {"samples": int(samples) if samples is not None and samples >= 1 else None, "fov": _positive(span),
             "min_range": minimum if minimum is not None and minimum >= 0 else None,
@@ -395,14 +395,16 @@ _RADIATIONS = frozenset({"ultrasound", "infrared"})  # sensor_msgs/Range's radia
 
 
 def _plugin_elements(sensor: ET.Element) -> list[ET.Element]:
-    return [e for e in sensor.iter() if _local(e.tag)[1] == "plugin"]
+    """The plugins a declaration loads: SDF's `<plugin>`, the old form's `<controller:...>` (any element loading a
+    library)."""
+    return [e for e in sensor.iter() if _local(e.tag)[1] == "plugin" or _library_stem(e)]
 
 
 def _radiation(sensor: ET.Element) -> str | None:
     """What a range plugin says its sensor emits: `radiation` (ROS 1 gazebo_ros_range) or `radiation_type` (ROS 2
     gazebo_ros_ray_sensor), when it is one of sensor_msgs/Range's two; None where stated by none or differently."""
-    stated = {(text or "").strip().lower() for p in _plugin_elements(sensor)
-              for e in p if _local(e.tag)[1] in ("radiation", "radiation_type") for text in [e.text]}
+    stated = {text for p in _plugin_elements(sensor) for e in p if _local(e.tag)[1] in ("radiation", "radiation_type")
+              if (text := (e.text or "").strip().lower())}
     return stated.pop() if len(stated) == 1 and stated <= _RADIATIONS else None
 
 

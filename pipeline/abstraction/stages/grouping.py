@@ -195,23 +195,26 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
           progress: Progress | None = None, apart: frozenset[str] = frozenset()) -> list[Group]:
     """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category; `apart`:
     leaves declared as sensors of their own that no camera carries (never a camera's built-in frame)."""
+    rangers = [frozenset() if kind == END_EFFECTOR else _rangers(tree, c) for c in chains]
+
+    def two_rangers(i: int, j: int) -> bool:
+        return bool(rangers[i] and rangers[j] and rangers[i].isdisjoint(rangers[j]))
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        rangers = [_rangers(tree, c) for c in chains]
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
-                  and not (rangers[i] and rangers[j] and rangers[i].isdisjoint(rangers[j])) and _near(tree, a, b)
+                  and not two_rangers(i, j) and _near(tree, a, b)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b)) for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
-        device = _device_names(oracle, chains, joinable, partition(range(len(chains)), lambda i, j: bound[i][j]),
-                               progress)
+        device = _device_names(oracle, chains, joinable,
+                               partition(range(len(chains)), lambda i, j: bound[i][j], two_rangers), progress)
         same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
                 for i in range(len(chains))]
     groups = [Group([chains[i] for i in members])
-              for members in partition(range(len(chains)), lambda i, j: same[i][j])]
+              for members in partition(range(len(chains)), lambda i, j: same[i][j], two_rangers)]
     if kind == END_EFFECTOR:
         for group in groups:
             group.chains = _one_mount(tree, group.chains)
