@@ -230,20 +230,28 @@ def test_provenance_reports_how_many_decisions_a_declaration_constrained(bot):
     assert int(result.provenance["declared_constraints"]) >= 4
 
 
-def _rangers(seed: int, spans: list[tuple[str, float]]) -> tuple[bytes, list[str]]:
-    """A base with one ray sensor per (SDF type, span in degrees), each a bare frame of meaningless name."""
+def _declared_frames(seed: int, sensors: list[str]) -> tuple[bytes, list[str]]:
+    """A base with one bare frame of meaningless name per sensor element, each declaring it (`{i}` in it: the
+    frame's index, `{leaf}`: its name)."""
     w = Writer(random.Random(seed))
     base = w.link('<box size="0.4 0.3 0.1"/>')
     leaves, gazebo = [], []
-    for i, (kind, degrees) in enumerate(spans):
+    for i, sensor in enumerate(sensors):
         leaf = w.link()
         w.joint("fixed", base, leaf, xyz=(0.2, 0.05 * i, 0.05))
-        half = math.radians(degrees) / 2
-        gazebo.append(f'<gazebo reference="{leaf}"><sensor name="s{i}" type="{kind}"><ray><scan><horizontal>'
-                      f'<samples>5</samples><min_angle>{-half}</min_angle><max_angle>{half}</max_angle>'
-                      f'</horizontal></scan><range><min>0.02</min><max>2</max></range></ray></sensor></gazebo>')
+        gazebo.append(f'<gazebo reference="{leaf}">{sensor.format(i=i, leaf=leaf)}</gazebo>')
         leaves.append(leaf)
     return w.urdf().replace(b"</robot>", "".join(gazebo).encode() + b"</robot>"), leaves
+
+
+def _rangers(seed: int, spans: list[tuple[str, float]]) -> tuple[bytes, list[str]]:
+    """A base with one ray sensor per (SDF type, span in degrees), each a bare frame of meaningless name."""
+    def ranger(kind: str, degrees: float) -> str:
+        half = math.radians(degrees) / 2
+        return (f'<sensor name="s{{i}}" type="{kind}"><ray><scan><horizontal><samples>5</samples>'
+                f'<min_angle>{-half}</min_angle><max_angle>{half}</max_angle></horizontal></scan>'
+                f'<range><min>0.02</min><max>2</max></range></ray></sensor>')
+    return _declared_frames(seed, [ranger(kind, degrees) for kind, degrees in spans])
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -268,20 +276,13 @@ def test_a_declared_span_rules_out_the_ranging_kinds_it_is_too_narrow_for(seed):
 def _range_plugins(seed: int, rangers: list[tuple[str, float, float | None]]) -> tuple[bytes, list[str]]:
     """A base with one `ray` sensor per (radiation, plugin cone in rad, scan span in rad or None), each publishing
     sensor_msgs/Range through gazebo_ros_range, each a bare frame of meaningless name."""
-    w = Writer(random.Random(seed))
-    base = w.link('<box size="0.4 0.3 0.1"/>')
-    leaves, gazebo = [], []
-    for i, (radiation, cone, span) in enumerate(rangers):
-        leaf = w.link()
-        w.joint("fixed", base, leaf, xyz=(0.2, 0.05 * i, 0.05))
+    def ranger(radiation: str, cone: float, span: float | None) -> str:
         scan = (f"<scan><horizontal><samples>5</samples><min_angle>{-span / 2}</min_angle><max_angle>{span / 2}"
                 f"</max_angle></horizontal></scan>" if span is not None else "")
-        gazebo.append(f'<gazebo reference="{leaf}"><sensor name="s{i}" type="ray"><ray>{scan}<range><min>0.01</min>'
-                      f'<max>0.2</max></range></ray><plugin filename="libgazebo_ros_range.so" name="p{i}">'
-                      f'<frameName>{leaf}</frameName><radiation>{radiation}</radiation><fov>{cone}</fov></plugin>'
-                      f'</sensor></gazebo>')
-        leaves.append(leaf)
-    return w.urdf().replace(b"</robot>", "".join(gazebo).encode() + b"</robot>"), leaves
+        return (f'<sensor name="s{{i}}" type="ray"><ray>{scan}<range><min>0.01</min><max>0.2</max></range></ray>'
+                f'<plugin filename="libgazebo_ros_range.so" name="p{{i}}"><frameName>{{leaf}}</frameName>'
+                f'<radiation>{radiation}</radiation><fov>{cone}</fov></plugin></sensor>')
+    return _declared_frames(seed, [ranger(*r) for r in rangers])
 
 
 @pytest.mark.parametrize("seed", range(5))

@@ -277,7 +277,7 @@ def _sensor_type(element: ET.Element) -> str | None:
 
 
 def _plugins(sensor: ET.Element) -> tuple[str, ...]:
-    return tuple(dict.fromkeys(stem for element in sensor.iter() if (stem := _library_stem(element))))
+    return tuple(dict.fromkeys(stem for element in _plugin_elements(sensor) if (stem := _library_stem(element))))
 
 
 def _library_stem(element: ET.Element) -> str | None:
