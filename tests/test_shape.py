@@ -21,8 +21,8 @@ from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
-from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, limb_ends,
-                                              off_limb_ends, rolling, spinning_on_trunk, swinging_leaves)
+from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, last_segments,
+                                              limb_ends, off_limb_ends, rolling, spinning_on_trunk, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 
 TAX = vocabulary()
@@ -554,6 +554,52 @@ def test_a_small_humanoids_arms_are_no_fingers_and_end_in_no_tool():
     assert [claims[f] for f in forearms] == [TOOL_CLS, TOOL_CLS]
     urdf, _, jaws = _servo_humanoid(13, (-2.8, 2.8), grippers=True)
     assert sorted(leaf for _, leaves in hands(load_urdf(urdf)) for leaf in leaves) == sorted(jaws)
+
+
+def _forearm_arms(seed: int, centre: float | None) -> tuple[bytes, list[str], str]:
+    """A trunk with two arms of four joints held out sideways (two at the shoulder, one turning the upper arm, the
+    elbow) whose forearms, 0.25 m long, hang alone from the elbow with their centre of mass `centre` out along them
+    (no <inertial> where None), every joint turning +-1.3 rad; and an arm of six joints, 0.6 m, ending in a lone jaw
+    of 6 cm whose centre of mass lies 2 cm out. The forearms and the jaw."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    trunk = w.link('<box size="0.2 0.3 0.4"/>', centre=(0.0, 0.0, 0.0), mass=5.0)
+    forearms = []
+    for side in (1.0, -1.0):
+        shoulder = w.link('<box size="0.04 0.04 0.04"/>', centre=(0.0, 0.0, 0.0))
+        w.joint("revolute", trunk, shoulder, (0.0, side * 0.18, 0.15), (0.0, 1.0, 0.0), (-1.3, 1.3))
+        upper = w.link('<box size="0.04 0.04 0.04"/>', centre=(0.0, side * 0.02, 0.0))
+        w.joint("revolute", shoulder, upper, (0.0, side * 0.05, 0.0), (1.0, 0.0, 0.0), (-1.3, 1.3))
+        turning = w.link('<box size="0.04 0.25 0.04"/>', centre=(0.0, side * 0.12, 0.0))
+        w.joint("revolute", upper, turning, (0.0, side * 0.05, 0.0), (0.0, 1.0, 0.0), (-1.3, 1.3))
+        forearm = w.link('<box size="0.04 0.25 0.04"/>', centre=None if centre is None else (0.0, side * centre, 0.0))
+        w.joint("revolute", turning, forearm, (0.0, side * 0.25, 0.0), (0.0, 0.0, 1.0), (-rng.uniform(1.2, 1.3), 1.3))
+        forearms.append(forearm)
+    wrist = _serial(w, trunk, 4)  # 0.6 m of arm, six joints to the jaw's
+    jaw = w.link('<box size="0.02 0.01 0.06"/>', centre=(0.0, 0.0, 0.02))
+    w.joint("revolute", wrist, jaw, (0.02, 0.0, 0.1), (0.0, 1.0, 0.0), limits=(-1.57, 0.0))
+    return w.urdf(), forearms, jaw
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_forearm_that_ends_an_arm_is_no_tool_a_lone_jaw_is(seed):
+    """Arms that end in no tool: the elbow turns the forearm through a bounded arc, as a jaw turns, and the erring
+    model calls each forearm an end effector at 0.5 (they became one-finger grippers). A forearm carries its mass a
+    third of its arm's length out (here 0.12 of 0.35 m from the elbow); a jaw, small beside the arm that carries it, a
+    few centimetres (2 of 60 cm): the forearms are the arms' own, the jaw stays the model's tool. Where the file gives
+    a forearm no <inertial>, nothing says how far its mass lies: the model decides."""
+    urdf, forearms, jaw = _forearm_arms(seed, 0.12)
+    tree = load_urdf(urdf)
+    assert not feet(tree) and not hands(tree)
+    assert {*forearms, jaw} <= limb_ends(tree) and not any(rolling(tree, leaf) for leaf in (*forearms, jaw))
+    assert last_segments(tree, limb_ends(tree)) == set(forearms)
+    erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.2}
+    claims = _identified(urdf, lambda q: erring if _leaf(q) in (*forearms, jaw) else NONE)
+    assert not {claims[f] for f in forearms} & {TOOL_CLS, SENSOR_CLS} and claims[jaw] == TOOL_CLS
+    urdf, forearms, jaw = _forearm_arms(seed, None)
+    assert not last_segments(load_urdf(urdf), limb_ends(load_urdf(urdf)))
+    claims = _identified(urdf, lambda q: erring if _leaf(q) in (*forearms, jaw) else NONE)
+    assert [claims[f] for f in forearms] == [TOOL_CLS, TOOL_CLS]
 
 
 def test_a_leaf_spinning_from_the_trunk_is_no_tool():

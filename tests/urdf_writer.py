@@ -28,12 +28,16 @@ class Writer:
                 self.used.add(stem)
                 return stem
 
-    def link(self, geometry: str = "", collision: str = "") -> str:
-        """A new link; `geometry` (a URDF geometry element) gives it a visual, `collision` a collision shape."""
+    def link(self, geometry: str = "", collision: str = "", centre=None, mass: float = 0.1) -> str:
+        """A new link; `geometry` (a URDF geometry element) gives it a visual, `collision` a collision shape, `centre`
+        an <inertial> of `mass` with its centre of mass there."""
         name = self.name()
         visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
         shape = f"<collision><geometry>{collision}</geometry></collision>" if collision else ""
-        self.links.append(f'<link name="{name}">{visual}{shape}</link>')
+        inertial = (f'<inertial><origin xyz="{_vector(centre)}"/><mass value="{_number(mass)}"/>'
+                    '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>'
+                    if centre is not None else "")
+        self.links.append(f'<link name="{name}">{visual}{shape}{inertial}</link>')
         return name
 
     def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),

@@ -1,6 +1,7 @@
 """What the robot's shape settles before any question: its hands and grippers (their leaves and mounts), the
 feet it stands on, the leaves along a limb rather than at its end, where no end effector is, and the limbs' own
-last links and the bars swinging beside a moving chain, which are no sensors (nor tools, where they roll).
+last links and the bars swinging beside a moving chain, which are no sensors (nor tools, where they roll or are
+the limb's last segment).
 """
 from __future__ import annotations
 
@@ -26,6 +27,9 @@ ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's orig
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
 SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
 # sensor tilting on its own joint hangs from a trunk or a lift: fewer)
+LAST_SEGMENT = 0.15  # share of its limb's length at which a limb end's centre of mass lies out from its own joint,
+# at the least, where it is the limb's last segment (a forearm on its elbow: 0.26 and 0.42 in two public humanoids);
+# a lone jaw's lies at most 0.04 of its arm's in the truth robots (a small arm's jaw about 0.1)
 _SWINGS = ("revolute", "continuous", "prismatic")  # a floating or planar root joint moves a whole robot, not a limb
 
 
@@ -185,15 +189,40 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
         edge = tree.edge_to(leaf)
         if not edge.moves:
             continue
-        joints, link = 0, leaf
-        while (up := tree.parent_edge(link)) is not None:
-            joints += up.movable
-            link = up.parent
-            if len(tree.children(link)) > 1:
-                break
+        joints = sum(tree.edge_to(link).movable for link in _limb_path(tree, leaf)[:-1])
         if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and _past_half_turn(edge)):
             ends.append(leaf)
     return frozenset(ends)
+
+
+def last_segments(tree: KinematicTree, ends: frozenset[str]) -> frozenset[str]:
+    """Of the limb ends `ends` (limb_ends) at the end of LIMB_JOINTS movable joints or more, those alone on their
+    parent (nothing else moves from it) whose centre of mass lies LAST_SEGMENT of the limb's length or more out from
+    their own joint: the limb's last segment (the forearm of an arm that ends in no tool, turning at its elbow), not
+    the jaw of a one-jaw gripper, which is small beside the arm that carries it. The limb's length runs from the first link above that carries more than one child
+    (or the root) to the leaf's joint. A leaf with no <inertial> says nothing."""
+    found = []
+    for leaf in ends:
+        centre = tree.evidence[leaf].centre if leaf in tree.evidence else None
+        edge = tree.edge_to(leaf)
+        if centre is None or any(tree.edge_to(c).movable for c in tree.children(edge.parent) if c != leaf):
+            continue
+        path = _limb_path(tree, leaf)
+        if sum(tree.edge_to(link).movable for link in path[:-1]) < LIMB_JOINTS:
+            continue  # a bar or a finger hung on a branching link: no limb to measure by
+        length = norm(tree.position_in(leaf, path[-1]))
+        if length > 0 and norm(centre) >= LAST_SEGMENT * length:
+            found.append(leaf)
+    return frozenset(found)
+
+
+def _limb_path(tree: KinematicTree, leaf: str) -> tuple[str, ...]:
+    """The links from `leaf` up to the first that carries more than one child (or the root), both included."""
+    path = tree.chain_to_root(leaf)
+    for i, link in enumerate(path[1:], start=1):
+        if len(tree.children(link)) > 1:
+            return path[:i + 1]
+    return path
 
 
 def swinging_leaves(tree: KinematicTree) -> frozenset[str]:

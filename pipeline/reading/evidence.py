@@ -62,8 +62,8 @@ class SimSensor:
 
 @dataclass(frozen=True)
 class LinkEvidence:
-    """Facts about one link: mesh file stems, its first primitive shape, mass, declared sensors, the stems of the
-    simulator plugins that name it (outside sensors)."""
+    """Facts about one link: mesh file stems, its first primitive shape, mass and centre of mass, declared sensors,
+    the stems of the simulator plugins that name it (outside sensors)."""
 
     meshes: tuple[str, ...] = ()
     shape: str = ""            # "box 0.1x0.2x0.3 m", "cylinder r=0.05 l=0.1 m", "sphere r=0.02 m", or ""
@@ -71,13 +71,16 @@ class LinkEvidence:
     sensors: tuple[SimSensor, ...] = ()
     collision_only: bool = False  # it has <collision> geometry and no <visual>
     plugins: tuple[str, ...] = ()
+    centre: tuple[float, float, float] | None = None  # centre of mass in the link's frame; None without <inertial>
 
     @classmethod
     def from_dict(cls, data: dict) -> LinkEvidence:
-        """Inverse of dataclasses.asdict (a tree stored before `collision_only` or `plugins` was kept reads them
-        empty)."""
+        """Inverse of dataclasses.asdict (a tree stored before `collision_only`, `plugins` or `centre` was kept reads
+        them empty)."""
+        centre = data.get("centre")
         return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])),
-                   bool(data.get("collision_only", False)), tuple(data.get("plugins", ())))
+                   bool(data.get("collision_only", False)), tuple(data.get("plugins", ())),
+                   None if centre is None else (float(centre[0]), float(centre[1]), float(centre[2])))
 
     @property
     def is_pure_frame(self) -> bool:
@@ -125,7 +128,7 @@ def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
             declared = tuple(dict.fromkeys(sensors.get(name, ())))  # one sensor may name a link twice
             collision_only = link.find("collision/geometry") is not None and link.find("visual/geometry") is None
             found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared, collision_only,
-                                       tuple(plugins.get(name, ())))
+                                       tuple(plugins.get(name, ())), _centre(link))
     return found
 
 
@@ -203,6 +206,20 @@ def _mass(link: ET.Element) -> float | None:
     except ValueError:
         return None
     return value if math.isfinite(value) else None
+
+
+def _centre(link: ET.Element) -> tuple[float, float, float] | None:
+    """The <inertial> origin's xyz (the URDF default: the link's origin), or None without <inertial> or with a
+    malformed or non-finite one."""
+    inertial = link.find("inertial")
+    if inertial is None:
+        return None
+    origin = inertial.find("origin")
+    try:
+        x, y, z = (float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split())
+    except ValueError:
+        return None
+    return (x, y, z) if all(map(math.isfinite, (x, y, z))) else None
 
 
 # -- simulator sensors ------------------------------------------------------------------

@@ -44,6 +44,7 @@ class Findings:
     swinging: frozenset[str] = _lasting(frozenset())  # bars swinging beside the joint carrying a chain on: no sensors
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
     rolling_ends: frozenset[str] = _lasting(frozenset())  # those of both that roll, and spinners on the trunk: never tools
+    last_segments: frozenset[str] = _lasting(frozenset())  # limb ends that are the limb's last segment: never tools
     loop_frames: frozenset[str] = _lasting(frozenset())  # frames a closed kinematic loop is cut at: no component
     collision_volumes: frozenset[str] = _lasting(frozenset())  # leaves only adding to a body's collision shape
     palms: frozenset[str] = _lasting(frozenset())  # the bodies of the hands found: they carry tool frames and sensors

@@ -13,8 +13,8 @@ from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 
 
 @step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends",
-                               "swinging", "rolling_ends", "frozen_tips", "loop_frames", "collision_volumes", "palms",
-                               "declared_sensors"),
+                               "swinging", "rolling_ends", "last_segments", "frozen_tips", "loop_frames",
+                               "collision_volumes", "palms", "declared_sensors"),
       makes=("leaves", "claims", "shares"))
 def identification(ctx: Context, found: Findings) -> None:
     """The pass's leaves (not where an earlier pass condensed a device) and each one's kind: from shape and
@@ -43,7 +43,7 @@ def identification(ctx: Context, found: Findings) -> None:
             claims[leaf], shares[leaf] = body, 1.0
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
     # the kinds a leaf's place rules out
-    rules = ((tools, found.off_ends | found.rolling_ends),
+    rules = ((tools, found.off_ends | found.rolling_ends | found.last_segments),
              (sensors, found.limb_ends | found.swinging | found.frozen_tips))
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():

@@ -6,8 +6,8 @@ from urdfkb.pipeline.reading.evidence import LinkEvidence
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
-from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, limb_ends, off_limb_ends,
-                                              palm, rolling, spinning_on_trunk, swinging_leaves)
+from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
+                                              off_limb_ends, palm, rolling, spinning_on_trunk, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
 from urdfkb.pipeline.reading.tree import KinematicTree
 
@@ -15,7 +15,7 @@ _NO_FACTS = LinkEvidence()
 
 
 @step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
-                      "frozen_tips", "loop_frames", "collision_volumes", "palms", "declared_sensors"))
+                      "last_segments", "frozen_tips", "loop_frames", "collision_volumes", "palms", "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
@@ -25,8 +25,9 @@ def shape(ctx: Context, found: Findings) -> None:
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
     is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), and the first two never a
     tool where the joint rolls (hands.rolling: turning through more than half a turn, or about the line out to the
-    leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin), nor is a leaf spinning on its own joint
-    from the trunk (hands.spinning_on_trunk: a wheel, a rotor, a thruster).
+    leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin) or where the limb's own last link carries
+    its mass far out for a jaw (hands.last_segments: a forearm on the elbow of an arm that ends in no tool), nor is a
+    leaf spinning on its own joint from the trunk (hands.spinning_on_trunk: a wheel, a rotor, a thruster).
     Frames where a closed loop is cut (frames.loop_closures), and leaves drawn at their parent's origin for collision
     checking alone (frames.collision_volumes), are part of no component."""
     robot = ctx.robot
@@ -41,6 +42,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
         | spinning_on_trunk(robot) - declared
+    found.last_segments = last_segments(robot, found.limb_ends)
     found.loop_frames = loop_closures(robot) - declared
     found.collision_volumes = collision_volumes(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
@@ -49,7 +51,8 @@ def shape(ctx: Context, found: Findings) -> None:
                "moving_feet": sorted(found.moving_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
                "swinging": sorted(found.swinging),
-               "rolling_ends": sorted(found.rolling_ends), "frozen_tips": sorted(found.frozen_tips),
+               "rolling_ends": sorted(found.rolling_ends), "last_segments": sorted(found.last_segments),
+               "frozen_tips": sorted(found.frozen_tips),
                "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
 
 
