@@ -242,3 +242,68 @@ def test_a_gripper_written_flat_is_seen_half_closed(seed):
     closed, the pair move together and the third closes on both (a gripper of three chains)."""
     built = build_flat_gripper(seed)
     assert problems(built) == [], built.description
+
+
+def _parallel_four_bars(seed: int, beside: bool = False) -> tuple[bytes, str, list[str], list[str]]:
+    """An arm of six joints and on its flange a gripper of two parallel four-bars, written as some descriptions of a
+    two-finger adaptive gripper write it: on each side an outer bar (the driven joint, the other side's following it
+    by <mimic>) carrying a fixed finger link, and an inner bar pivoting a little further in and out in the same
+    plane, following the same joint the same way, with the fingertip pad hung from it on a joint turning back. With
+    `beside`, the second bar of each side pivots beside the first along their axes instead (two fingers side by side,
+    both curled by one joint). The gripper's body, the bars carrying the pads (or the side-by-side fingers) and the
+    outer bars."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    link = w.link('<cylinder radius="0.08" length="0.1"/>')
+    for k in range(6):
+        child = w.link('<box size="0.06 0.06 0.15"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.15), (0.0, 0.0, 1.0) if k % 2 == 0 else (0.0, 1.0, 0.0),
+                (-2.0, 2.0))
+        link = child
+    body = w.link('<box size="0.08 0.04 0.06"/>')
+    w.joint("fixed", link, body, (0.0, 0.0, 0.05))
+    outer_reach, inner_reach = rng.uniform(0.025, 0.035), rng.uniform(0.055, 0.065)
+    drive, inner, outer = None, [], []
+    for side in (1.0, -1.0):
+        bar = w.link('<box size="0.01 0.01 0.04"/>')
+        joint = w.joint("revolute", body, bar, (side * 0.03, 0.0, 0.05), (0.0, -side, 0.0), (0.0, 0.8),
+                        mimic=drive, multiplier=1.0)
+        drive = drive or joint
+        w.joint("fixed", bar, w.link('<box size="0.01 0.02 0.04"/>'), (side * 0.005, 0.0, outer_reach))
+        outer.append(bar)
+        second = w.link('<box size="0.01 0.01 0.05"/>')
+        at = (side * 0.03, 0.02, 0.05) if beside else (side * 0.012, 0.0, 0.06)
+        w.joint("revolute", body, second, at, (0.0, -side, 0.0), (0.0, 0.8), mimic=drive, multiplier=1.0)
+        pad = w.link('<box size="0.01 0.02 0.03"/>')
+        w.joint("revolute", second, pad, (0.0, 0.0, inner_reach), (0.0, -side, 0.0), (-0.8, 0.0), mimic=drive,
+                multiplier=-1.0)
+        inner.append(second)
+    return w.urdf(), body, inner, outer
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_a_parallel_four_bar_written_as_two_chains_is_one_finger(seed):
+    """Each side of the gripper is one finger: its outer bar, shorter than the inner bar that carries the pad and
+    turned the same way by the same joint about a parallel pin a little apart in the plane they turn in, is that
+    finger's linkage (a URDF tree cannot close the loop). Counted as four fingers, the bars made three opposing
+    pairs and two 'thumbs': a hand. Bars pivoting apart along their axes are fingers side by side: still four."""
+    urdf, body, inner, outer = _parallel_four_bars(seed)
+    tree = load_urdf(urdf)
+    structure = tool_structure(tree, [leaf for leaf in tree.leaves() if body in tree.chain_to_root(leaf)])
+    assert sorted(f.name for f in structure.fingers) == sorted(inner)
+    assert all(f.opposes for f in structure.fingers) and set(structure.linkages) == set(outer)
+    urdf, body, inner, outer = _parallel_four_bars(seed, beside=True)
+    tree = load_urdf(urdf)
+    structure = tool_structure(tree, [leaf for leaf in tree.leaves() if body in tree.chain_to_root(leaf)])
+    assert not structure.linkages and len(structure.fingers) == 4
+
+
+@pytest.mark.reasoner
+def test_the_reasoner_calls_a_gripper_of_two_parallel_four_bars_a_parallel_gripper():
+    structures = []
+    for seed in range(3):
+        urdf, body, _, _ = _parallel_four_bars(seed)
+        tree = load_urdf(urdf)
+        structures.append(tool_structure(tree, [leaf for leaf in tree.leaves() if body in tree.chain_to_root(leaf)]))
+    inferred, _ = classify(structures)
+    assert [i.cls for i in inferred] == ["ParallelGripper"] * 3

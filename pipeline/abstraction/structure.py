@@ -204,24 +204,32 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
 
 
 def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]]) -> set[str]:
-    """Chains that are another chain's linkage: a chain whose drive pivots about the same axis as another chain's
-    drive (the pivots within _TOUCHING of each other, the axes parallel), that other chain jointed beyond its drive
-    (a finger that the linkage curls), and whose link origins lie less than _LINKAGE as far from that pivot at the
-    written pose (a four-bar's crank beside the finger it moves, written as a chain of its own because a URDF tree
-    cannot close a loop). Which way a crank turns is arbitrary where it follows no <mimic>, so whether it closes
-    on its finger says nothing; two jaws sharing one pin, each one rigid link, stay fingers."""
+    """Chains that are another chain's linkage: a chain whose drive pivots about an axis parallel to another chain's
+    drive, that other chain jointed beyond its drive (a finger that the linkage curls), and whose link origins lie
+    less than _LINKAGE as far from its pivot at the written pose; the two pivots coincide (within _TOUCHING: a
+    four-bar's crank beside the finger it moves), or lie apart in the plane the two turn in (their offset square to
+    the axes, and shorter than the linkage reaches) with one joint turning both the same way (<mimic>: a parallel
+    four-bar's two bars on the tool's body, the finger hung from one of them). A URDF tree cannot close a loop, so
+    such a linkage is written as a chain of its own. Which way a crank turns is arbitrary where it follows no
+    <mimic>, so whether it closes on its finger says nothing; two jaws sharing one pin, each one rigid link, stay
+    fingers, and fingers side by side pivot apart along their axes."""
     pivots = []
     for a, (links, drive, _) in chains.items():
         if drive.joint_type in ("revolute", "continuous") and (axis := unit(_in_frame(tree, a, fork, drive.axis, {}, True))):
             at = tree.position_in(a, fork)
             reach = max(norm(sub(tree.position_in(link, fork), at)) for link in links)
             jointed = any(tree.edge_to(link).movable for link in links[1:])
-            pivots.append((a, at, axis, reach, jointed))
+            turning = axis if drive.mimic is None or drive.mimic_multiplier >= 0 else (-axis[0], -axis[1], -axis[2])
+            pivots.append((a, at, axis, reach, jointed, drive.mimic or drive.joint, turning))
     found = set()
-    for a, at, axis, reach, _ in pivots:
-        for b, other_at, other_axis, other_reach, other_jointed in pivots:
-            if b != a and other_jointed and norm(sub(at, other_at)) < _TOUCHING \
-                    and abs(dot(axis, other_axis)) > _PARALLEL and reach < _LINKAGE * other_reach:
+    for a, at, axis, reach, _, driver, turning in pivots:
+        for b, other_at, other_axis, other_reach, other_jointed, other_driver, other_turning in pivots:
+            if b == a or not other_jointed or abs(dot(axis, other_axis)) <= _PARALLEL or reach >= _LINKAGE * other_reach:
+                continue
+            offset = sub(at, other_at)
+            if norm(offset) < _TOUCHING or (
+                    driver == other_driver and dot(turning, other_turning) > _PARALLEL and norm(offset) < reach
+                    and abs(dot(offset, axis)) < _SQUARE * norm(offset)):
                 found.add(a)
     return found
 
