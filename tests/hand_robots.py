@@ -76,7 +76,13 @@ class Built:
         return {leaf for leaf in self.leaves if leaf in on}
 
 
-def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool = False) -> Built:
+def _along(xyz, axis, rng: random.Random):
+    """`xyz` moved 1 cm along `axis`, one way or the other."""
+    side = rng.choice((-0.01, 0.01))
+    return tuple(x + side * a for x, a in zip(xyz, axis))
+
+
+def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool = False, apart: bool = False) -> Built:
     """One random arm and end-effector (or, `alone`, the end-effector only); the same seed builds the
     same robot (`asides` adds boxes, and changes nothing else). `linkages`: four-bar linkages written as
     branches, as a URDF tree cannot close a loop. Beside each finger that pivots by a flexing first joint and
@@ -84,7 +90,9 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
     about the same axis, with a bar at its end, both shorter than the finger, its range sometimes wholly below
     zero, as such files write it;
     on a finger's later pins, where the finger goes on beyond them, a bar beside the joint (on the link before
-    it) and one on the link after it, at its origin: short, written continuous, with a range below zero or none."""
+    it) and one on the link after it, at its origin: short, written continuous, with a range below zero or none.
+    `apart`: each crank and bar 1 cm beside its joint along the pin, on a revolute joint turning freely (-pi to
+    pi), as some descriptions of underactuated hands write their linkages."""
     rng = random.Random(seed)
     w = Writer(rng)
     lrng = random.Random(seed + 7919)
@@ -98,7 +106,10 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
         if not linkages:
             return []
         bar_link, end = w.link(), w.link()
-        w.joint("continuous", parent, bar_link, xyz, axis, (-1.4, -0.9) if lrng.random() < 0.5 else None)
+        if apart:
+            w.joint("revolute", parent, bar_link, _along(xyz, axis, lrng), axis, (-math.pi, math.pi))
+        else:
+            w.joint("continuous", parent, bar_link, xyz, axis, (-1.4, -0.9) if lrng.random() < 0.5 else None)
         w.joint("fixed", bar_link, end, (side * lrng.uniform(0.004, 0.008), 0.0, lrng.uniform(0.004, 0.008)))
         return [bar_link, end]
 
@@ -109,7 +120,10 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
         crank, bar = w.link(), w.link()
         lower = lrng.uniform(-2.2, -1.0)
         below = lrng.random() < 0.5
-        w.joint("revolute", parent, crank, xyz, axis, (lower, lower + 0.9) if below else (-0.5, 0.5))
+        if apart:
+            w.joint("revolute", parent, crank, _along(xyz, axis, lrng), axis, (-math.pi, math.pi))
+        else:
+            w.joint("revolute", parent, crank, xyz, axis, (lower, lower + 0.9) if below else (-0.5, 0.5))
         w.joint("continuous", crank, bar, (0.0, lrng.uniform(-0.003, 0.003), lrng.uniform(0.006, 0.012)), axis)
         cranks.extend([crank, bar])
         heads.append(crank)

@@ -117,6 +117,19 @@ def test_a_fingers_linkage_written_as_a_chain_of_its_own_is_no_finger(seed):
 
 
 @pytest.mark.parametrize("seed", range(60))
+def test_a_linkage_turning_freely_beside_its_finger_on_the_same_pin_is_no_finger(seed):
+    """The same linkages, each crank and bar 1 cm beside its finger's joint along the pin and turning freely (as
+    some underactuated hands' descriptions write them): still the fingers' linkages and bars. Read as fingers of
+    their own, each finger's first link with its crank had looked like a gripper of its own, and the hand was lost."""
+    built = build(seed, linkages=True, apart=True)
+    assert problems(built) == [], built.description
+    tree, result, _ = settled(built)
+    assert set(result[0][1].mechanisms) == set(built.linkages), built.description
+    found = hands(tree)
+    assert found and built.moving_leaves <= set(found[0][1]), built.description
+
+
+@pytest.mark.parametrize("seed", range(60))
 def test_a_hand_written_open_is_found_by_its_thumb(seed):
     """Fingers curling side by side into the palm and a thumb beside it that closes on them (no fingertip moves
     towards the thumb's tip at the zero pose): the shape shows a hand, its thumb opposes every finger."""

@@ -41,6 +41,7 @@ definitions do that, applied by a reasoner (pipeline.knowledge.reasoning).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
@@ -56,6 +57,7 @@ _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slid
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
 _SQUARE = 0.2    # |cosine| below which two joint axes are square to each other (within about 12 degrees)
 _PARALLEL = 0.95  # |cosine| above which two joint axes are parallel (within about 18 degrees)
+_FULL_TURN = 2 * math.pi - 1e-3  # rad: a range this wide or wider turns all the way round (a free pin)
 _LINKAGE = 0.7    # a chain pivoting on another's axis and reaching less than this share as far is its linkage
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
 MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
@@ -206,13 +208,13 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
 def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]]) -> set[str]:
     """Chains that are another chain's linkage: a chain whose drive pivots about an axis parallel to another chain's
     drive, that other chain jointed beyond its drive (a finger that the linkage curls), and whose link origins lie
-    less than _LINKAGE as far from its pivot at the written pose; the two pivots coincide (within _TOUCHING: a
-    four-bar's crank beside the finger it moves), or lie apart in the plane the two turn in (their offset square to
-    the axes, and shorter than the linkage reaches) with one joint turning both the same way (<mimic>: a parallel
-    four-bar's two bars on the tool's body, the finger hung from one of them). A URDF tree cannot close a loop, so
-    such a linkage is written as a chain of its own. Which way a crank turns is arbitrary where it follows no
-    <mimic>, so whether it closes on its finger says nothing; two jaws sharing one pin, each one rigid link, stay
-    fingers, and fingers side by side pivot apart along their axes."""
+    less than _LINKAGE as far from its pivot at the written pose, where the two pivots lie on one pin (_on_pin: a
+    four-bar's crank beside the finger it moves, at its hinge or, turning freely, beside it on the same pin) or
+    apart in the plane the two turn in (their offset square to the axes, and shorter than the linkage reaches) with
+    one joint turning both the same way (<mimic>: a parallel four-bar's two bars on the tool's body, the finger hung
+    from one of them). A URDF tree cannot close a loop, so such a linkage is written as a chain of its own. Which way
+    a crank turns is arbitrary where it follows no <mimic>, so whether it closes on its finger says nothing; two jaws
+    sharing one pin, each one rigid link, stay fingers."""
     pivots = []
     for a, (links, drive, _) in chains.items():
         if drive.joint_type in ("revolute", "continuous") and (axis := unit(_in_frame(tree, a, fork, drive.axis, {}, True))):
@@ -220,26 +222,40 @@ def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str,
             reach = max(norm(sub(tree.position_in(link, fork), at)) for link in links)
             jointed = any(tree.edge_to(link).movable for link in links[1:])
             turning = axis if drive.mimic is None or drive.mimic_multiplier >= 0 else (-axis[0], -axis[1], -axis[2])
-            pivots.append((a, at, axis, reach, jointed, drive.mimic or drive.joint, turning))
+            pivots.append((a, at, axis, reach, jointed, drive, turning))
     found = set()
-    for a, at, axis, reach, _, driver, turning in pivots:
-        for b, other_at, other_axis, other_reach, other_jointed, other_driver, other_turning in pivots:
+    for a, at, axis, reach, _, drive, turning in pivots:
+        for b, other_at, other_axis, other_reach, other_jointed, other_drive, other_turning in pivots:
             if b == a or not other_jointed or abs(dot(axis, other_axis)) <= _PARALLEL or reach >= _LINKAGE * other_reach:
                 continue
             offset = sub(at, other_at)
-            if norm(offset) < _TOUCHING or (
-                    driver == other_driver and dot(turning, other_turning) > _PARALLEL and norm(offset) < reach
+            if _on_pin(offset, axis, drive) or (
+                    (drive.mimic or drive.joint) == (other_drive.mimic or other_drive.joint)
+                    and dot(turning, other_turning) > _PARALLEL and norm(offset) < reach
                     and abs(dot(offset, axis)) < _SQUARE * norm(offset)):
                 found.add(a)
     return found
 
 
+def _off_axis(offset: Vector, axis: Vector) -> float:
+    """How far a point `offset` from a pivot lies from that pivot's (unit) axis: 0 on the same pin, wherever along it."""
+    return norm(cross(offset, axis))
+
+
+def _on_pin(offset: Vector, axis: Vector, edge: Edge) -> bool:
+    """A pivot `offset` from another, about a parallel `axis`, on that other's pin: at the same point (within
+    _TOUCHING), or apart along the pin where `edge` turns freely (a full turn or more, or no limits: a joint the loop
+    it closes holds, not a finger's hinge beside another's)."""
+    if _off_axis(offset, axis) >= _TOUCHING:
+        return False
+    return norm(offset) < _TOUCHING or edge.limits is None or edge.limits[1] - edge.limits[0] >= _FULL_TURN
+
 def linkage_bars(tree: KinematicTree, links: tuple[str, ...]) -> frozenset[str]:
     """The links of `links` (a moving subtree, top first) that are bars of a linkage inside it rather than a
-    finger's own segments: each subtree hung by a pivot on a link of it at a joint of that link's own, about the
-    same axis (at the link's origin about the axis it turns on, or where another child of it pivots), whose link
-    origins lie less than _LINKAGE as far from there as those of the link's other children (those on that pin, in
-    the second case). A four-bar's bars are so written as branches, since a URDF tree cannot close a loop; a joint
+    finger's own segments: each subtree hung by a pivot on a link of it on a pin of that link's own (_on_pin: the
+    pin it turns on, or the one another child of it pivots on; beside that pivot along the pin where it turns
+    freely), whose link origins lie less than _LINKAGE as far out from that pin as those of the link's other
+    children (those on that pin, in the second case). A four-bar's bars are so written as branches, since a URDF tree cannot close a loop; a joint
     written twice in series (a spring beside a drive: no other child beside it) carries the rest of the finger
     and is no bar."""
     found = set[str]()
@@ -249,23 +265,25 @@ def linkage_bars(tree: KinematicTree, links: tuple[str, ...]) -> frozenset[str]:
         axis = unit(rotate_rpy(e.origin.rpy, e.axis)) if e.joint_type in ("revolute", "continuous") else None
         return None if axis is None else (e.origin.xyz, axis)
 
-    def reach(link: str, at: Vector) -> float:
-        return max(norm(sub(tree.position_in(x, tree.edge_to(link).parent), at)) for x in (link, *tree.descendants(link)))
+    def reach(link: str, at: Vector, axis: Vector) -> float:  # how far out from the pin its link origins lie
+        parent = tree.edge_to(link).parent
+        return max(_off_axis(sub(tree.position_in(x, parent), at), axis) for x in (link, *tree.descendants(link)))
 
     for link in links[1:]:
         if link in found or (own := pivot(link)) is None:
             continue
         at, parent = own[0], tree.edge_to(link).parent
         above = tree.edge_to(parent) if parent != tree.root else None
-        on_own_pin = above is not None and above.joint_type in ("revolute", "continuous") and norm(at) < _TOUCHING \
-            and (axis := unit(above.axis)) is not None and abs(dot(own[1], axis)) > _PARALLEL
+        on_own_pin = above is not None and above.joint_type in ("revolute", "continuous") \
+            and (axis := unit(above.axis)) is not None and abs(dot(own[1], axis)) > _PARALLEL \
+            and _on_pin(at, axis, tree.edge_to(link))
         others = [other for other in tree.children(parent) if other != link]
         sharing = [other for other in others if (theirs := pivot(other)) is not None
-                   and norm(sub(at, theirs[0])) < _TOUCHING and abs(dot(own[1], theirs[1])) > _PARALLEL]
+                   and abs(dot(own[1], theirs[1])) > _PARALLEL and _on_pin(sub(at, theirs[0]), own[1], tree.edge_to(link))]
         if not (on_own_pin or sharing):
             continue
         rivals = others if on_own_pin else sharing  # the rest of the finger, which a bar reaches less far than
-        if rivals and reach(link, at) < _LINKAGE * max(reach(other, at) for other in rivals):
+        if rivals and reach(link, at, own[1]) < _LINKAGE * max(reach(other, at, own[1]) for other in rivals):
             found.update((link, *tree.descendants(link)))
     return frozenset(found)
 
