@@ -23,7 +23,7 @@ from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, last_segments,
                                               limb_ends, off_limb_ends, rolling, spinning_on_trunk, swinging_leaves)
-from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
+from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -600,6 +600,33 @@ def test_a_forearm_that_ends_an_arm_is_no_tool_a_lone_jaw_is(seed):
     assert not last_segments(load_urdf(urdf), limb_ends(load_urdf(urdf)))
     claims = _identified(urdf, lambda q: erring if _leaf(q) in (*forearms, jaw) else NONE)
     assert [claims[f] for f in forearms] == [TOOL_CLS, TOOL_CLS]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_thin_rod_is_no_sensor(seed):
+    """A mobile base whose stack is held by thin poles (cylinders of 12 mm, as long as the gap they span) and with an
+    antenna; the erring model calls each pole and the antenna a sensor at 0.6 (a depth camera's poles, named after
+    the camera they hold, became two RGB-D cameras). A rod holds no sensing element: none is a sensor. A camera in a
+    squat cylinder and a sonar in a short thin one (2 cm across, 3 cm long) stay the model's sensors."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<cylinder radius="0.18" length="0.1"/>')
+    poles = []
+    for k in range(4):
+        poles.append(w.link(f'<cylinder radius="0.006" length="{rng.uniform(0.05, 0.2):.3f}"/>'))
+        w.joint("fixed", base, poles[-1], (0.1 * math.cos(k * 1.57), 0.1 * math.sin(k * 1.57), 0.1))
+    antenna = w.link('<cylinder radius="0.004" length="0.15"/>')
+    w.joint("fixed", base, antenna, (-0.1, 0.05, 0.1))
+    camera = w.link('<cylinder radius="0.03" length="0.05"/>')
+    w.joint("fixed", base, camera, (0.15, 0.0, 0.2))
+    sonar = w.link('<cylinder radius="0.01" length="0.03"/>')
+    w.joint("fixed", base, sonar, (0.18, 0.05, 0.05))
+    tree = load_urdf(w.urdf())
+    assert rods(tree) == {*poles, antenna}
+    sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}
+    claims = _identified(w.urdf(), lambda q: sensor)
+    assert {claims[leaf] for leaf in (*poles, antenna)} == {NONE}
+    assert claims[camera] == claims[sonar] == SENSOR_CLS
 
 
 def test_a_leaf_spinning_from_the_trunk_is_no_tool():

@@ -1,5 +1,6 @@
 """Frames rather than bodies: the leaves that only mark a frame, the frames of one body, where a camera sees
-from, the frames where a closed kinematic loop is cut, and the leaves that only add to a body's collision shape.
+from, the frames where a closed kinematic loop is cut, the leaves that only add to a body's collision shape, and
+the bodies that are thin rods.
 """
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ SQUARE = 0.1  # |cosine| under which two unit axes are square to each other
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
+ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick
+ROD_THICKNESS = 0.03  # m: and at most this thick
 
 
 def is_frame(tree: KinematicTree, link: str) -> bool:
@@ -159,3 +162,17 @@ def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:
     meet = fork_of(tree, [a, b])
     return any(tree.edge_to(link).movable for leaf in (a, b)
                for path in [tree.chain_to_root(leaf)] for link in path[:path.index(meet)])
+
+
+def rods(tree: KinematicTree) -> frozenset[str]:
+    """Leaves whose body is a thin rod: a cylinder at least ROD_LENGTH times as long as it is thick and at most
+    ROD_THICKNESS thick (a standoff, a pole, an antenna, a linkage's bar). A sensor's body holds its sensing element
+    and electronics: none of the truth robots' or the parts library's sensors is so shaped (their rods are standoffs,
+    antennas and bars)."""
+    found = []
+    for leaf in tree.leaves():
+        facts = tree.evidence.get(leaf)
+        size = facts.cylinder if facts is not None else None
+        if size is not None and 0 < 2 * size[0] <= ROD_THICKNESS and size[1] >= ROD_LENGTH * 2 * size[0]:
+            found.append(leaf)
+    return frozenset(found)

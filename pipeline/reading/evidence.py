@@ -98,6 +98,13 @@ class LinkEvidence:
             return max(numbers, default=0.0)
         return max([2 * numbers[0], *numbers[1:]]) if numbers else None  # cylinder r, l; sphere r
 
+    @property
+    def cylinder(self) -> tuple[float, float] | None:
+        """Radius and length of its primitive shape where that is a cylinder (None otherwise)."""
+        kind, _, sizes = self.shape.partition(" ")
+        numbers = [float(n) for n in re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", sizes)]
+        return (numbers[0], numbers[1]) if kind == "cylinder" and len(numbers) >= 2 else None
+
     def text(self) -> str:
         """The link's geometry in a few words, or '' when it has none worth saying. Declared simulator
         sensors are not rendered: they narrow the classes offered (pipeline.abstraction.steps.classify._ruled_out) instead."""

@@ -43,6 +43,7 @@ class Findings:
     limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links, moving on their own joint: never sensors
     swinging: frozenset[str] = _lasting(frozenset())  # bars swinging beside the joint carrying a chain on: no sensors
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
+    rods: frozenset[str] = _lasting(frozenset())  # leaves whose body is a thin rod: never sensors
     rolling_ends: frozenset[str] = _lasting(frozenset())  # those of both that roll, and spinners on the trunk: never tools
     last_segments: frozenset[str] = _lasting(frozenset())  # limb ends that are the limb's last segment: never tools
     loop_frames: frozenset[str] = _lasting(frozenset())  # frames a closed kinematic loop is cut at: no component

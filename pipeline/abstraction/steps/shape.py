@@ -8,14 +8,15 @@ from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
                                               off_limb_ends, palm, rolling, spinning_on_trunk, swinging_leaves)
-from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures
+from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
 
 
 @step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
-                      "last_segments", "frozen_tips", "loop_frames", "collision_volumes", "palms", "declared_sensors"))
+                      "last_segments", "frozen_tips", "rods", "loop_frames", "collision_volumes", "palms",
+                      "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
@@ -23,7 +24,8 @@ def shape(ctx: Context, found: Findings) -> None:
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
-    is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), and the first two never a
+    is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), nor is a body shaped as a thin
+    rod (frames.rods: a standoff, a pole, an antenna), and the first two never a
     tool where the joint rolls (hands.rolling: turning through more than half a turn, or about the line out to the
     leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin) or where the limb's own last link carries
     its mass far out for a jaw (hands.last_segments: a forearm on the elbow of an arm that ends in no tool), nor is a
@@ -40,6 +42,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.limb_ends = limb_ends(robot) - declared
     found.swinging = swinging_leaves(robot) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
+    found.rods = rods(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
         | spinning_on_trunk(robot) - declared
     found.last_segments = last_segments(robot, found.limb_ends)
@@ -52,7 +55,7 @@ def shape(ctx: Context, found: Findings) -> None:
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
                "swinging": sorted(found.swinging),
                "rolling_ends": sorted(found.rolling_ends), "last_segments": sorted(found.last_segments),
-               "frozen_tips": sorted(found.frozen_tips),
+               "frozen_tips": sorted(found.frozen_tips), "rods": sorted(found.rods),
                "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
 
 
