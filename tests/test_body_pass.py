@@ -112,24 +112,6 @@ def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
     assert told[("spin",)] == ("continuous",) and set(told[tuple(leg)]) == {"revolute"}  # the reasoner's Wheel axiom applies
 
 
-def test_a_mount_written_movable_with_no_range_is_no_part():
-    """Simulators' descriptions of vehicles write sensor mounts as revolute joints whose limits give no range (a
-    camera's mount, its optical frame's): they move nothing, so they make no candidate (the model had called a
-    camera's mount a head at 1.00); a wheel written revolute without range, and a pan joint beside them, still do."""
-    w = Writer(random.Random(11))
-    hull = w.link('<box size="1.0 0.6 0.4"/>')
-    camera = w.link('<box size="0.05 0.05 0.05"/>')
-    mounts = [w.joint("revolute", hull, camera, (0.5, 0.0, 0.1), limits=(0.0, 0.0))]
-    mounts.append(w.joint("revolute", camera, w.link(), (0.0, 0.0, 0.0), limits=(0.0, 0.0)))
-    pan = w.joint("revolute", hull, w.link('<box size="0.1 0.1 0.1"/>'), (0.0, 0.0, 0.3), limits=(-1.0, 1.0))
-    wheel = w.link('<cylinder radius="0.1" length="0.05"/>')
-    w.joints.append(f'<joint name="spin" type="revolute"><parent link="{hull}"/><child link="{wheel}"/>'
-                    '<origin xyz="0 0.3 -0.2" rpy="1.5708 0 0"/><axis xyz="0 0 1"/><limit effort="35" velocity="20"/></joint>')
-    tree = load_urdf(w.urdf())
-    assert all(tree.edge_to(link).movable for link in tree.links if link != hull)
-    assert {tuple(e.joint for e in c.joints) for c in body.chains(tree, set(), set())} == {(pan,), ("spin",)}
-
-
 def test_device_joints_are_the_fingers():
     built = wheeled(3)
     tree = load_urdf(built.urdf)

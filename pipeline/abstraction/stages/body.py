@@ -1,4 +1,4 @@
-"""The body pass: every joint that moves not owned by a device, grouped into body parts and classified.
+"""The body pass: every movable joint not owned by a device, grouped into body parts and classified.
 
 Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
 joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from
@@ -70,10 +70,9 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 
 
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
-    """Candidate chains of body joints, in document order of their first joints: joints that move (a joint whose
-    limits give it no range is a fixed mount written movable, as simulators' sensor mounts are, unless it spins)."""
+    """Candidate chains of body joints, in document order of their first joints."""
     placing = placing_joints(tree)
-    body = [e for e in tree.edges if (e.moves or e.spins) and e.joint not in owned_joints and e.joint not in placing]
+    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints and e.joint not in placing]
     names = {e.joint for e in body}
     upper = {e.joint: _upper(tree, e, names) for e in body}
     below: dict[str | None, list[Edge]] = {}
