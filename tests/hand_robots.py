@@ -76,6 +76,11 @@ class Built:
         return {leaf for leaf in self.leaves if leaf in on}
 
 
+def _free(rng: random.Random) -> tuple[float, float]:
+    """A full turn, as files write one: +-pi, or +-3.14."""
+    return rng.choice(((-math.pi, math.pi), (-3.14, 3.14)))
+
+
 def _along(xyz, axis, rng: random.Random):
     """`xyz` moved 1 cm along `axis`, one way or the other."""
     side = rng.choice((-0.01, 0.01))
@@ -91,8 +96,8 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
     zero, as such files write it;
     on a finger's later pins, where the finger goes on beyond them, a bar beside the joint (on the link before
     it) and one on the link after it, at its origin: short, written continuous, with a range below zero or none.
-    `apart`: each crank and bar 1 cm beside its joint along the pin, on a revolute joint turning freely (-pi to
-    pi), as some descriptions of underactuated hands write their linkages."""
+    `apart`: each crank and bar 1 cm beside its joint along the pin, on a revolute joint turning freely (+-pi or
+    +-3.14), as some descriptions of underactuated hands write their linkages."""
     rng = random.Random(seed)
     w = Writer(rng)
     lrng = random.Random(seed + 7919)
@@ -107,7 +112,7 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
             return []
         bar_link, end = w.link(), w.link()
         if apart:
-            w.joint("revolute", parent, bar_link, _along(xyz, axis, lrng), axis, (-math.pi, math.pi))
+            w.joint("revolute", parent, bar_link, _along(xyz, axis, lrng), axis, _free(lrng))
         else:
             w.joint("continuous", parent, bar_link, xyz, axis, (-1.4, -0.9) if lrng.random() < 0.5 else None)
         w.joint("fixed", bar_link, end, (side * lrng.uniform(0.004, 0.008), 0.0, lrng.uniform(0.004, 0.008)))
@@ -121,7 +126,7 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
         lower = lrng.uniform(-2.2, -1.0)
         below = lrng.random() < 0.5
         if apart:
-            w.joint("revolute", parent, crank, _along(xyz, axis, lrng), axis, (-math.pi, math.pi))
+            w.joint("revolute", parent, crank, _along(xyz, axis, lrng), axis, _free(lrng))
         else:
             w.joint("revolute", parent, crank, xyz, axis, (lower, lower + 0.9) if below else (-0.5, 0.5))
         w.joint("continuous", crank, bar, (0.0, lrng.uniform(-0.003, 0.003), lrng.uniform(0.006, 0.012)), axis)

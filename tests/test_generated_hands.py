@@ -129,6 +129,33 @@ def test_a_linkage_turning_freely_beside_its_finger_on_the_same_pin_is_no_finger
     assert found and built.moving_leaves <= set(found[0][1]), built.description
 
 
+def test_fingers_side_by_side_on_one_shaft_stay_fingers_whatever_limits_they_write():
+    """Two fingers of unequal length side by side on one shaft, beside an opposing thumb, their hinges written with a
+    <limit> that gives an upper bound only (the reader keeps no range then): neither is the other's linkage, which
+    only a joint turning a full turn may be beside a finger's hinge on its pin."""
+    w = Writer(random.Random(3))
+    palm = w.link('<box size="0.08 0.08 0.02"/>')
+    fingers = []
+    for y, count in ((0.02, 3), (-0.02, 2)):
+        parent, xyz = palm, (0.03, y, 0.01)
+        for k in range(count):
+            child = w.link('<box size="0.01 0.01 0.03"/>')
+            name = w.name()
+            w.joints.append(f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
+                            f'<origin xyz="{xyz[0]} {xyz[1]} {xyz[2]}"/><axis xyz="0 1 0"/>'
+                            '<limit upper="1.2" effort="1" velocity="1"/></joint>')
+            parent, xyz = child, (0.0, 0.0, 0.03)
+            if k == 0:
+                fingers.append(child)
+    thumb = w.link('<box size="0.01 0.01 0.04"/>')
+    w.joint("revolute", palm, thumb, (-0.03, 0.0, 0.01), (0.0, 1.0, 0.0), (-1.2, 0.0))
+    tip = w.link('<box size="0.01 0.01 0.03"/>')
+    w.joint("revolute", thumb, tip, (0.0, 0.0, 0.04), (0.0, 1.0, 0.0), (-1.2, 0.0))
+    tree = load_urdf(w.urdf())
+    structure = tool_structure(tree, [leaf for leaf in tree.leaves() if palm in tree.chain_to_root(leaf)])
+    assert not structure.linkages and set(fingers) <= {f.name for f in structure.fingers}
+
+
 @pytest.mark.parametrize("seed", range(60))
 def test_a_hand_written_open_is_found_by_its_thumb(seed):
     """Fingers curling side by side into the palm and a thumb beside it that closes on them (no fingertip moves

@@ -586,7 +586,8 @@ def test_a_forearm_that_ends_an_arm_is_no_tool_a_lone_jaw_is(seed):
     """Arms that end in no tool: the elbow turns the forearm through a bounded arc, as a jaw turns, and the erring
     model calls each forearm an end effector at 0.5 (they became one-finger grippers). A forearm carries its mass a
     third of its arm's length out (here 0.12 of 0.35 m from the elbow); a jaw, small beside the arm that carries it, a
-    few centimetres (2 of 60 cm): the forearms are the arms' own, the jaw stays the model's tool. Where the file gives
+    few centimetres (2 of 60 cm; 3 of 80 on an arm written folded back, its pin 8 cm from its base): the forearms are
+    the arms' own, the jaw stays the model's tool. Where the file gives
     a forearm no <inertial>, nothing says how far its mass lies: the model decides."""
     urdf, forearms, jaw = _forearm_arms(seed, 0.12)
     tree = load_urdf(urdf)
@@ -596,6 +597,16 @@ def test_a_forearm_that_ends_an_arm_is_no_tool_a_lone_jaw_is(seed):
     erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.2}
     claims = _identified(urdf, lambda q: erring if _leaf(q) in (*forearms, jaw) else NONE)
     assert not {claims[f] for f in forearms} & {TOOL_CLS, SENSOR_CLS} and claims[jaw] == TOOL_CLS
+    folded = Writer(random.Random(seed))  # the same jaw's arm written folded back on itself: as long as ever
+    link = folded.link('<box size="0.2 0.2 0.2"/>')
+    for out in (0.2, 0.2, -0.18, -0.18, 0.02, 0.02):  # 0.8 m of links, the jaw's pin 8 cm from the base
+        child = folded.link('<box size="0.05 0.05 0.15"/>')
+        folded.joint("revolute", link, child, (0.0, 0.0, out), (0.0, 1.0, 0.0), (-2.0, 2.0))
+        link = child
+    tip = folded.link('<box size="0.02 0.01 0.06"/>', centre=(0.0, 0.0, 0.03))
+    folded.joint("revolute", link, tip, (0.02, 0.0, 0.02), (0.0, 1.0, 0.0), limits=(-1.57, 0.0))
+    tree = load_urdf(folded.urdf())
+    assert tip in limb_ends(tree) and not last_segments(tree, limb_ends(tree))
     urdf, forearms, jaw = _forearm_arms(seed, None)
     assert not last_segments(load_urdf(urdf), limb_ends(load_urdf(urdf)))
     claims = _identified(urdf, lambda q: erring if _leaf(q) in (*forearms, jaw) else NONE)
@@ -607,13 +618,14 @@ def test_a_thin_rod_is_no_sensor(seed):
     """A mobile base whose stack is held by thin poles (cylinders of 12 mm, as long as the gap they span) and with an
     antenna; the erring model calls each pole and the antenna a sensor at 0.6 (a depth camera's poles, named after
     the camera they hold, became two RGB-D cameras). A rod holds no sensing element: none is a sensor. A camera in a
-    squat cylinder and a sonar in a short thin one (2 cm across, 3 cm long) stay the model's sensors."""
+    squat cylinder, a sonar in a short thin one (2 cm across, 3 cm long) and a stereo camera drawn as a cylinder 3 cm
+    across and 17 cm long stay the model's sensors."""
     rng = random.Random(seed)
     w = Writer(rng)
     base = w.link('<cylinder radius="0.18" length="0.1"/>')
     poles = []
     for k in range(4):
-        poles.append(w.link(f'<cylinder radius="0.006" length="{rng.uniform(0.05, 0.2):.3f}"/>'))
+        poles.append(w.link(f'<cylinder radius="0.006" length="{rng.uniform(0.06, 0.2):.3f}"/>'))
         w.joint("fixed", base, poles[-1], (0.1 * math.cos(k * 1.57), 0.1 * math.sin(k * 1.57), 0.1))
     antenna = w.link('<cylinder radius="0.004" length="0.15"/>')
     w.joint("fixed", base, antenna, (-0.1, 0.05, 0.1))
@@ -621,12 +633,14 @@ def test_a_thin_rod_is_no_sensor(seed):
     w.joint("fixed", base, camera, (0.15, 0.0, 0.2))
     sonar = w.link('<cylinder radius="0.01" length="0.03"/>')
     w.joint("fixed", base, sonar, (0.18, 0.05, 0.05))
+    stereo = w.link('<cylinder radius="0.015" length="0.17"/>')
+    w.joint("fixed", base, stereo, (0.18, -0.05, 0.25))
     tree = load_urdf(w.urdf())
     assert rods(tree) == {*poles, antenna}
     sensor = {TAX.answer(SENSOR_CLS): 0.6, NONE: 0.4}
     claims = _identified(w.urdf(), lambda q: sensor)
     assert {claims[leaf] for leaf in (*poles, antenna)} == {NONE}
-    assert claims[camera] == claims[sonar] == SENSOR_CLS
+    assert claims[camera] == claims[sonar] == claims[stereo] == SENSOR_CLS
 
 
 def test_a_leaf_spinning_from_the_trunk_is_no_tool():

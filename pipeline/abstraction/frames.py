@@ -16,8 +16,8 @@ SQUARE = 0.1  # |cosine| under which two unit axes are square to each other
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
-ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick
-ROD_THICKNESS = 0.03  # m: and at most this thick
+ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick (poles, standoffs, antennas: 5 to 17)
+ROD_THICKNESS = 0.02  # m: and at most this thick (they are 8 to 12 mm; a stereo camera drawn as a cylinder, 3 cm)
 
 
 def is_frame(tree: KinematicTree, link: str) -> bool:

@@ -11,7 +11,7 @@ from urdfkb.pipeline.abstraction.frames import is_frame, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
-from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
+from urdfkb.pipeline.abstraction.vectors import cross, dot, norm, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
 HAND_TO_LEG = 0.5  # a hand's fingers reach less than this share of the legs' length (at most 0.25 in the truth
@@ -27,9 +27,9 @@ ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's orig
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
 SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
 # sensor tilting on its own joint hangs from a trunk or a lift: fewer)
-LAST_SEGMENT = 0.15  # share of its limb's length at which a limb end's centre of mass lies out from its own joint,
-# at the least, where it is the limb's last segment (a forearm on its elbow: 0.26 and 0.42 in two public humanoids);
-# a lone jaw's lies at most 0.04 of its arm's in the truth robots (a small arm's jaw about 0.1)
+LAST_SEGMENT = 0.15  # share of its limb's length at which a limb end's centre of mass lies out from its own joint's
+# axis, at the least, where it is the limb's last segment (a forearm on its elbow: 0.20, 0.22 and 0.39 in three
+# public humanoids); a lone jaw's lies at most 0.04 of its arm's in the truth robots
 _SWINGS = ("revolute", "continuous", "prismatic")  # a floating or planar root joint moves a whole robot, not a limb
 
 
@@ -196,22 +196,24 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
 
 
 def last_segments(tree: KinematicTree, ends: frozenset[str]) -> frozenset[str]:
-    """Of the limb ends `ends` (limb_ends) at the end of LIMB_JOINTS movable joints or more, those alone on their
-    parent (nothing else moves from it) whose centre of mass lies LAST_SEGMENT of the limb's length or more out from
-    their own joint: the limb's last segment (the forearm of an arm that ends in no tool, turning at its elbow), not
-    the jaw of a one-jaw gripper, which is small beside the arm that carries it. The limb's length runs from the first link above that carries more than one child
-    (or the root) to the leaf's joint. A leaf with no <inertial> says nothing."""
+    """Of the limb ends `ends` (limb_ends) at the end of LIMB_JOINTS movable joints or more, those whose centre of
+    mass lies LAST_SEGMENT of the limb's length or more out from their own joint's axis: the limb's last segment (the
+    forearm of an arm that ends in no tool, turning at its elbow), not the jaw of a one-jaw gripper, which is small
+    beside the arm that carries it. The limb's length is the sum of its joints' offsets, from the first link above
+    that carries more than one child (or the root) to the leaf (an arm written folded is as long as stretched out).
+    A leaf with no <inertial> says nothing."""
     found = []
     for leaf in ends:
         centre = tree.evidence[leaf].centre if leaf in tree.evidence else None
         edge = tree.edge_to(leaf)
-        if centre is None or any(tree.edge_to(c).movable for c in tree.children(edge.parent) if c != leaf):
+        axis = unit(edge.axis)
+        if centre is None or axis is None:
             continue
         path = _limb_path(tree, leaf)
         if sum(tree.edge_to(link).movable for link in path[:-1]) < LIMB_JOINTS:
             continue  # a bar or a finger hung on a branching link: no limb to measure by
-        length = norm(tree.position_in(leaf, path[-1]))
-        if length > 0 and norm(centre) >= LAST_SEGMENT * length:
+        length = sum(norm(tree.edge_to(link).origin.xyz) for link in path[:-1])
+        if length > 0 and norm(cross(centre, axis)) >= LAST_SEGMENT * length:
             found.append(leaf)
     return frozenset(found)
 

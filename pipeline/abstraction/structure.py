@@ -57,7 +57,7 @@ _TOUCHING = 1e-4  # metres: tips closer than this coincide (two jaws on one slid
 _STILL = 1e-9    # squared speed below which a tip does not move (it lies on its drive's axis)
 _SQUARE = 0.2    # |cosine| below which two joint axes are square to each other (within about 12 degrees)
 _PARALLEL = 0.95  # |cosine| above which two joint axes are parallel (within about 18 degrees)
-_FULL_TURN = 2 * math.pi - 1e-3  # rad: a range this wide or wider turns all the way round (a free pin)
+_FULL_TURN = 2 * math.pi - 0.01  # rad: a range this wide turns all the way round (+-3.14, as files write a free pin)
 _LINKAGE = 0.7    # a chain pivoting on another's axis and reaching less than this share as far is its linkage
 Motion = tuple[Vector, Vector]  # a tip's position and unit direction of motion, in the fork's frame
 MOTIONS = {"prismatic": "prismatic", "revolute": "pivoting", "continuous": "pivoting", "fixed": "frozen"}
@@ -244,11 +244,16 @@ def _off_axis(offset: Vector, axis: Vector) -> float:
 
 def _on_pin(offset: Vector, axis: Vector, edge: Edge) -> bool:
     """A pivot `offset` from another, about a parallel `axis`, on that other's pin: at the same point (within
-    _TOUCHING), or apart along the pin where `edge` turns freely (a full turn or more, or no limits: a joint the loop
-    it closes holds, not a finger's hinge beside another's)."""
+    _TOUCHING), or apart along the pin where `edge` turns freely (through a full turn, as files write it, or
+    continuous with no limits: a joint the loop it closes holds, not a finger's hinge beside another's)."""
     if _off_axis(offset, axis) >= _TOUCHING:
         return False
-    return norm(offset) < _TOUCHING or edge.limits is None or edge.limits[1] - edge.limits[0] >= _FULL_TURN
+    if norm(offset) < _TOUCHING:
+        return True
+    if edge.limits is None:  # a revolute joint with no range given is read so too (a <limit> wanting a bound)
+        return edge.joint_type == "continuous"
+    return edge.limits[1] - edge.limits[0] >= _FULL_TURN
+
 
 def linkage_bars(tree: KinematicTree, links: tuple[str, ...]) -> frozenset[str]:
     """The links of `links` (a moving subtree, top first) that are bars of a linkage inside it rather than a
