@@ -11,7 +11,7 @@ from urdfkb.pipeline.abstraction.frames import is_frame, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
-from urdfkb.pipeline.abstraction.vectors import cross, dot, norm, sub, unit
+from urdfkb.pipeline.abstraction.vectors import dot, norm, off_axis, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
 HAND_TO_LEG = 0.5  # a hand's fingers reach less than this share of the legs' length (at most 0.25 in the truth
@@ -189,7 +189,7 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
         edge = tree.edge_to(leaf)
         if not edge.moves:
             continue
-        joints = sum(tree.edge_to(link).movable for link in _limb_path(tree, leaf)[:-1])
+        joints = _movable_between(tree, leaf, _limb_path(tree, leaf)[-1])
         if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and _past_half_turn(edge)):
             ends.append(leaf)
     return frozenset(ends)
@@ -210,10 +210,10 @@ def last_segments(tree: KinematicTree, ends: frozenset[str]) -> frozenset[str]:
         if centre is None or axis is None:
             continue
         path = _limb_path(tree, leaf)
-        if sum(tree.edge_to(link).movable for link in path[:-1]) < LIMB_JOINTS:
+        if _movable_between(tree, leaf, path[-1]) < LIMB_JOINTS:
             continue  # a bar or a finger hung on a branching link: no limb to measure by
         length = sum(norm(tree.edge_to(link).origin.xyz) for link in path[:-1])
-        if length > 0 and norm(cross(centre, axis)) >= LAST_SEGMENT * length:
+        if length > 0 and off_axis(centre, axis) >= LAST_SEGMENT * length:
             found.append(leaf)
     return frozenset(found)
 

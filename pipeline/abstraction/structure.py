@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
-from urdfkb.pipeline.abstraction.vectors import cross, dot, norm, sub, turn, unit
+from urdfkb.pipeline.abstraction.vectors import cross, dot, norm, off_axis, sub, turn, unit
 
 OPPOSED = -0.5   # coinciding tips: cosine of their directions of motion below which they oppose
 ALONGSIDE = 0.5  # cosine of two tips' directions of motion above which they move together
@@ -237,16 +237,11 @@ def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str,
     return found
 
 
-def _off_axis(offset: Vector, axis: Vector) -> float:
-    """How far a point `offset` from a pivot lies from that pivot's (unit) axis: 0 on the same pin, wherever along it."""
-    return norm(cross(offset, axis))
-
-
 def _on_pin(offset: Vector, axis: Vector, edge: Edge) -> bool:
     """A pivot `offset` from another, about a parallel `axis`, on that other's pin: at the same point (within
     _TOUCHING), or apart along the pin where `edge` turns freely (through a full turn, as files write it, or
     continuous with no limits: a joint the loop it closes holds, not a finger's hinge beside another's)."""
-    if _off_axis(offset, axis) >= _TOUCHING:
+    if off_axis(offset, axis) >= _TOUCHING:
         return False
     if norm(offset) < _TOUCHING:
         return True
@@ -272,7 +267,7 @@ def linkage_bars(tree: KinematicTree, links: tuple[str, ...]) -> frozenset[str]:
 
     def reach(link: str, at: Vector, axis: Vector) -> float:  # how far out from the pin its link origins lie
         parent = tree.edge_to(link).parent
-        return max(_off_axis(sub(tree.position_in(x, parent), at), axis) for x in (link, *tree.descendants(link)))
+        return max(off_axis(sub(tree.position_in(x, parent), at), axis) for x in (link, *tree.descendants(link)))
 
     for link in links[1:]:
         if link in found or (own := pivot(link)) is None:

@@ -24,6 +24,11 @@ def cross(a: Vector, b: tuple[float, ...]) -> Vector:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
+def off_axis(v: Vector, axis: Vector) -> float:
+    """How far the point `v` lies from the line through the origin along the unit `axis` (0 anywhere on it)."""
+    return norm(cross(v, axis))
+
+
 def sub(a: Vector, b: Vector) -> Vector:
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 

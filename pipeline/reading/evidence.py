@@ -87,13 +87,17 @@ class LinkEvidence:
         """No geometry at all: a coordinate frame rather than a body."""
         return not self.meshes and not self.shape
 
+    def _sizes(self) -> tuple[str, list[float]]:
+        """Its primitive shape's kind and the numbers `shape` gives for it (box sides; cylinder r, l; sphere r)."""
+        kind, _, sizes = self.shape.partition(" ")
+        return kind, [float(n) for n in re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", sizes)]
+
     @property
     def extent(self) -> float | None:
         """The largest dimension of its primitive shape in metres (None without one, or with a mesh)."""
         if self.meshes or not self.shape:
             return None
-        kind, _, sizes = self.shape.partition(" ")
-        numbers = [float(n) for n in re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", sizes)]
+        kind, numbers = self._sizes()
         if kind == "box":
             return max(numbers, default=0.0)
         return max([2 * numbers[0], *numbers[1:]]) if numbers else None  # cylinder r, l; sphere r
@@ -101,8 +105,7 @@ class LinkEvidence:
     @property
     def cylinder(self) -> tuple[float, float] | None:
         """Radius and length of its primitive shape where that is a cylinder (None otherwise)."""
-        kind, _, sizes = self.shape.partition(" ")
-        numbers = [float(n) for n in re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", sizes)]
+        kind, numbers = self._sizes()
         return (numbers[0], numbers[1]) if kind == "cylinder" and len(numbers) >= 2 else None
 
     def text(self) -> str:
