@@ -94,9 +94,10 @@ def wheeled(seed: int) -> Built:
     return built
 
 
-def legged(seed: int, bare_feet: bool = False) -> Built:
+def legged(seed: int, bare_feet: bool = False, frame_feet: bool = False) -> Built:
     """Two or four legs of 2-4 joints reaching the ground, and sometimes an arm on the back; `bare_feet`: no
-    foot link fixed at the tips, so each leg's last moving link is its foot (a humanoid's ankle roll link)."""
+    foot link fixed at the tips, so each leg's last moving link is its foot (a humanoid's ankle roll link);
+    `frame_feet`: the foot fixed at each tip is a bare frame (a sole or contact frame), not a ball."""
     rng = random.Random(seed)
     w = Writer(rng)
     built = Built(b"", [], [])
@@ -112,7 +113,7 @@ def legged(seed: int, bare_feet: bool = False) -> Built:
                                   (1, 0, 0) if not i else (0, 1, 0)))
             parent = child
         if not bare_feet:
-            foot = w.link('<sphere radius="0.02"/>')
+            foot = w.link() if frame_feet else w.link('<sphere radius="0.02"/>')
             w.joint("fixed", parent, foot, (0, 0, -0.2))
         built.parts.append(Part("Leg", joints, side))
     if rng.random() < 0.5:

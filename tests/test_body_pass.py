@@ -328,3 +328,37 @@ def test_a_continuous_joint_its_file_bounds_to_less_than_half_a_turn_does_not_sp
     links = (bounded, free, wide, rear)
     assert [tree.edge_to(link).spins for link in links] == [False, True, True, False]
     assert [body._motion(tree.edge_to(link)) for link in links] == ["revolute", "continuous", "continuous", "continuous"]
+
+
+def _sprawled(seed: int, pairs: int) -> tuple[bytes, list[list[str]]]:
+    """A trunk with `pairs` mirrored pairs of legs spread front to back, each of 3 joints, that the zero pose holds
+    out level with the trunk and folded (its foot back beside its hip), its name meaningless."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    trunk = w.link('<box size="0.8 0.2 0.1"/>')
+    legs = []
+    for k in range(pairs):
+        x = 0.3 - 0.6 * k / (pairs - 1)
+        for y in (0.1, -0.1):
+            hip, thigh, shank, foot = w.link('<box size="0.1 0.05 0.05"/>'), w.link('<box size="0.3 0.04 0.04"/>'), \
+                w.link('<box size="0.3 0.03 0.03"/>'), w.link('<sphere radius="0.03"/>')
+            legs.append([w.joint("revolute", trunk, hip, (x, y, 0.0), (1.0, 0.0, 0.0)),
+                         w.joint("revolute", hip, thigh, (0.0, 0.08 if y > 0 else -0.08, 0.0), (0.0, 1.0, 0.0)),
+                         w.joint("revolute", thigh, shank, (0.3, 0.0, 0.0), (0.0, 1.0, 0.0))])
+            w.joint("fixed", shank, foot, (-0.3, 0.0, 0.0))
+    return w.urdf(), legs
+
+
+@pytest.mark.parametrize("seed,pairs", [(3, 2), (4, 3)])
+def test_legs_the_zero_pose_holds_out_level_are_legs(seed, pairs):
+    """A quadruped or hexapod whose file's zero pose folds its legs flat beside its trunk: nothing lies below the
+    trunk, yet its legs leave it in mirrored pairs spread front to back, so their tips are feet (hands.feet) and the
+    legs reach the ground: the reasoner makes each a leg, whatever the model would have said (here "torso")."""
+    urdf, legs = _sprawled(seed, pairs)
+    tree = load_urdf(urdf)
+    assert max(abs(tree.position_in(link, tree.root)[2]) for link in tree.links) < 0.01  # all level with the trunk
+
+    def rule(question):
+        return question.options[0] if question.key.startswith("side:") else "torso"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
+    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)

@@ -316,3 +316,33 @@ def test_a_stereo_pair_declared_as_one_is_one_device_whatever_the_names_say(seed
         oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
         groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
         assert len(groups) == devices, (seed, declared)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_two_depth_cameras_each_declared_are_two_devices_whatever_the_names_say(seed):
+    """A sensor head carries two depth cameras side by side looking the same way (bare frames, each with its optical
+    frame and its own simulator depth camera) and a tracking camera's bare frame between them, declared nowhere. The
+    model names every frame one device (a quadruped's two time-of-flight cameras and its tracking camera became
+    one RGB-D camera): each declared depth image is a device of its own, as each declared ray sensor is."""
+    w = Writer(random.Random(seed))
+    base, head = w.link('<box size="0.6 0.3 0.1"/>'), w.link('<box size="0.1 0.25 0.1"/>')
+    w.joint("fixed", base, head, (0.4, 0.0, 0.0))
+    frames, depth, stem = [], [], w.name()
+    for y in (0.095, 0.0, -0.095):
+        housing, optical = w.link(), f"{stem}_{w.name()}"  # the frames' names share a stem
+        w.links.append(f'<link name="{optical}"/>')
+        w.joint("fixed", head, housing, (0.05, y, -0.05))
+        w.joint("fixed", housing, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        frames.append(optical)
+        if y:
+            depth.append((housing, optical))
+    text = "".join(f'<gazebo reference="{h}"><sensor name="{h}_s" type="depth"><plugin name="{h}_p" '
+                   f'filename="libgazebo_ros_openni_kinect.so"><frameName>{f}</frameName></plugin></sensor></gazebo>'
+                   for h, f in depth)
+    tree = load_urdf(w.urdf().replace(b"</robot>", text.encode() + b"</robot>"))
+    chains = [sub_chain(tree, frame, base) for frame in frames]
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[0])), tree, chains, "sensor",
+                   dict.fromkeys(frames, "VisionSensor"))
+    declared = {optical for _, optical in depth}
+    assert all(len(declared & set(g.leaves)) <= 1 for g in groups), (seed, [g.leaves for g in groups])
+    assert sorted(f for g in groups for f in g.leaves) == sorted(frames)

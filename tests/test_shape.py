@@ -296,15 +296,17 @@ def test_leaves_at_no_limbs_end_are_never_tools():
     assert seen >= 40
 
 
-def test_a_legs_last_link_on_the_ground_is_part_of_the_body_unasked():
-    """Where no foot frame is fixed at a leg's tip, the leaf the robot stands on is the leg's last moving link.
-    The erring model calls it a sensor at 0.6 (a humanoid's ankle roll links became touch sensors, taking the
-    ankle joints out of the legs): it is part of the body, and it is not asked."""
+@pytest.mark.parametrize("bare_feet", [True, False])
+def test_a_legs_last_link_or_its_foot_on_the_ground_is_part_of_the_body_unasked(bare_feet):
+    """Where no foot is fixed at a leg's tip, the leaf the robot stands on is the leg's last moving link; where a
+    ball or a sole is, that body is the foot. The erring model calls it a sensor at 0.6 (a humanoid's ankle roll
+    links became touch sensors, taking the ankle joints out of the legs; a quadruped's numbered toes force-torque
+    sensors): it is part of the body, and it is not asked."""
     for seed in range(0, 300, 7):
-        built = legged(seed, bare_feet=True)
+        built = legged(seed, bare_feet=bare_feet)
         tree = load_urdf(built.urdf)
         tips = _leg_tips(built, tree)
-        assert tips == set(feet(tree)) and all(tree.edge_to(t).movable for t in tips), seed
+        assert tips == set(feet(tree)) and all(tree.edge_to(t).movable == bare_feet for t in tips), seed
         asked = []
 
         def erring(q):
@@ -315,10 +317,11 @@ def test_a_legs_last_link_on_the_ground_is_part_of_the_body_unasked():
 
 
 def test_alike_limbs_are_asked_once_and_answered_alike():
-    """The feet of a generated legged robot are one set of alike leaves: one identification question, whose
-    answer all of them get, even from a model that would have told them apart (by a meaningless name)."""
+    """The contact frames at the feet of a generated legged robot are one set of alike leaves: one identification
+    question, whose answer all of them get, even from a model that would have told them apart (by a meaningless
+    name)."""
     for seed in range(0, 300, 11):
-        built = legged(seed)
+        built = legged(seed, frame_feet=True)
         tree = load_urdf(built.urdf)
         tips = _leg_tips(built, tree)
         assert sorted(tips) in [sorted(g) for g in alike_leaves(tree, list(tree.leaves()))], seed
@@ -770,3 +773,31 @@ def test_collision_volumes_at_their_parents_origin_are_no_component_and_not_aske
     claims = _identified(w.urdf(), erring)
     assert {claims[c] for c in capsules} == {NONE} and not set(capsules) & set(asked)
     assert all(claims[leaf] == SENSOR_CLS and leaf in asked for leaf in (pad, seen, device))
+
+
+def _rover(seed: int) -> tuple[bytes, list[str]]:
+    """A low rover on four mirrored corner modules, each a steering joint carrying a wheel whose drive the file
+    writes revolute with a wide range."""
+    w = Writer(random.Random(seed))
+    trunk = w.link('<box size="0.8 0.5 0.1"/>')
+    wheels = []
+    for x in (0.35, -0.35):
+        for y in (0.3, -0.3):
+            fork, wheel = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<cylinder radius="0.06" length="0.05"/>')
+            w.joint("revolute", trunk, fork, (x, y, 0.0), limits=(-1.5, 1.5))
+            w.joint("revolute", fork, wheel, (0.0, 0.12 if y > 0 else -0.12, -0.12), (0.0, 1.0, 0.0), (-1e4, 1e4))
+            wheels.append(wheel)
+    return w.urdf(), wheels
+
+
+def test_no_feet_where_no_legs_are_even_level_with_the_trunk():
+    """Where nothing stands below the trunk, feet are the tips of legs leaving it in mirrored pairs spread front to
+    back (test_body_pass: test_legs_the_zero_pose_holds_out_level_are_legs); a rover's corner wheels and the fingers
+    of a hand published alone leave it so, or in a row, and are no feet."""
+    for seed in range(8):
+        urdf, wheels = _rover(seed)
+        tree = load_urdf(urdf)
+        assert all(rolling(tree, wheel) for wheel in wheels) and not feet(tree), seed
+    for seed in SEEDS:
+        tree = load_urdf(build(seed, alone=True).urdf)
+        assert not feet(tree), seed

@@ -14,14 +14,16 @@ from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, r
 from urdfkb.pipeline.abstraction.vectors import dot, norm, off_axis, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
-HAND_TO_LEG = 0.5  # a hand's fingers reach less than this share of the legs' length (at most 0.25 in the truth
-# robots' and probes' hands; a small humanoid's arms reach 0.67 and 1.0 of its legs)
+HAND_TO_LEG = 0.4  # a hand's fingers reach less than this share of the legs' length (at most 0.27 in the truth
+# robots' and probes' hands; a small humanoid's arms reach 0.57 and 0.58 of its legs)
 MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
 TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' span across the hand, at most
 TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
 # hand's back or sides lie under half of it)
 FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
+MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points) this near each other's mirror image across a plane
+# of the root pair across it
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
@@ -77,12 +79,18 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
 
 
 def _leg_length(tree: KinematicTree, standing: frozenset[str]) -> float:
-    """How high the link where the legs ending at the feet `standing` meet lies above them (infinite where the robot
-    stands on no legs)."""
+    """How long the legs ending at the feet `standing` are: the sum of the joint offsets from the link where they
+    meet down to the farthest foot (infinite where the robot stands on no legs)."""
     if not standing:
         return math.inf
     meet = fork_of(tree, sorted(standing))
-    return tree.position_in(meet, tree.root)[2] - min(tree.position_in(foot, tree.root)[2] for foot in standing)
+    return max(_length(tree, foot, meet) for foot in standing)
+
+
+def _length(tree: KinematicTree, link: str, ancestor: str) -> float:
+    """The sum of the joint offsets from `ancestor` down to `link`: a limb written folded is as long as stretched."""
+    path = tree.chain_to_root(link)
+    return sum(norm(tree.edge_to(x).origin.xyz) for x in path[:path.index(ancestor)])
 
 
 def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
@@ -317,14 +325,16 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
     underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
     arm, parts a few centimetres above its fingertips), on a robot whose root (or trunk, below joints placing it: frames.placing_joints)
-    lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool."""
+    lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool.
+    A robot whose zero pose holds its legs out level with its trunk stands on none that way: its feet are those of
+    its sprawled legs (_sprawled_feet)."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
     placing = placing_joints(tree)  # where joints place the robot from a frame on the floor, the trunk below them
     top = max((e.child for e in tree.edges if e.joint in placing), key=lambda x: len(tree.chain_to_root(x)),
               default=tree.root)
     if height[top] - lowest < STANCE:
-        return frozenset()
+        return _sprawled_feet(tree, top, placing)
     low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
     limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low), placing)]
     if len(limbs) < 2:
@@ -334,6 +344,38 @@ def feet(tree: KinematicTree) -> frozenset[str]:
         return frozenset()
     legs = [leaf for leaf in limbs if _movable_between(tree, leaf, meet) >= 2]
     return frozenset(legs) if len(legs) >= 2 else frozenset()
+
+
+def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
+    """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), each on joints that turn
+    or slide within a range and ending in no wheel (a tip that rolls: `rolling`), as many joints in each, reaching STANCE or more from where it
+    leaves the trunk, that leave it in mirrored pairs (each one's attachment point mirrored across the trunk's x-z
+    plane, REP 103's left and right, lies within MIRROR_EPS of another's) spread STANCE or more from front to back: a
+    quadruped's or hexapod's legs, whatever its zero pose (a limb's length is the sum of its joints' offsets: a leg
+    written folded is as long as stretched out). A hand's fingers leave its palm in a row, its thumb
+    unpaired."""
+    tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:] and not rolling(tree, leaf)
+            and not any(tree.edge_to(x).spins for x in tree.chain_to_root(leaf)[:-1])]
+    limbs: dict[str, tuple[str, float]] = {}  # the limb's first moving link -> its tip, its length
+    for tip in tips:
+        path = tree.chain_to_root(tip)
+        moving = [x for x in path[:path.index(trunk)] if tree.edge_to(x).movable]
+        if len(moving) < 2 or not _from_trunk_by_legs(tree, tip, set(tips), placing):
+            continue
+        first = moving[-1]
+        length = _length(tree, tip, first)
+        if length >= STANCE and length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
+            limbs[first] = (tip, length)
+    by_count: dict[int, list[str]] = {}
+    for first, (tip, _) in limbs.items():
+        by_count.setdefault(_movable_between(tree, tip, tree.edge_to(first).parent), []).append(first)
+    for firsts in by_count.values():
+        at = [tree.position_in(first, trunk) for first in firsts]
+        mirrored = all(any(i != j and math.dist((a[0], -a[1], a[2]), b) <= MIRROR_EPS for j, b in enumerate(at))
+                       for i, a in enumerate(at))
+        if len(firsts) >= 4 and mirrored and max(a[0] for a in at) - min(a[0] for a in at) >= STANCE:
+            return frozenset(limbs[first][0] for first in firsts)
+    return frozenset()
 
 
 def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:

@@ -27,14 +27,13 @@ from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import placing_joints
-from urdfkb.pipeline.abstraction.hands import feet
+from urdfkb.pipeline.abstraction.hands import MIRROR_EPS, feet
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
-MIRROR_EPS = 0.02  # m: two parts this near each other's mirror image across a plane of the root pair across it
 Log = Callable[[str], None]
 
 
@@ -241,12 +240,15 @@ def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float, tools: set
     """What the chain moves comes down to the robot's lowest frame, below where it hangs from (an arm on a
     fixed base holds the lowest frames too, but above its mount). An end-effector's links (`tools`) do not count:
     a gripper an arm points down below its own base at the zero pose does not make the arm a leg. A chain of two
-    joints or more comes down there at a foot the robot stands on (`standing`, hands.feet) or a wheel (a joint
-    that spins): the arms of an upper body on a stand the file leaves out hang lowest, but nothing stands on them."""
+    joints or more reaches it where it moves a foot the robot stands on (`standing`, hands.feet: a leg, even one the
+    zero pose holds out level), or comes down there at a wheel (a joint that spins): the arms of an upper body on a
+    stand the file leaves out hang lowest, but nothing stands on them."""
     moved = [link for e in chain.joints for link in (e.child, *tree.descendants(e.child)) if link not in tools]
     if not moved:
         return False
-    if len(chain.joints) >= 2 and not standing & set(moved) and not any(tree.edge_to(link).spins for link in moved):
+    if len(chain.joints) >= 2 and standing & set(moved):
+        return True
+    if len(chain.joints) >= 2 and not any(tree.edge_to(link).spins for link in moved):
         return False
     reach = min(_height(tree, link) for link in moved)
     return reach <= lowest + GROUND_EPS and reach < _height(tree, chain.mount) - GROUND_EPS

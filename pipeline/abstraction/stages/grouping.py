@@ -26,8 +26,9 @@ to the camera (ontology.md). A housing piece fixed straight to that
 link beside an optical frame (a camera's model frame) is bound with them. A branch that carries several
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
 its own frames bind below it (frames.body_of).
-One ranger, one device: two sub-chains each declaring a ray sensor of its own (no declaration in common) are two
-devices whatever their names (a robot's infrared floor sensors, each with its own range plugin).
+One ranger, one device: two sub-chains each declaring a ray sensor or a depth camera of its own (no declaration in
+common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
+plugin; a sensor head's time-of-flight cameras, each with its own depth image).
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
 publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
@@ -56,6 +57,7 @@ VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carr
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
+DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
 
 
 @dataclass
@@ -135,11 +137,19 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
-def _rangers(tree: KinematicTree, chain: SubChain) -> frozenset[SimSensor]:
-    """The ray sensors declared on the sub-chain's links below its mount: each is one device (one scan or range
-    reading), so two sub-chains each declaring its own are two devices."""
-    return frozenset(s for link in chain.links if link in tree.evidence
-                     for s in tree.evidence[link].sensors if s.ranging)
+def _two_rangers(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """Each of the two sub-chains declares a ray or depth sensor of its own (_rangers), none in common."""
+    shared = set(a.links) & set(b.links)  # one chain may hang below the other's sensor
+    own_a, own_b = _rangers(tree, a, shared), _rangers(tree, b, shared)
+    return bool(own_a and own_b and own_a.isdisjoint(own_b))
+
+
+def _rangers(tree: KinematicTree, chain: SubChain, shared: set[str]) -> frozenset[SimSensor]:
+    """The ray and depth sensors declared on the sub-chain's links below its mount, but those `shared` with another
+    sub-chain: each is one device (one scan, range reading or depth image), so two sub-chains each declaring its own
+    are two devices, even where one hangs below the other (a camera's frames written as a chain of calibrations)."""
+    return frozenset(s for link in chain.links if link in tree.evidence and link not in shared
+                     for s in tree.evidence[link].sensors if s.ranging or s.type in DEPTH_IMAGES)
 
 
 def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str], apart: frozenset[str]) -> bool:
@@ -195,10 +205,11 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
           progress: Progress | None = None, apart: frozenset[str] = frozenset()) -> list[Group]:
     """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category; `apart`:
     leaves declared as sensors of their own that no camera carries (never a camera's built-in frame)."""
-    rangers = [frozenset() if kind == END_EFFECTOR else _rangers(tree, c) for c in chains]
+    rangers = [[kind != END_EFFECTOR and i != j and _two_rangers(tree, a, b) for j, b in enumerate(chains)]
+               for i, a in enumerate(chains)]
 
     def two_rangers(i: int, j: int) -> bool:
-        return bool(rangers[i] and rangers[j] and rangers[i].isdisjoint(rangers[j]))
+        return rangers[i][j]
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:

@@ -38,7 +38,7 @@ class Findings:
     # lasting, from the robot's shape (the shape step)
     hand_mounts: dict[str, str] = _lasting(factory=dict)  # leaf of a hand or gripper → its hand's mount
     feet: frozenset[str] = _lasting(frozenset())  # limb tips the robot stands on: never tools
-    moving_feet: frozenset[str] = _lasting(frozenset())  # feet that are a leg's own last link: body, unasked
+    body_feet: frozenset[str] = _lasting(frozenset())  # feet that are a leg's last link or a body: body, unasked
     off_ends: frozenset[str] = _lasting(frozenset())  # leaves at no limb's end: never tools
     limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links, moving on their own joint: never sensors
     swinging: frozenset[str] = _lasting(frozenset())  # bars swinging beside the joint carrying a chain on: no sensors

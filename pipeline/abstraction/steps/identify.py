@@ -12,7 +12,7 @@ from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 
 
-@step("identification", needs=("components", "hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends",
+@step("identification", needs=("components", "hand_mounts", "feet", "body_feet", "off_ends", "limb_ends",
                                "swinging", "rolling_ends", "last_segments", "frozen_tips", "rods", "loop_frames",
                                "collision_volumes", "palms", "declared_sensors"),
       makes=("leaves", "claims", "shares"))
@@ -38,8 +38,8 @@ def identification(ctx: Context, found: Findings) -> None:
         elif leaf in found.declared_sensors and leaf not in claims and sensors:
             ctx.log(f"{leaf}: the file declares a simulator sensor on it: a sensor")
             claims[leaf], shares[leaf] = sensors, 1.0
-        elif leaf in found.moving_feet and leaf not in claims:
-            ctx.log(f"{leaf}: a leg's last link, moving on its own joint, on the ground: part of the body")
+        elif leaf in found.body_feet and leaf not in claims:
+            ctx.log(f"{leaf}: a foot the robot stands on, the leg's last link or a body of its own: part of the body")
             claims[leaf], shares[leaf] = body, 1.0
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
     # the kinds a leaf's place rules out

@@ -8,19 +8,20 @@ from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
                                               off_limb_ends, palm, rolling, spinning_on_trunk, swinging_leaves)
-from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods
+from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, rods
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
 
 
-@step("shape", makes=("hand_mounts", "feet", "moving_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
+@step("shape", makes=("hand_mounts", "feet", "body_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
                       "last_segments", "frozen_tips", "rods", "loop_frames", "collision_volumes", "palms",
                       "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
     end-effector pass unless a simulator declares a sensor on them; limb tips the robot stands on are feet,
-    never tools (a foot that moves on its own joint is the leg's last link: part of the body, unasked), and
+    never tools (a foot that moves on its own joint is the leg's last link, and one with a body of its own, a sole or
+    a ball, is the leg's foot: part of the body, unasked, where the file declares no sensor on it), and
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
     or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
@@ -37,7 +38,8 @@ def shape(ctx: Context, found: Findings) -> None:
     seen = hands(robot)
     found.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(seen).items() if leaf not in declared}
     found.feet = feet(robot)
-    found.moving_feet = frozenset(f for f in found.feet if robot.edge_to(f).movable and f not in declared)
+    found.body_feet = frozenset(f for f in found.feet if f not in declared
+                                and (robot.edge_to(f).movable or _body(robot, f)))
     found.off_ends = off_limb_ends(robot, seen)
     found.limb_ends = limb_ends(robot) - declared
     found.swinging = swinging_leaves(robot) - declared
@@ -51,12 +53,18 @@ def shape(ctx: Context, found: Findings) -> None:
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
     found.declared_sensors = frozenset(leaf for leaf in robot.leaves() if _measures(ctx, robot, leaf))
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
-               "moving_feet": sorted(found.moving_feet),
+               "body_feet": sorted(found.body_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
                "swinging": sorted(found.swinging),
                "rolling_ends": sorted(found.rolling_ends), "last_segments": sorted(found.last_segments),
                "frozen_tips": sorted(found.frozen_tips), "rods": sorted(found.rods),
                "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
+
+
+def _body(tree: KinematicTree, link: str) -> bool:
+    """The link is a body: it has geometry beyond a frame's mark, or mass (a foot's ball drawn as a dot)."""
+    facts = tree.evidence.get(link)
+    return not is_frame(tree, link) or bool(facts and facts.mass)
 
 
 def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
