@@ -1,14 +1,26 @@
 """The hardware product catalogue (ontologies/products.ttl, pipeline.abstraction.catalogue) and where it reaches the questions."""
 from __future__ import annotations
 
+import random
+
 import pytest
 from rdflib.namespace import OWL
+
+from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction.catalogue import Catalogue, Product, catalogue, load
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.knowledge.namespaces import CORE
 from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.pipeline.abstraction.prompts import kind_choice, level_options, product_text
+from urdfkb.pipeline.abstraction.abstractor import Abstractor
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.alike import alike_sets
+from urdfkb.pipeline.abstraction.steps.classify import chain_subject, pre_classification
+from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
+from urdfkb.pipeline.reading.ingest import load_urdf
 
 TAX = vocabulary()
 
@@ -108,3 +120,28 @@ def test_a_simulator_sensors_name_names_its_product(seed):
     assert camera is not None and camera.label == "Intel RealSense D435"
     assert lidar is not None and lidar.label == "Velodyne lidar" and named_product(tree, [other]) is None
     assert named_product(tree, [frame]) is None  # a lidar declared on the base names no bare frame fixed to it
+
+
+def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_may_stay_a_sensor():
+    """A GNSS receiver is a sensor of none of the kinds the core names below Sensor (a satellite navigation
+    receiver's link was typed a camera, an IMU, a touch sensor): where a chain names it, its pre-classification is
+    offered staying at Sensor beside the kinds, and the answer stays there; an alike leaf beside it that names
+    nothing is asked on its own (not answered with it) and offered only the kinds."""
+    w = Writer(random.Random(5))
+    base = w.link('<box size="0.5 0.4 0.2"/>')
+    for leaf in ("navsat_link", "plate"):  # mounted as an underwater vehicle's file writes its sensors: no range
+        w.links.append(f'<link name="{leaf}"/>')
+        w.joint("revolute", base, leaf, (0.1, 0.0, 0.1), limits=(0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    assert ["navsat_link", "plate"] in alike_sets(tree, ["navsat_link", "plate"], lambda a, b: True)
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        return "other sensor" if "other sensor" in q.options else q.options[0]
+    ctx = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor")
+    found = Findings(chains=[sub_chain(tree, leaf, base) for leaf in ("navsat_link", "plate")])
+    pre_classification(ctx, found)
+    assert "satellite navigation (GNSS) receiver" in chain_subject(ctx, tree, found.chains[0], "Sensor").evidence
+    assert seen["pre:navsat_link@Sensor"][-1] == "other sensor" and found.pre["navsat_link"].cls == "Sensor"
+    assert "other sensor" not in seen["pre:plate@Sensor"] and found.pre["plate"].cls != "Sensor"

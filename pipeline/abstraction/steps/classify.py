@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from urdfkb.pipeline.abstraction.catalogue import Product
+from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.reading.evidence import LinkEvidence, named
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.prompts import product_text
@@ -38,8 +40,19 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
     shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
     between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
-    product = product_text(ctx.vocab, named_product(tree, list(reversed(chain.links))), cls)
-    return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
+    named_as = named_product(tree, list(reversed(chain.links)))
+    product = product_text(ctx.vocab, named_as, cls)
+    return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out,
+                   _staying(ctx.vocab, named_as, cls))
+
+
+def _staying(vocab: Vocabulary, product: Product | None, cls: str) -> tuple[str, str] | None:
+    """Where the catalogue product a chain names is of the descent's start class itself, of none of the kinds below
+    it (a GNSS receiver, a sensor the core names no kind of), the answer that stays there, and its definition."""
+    if product is None or product.cls != cls:
+        return None
+    label = vocab.label(cls)
+    return f"other {label}", f"A {label} of none of the kinds above, such as a {product.label}."
 
 
 RGBD = "rgbd_camera"  # SDF's sensor type of a camera giving colour and depth
@@ -76,10 +89,11 @@ def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: s
 @step("pre-classification", needs=("chains",), makes=("pre",))
 def pre_classification(ctx: Context, found: Findings) -> None:
     """Each sub-chain's class below the pass's kind; alike leaves (structure.alike_leaves) whose declarations
-    rule out the same classes are asked once, the first standing for all."""
+    rule out the same classes, offered the same answers, are asked once, the first standing for all."""
     kind = ctx.device_kind
     subjects = {c.leaf: chain_subject(ctx, ctx.tree, c, kind.cls) for c in found.chains}
-    sets = alike_sets(ctx.tree, list(subjects), lambda a, b: subjects[a].exclude == subjects[b].exclude)
+    sets = alike_sets(ctx.tree, list(subjects), lambda a, b: (subjects[a].exclude, subjects[a].stay)
+                      == (subjects[b].exclude, subjects[b].stay))
     typed = descend(ctx.oracle, ctx.vocab, kind.cls, [subjects[leaves[0]] for leaves in sets],
                     "pre-classification", ctx.progress)
     by_leaf = {leaf: t for leaves, t in zip(sets, typed) for leaf in leaves}
