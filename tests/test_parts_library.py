@@ -48,7 +48,8 @@ TURNING_BASE = ("tool extent: a revolute joint inside a tool (the OnRobot RG2's 
                 "its quick-changer base) is read as the arm's last joint, so the tool is mounted on its body and its base "
                 "is left out")
 MOUNT_POINT = ("one device, many components: a bare mount-point frame on a camera's housing (the MultiSense S21's "
-               "top_left_rear_mount, beside its IMU frames) is split off the device, however the model names it")
+               "top_left_rear_mount, beside its IMU frames) is split off the device where the model names each frame "
+               "a device of its own (structure alone does not bind it: it lies 0.108 m out from the housing's origin)")
 IMU_UNDER_COLOUR = ("one device, many components: a camera whose IMU frames hang from its colour frame (the RealSense "
                     "L515's gyro and accel frames) is split into the colour-and-IMU branch and its depth and infrared "
                     "frames, and the bare mount points on its case (lower_mount, upper_mount) into a third, however "
@@ -59,8 +60,7 @@ FORK_BELOW_BASE = ("tool extent: a hand whose fingers fork from a frame below it
                    "right_hand_base_link) is mounted on its own base, which is left out of it; its middle finger, on a "
                    "fixed spread dummy beside mimicking spread joints, is read as a mechanism")
 KNOWN = {
-    ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("group together", "carnegie_multisense_s21"): MOUNT_POINT,
-    ("stay", "carnegie_multisense_s21"): MOUNT_POINT, ("mount", "carnegie_multisense_s21"): OPTICAL_ROOT,
+    ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("mount", "carnegie_multisense_s21"): OPTICAL_ROOT,
     ("group", "realsense_l515"): IMU_UNDER_COLOUR, ("group together", "realsense_l515"): IMU_UNDER_COLOUR,
     ("stay", "realsense_l515"): IMU_UNDER_COLOUR,
     ("tool", "onrobot_rg2"): TURNING_BASE,

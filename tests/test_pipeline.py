@@ -206,11 +206,12 @@ def test_a_ranging_sensor_that_is_neither_lidar_nor_sonar_stays_a_ranging_sensor
     assert typed.cls == "RangingSensor" and seen["pre:y@RangingSensor"] == ("lidar", "other ranging sensor")
 
 
-def test_name_prefixes_break_at_underscores_and_case_changes():
+def test_name_prefixes_break_at_underscores_namespaces_and_case_changes():
     assert name_prefixes("SurroundingFrontLaser_device_frame") == (
         "Surrounding", "SurroundingFront", "SurroundingFrontLaser", "SurroundingFrontLaser_device",
         "SurroundingFrontLaser_device_frame")
     assert name_prefixes("imu") == ("imu",)
+    assert name_prefixes("multisense/top_left") == ("multisense", "multisense/top", "multisense/top_left")
 
 
 def test_device_names_leave_out_the_body_part_the_device_is_mounted_on():

@@ -51,7 +51,7 @@ from urdfkb.pipeline.abstraction.frames import body_of, is_frame
 from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 
-_WORD_BREAK = re.compile(r"(?=_)|(?<=[a-z0-9])(?=[A-Z])")
+_WORD_BREAK = re.compile(r"(?=[_/])|(?<=[a-z0-9])(?=[A-Z])")  # a namespace's "/" parts words too (multisense/gyro)
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
 VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
@@ -80,7 +80,7 @@ class Group:
 
 
 def name_prefixes(name: str) -> tuple[str, ...]:
-    """Every beginning of `name` that ends at a word break ('_' or a lower→upper case change), and the name."""
+    """Every beginning of `name` that ends at a word break ('_', '/' or a lower→upper case change), and the name."""
     cuts = [m.start() for m in _WORD_BREAK.finditer(name) if m.start() > 0]
     return tuple(dict.fromkeys([name[:c] for c in cuts] + [name]))
 
