@@ -801,3 +801,40 @@ def test_no_feet_where_no_legs_are_even_level_with_the_trunk():
     for seed in SEEDS:
         tree = load_urdf(build(seed, alone=True).urdf)
         assert not feet(tree), seed
+
+
+def _small_quadruped(seed: int) -> tuple[bytes, list[str], str]:
+    """A quadruped 0.2 m long standing 0.1 m tall (legs of three joints hanging down, a foot fixed at each tip), a
+    bare toe frame fixed on one leg's last link above its foot; names meaningless. The URDF, the feet, the toe."""
+    w = Writer(random.Random(seed))
+    trunk = w.link('<box size="0.2 0.1 0.05"/>')
+    feet_, toe = [], ""
+    for x in (0.06, -0.06):
+        for y in (0.03, -0.03):
+            parent = trunk
+            for i, xyz in enumerate(((x, y, 0.0), (0.0, 0.02 if y > 0 else -0.02, 0.0), (0.0, 0.0, -0.05))):
+                child = w.link('<box size="0.01 0.01 0.05"/>')
+                w.joint("revolute", parent, child, xyz, (1.0, 0.0, 0.0) if not i else (0.0, 1.0, 0.0))
+                parent = child
+            foot = w.link('<sphere radius="0.008"/>')
+            w.joint("fixed", parent, foot, (0.0, 0.0, -0.05))
+            feet_.append(foot)
+            if not toe:
+                toe = w.link()
+                w.joint("fixed", parent, toe, (0.02, 0.0, -0.03))
+    return w.urdf(), feet_, toe
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_small_quadrupeds_legs_are_legs_not_a_hands_fingers_and_its_feet_carry_no_tool(seed):
+    """A quadruped too small to stand STANCE tall (0.1 m) had its four legs read as the fingers of a hand on its
+    trunk (one anthropomorphic hand at 1.00): its legs leave the trunk in mirrored pairs spread front to back,
+    so their tips are feet, and a frame on a foot's body the model calls an end effector (a humanoid's toe frames made
+    its legs no legs) is no tool."""
+    urdf, tips, toe = _small_quadruped(seed)
+    tree = load_urdf(urdf)
+    assert feet(tree) == set(tips) and not hand_leaves(tree)
+
+    def erring(q):
+        return TAX.answer(TOOL_CLS) if _leaf(q) == toe else NONE
+    assert _identified(urdf, erring)[toe] != TOOL_CLS

@@ -22,6 +22,8 @@ TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers
 # hand's back or sides lie under half of it)
 FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
+TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their length long from its front legs to its
+# rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
 MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points) this near each other's mirror image across a plane
 # of the root pair across it
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
@@ -174,6 +176,14 @@ def limb_goes_on(tree: KinematicTree, leaf: str) -> bool:
     trunk it leaves from, not at a limb's end, where an end effector is."""
     return any(tree.edge_to(child).movable and not _within_hand(tree, link, (child, *tree.descendants(child)))
                for link in rigid_body(tree, leaf) for child in tree.children(link))
+
+
+def on_feet(tree: KinematicTree, standing: frozenset[str]) -> frozenset[str]:
+    """Leaves fixed to the rigid body of a foot the robot stands on (`standing`, feet): a sole's, a toe's or an
+    ankle's frame, or a cleat; a foot carries no tool."""
+    bodies = {link for foot in standing if (parent := tree.parent(foot)) is not None
+              for link in rigid_body(tree, parent)}
+    return frozenset(leaf for leaf in tree.leaves() if leaf in bodies) - standing
 
 
 def off_limb_ends(tree: KinematicTree, found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
@@ -348,11 +358,11 @@ def feet(tree: KinematicTree) -> frozenset[str]:
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
     """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), each on joints that turn
-    or slide within a range and ending in no wheel (a tip that rolls: `rolling`), as many joints in each, reaching STANCE or more from where it
-    leaves the trunk, that leave it in mirrored pairs (each one's attachment point mirrored across the trunk's x-z
-    plane, REP 103's left and right, lies within MIRROR_EPS of another's) spread STANCE or more from front to back: a
-    quadruped's or hexapod's legs, whatever its zero pose (a limb's length is the sum of its joints' offsets: a leg
-    written folded is as long as stretched out). A hand's fingers leave its palm in a row, its thumb
+    or slide within a range and ending in no wheel (a tip that rolls: `rolling`), as many joints in each, that leave it
+    in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane, REP 103's left and right,
+    lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the longest one's length or more (a
+    limb's length is the sum of its joints' offsets: a leg written folded is as long as stretched out): a quadruped's
+    or hexapod's legs, whatever its zero pose or size. A hand's fingers leave its palm in a row, its thumb
     unpaired."""
     tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:] and not rolling(tree, leaf)
             and not any(tree.edge_to(x).spins for x in tree.chain_to_root(leaf)[:-1])]
@@ -364,7 +374,7 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
             continue
         first = moving[-1]
         length = _length(tree, tip, first)
-        if length >= STANCE and length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
+        if length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
             limbs[first] = (tip, length)
     by_count: dict[int, list[str]] = {}
     for first, (tip, _) in limbs.items():
@@ -373,7 +383,8 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         at = [tree.position_in(first, trunk) for first in firsts]
         mirrored = all(any(i != j and math.dist((a[0], -a[1], a[2]), b) <= MIRROR_EPS for j, b in enumerate(at))
                        for i, a in enumerate(at))
-        if len(firsts) >= 4 and mirrored and max(a[0] for a in at) - min(a[0] for a in at) >= STANCE:
+        spread = max(a[0] for a in at) - min(a[0] for a in at)
+        if len(firsts) >= 4 and mirrored and spread >= TRUNK_TO_LEG * max(limbs[first][1] for first in firsts):
             return frozenset(limbs[first][0] for first in firsts)
     return frozenset()
 

@@ -7,7 +7,7 @@ from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
-                                              off_limb_ends, palm, rolling, spinning_on_trunk, swinging_leaves)
+                                              off_limb_ends, on_feet, palm, rolling, spinning_on_trunk, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, rods
 from urdfkb.pipeline.reading.tree import KinematicTree
 
@@ -23,7 +23,8 @@ def shape(ctx: Context, found: Findings) -> None:
     never tools (a foot that moves on its own joint is the leg's last link, and one with a body of its own, a sole or
     a ball, is the leg's foot: part of the body, unasked, where the file declares no sensor on it), and
     neither are leaves at no limb's end: fixed to a body a limb goes on from (along an arm, on the trunk),
-    or bodies beside a hand on the link it is mounted on. A limb's own last link moving on its joint, or the tip of
+    or bodies beside a hand on the link it is mounted on, or frames on a foot's body (hands.on_feet: a toe's, a
+    sole's). A limb's own last link moving on its joint, or the tip of
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
     is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), nor is a body shaped as a thin
     rod (frames.rods: a standoff, a pole, an antenna), and the first two never a
@@ -40,7 +41,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.feet = feet(robot)
     found.body_feet = frozenset(f for f in found.feet if f not in declared
                                 and (robot.edge_to(f).movable or _body(robot, f)))
-    found.off_ends = off_limb_ends(robot, seen)
+    found.off_ends = off_limb_ends(robot, seen) | on_feet(robot, found.feet)
     found.limb_ends = limb_ends(robot) - declared
     found.swinging = swinging_leaves(robot) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
