@@ -521,8 +521,8 @@ def _servo_humanoid(seed: int, servo: tuple[float, float], grippers: bool = Fals
                     (0.0, 0.0, 1.0) if k == 0 else (0.0, 1.0, 0.0), limits=servo)
             link = child
         link = trunk
-        for k in range(3):
-            child = w.link('<box size="0.03 0.03 0.08"/>')
+        for k in range(3):  # the forearm's mass hangs below its elbow
+            child = w.link('<box size="0.03 0.03 0.08"/>', centre=(0.0, 0.0, -0.05) if k == 2 else None)
             w.joint("revolute", link, child, (0.0, y, 0.05) if k == 0 else (0.0, 0.0, -0.08),
                     (0.0, 1.0, 0.0) if k == 0 else (1.0, 0.0, 0.0), limits=servo)
             link = child
@@ -557,6 +557,26 @@ def test_a_small_humanoids_arms_are_no_fingers_and_end_in_no_tool():
     assert [claims[f] for f in forearms] == [TOOL_CLS, TOOL_CLS]
     urdf, _, jaws = _servo_humanoid(13, (-2.8, 2.8), grippers=True)
     assert sorted(leaf for _, leaves in hands(load_urdf(urdf)) for leaf in leaves) == sorted(jaws)
+
+
+@pytest.mark.parametrize("centre", [None, (0.0, 0.0, 0.0)])
+def test_a_camera_balanced_at_the_end_of_a_gimbal_is_a_sensor(centre):
+    """A drone's camera is the last link of a three-joint gimbal whose pitch turns 4.1 rad, past half a turn as a
+    servo robot's elbow does; but a gimbal balances its camera on its axes (or the file gives no mass to say
+    otherwise), so it is no limb's last segment, and the model's "sensor" (0.9) stands."""
+    w = Writer(random.Random(17))
+    body = w.link('<box size="0.2 0.1 0.06"/>')
+    for x, y in ((0.1, 0.15), (0.1, -0.15), (-0.14, 0.12), (-0.14, -0.12)):
+        w.joint("continuous", body, w.link('<cylinder radius="0.1" length="0.01"/>'), (x, y, 0.0))
+    yaw, roll = w.link('<box size="0.02 0.02 0.03"/>'), w.link('<box size="0.03 0.02 0.02"/>')
+    camera = w.link('<box size="0.04 0.05 0.04"/>', centre=centre)
+    w.joint("revolute", body, yaw, (0.09, 0.0, -0.04), limits=(-0.47, 0.47))
+    w.joint("revolute", yaw, roll, (-0.015, 0.0, -0.03), (1.0, 0.0, 0.0), limits=(-0.79, 0.79))
+    w.joint("revolute", roll, camera, (0.034, 0.0, 0.0), (0.0, 1.0, 0.0), limits=(-1.75, 2.36))
+    urdf = w.urdf()
+    assert camera not in limb_ends(load_urdf(urdf))
+    claims = _identified(urdf, lambda q: {TAX.answer(SENSOR_CLS): 0.9, NONE: 0.1} if _leaf(q) == camera else NONE)
+    assert claims[camera] == SENSOR_CLS
 
 
 def _forearm_arms(seed: int, centre: float | None) -> tuple[bytes, list[str], str]:

@@ -195,8 +195,9 @@ def off_limb_ends(tree: KinematicTree, found: list[tuple[ToolStructure, list[str
 def limb_ends(tree: KinematicTree) -> frozenset[str]:
     """Leaves that move on a joint of their own at the end of a limb: LIMB_JOINTS movable joints or more in series
     above them, nothing branching off up to the first link that carries more than one child (or the root), or two
-    or more where the leaf's revolute joint turns through more than half a turn (a small servo robot's forearm at
-    its elbow). Such a leaf is the limb's own last link (a bare arm's flange, a foot), a jaw that
+    or more where the leaf's revolute joint turns through more than half a turn and its mass lies off that joint's
+    axis (_off_its_axis: a small servo robot's forearm at its elbow; a drone's camera at the end of its gimbal,
+    pitching 4.1 rad, is balanced on it). Such a leaf is the limb's own last link (a bare arm's flange, a foot), a jaw that
     closes against it or a finger, never a sensor, which is fixed to what it measures from (a lidar's spinning head
     or a bumper on its own hinge is moved by one joint, not by a limb; a camera on a pan and tilt tilts over a
     bounded arc). A joint whose limits give it no range does not move it."""
@@ -207,10 +208,22 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
         edge = tree.edge_to(leaf)
         if not edge.moves:
             continue
-        joints = _movable_between(tree, leaf, _limb_path(tree, leaf)[-1])
-        if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and _past_half_turn(edge)):
+        path = _limb_path(tree, leaf)
+        joints = _movable_between(tree, leaf, path[-1])
+        if joints >= LIMB_JOINTS or (joints >= 2 and edge.joint_type == "revolute" and _past_half_turn(edge)
+                                     and _off_its_axis(tree, leaf, path)):
             ends.append(leaf)
     return frozenset(ends)
+
+
+def _off_its_axis(tree: KinematicTree, leaf: str, path: tuple[str, ...]) -> bool:
+    """The leaf's centre of mass lies LAST_SEGMENT of its limb's length (the sum of the joint offsets along `path`)
+    or more out from its own joint's axis: a segment swinging on its joint, as a forearm on its elbow, not a payload
+    balanced on it, as a camera on a gimbal is (a leaf with no <inertial> is neither)."""
+    facts, axis = tree.evidence.get(leaf), unit(tree.edge_to(leaf).axis)
+    length = sum(norm(tree.edge_to(link).origin.xyz) for link in path[:-1])
+    return facts is not None and facts.centre is not None and axis is not None and length > 0 \
+        and off_axis(facts.centre, axis) >= LAST_SEGMENT * length
 
 
 def last_segments(tree: KinematicTree, ends: frozenset[str]) -> frozenset[str]:
@@ -222,16 +235,10 @@ def last_segments(tree: KinematicTree, ends: frozenset[str]) -> frozenset[str]:
     A leaf with no <inertial> says nothing."""
     found = []
     for leaf in ends:
-        centre = tree.evidence[leaf].centre if leaf in tree.evidence else None
-        edge = tree.edge_to(leaf)
-        axis = unit(edge.axis)
-        if centre is None or axis is None:
-            continue
         path = _limb_path(tree, leaf)
         if _movable_between(tree, leaf, path[-1]) < LIMB_JOINTS:
             continue  # a bar or a finger hung on a branching link: no limb to measure by
-        length = sum(norm(tree.edge_to(link).origin.xyz) for link in path[:-1])
-        if length > 0 and off_axis(centre, axis) >= LAST_SEGMENT * length:
+        if _off_its_axis(tree, leaf, path):
             found.append(leaf)
     return frozenset(found)
 
