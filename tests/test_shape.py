@@ -795,9 +795,10 @@ def test_collision_volumes_at_their_parents_origin_are_no_component_and_not_aske
     assert all(claims[leaf] == SENSOR_CLS and leaf in asked for leaf in (pad, seen, device))
 
 
-def _rover(seed: int) -> tuple[bytes, list[str]]:
+def _rover(seed: int, fenders: bool = False) -> tuple[bytes, list[str]]:
     """A low rover on four mirrored corner modules, each a steering joint carrying a wheel whose drive the file
-    writes revolute with a wide range."""
+    writes revolute with a wide range; with `fenders`, a sliding suspension under the steering joint carries the wheel
+    (continuous) and a fender fixed beside it."""
     w = Writer(random.Random(seed))
     trunk = w.link('<box size="0.8 0.5 0.1"/>')
     wheels = []
@@ -805,22 +806,41 @@ def _rover(seed: int) -> tuple[bytes, list[str]]:
         for y in (0.3, -0.3):
             fork, wheel = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<cylinder radius="0.06" length="0.05"/>')
             w.joint("revolute", trunk, fork, (x, y, 0.0), limits=(-1.5, 1.5))
-            w.joint("revolute", fork, wheel, (0.0, 0.12 if y > 0 else -0.12, -0.12), (0.0, 1.0, 0.0), (-1e4, 1e4))
+            if fenders:
+                spring = w.link('<box size="0.04 0.04 0.04"/>')
+                w.joint("prismatic", fork, spring, (0.0, 0.0, -0.02), limits=(-0.03, 0.03))
+                w.joint("continuous", spring, wheel, (0.0, 0.12 if y > 0 else -0.12, -0.12), (0.0, 1.0, 0.0))
+                w.joint("fixed", spring, w.link('<box size="0.25 0.06 0.02"/>'), (0.0, 0.12 if y > 0 else -0.12, 0.0))
+            else:
+                w.joint("revolute", fork, wheel, (0.0, 0.12 if y > 0 else -0.12, -0.12), (0.0, 1.0, 0.0), (-1e4, 1e4))
             wheels.append(wheel)
     return w.urdf(), wheels
 
 
 def test_no_feet_where_no_legs_are_even_level_with_the_trunk():
     """Where nothing stands below the trunk, feet are the tips of legs leaving it in mirrored pairs spread front to
-    back (test_body_pass: test_legs_the_zero_pose_holds_out_level_are_legs); a rover's corner wheels and the fingers
-    of a hand published alone leave it so, or in a row, and are no feet."""
+    back (test_body_pass: test_legs_the_zero_pose_holds_out_level_are_legs); a rover's corner wheel modules (a fender
+    fixed beside the wheel), the fingers of a hand published alone, in a row, and fingers in a square pointing up
+    are no feet."""
     for seed in range(8):
-        urdf, wheels = _rover(seed)
-        tree = load_urdf(urdf)
-        assert all(rolling(tree, wheel) for wheel in wheels) and not feet(tree), seed
+        for fenders in (False, True):
+            urdf, wheels = _rover(seed, fenders)
+            tree = load_urdf(urdf)
+            assert all(rolling(tree, wheel) for wheel in wheels) and not feet(tree), (seed, fenders)
     for seed in SEEDS:
         tree = load_urdf(build(seed, alone=True).urdf)
         assert not feet(tree), seed
+    w = Writer(random.Random(4))  # four fingers in a square on a palm, pointing up: no limb comes down
+    palm = w.link('<box size="0.1 0.1 0.02"/>')
+    for x in (0.03, -0.03):
+        for y in (0.03, -0.03):
+            parent, xyz = palm, (x, y, 0.02)
+            for _ in range(2):
+                child = w.link('<box size="0.01 0.01 0.05"/>')
+                w.joint("revolute", parent, child, xyz, (0.0, 1.0, 0.0), (0.0, 1.0))
+                parent, xyz = child, (0.0, 0.0, 0.05)
+            w.joint("fixed", parent, w.link(), (0.0, 0.0, 0.05))
+    assert not feet(load_urdf(w.urdf()))
 
 
 def _small_quadruped(seed: int) -> tuple[bytes, list[str], str]:

@@ -14,8 +14,8 @@ from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, r
 from urdfkb.pipeline.abstraction.vectors import dot, norm, off_axis, sub, unit
 
 HAND_REACH = 0.3  # m: the farthest a fingertip lies from where its hand's fingers part (a limb reaches further)
-HAND_TO_LEG = 0.4  # a hand's fingers reach less than this share of the legs' length (at most 0.27 in the truth
-# robots' and probes' hands; a small humanoid's arms reach 0.57 and 0.58 of its legs)
+HAND_TO_LEG = 0.4  # a hand's fingers reach less than this share of the legs' reach (at most 0.29 in the truth
+# robots' and probes' hands; small humanoids' arms reach 0.56 to 0.82 of their legs)
 MAX_FINGER_JOINTS = 5  # movable joints in one finger, thumb included
 TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' span across the hand, at most
 TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
@@ -81,12 +81,12 @@ def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:
 
 
 def _leg_length(tree: KinematicTree, standing: frozenset[str]) -> float:
-    """How long the legs ending at the feet `standing` are: the sum of the joint offsets from the link where they
-    meet down to the farthest foot (infinite where the robot stands on no legs)."""
+    """How far the legs ending at the feet `standing` reach: the distance from the link where they meet to the
+    farthest foot at the zero pose, measured as a hand's fingers are (infinite where the robot stands on no legs)."""
     if not standing:
         return math.inf
     meet = fork_of(tree, sorted(standing))
-    return max(_length(tree, foot, meet) for foot in standing)
+    return max(norm(tree.position_in(foot, meet)) for foot in standing)
 
 
 def _length(tree: KinematicTree, link: str, ancestor: str) -> float:
@@ -181,8 +181,7 @@ def limb_goes_on(tree: KinematicTree, leaf: str) -> bool:
 def on_feet(tree: KinematicTree, standing: frozenset[str]) -> frozenset[str]:
     """Leaves fixed to the rigid body of a foot the robot stands on (`standing`, feet): a sole's, a toe's or an
     ankle's frame, or a cleat; a foot carries no tool."""
-    bodies = {link for foot in standing if (parent := tree.parent(foot)) is not None
-              for link in rigid_body(tree, parent)}
+    bodies = {link for foot in standing for link in rigid_body(tree, foot)}
     return frozenset(leaf for leaf in tree.leaves() if leaf in bodies) - standing
 
 
@@ -364,15 +363,17 @@ def feet(tree: KinematicTree) -> frozenset[str]:
 
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
-    """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), each on joints that turn
-    or slide within a range and ending in no wheel (a tip that rolls: `rolling`), as many joints in each, that leave it
+    """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), no higher than the trunk
+    (FOOT_BAND), each on joints that turn or slide within a range and carrying no wheel (a leaf that rolls: `rolling`),
+    as many joints in each, that leave it
     in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane, REP 103's left and right,
     lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the longest one's length or more (a
     limb's length is the sum of its joints' offsets: a leg written folded is as long as stretched out): a quadruped's
     or hexapod's legs, whatever its zero pose or size. A hand's fingers leave its palm in a row, its thumb
     unpaired."""
-    tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:] and not rolling(tree, leaf)
-            and not any(tree.edge_to(x).spins for x in tree.chain_to_root(leaf)[:-1])]
+    top = tree.position_in(trunk, tree.root)[2]
+    tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:]
+            and tree.position_in(leaf, tree.root)[2] <= top + FOOT_BAND]  # a leg comes down, or out level
     limbs: dict[str, tuple[str, float]] = {}  # the limb's first moving link -> its tip, its length
     for tip in tips:
         path = tree.chain_to_root(tip)
@@ -380,6 +381,8 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         if len(moving) < 2 or not _from_trunk_by_legs(tree, tip, set(tips), placing):
             continue
         first = moving[-1]
+        if any(tree.edge_to(x).spins or tree.is_leaf(x) and rolling(tree, x) for x in (first, *tree.descendants(first))):
+            continue  # a wheel anywhere on it: a wheel module
         length = _length(tree, tip, first)
         if length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
             limbs[first] = (tip, length)

@@ -32,15 +32,15 @@ def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
     """The catalogue product the first of `links` names (its name, then its meshes, the plugins naming it and the
     names of the simulator sensors declared on it), or failing that the link the last of them is fixed to (a frame
     of a camera body whose mesh names the camera), that link's plugins only for a frame (a plugin naming an arm's
-    flange names no body bolted beside it), and not where that link moves something (a GNSS receiver's plugin on a
-    rover's chassis, which its wheels turn on, names none of the frames fixed to it), and never its sensors (a lidar
-    declared on a base names no frame on it)."""
+    flange names no body bolted beside it), and never its sensors (a lidar declared on a base names no frame on it).
+    The plugins of a link that something moves on name none of the frames fixed to it (a GNSS receiver's plugin on a
+    rover's chassis, which its wheels turn on, or on a drone's body, which its rotors spin on)."""
     edge = tree.parent_edge(links[-1])
     above = [edge.parent] if edge is not None and not edge.movable else []
     for link in [*links, *above]:
         facts = tree.evidence.get(link)
         own = link in links
-        plugins = facts.plugins if facts and (own or is_frame(tree, links[-1]) and not _moves(tree, link)) else ()
+        plugins = facts.plugins if facts and (own or is_frame(tree, links[-1])) and not _moves(tree, link) else ()
         sensors = [s.name for s in facts.sensors if s.name] if facts and own else []
         if product := catalogue().match([link, *(facts.meshes if facts else ()), *plugins, *sensors]):
             return product
