@@ -220,7 +220,7 @@ def _off_its_axis(tree: KinematicTree, leaf: str, path: tuple[str, ...]) -> bool
     or more out from its own joint's axis: a segment swinging on its joint, as a forearm on its elbow, not a payload
     balanced on it, as a camera on a gimbal is (a leaf with no <inertial> is neither)."""
     facts, axis = tree.evidence.get(leaf), unit(tree.edge_to(leaf).axis)
-    length = sum(norm(tree.edge_to(link).origin.xyz) for link in path[:-1])
+    length = _length(tree, leaf, path[-1])
     return facts is not None and facts.centre is not None and axis is not None and length > 0 \
         and off_axis(facts.centre, axis) >= LAST_SEGMENT * length
 
