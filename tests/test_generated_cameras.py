@@ -249,7 +249,7 @@ def test_the_frames_say_the_camera_whatever_the_model_names_it():
         for d, typed in zip(devices, state.post):
             kinds = {modality[f] for f in d}
             expected = ("RGBDCamera" if kinds == {"rgb", "depth"} else "DepthCamera" if kinds == {"depth"}
-                        else "StereoCamera" if viewpoints(tree, d) > 1 else "MonocularCamera")
+                        else "StereoCamera" if (viewpoints(tree, d) or 1) > 1 else "MonocularCamera")
             assert typed.cls == expected, (seed, built.description, kinds)
             assert {f: state.parts[f].cls for f in d} == {f: MODALITY[modality[f]] for f in d}, seed
             seen.add(expected)
@@ -346,3 +346,36 @@ def test_two_depth_cameras_each_declared_are_two_devices_whatever_the_names_say(
     declared = {optical for _, optical in depth}
     assert all(len(declared & set(g.leaves)) <= 1 for g in groups), (seed, [g.leaves for g in groups])
     assert sorted(f for g in groups for f in g.leaves) == sorted(frames)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_a_camera_written_as_one_body_keeps_its_kind_unless_it_is_one_eye_of_a_pair(seed):
+    """A camera written as one body (a box, no optical frame) shows nowhere its imagers see from: the model's
+    stereo reading of it stands, beside another camera looking the same way too. Two such bodies that are each
+    other's mirror image across the robot's x-z plane, looking the same way, are the eyes of a pair, each a camera
+    that sees from one place; bodies on the left and right looking out to either side are not."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.6 0.4 0.3"/>')
+
+    def body(xyz, yaw):
+        link = w.link('<box size="0.03 0.1 0.03"/>')
+        w.joint("fixed", base, link, xyz, rpy=(0.0, 0.0, yaw))
+        return link
+
+    x, y, z = rng.uniform(0.1, 0.3), rng.uniform(0.03, 0.1), rng.uniform(0.2, 0.5)
+    lone = body((x, y, z), 0.0)
+    beside = body((x + 0.01, 0.0, z + 0.03), 0.0)  # a camera of another kind at the centre, looking the same way
+    eyes = [body((-x, side * y, z + 0.2), math.pi) for side in (1.0, -1.0)]  # a pair looking backwards
+    out = [body((0.0, side * 0.2, z), side * math.pi / 2) for side in (1.0, -1.0)]  # looking out to either side
+    tree = load_urdf(w.urdf())
+    links = [lone, beside, *eyes, *out]
+    groups = [Group([sub_chain(tree, link, base)]) for link in links]
+    state = Findings(groups=groups)
+    state.pre = {link: Typed("StereoCamera", 0.9) for link in links}
+    mono = TAX.answer("MonocularCamera")
+    post_classification(Abstractor(Oracle(ScriptedBackend(_answer([mono]))), TAX).context(tree, kind="sensor"), state)
+    typed = {link: t.cls for link, t in zip(links, state.post)}
+    assert typed == {lone: "StereoCamera", beside: "StereoCamera", eyes[0]: "MonocularCamera",
+                     eyes[1]: "MonocularCamera", out[0]: "StereoCamera", out[1]: "StereoCamera"}
+    assert viewpoints(tree, [lone]) is None and viewpoints(tree, [eyes[0]], [eyes[1]]) == 1

@@ -5,6 +5,7 @@ the bodies that are thin rods.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 from urdfkb.pipeline.abstraction.alike import partition
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
@@ -14,6 +15,8 @@ FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) on
 CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
 SQUARE = 0.1  # |cosine| under which two unit axes are square to each other
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
+MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points, a pair's eyes) this near each other's mirror
+# image across a plane of the root pair across it
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
 ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick (poles, standoffs, antennas: 5 to 17)
@@ -86,12 +89,17 @@ def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]
     return partition(leaves, lambda a, b: body_of(tree, a, b) is not None)
 
 
-def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
+def viewpoints(tree: KinematicTree, leaves: list[str], cameras: Iterable[str] = ()) -> int | None:
     """How many places a device's frames see from: their positions at the zero pose, those within VIEWPOINT
     of each other counted once. Where some of the frames follow the optical convention (REP 103: z forward,
     along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
-    and two of them see from one place when they lie within VIEWPOINT across their line of sight."""
+    and two of them see from one place when they lie within VIEWPOINT across their line of sight.
+    A lone link that is no optical frame stands for a camera written as one body, which shows no imager: one
+    place where it is an eye of a pair (one of `cameras`, other cameras' links, is its twin: eye_pair), else
+    None (unknown)."""
     optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
+    if not optical and len(leaves) == 1:
+        return 1 if any(eye_pair(tree, leaves[0], other) for other in cameras) else None
     places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
     for leaf in optical or leaves:
         point = tree.position_in(leaf, tree.root)
@@ -99,6 +107,19 @@ def viewpoints(tree: KinematicTree, leaves: list[str]) -> int:
         if all(_apart(point, p, axis) > VIEWPOINT for p, axis in places):
             places.append((point, sight))
     return len(places)
+
+
+def eye_pair(tree: KinematicTree, a: str, b: str) -> bool:
+    """Two camera bodies are the eyes of a stereo pair: each lies within MIRROR_EPS of the other's mirror image
+    across the root's x-z plane (REP 103's left and right) and both look the same way (their x axes, parallel
+    within OPTICAL_AXIS), side by side across that line of sight (further than VIEWPOINT apart). Cameras on
+    the left and right of a robot look out to either side; a camera beside another of a kind at the centre
+    has no mirror image."""
+    pa, pb = tree.position_in(a, tree.root), tree.position_in(b, tree.root)
+    sight = sub(tree.position_in(a, tree.root, (1.0, 0.0, 0.0)), pa)  # unit vectors: the frames' x axes
+    other = sub(tree.position_in(b, tree.root, (1.0, 0.0, 0.0)), pb)
+    return (math.dist((pa[0], -pa[1], pa[2]), pb) <= MIRROR_EPS and dot(sight, other) >= OPTICAL_AXIS
+            and _apart(pb, pa, sight) > VIEWPOINT)
 
 
 def _apart(a: Vector, b: Vector, sight: Vector | None) -> float:

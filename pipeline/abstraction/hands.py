@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from urdfkb.pipeline.abstraction.frames import is_frame, placing_joints
+from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, is_frame, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
@@ -24,8 +24,6 @@ FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest 
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
 TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their length long from its front legs to its
 # rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
-MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points) this near each other's mirror image across a plane
-# of the root pair across it
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it

@@ -369,10 +369,11 @@ class Vocabulary:
         """Classes the ontology aligns to any of these simulator (SDF) sensor types (core:simulatorSensorType)."""
         return frozenset(c for t in sim_types for c in self._declared_by.get(t.strip().lower(), ()))
 
-    def unseen(self, count: int, below: str) -> frozenset[str]:
+    def unseen(self, count: int | None, below: str) -> frozenset[str]:
         """Classes under `below` that a device whose optical frames see from `count` places cannot be
-        (core:viewpointCount restrictions on them or on a class above them: a stereo camera sees from two)."""
-        return self._outside(self._views, count, below)
+        (core:viewpointCount restrictions on them or on a class above them: a stereo camera sees from two);
+        none where the count is unknown (None: a camera written as one body)."""
+        return frozenset() if count is None else self._outside(self._views, count, below)
 
     def miscounted(self, count: int, below: str) -> frozenset[str]:
         """Classes under `below` that a device written with `count` sensing frames cannot be (core:elementCount

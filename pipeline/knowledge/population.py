@@ -279,7 +279,8 @@ def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab
     properties, the others as core data, and what a ranging sensor emits where its class allows it."""
     if vocab.is_a(comp.cls, vocab.domain("viewpointCount")):
         leaves = [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
-        _set(world, "viewpointCount", ind, viewpoints(tree, leaves))
+        if (views := viewpoints(tree, leaves)) is not None:
+            _set(world, "viewpointCount", ind, views)
     if vocab.is_a(comp.cls, vocab.domain("hasOpticalFrame")):
         for sub in comp.subcomponents:
             if vocab.is_a(sub.cls, vocab.range("hasOpticalFrame")):

@@ -26,8 +26,8 @@ from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
-from urdfkb.pipeline.abstraction.frames import placing_joints
-from urdfkb.pipeline.abstraction.hands import MIRROR_EPS, feet
+from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, placing_joints
+from urdfkb.pipeline.abstraction.hands import feet
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 

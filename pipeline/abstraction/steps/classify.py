@@ -130,9 +130,10 @@ def post_classification(ctx: Context, found: Findings) -> None:
     frames', not its own inertial or model frames'), or one level
     above it when that is a leaf class, so that siblings stay open (several sonar frames may
     still be one sonar, several microphones an array, colour and depth frames an RGB-D camera).
-    Where a device's optical frames see from (structure.viewpoints) rules classes out by the
-    ontology's core:viewpointCount definitions (a monocular camera sees from one place, a stereo camera
-    from two), they are not offered; a lone chain's pre-class so ruled out descends again from its parent.
+    Where a device's optical frames see from (frames.viewpoints; unknown for a camera written as one body but
+    the eye of a pair) rules classes out by the ontology's core:viewpointCount definitions (a monocular camera sees from one
+    place, a stereo camera from two), they are not offered; a lone chain's pre-class so ruled out descends
+    again from its parent.
     Nor are the classes the number of its sensing frames rules out (core:elementCount: a tactile sensor is
     one pad, a microphone one capsule; several read as one device are an array).
     """
@@ -140,7 +141,9 @@ def post_classification(ctx: Context, found: Findings) -> None:
     typed = {id(g): pre[g.leaves[0]] for g in found.groups}
     by_start: dict[str, list[Group]] = {}
     imaging = {id(g): _imaging(ctx, found, g) for g in found.groups}
-    views = {id(g): viewpoints(tree, g.leaves) for g in found.groups}
+    camera = vocab.domain("viewpointCount")
+    cameras = [leaf for g in found.groups for leaf in g.leaves if vocab.is_a(pre[leaf].cls, camera)]
+    views = {id(g): viewpoints(tree, g.leaves, [c for c in cameras if c not in g.leaves]) for g in found.groups}
     counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
                    for g in found.groups}  # by where its frames see from, and by how many there are
     for g in found.groups:
