@@ -69,9 +69,11 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 
 
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
-    """Candidate chains of body joints, in document order of their first joints."""
+    """Candidate chains of body joints, in document order of their first joints. A joint whose limits leave it no
+    range (lower = upper: a sensor mount written revolute for a simulator) moves nothing and is no body joint;
+    one that spins (Edge.spins: a wheel's, whatever limits its file writes) is."""
     placing = placing_joints(tree)
-    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints and e.joint not in placing]
+    body = [e for e in tree.edges if (e.moves or e.spins) and e.joint not in owned_joints and e.joint not in placing]
     names = {e.joint for e in body}
     upper = {e.joint: _upper(tree, e, names) for e in body}
     below: dict[str | None, list[Edge]] = {}
