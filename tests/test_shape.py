@@ -22,7 +22,8 @@ from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, last_segments,
-                                              limb_ends, off_limb_ends, rolling, spinning_on_trunk, swinging_leaves)
+                                              limb_ends, off_limb_ends, rolling, spinning_low, spinning_on_trunk,
+                                              swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods
 
 TAX = vocabulary()
@@ -689,6 +690,33 @@ def test_a_leaf_spinning_from_the_trunk_is_no_tool():
         claims = _identified(w.urdf(), lambda q: erring)
         assert {claims[t] for t in thrusters} == {NONE}, seed
         assert claims[screw] == claims[jaw] == TOOL_CLS, seed
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_wheels_on_steering_joints_and_bogies_are_no_tools(seed):
+    """A rover's six wheels each spin below a steering joint on a rocking bogie: not on the trunk, yet the erring
+    model calls each an end effector at 0.5. Leaves spinning in the lowest third of the robot are wheels, never tools;
+    the drive screw spinning in the gripper of the arm the rover carries stays the model's tool."""
+    w = Writer(random.Random(seed))
+    chassis = w.link('<box size="0.6 0.4 0.1"/>')
+    wheels = []
+    for side in (1.0, -1.0):
+        bogie = w.link('<box size="0.4 0.04 0.04"/>')
+        w.joint("revolute", chassis, bogie, (0.0, side * 0.25, -0.05), (0.0, 1.0, 0.0), limits=(-0.4, 0.4))
+        for x in (-0.2, 0.0, 0.2):
+            steer, wheel = w.link('<box size="0.03 0.03 0.08"/>'), w.link('<cylinder radius="0.06" length="0.04"/>')
+            w.joint("revolute", bogie, steer, (x, side * 0.05, -0.05), (0.0, 0.0, 1.0), limits=(-1.57, 1.57))
+            w.joint("continuous", steer, wheel, (0.0, 0.0, -0.08), (0.0, 1.0, 0.0))
+            wheels.append(wheel)
+    wrist = _serial(w, chassis, 4, (-2.0, 2.0))
+    screw, jaw = w.link('<cylinder radius="0.005" length="0.04"/>'), w.link('<box size="0.02 0.01 0.06"/>')
+    w.joint("continuous", wrist, screw, (0.0, 0.0, 0.05), (0.0, 0.0, 1.0))
+    w.joint("revolute", wrist, jaw, (0.02, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-0.5, 0.0))
+    tree = load_urdf(w.urdf())
+    assert spinning_on_trunk(tree) == frozenset() and spinning_low(tree) == set(wheels)
+    erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.2, NONE: 0.3}
+    claims = _identified(w.urdf(), lambda q: erring)
+    assert TOOL_CLS not in {claims[wheel] for wheel in wheels} and claims[screw] == claims[jaw] == TOOL_CLS
 
 
 def _fixed_chains(w: Writer, parent: str, size: str) -> list[str]:

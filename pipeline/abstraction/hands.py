@@ -21,6 +21,8 @@ TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' s
 TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
 # hand's back or sides lie under half of it)
 FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
+LOW_SHARE = 1 / 3  # of a robot's height: wheels spin this low (0.23 at most in the files seen; grippers' spinning
+# parts 0.56 and up)
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
 TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their length long from its front legs to its
 # rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
@@ -313,6 +315,20 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
 def _past_half_turn(edge: Edge) -> bool:
     """The joint's limits give it a range of more than half a turn."""
     return edge.limits is not None and edge.limits[1] - edge.limits[0] > math.pi
+
+
+def spinning_low(tree: KinematicTree) -> frozenset[str]:
+    """Leaves that spin on their own joint (Edge.spins) in the lowest LOW_SHARE of the robot's height at the zero
+    pose, two or more of them: wheels, wherever they hang (a rover's on steering joints and bogies, a caster's under
+    its swivel); never a tool, whose jaws close over a bounded arc at a limb's end (the spinning drive screw or prop
+    of a gripper rides with the arm above them: a half to all of the robot's height in the files seen)."""
+    heights = {link: tree.position_in(link, tree.root)[2] for link in tree.links if link != tree.root}
+    if not heights:
+        return frozenset()
+    low, span = min(heights.values()), max(heights.values()) - min(heights.values())
+    spinning = [leaf for leaf in tree.leaves() if leaf in heights and tree.edge_to(leaf).spins
+                and heights[leaf] - low <= LOW_SHARE * span]
+    return frozenset(spinning) if len(spinning) >= 2 else frozenset()
 
 
 def spinning_on_trunk(tree: KinematicTree) -> frozenset[str]:

@@ -7,7 +7,8 @@ from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
-                                              off_limb_ends, on_feet, palm, rolling, spinning_on_trunk, swinging_leaves)
+                                              off_limb_ends, on_feet, palm, rolling, spinning_low, spinning_on_trunk,
+                                              swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, rods
 from urdfkb.pipeline.reading.tree import KinematicTree
 
@@ -31,7 +32,8 @@ def shape(ctx: Context, found: Findings) -> None:
     tool where the joint rolls (hands.rolling: turning through more than half a turn, or about the line out to the
     leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin) or where the limb's own last link carries
     its mass far out for a jaw (hands.last_segments: a forearm on the elbow of an arm that ends in no tool), nor is a
-    leaf spinning on its own joint from the trunk (hands.spinning_on_trunk: a wheel, a rotor, a thruster).
+    leaf spinning on its own joint from the trunk (hands.spinning_on_trunk: a wheel, a rotor, a thruster) or low
+    down (hands.spinning_low: wheels on steering joints, bogies, casters).
     Frames where a closed loop is cut (frames.loop_closures), and leaves drawn at their parent's origin for collision
     checking alone (frames.collision_volumes), are part of no component."""
     robot = ctx.robot
@@ -47,7 +49,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rods = rods(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
-        | spinning_on_trunk(robot) - declared
+        | (spinning_on_trunk(robot) | spinning_low(robot)) - declared
     found.last_segments = last_segments(robot, found.limb_ends)
     found.loop_frames = loop_closures(robot) - declared
     found.collision_volumes = collision_volumes(robot) - declared
