@@ -379,3 +379,55 @@ def test_a_camera_written_as_one_body_keeps_its_kind_unless_it_is_one_eye_of_a_p
     assert typed == {lone: "StereoCamera", beside: "StereoCamera", eyes[0]: "MonocularCamera",
                      eyes[1]: "MonocularCamera", out[0]: "StereoCamera", out[1]: "StereoCamera"}
     assert viewpoints(tree, [lone]) is None and viewpoints(tree, [eyes[0]], [eyes[1]]) == 1
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_bare_frames_straight_on_a_mount_are_one_device_only_where_they_look_the_same_way(seed):
+    """Cameras written as bare frames fixed straight on the hull, which the model calls one device (every name
+    shares a stem): frames looking the same way side by side (a colour and a depth frame in the optical convention and
+    the camera's own frame, x forward, the camera level or pitched down) are one device; one looking ahead and one
+    looking down or aside are two."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    hull = w.link('<box size="1.0 0.3 0.3"/>')
+    stem = w.name()
+    x, tilt = rng.uniform(0.2, 0.5), rng.choice([0.0, rng.uniform(0.2, 0.9)])  # the camera pitched down or not
+    optical = _rpy(_matmul(_pitch(tilt), _matmul(_yaw(-math.pi / 2), _roll(-math.pi / 2))))
+
+    def frame(xyz, rpy):
+        name = f"{stem}_{w.name()}"
+        w.links.append(f'<link name="{name}"/>')
+        w.joint("fixed", hull, name, xyz, rpy=rpy)
+        return name
+
+    colour = frame((x, 0.01, 0.0), optical)
+    depth = frame((x, -0.02, 0.0), optical)
+    ahead = frame((x + 0.02, 0.0, 0.03), (0.0, tilt, 0.0))  # the device's own frame, x forward
+    down = frame((x - 0.05, 0.0, -0.1), (0.0, tilt + rng.choice([0.8, 1.0]), 0.0))
+    aside = frame((x - 0.1, 0.1, 0.0), (0.0, 0.0, rng.choice([1.0, math.pi / 2])))
+    tree = load_urdf(w.urdf())
+    frames = [colour, depth, ahead, down, aside]
+    chains = [sub_chain(tree, f, hull) for f in frames]
+    groups = merge(Oracle(ScriptedBackend(lambda q: stem)), tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([colour, depth, ahead]), [down], [aside]])
+
+
+def _roll(a: float) -> list[list[float]]:
+    return [[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]]
+
+
+def _pitch(a: float) -> list[list[float]]:
+    return [[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]]
+
+
+def _yaw(a: float) -> list[list[float]]:
+    return [[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]]
+
+
+def _matmul(a: list[list[float]], b: list[list[float]]) -> list[list[float]]:
+    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+
+def _rpy(m: list[list[float]]) -> tuple[float, float, float]:
+    """URDF roll, pitch, yaw of a rotation matrix (R = Rz(yaw) Ry(pitch) Rx(roll))."""
+    return math.atan2(m[2][1], m[2][2]), math.asin(-m[2][0]), math.atan2(m[1][0], m[0][0])

@@ -10,8 +10,9 @@ sensor category (the taxonomy level under Sensor: RGB and depth frames are both 
 an accelerometer on one palm are not) form one device. Two sub-chains that share only their mount,
 each with a body of its own (its first link with geometry, the housing, or failing one the device's own bare
 frame that its frames hang from), are near only if the two housings face the same way and lie within DEVICE_SPAN of each other: housings pointing apart or far apart are separate devices
-whatever their names share, while a stereo pair's two housings look the same way side by side. A sub-chain with no such neighbour is a device of its own whatever its
-name, so it is not asked.
+whatever their names share, while a stereo pair's two housings look the same way side by side. Two camera frames fixed
+bare and straight on the mount join only if they look the same way (_looking_alike: a camera looking ahead and one
+looking down are two). A sub-chain with no such neighbour is a device of its own whatever its name, so it is not asked.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
 at the mount they share, are parts of the one tool at that arm end, whatever its fingers are called;
 the tool's provisional mount is the deepest mount the model named for any of its chains that carries
@@ -49,7 +50,8 @@ from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
 from urdfkb.pipeline.abstraction.frames import body_of, is_frame
 from urdfkb.pipeline.reading.evidence import SimSensor
-from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
+from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
+from urdfkb.pipeline.abstraction.vectors import dot, sub
 
 _WORD_BREAK = re.compile(r"(?=[_/])|(?<=[a-z0-9])(?=[A-Z])")  # a namespace's "/" parts words too (multisense/gyro)
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
@@ -101,6 +103,13 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return housing_a is None or housing_b is None or _side_by_side(tree, a.root, housing_a, housing_b)
 
 
+def _bare_cameras_apart(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """Two camera frames, each bare and fixed straight on the one mount (no housing), do not look the same way
+    (_looking_alike): two cameras, whatever their names share."""
+    return a.root == b.root and len(a.links) == len(b.links) == 1 and _housing(tree, a) is None \
+        and _housing(tree, b) is None and not _looking_alike(tree, a.root, a.leaf, b.leaf)
+
+
 def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
     """The sub-chain's first link with geometry: its body, where it has one; else its first link below the mount
     when that is not the leaf: the device's own bare frame, which its other frames hang from."""
@@ -118,6 +127,17 @@ def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
                 for unit in ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0))]
     near = math.dist(tree.position_in(a, mount), tree.position_in(b, mount)) <= DEVICE_SPAN
     return near and all(sum(x * y for x, y in zip(u, v)) >= ALIKE for u, v in zip(axes(a), axes(b)))
+
+
+def _looking_alike(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
+    """Two frames look the same way from `mount`: their x and z axes alike (within ALIKE), or one's x axis along the
+    other's z axis (a camera's own frame, x forward, beside its optical frame, z forward, however it is tilted)."""
+    def axes(link: str) -> tuple[Vector, Vector]:
+        origin = tree.position_in(link, mount)
+        return (sub(tree.position_in(link, mount, (1.0, 0.0, 0.0)), origin),
+                sub(tree.position_in(link, mount, (0.0, 0.0, 1.0)), origin))
+    (xa, za), (xb, zb) = axes(a), axes(b)
+    return (dot(xa, xb) >= ALIKE and dot(za, zb) >= ALIKE) or dot(xa, zb) >= ALIKE or dot(za, xb) >= ALIKE
 
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
@@ -215,6 +235,7 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     else:
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
                   and not two_rangers(i, j) and _near(tree, a, b)
+                  and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b)) for j, b in enumerate(chains)]
