@@ -113,20 +113,24 @@ def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_a_mount_whose_limits_leave_it_no_range_is_no_body_joint(seed):
+def test_a_sensor_mount_whose_limits_leave_it_no_range_is_no_body_joint(seed):
     """Simulator files mount sensors on revolute joints limited to 0..0 (so the simulator keeps their links apart):
-    they move nothing, so they make no head or arm; a pan joint beside them, and a wheel written continuous with a
-    0..0 limit all the same, are candidates."""
+    such a joint carrying a device's links alone moves nothing of the body, so it makes no head or arm; a pan joint
+    carrying a camera, a 0..0 joint carrying a link of the body (SolidWorks' exporter writes every joint so) and a
+    wheel written continuous with a 0..0 limit all the same are candidates."""
     w = Writer(random.Random(seed))
     hull = w.link('<box size="1.0 0.4 0.3"/>')
-    mounts = [w.joint("revolute", hull, w.link('<box size="0.05 0.05 0.05"/>'), (0.4 - 0.2 * i, 0.0, -0.15),
-                      limits=(0.0, 0.0)) for i in range(3)]
-    pan = w.joint("revolute", hull, w.link('<box size="0.05 0.05 0.05"/>'), (0.3, 0.0, 0.2))
+    sensors = [w.link('<box size="0.05 0.05 0.05"/>') for _ in range(4)]
+    mounts = [w.joint("revolute", hull, sensor, (0.4 - 0.2 * i, 0.0, -0.15), limits=(0.0, 0.0))
+              for i, sensor in enumerate(sensors[:3])]
+    pan = w.joint("revolute", hull, sensors[3], (0.3, 0.0, 0.2))
+    fin = w.joint("revolute", hull, w.link('<box size="0.1 0.01 0.05"/>'), (-0.5, 0.0, 0.0), limits=(0.0, 0.0))
     wheel = w.joint("continuous", hull, w.link('<cylinder radius="0.1" length="0.04"/>'), (0.0, 0.25, -0.2),
                     (0, 1, 0), (0.0, 0.0))
     tree = load_urdf(w.urdf())
     assert all(e.movable and not e.moves for e in tree.edges if e.joint in mounts)
-    assert {tuple(e.joint for e in c.joints) for c in body.chains(tree, set(), set())} == {(pan,), (wheel,)}
+    found = {tuple(e.joint for e in c.joints) for c in body.chains(tree, set(), set(sensors))}
+    assert found == {(pan,), (fin,), (wheel,)}
 
 
 def test_device_joints_are_the_fingers():

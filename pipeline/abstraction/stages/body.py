@@ -69,11 +69,9 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 
 
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
-    """Candidate chains of body joints, in document order of their first joints. A joint whose limits leave it no
-    range (lower = upper: a sensor mount written revolute for a simulator) moves nothing and is no body joint;
-    one that spins (Edge.spins: a wheel's, whatever limits its file writes) is."""
-    placing = placing_joints(tree)
-    body = [e for e in tree.edges if (e.moves or e.spins) and e.joint not in owned_joints and e.joint not in placing]
+    """Candidate chains of body joints, in document order of their first joints; no sensor mount (_mounts)."""
+    placing, mounts = placing_joints(tree), _mounts(tree, owned_links)
+    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints | placing | mounts]
     names = {e.joint for e in body}
     upper = {e.joint: _upper(tree, e, names) for e in body}
     below: dict[str | None, list[Edge]] = {}
@@ -91,6 +89,15 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
     for chain in out:
         chain.links = [link for e in chain.joints for link in _moved(tree, e.child, names, owned_links)]
     return out
+
+
+def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
+    """Joints whose limits leave them no range (lower = upper) and that carry devices' links alone: sensor mounts
+    written revolute so that a simulator keeps their links apart (UUV Simulator, RotorS, VRX). A joint so written
+    that carries a link of the body is the robot's (SolidWorks' exporter writes every joint 0..0 unless told), and
+    one that spins (Edge.spins: a wheel's, whatever limits its file writes) is never a mount."""
+    return frozenset(e.joint for e in tree.edges if e.movable and not e.moves and not e.spins
+                     and {e.child, *tree.descendants(e.child)} <= owned_links)
 
 
 def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
