@@ -308,12 +308,14 @@ def build(seed: int, alone: bool = False, asides: bool = False, linkages: bool =
                  linkages=heads, crank_links=cranks)
 
 
-def build_open_hand(seed: int) -> Built:
+def build_open_hand(seed: int, synergy: bool = False) -> Built:
     """A five-fingered hand written open, as humanoid hands often are: 3-4 fingers side by side along the palm's +z,
     each curling into the palm (towards -y) by a first joint whose range lies on one side of zero, its second joint
     often a <mimic>; and a thumb beside the palm pointing sideways (+x), that first swings across the palm (a yaw
     joint about z) and then pitches its tip up towards the fingertips. At the zero pose no fingertip moves towards
-    the thumb's tip: the fingers curl across the line to it, and only the thumb closes on them."""
+    the thumb's tip: the fingers curl across the line to it, and only the thumb closes on them. `synergy`: an
+    underactuated hand, one joint on a bare frame hung on the palm (its tendon) that every finger's and the thumb's
+    joints follow by <mimic>, directly or through the joint before them; the frame is a leaf of the hand."""
     rng = random.Random(seed)
     w = Writer(rng)
     flange = w.link()
@@ -322,13 +324,19 @@ def build_open_hand(seed: int) -> Built:
     k, spacing, base_z = rng.randint(3, 4), rng.uniform(0.018, 0.024), rng.uniform(0.08, 0.11)
     curl = rng.choice([1.0, -1.0])  # which sign of the range curls the finger: files write both
     chains, tool_links = [], {palm}
+    tendon = w.link() if synergy else ""
+    source = w.joint("revolute", palm, tendon, (0.0, 0.0, 0.01), (0.0, 0.0, 1.0), (0.0, 1.0)) if synergy else ""
     for i in range(k):
         links, parent, xyz, drive = [], palm, ((i - (k - 1) / 2) * spacing, 0.0, base_z), ""
         for j in range(2):
-            child = w.link()
+            child = w.link('<box size="0.015 0.015 0.03"/>' if synergy else "")  # bodies, beside the bare tendon
             limits = (0.0, 1.6) if curl > 0 else (-1.6, 0.0)
-            joint = w.joint("revolute", parent, child, xyz, (curl, 0.0, 0.0), limits,
-                            mimic=drive if j and rng.random() < 0.7 else None, multiplier=1.0)
+            if synergy:  # the first joint follows the tendon, the second the first or the tendon
+                mimic, multiplier = (drive, 1.0) if j and rng.random() < 0.5 else (source, 1.6 * curl)
+            else:
+                mimic, multiplier = (drive if j and rng.random() < 0.7 else None), 1.0
+            joint = w.joint("revolute", parent, child, xyz, (curl, 0.0, 0.0), limits, mimic=mimic,
+                            multiplier=multiplier)
             drive = drive or joint
             links.append(child)
             parent, xyz = child, (0.0, 0.0, rng.uniform(0.03, 0.045))
@@ -336,17 +344,20 @@ def build_open_hand(seed: int) -> Built:
         w.joint("fixed", parent, tip, xyz)
         chains.append(Chain([*links, tip], drive, "pivoting", None, "finger"))
     side = rng.choice([1.0, -1.0])
-    yaw_link, pitch_link, tip = w.link(), w.link(), w.link()
+    body = '<box size="0.03 0.015 0.015"/>' if synergy else ""
+    yaw_link, pitch_link, tip = w.link(body), w.link(body), w.link()
     yaw = w.joint("revolute", palm, yaw_link, (side * (k * spacing / 2 + 0.01), -0.01, base_z * 0.3),
-                  (0.0, 0.0, -side), (0.0, 1.5))  # swings the thumb's tip across the palm (-y)
-    w.joint("revolute", yaw_link, pitch_link, (side * 0.02, 0.0, 0.0), (0.0, -side, 0.0), (0.0, 1.1))  # tip up (+z)
+                  (0.0, 0.0, -side), (0.0, 1.5), mimic=source or None, multiplier=1.5)  # swings its tip across (-y)
+    w.joint("revolute", yaw_link, pitch_link, (side * 0.02, 0.0, 0.0), (0.0, -side, 0.0), (0.0, 1.1),
+            mimic=yaw if synergy else None, multiplier=round(1.1 / 1.5, 3))  # tip up (+z)
     w.joint("fixed", pitch_link, tip, (side * rng.uniform(0.05, 0.07), 0.0, 0.0))
     chains.append(Chain([yaw_link, pitch_link, tip], yaw, "pivoting", None, "thumb"))
     for c in chains:
         tool_links.update(c.links)
-    leaves = sorted(c.links[-1] for c in chains)
-    return Built(w.urdf(), "thumbed", "AnthropomorphicHand", flange, palm, tool_links, leaves, chains, flange,
-                 f"open hand of {k} fingers, thumb on the {'+x' if side > 0 else '-x'} side", yaw_link)
+    leaves = sorted([c.links[-1] for c in chains] + ([tendon] if synergy else []))
+    return Built(w.urdf(), "thumbed", "AnthropomorphicHand", flange, palm, tool_links | ({tendon} if synergy else set()),
+                 leaves, chains, flange, f"open hand of {k} fingers, thumb on the {'+x' if side > 0 else '-x'} side"
+                 + (", driven by one tendon joint" if synergy else ""), yaw_link)
 
 
 def _flat_finger(w: Writer, rng: random.Random, parent: str, xyz, along: float, joints: int,

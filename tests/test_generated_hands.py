@@ -166,6 +166,21 @@ def test_a_hand_written_open_is_found_by_its_thumb(seed):
     assert found and set(found[0][1]) == set(built.leaves), built.description
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_an_underactuated_hand_is_found_by_its_thumb_whatever_joint_drives_it(seed):
+    """Every joint of the hand follows one tendon joint on a bare frame, directly or through the joint before it
+    (<mimic> of <mimic>, as qbrobotics' SoftHand is written): the fingers and thumb move as that joint closes, so
+    half closed the thumb opposes the fingers (the reasoner's test below: an anthropomorphic hand), each finger
+    opposes the thumb alone, and the tendon's frame is no finger."""
+    built = build_open_hand(seed, synergy=True)
+    tree = load_urdf(built.urdf)
+    structure = tool_structure(tree, built.leaves)
+    fingers = {f.name: f for f in structure.fingers}
+    assert built.thumb in fingers and len(fingers[built.thumb].opposes) >= 2, built.description
+    assert all(f.opposes == (built.thumb,) for name, f in fingers.items() if name != built.thumb), built.description
+    assert set(fingers) <= {c.name for c in built.chains}, built.description
+
+
 def test_the_generator_covers_every_layout():
     builds = [build(seed) for seed in SEEDS]
     assert {b.layout for b in builds} == {"gripper", "radial", "thumbed"}
@@ -175,7 +190,8 @@ def test_the_generator_covers_every_layout():
 
 @pytest.mark.reasoner
 def test_the_reasoner_infers_each_kind():
-    builds = [build(seed) for seed in REASONED] + [build_open_hand(seed) for seed in range(4)] \
+    builds = [build(seed) for seed in REASONED] + [build_open_hand(seed, synergy) for seed in range(4)
+                                                    for synergy in (False, True)] \
         + [build_flat_gripper(seed) for seed in range(4)] + [build_flat_pair(seed) for seed in range(4)] \
         + [build(seed, linkages=True) for seed in range(0, 400, 50)]
     structures = [settled(b)[1][0][1] for b in builds]

@@ -11,7 +11,9 @@
   gripper, a thumb beside the row of fingers) neither brings the tips together nor keeps them apart.
   A chain closes by its *closing joint*: of the joints that move on their own (the drive, and any
   other joint following no <mimic>), each moving positively with the joints coupled to it by
-  <mimic>, the one whose motion closes most directly on another chain's tip; a joint that only
+  <mimic>, directly or through other joints that follow it (an underactuated hand's finger joints following
+  its synergy joint, each finger's second half following its first), the one whose motion closes most
+  directly on another chain's tip; a joint that only
   spreads a finger sideways or turns a thumb about its own length does not (a drive that itself
   follows another joint moves as that joint closes: a jaw mimicking the other with multiplier -1 and
   the same axis turns the other way; fingers following a thumb whose range reaches below zero close as
@@ -299,14 +301,17 @@ def _half_closed(tree: KinematicTree, chains: dict[str, tuple[tuple[str, ...], E
     for a in bodies:
         for link in chains[a][0]:
             e = tree.edge_to(link)
-            if e.independent and e.limits is not None and e.joint not in spreads \
-                    and e.joint_type in ("revolute", "prismatic"):
-                lower, upper = e.limits
-                moved[e.joint] = (lower + upper) / 2
-                changed.add(e.joint)
-    for e in tree.edges:
-        if e.movable and e.mimic in changed:
+            if e.joint in spreads or not e.movable:
+                continue
+            source = _source(tree, e)  # the joint it follows, or itself: a synergy joint outside the fingers too
+            if source.limits is not None and source.joint_type in ("revolute", "prismatic"):
+                lower, upper = source.limits
+                moved[source.joint] = (lower + upper) / 2
+                changed.add(source.joint)
+    while following := [e for e in tree.edges if e.movable and e.mimic in changed and e.joint not in changed]:
+        for e in following:  # the joints following them, directly or through others
             moved[e.joint] = e.mimic_multiplier * moved[e.mimic]  # type: ignore[index]
+            changed.add(e.joint)
     return moved
 
 
@@ -387,19 +392,17 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
     point = _in_frame(tree, tip, fork, (0.0, 0.0, 0.0), pose)
     path = tree.chain_to_root(tip)
     velocity = (0.0, 0.0, 0.0)
+    source = _source(tree, drive)
     for link in path[:path.index(drive.child) + 1]:
         edge = tree.edge_to(link)
-        if (rate := _coupling(drive, edge)) and (axis := unit(_in_frame(tree, link, fork, edge.axis, pose, True))):
+        if (rate := _rate(tree, source, edge)) and (axis := unit(_in_frame(tree, link, fork, edge.axis, pose, True))):
             if edge.joint_type == "prismatic":
                 part = axis
             else:  # pivoting, or a driven joint written fixed: a rotation about its declared axis
                 joint = _in_frame(tree, link, fork, (0.0, 0.0, 0.0), pose)
                 part = cross(axis, (point[0] - joint[0], point[1] - joint[1], point[2] - joint[2]))
             velocity = tuple(v + rate * p for v, p in zip(velocity, part))  # type: ignore[assignment]
-    if drive.mimic is not None and drive.mimic_multiplier < 0:  # the drive turns against the joint it follows
-        velocity = (-velocity[0], -velocity[1], -velocity[2])
-    followed = next((e for e in tree.edges if e.joint == drive.mimic), None) if drive.mimic is not None else None
-    if _closes_backwards(followed or drive, pose, closing_sense):  # as the joint that drives it closes
+    if _closes_backwards(source, pose, closing_sense):  # as the joint that drives it closes
         velocity = (-velocity[0], -velocity[1], -velocity[2])
     direction = unit(velocity) if dot(velocity, velocity) >= _STILL else None
     return None if direction is None else (point, direction)
@@ -445,17 +448,31 @@ def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose
     return value
 
 
-def _coupling(drive: Edge, edge: Edge) -> float:
-    """How fast `edge` moves when the drive moves at unit rate (0: independent of it)."""
-    if edge is drive:
-        return 1.0
-    if not edge.movable or edge.mimic is None:
+def _source(tree: KinematicTree, drive: Edge) -> Edge:
+    """The joint that moves on its own at the root of the drive's <mimic> chain (the drive itself where it follows
+    none): an underactuated hand's synergy joint that every finger joint follows, directly or through another."""
+    by_joint = {e.joint: e for e in tree.edges}
+    seen, current = {drive.joint}, drive
+    while current.mimic is not None and current.mimic in by_joint and current.mimic not in seen:
+        current = by_joint[current.mimic]
+        seen.add(current.joint)
+    return current
+
+
+def _rate(tree: KinematicTree, source: Edge, edge: Edge) -> float:
+    """How fast `edge` moves when `source` moves at unit rate: the product of the <mimic> multipliers from it up to
+    `source` (0: it does not follow `source`)."""
+    if not edge.movable:
         return 0.0
-    if edge.mimic == drive.joint:
-        return edge.mimic_multiplier
-    if edge.mimic == drive.mimic and drive.mimic_multiplier:
-        return edge.mimic_multiplier / drive.mimic_multiplier
-    return 0.0
+    rate, current, seen = 1.0, edge, {edge.joint}
+    while current.joint != source.joint:
+        followed = next((e for e in tree.edges if e.joint == current.mimic), None)
+        if followed is None or followed.joint in seen:
+            return 0.0
+        rate *= current.mimic_multiplier
+        current = followed
+        seen.add(current.joint)
+    return rate
 
 
 def _opposed(a: Motion | None, b: Motion | None) -> bool:
