@@ -331,6 +331,7 @@ def build_open_hand(seed: int, synergy: bool = False) -> Built:
         for j in range(2):
             child = w.link('<box size="0.015 0.015 0.03"/>' if synergy else "")  # bodies, beside the bare tendon
             limits = (0.0, 1.6) if curl > 0 else (-1.6, 0.0)
+            mimic: str | None
             if synergy:  # the first joint follows the tendon, the second the first or the tendon
                 mimic, multiplier = (drive, 1.0) if j and rng.random() < 0.5 else (source, 1.6 * curl)
             else:

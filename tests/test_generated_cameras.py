@@ -368,8 +368,9 @@ def test_a_camera_written_as_one_body_keeps_its_kind_unless_it_is_one_eye_of_a_p
     beside = body((x + 0.01, 0.0, z + 0.03), 0.0)  # a camera of another kind at the centre, looking the same way
     eyes = [body((-x, side * y, z + 0.2), math.pi) for side in (1.0, -1.0)]  # a pair looking backwards
     out = [body((0.0, side * 0.2, z), side * math.pi / 2) for side in (1.0, -1.0)]  # looking out to either side
+    stacked = [body((x, 0.0, z + 0.5 + dz), 0.0) for dz in (0.0, 0.012)]  # on the centre line, one above the other
     tree = load_urdf(w.urdf())
-    links = [lone, beside, *eyes, *out]
+    links = [lone, beside, *eyes, *out, *stacked]
     groups = [Group([sub_chain(tree, link, base)]) for link in links]
     state = Findings(groups=groups)
     state.pre = {link: Typed("StereoCamera", 0.9) for link in links}
@@ -377,7 +378,8 @@ def test_a_camera_written_as_one_body_keeps_its_kind_unless_it_is_one_eye_of_a_p
     post_classification(Abstractor(Oracle(ScriptedBackend(_answer([mono]))), TAX).context(tree, kind="sensor"), state)
     typed = {link: t.cls for link, t in zip(links, state.post)}
     assert typed == {lone: "StereoCamera", beside: "StereoCamera", eyes[0]: "MonocularCamera",
-                     eyes[1]: "MonocularCamera", out[0]: "StereoCamera", out[1]: "StereoCamera"}
+                     eyes[1]: "MonocularCamera", out[0]: "StereoCamera", out[1]: "StereoCamera",
+                     stacked[0]: "StereoCamera", stacked[1]: "StereoCamera"}
     assert viewpoints(tree, [lone]) is None and viewpoints(tree, [eyes[0]], [eyes[1]]) == 1
 
 
@@ -392,7 +394,8 @@ def test_bare_frames_straight_on_a_mount_are_one_device_only_where_they_look_the
     hull = w.link('<box size="1.0 0.3 0.3"/>')
     stem = w.name()
     x, tilt = rng.uniform(0.2, 0.5), rng.choice([0.0, rng.uniform(0.2, 0.9)])  # the camera pitched down or not
-    optical = _rpy(_matmul(_pitch(tilt), _matmul(_yaw(-math.pi / 2), _roll(-math.pi / 2))))
+    optical_matrix = _matmul(_yaw(-math.pi / 2), _roll(-math.pi / 2))  # REP 103: z forward, x right, y down
+    optical = _rpy(_matmul(_pitch(tilt), optical_matrix))
 
     def frame(xyz, rpy):
         name = f"{stem}_{w.name()}"
@@ -403,13 +406,15 @@ def test_bare_frames_straight_on_a_mount_are_one_device_only_where_they_look_the
     colour = frame((x, 0.01, 0.0), optical)
     depth = frame((x, -0.02, 0.0), optical)
     ahead = frame((x + 0.02, 0.0, 0.03), (0.0, tilt, 0.0))  # the device's own frame, x forward
-    down = frame((x - 0.05, 0.0, -0.1), (0.0, tilt + rng.choice([0.8, 1.0]), 0.0))
+    down = frame((x - 0.05, 0.0, -0.1), (0.0, tilt + rng.choice([0.8, 1.0, math.pi / 2]), 0.0))
     aside = frame((x - 0.1, 0.1, 0.0), (0.0, 0.0, rng.choice([1.0, math.pi / 2])))
+    optical_aside = frame((x - 0.1, -0.1, 0.0), _rpy(_matmul(_yaw(-math.pi / 2), optical_matrix)))  # looking right
     tree = load_urdf(w.urdf())
-    frames = [colour, depth, ahead, down, aside]
+    frames = [colour, depth, ahead, down, aside, optical_aside]
     chains = [sub_chain(tree, f, hull) for f in frames]
     groups = merge(Oracle(ScriptedBackend(lambda q: stem)), tree, chains, "sensor", dict.fromkeys(frames, "VisionSensor"))
-    assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([colour, depth, ahead]), [down], [aside]])
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([colour, depth, ahead]), [down], [aside],
+                                                               [optical_aside]])
 
 
 def _roll(a: float) -> list[list[float]]:

@@ -110,16 +110,16 @@ def viewpoints(tree: KinematicTree, leaves: list[str], cameras: Iterable[str] = 
 
 
 def eye_pair(tree: KinematicTree, a: str, b: str) -> bool:
-    """Two camera bodies are the eyes of a stereo pair: each lies within MIRROR_EPS of the other's mirror image
-    across the root's x-z plane (REP 103's left and right) and both look the same way (their x axes, parallel
-    within OPTICAL_AXIS), side by side across that line of sight (further than VIEWPOINT apart). Cameras on
-    the left and right of a robot look out to either side; a camera beside another of a kind at the centre
-    has no mirror image."""
+    """Two camera bodies are the eyes of a stereo pair: on either side of the root's x-z plane (REP 103's left and
+    right), further than MIRROR_EPS from it, each within MIRROR_EPS of the other's mirror image across it, and both
+    look the same way (their x axes, parallel within OPTICAL_AXIS), side by side across that line of sight (further
+    than VIEWPOINT apart). Cameras on the left and right of a robot look out to either side; a camera beside
+    another of a kind at the centre has no mirror image."""
     pa, pb = tree.position_in(a, tree.root), tree.position_in(b, tree.root)
     sight = sub(tree.position_in(a, tree.root, (1.0, 0.0, 0.0)), pa)  # unit vectors: the frames' x axes
     other = sub(tree.position_in(b, tree.root, (1.0, 0.0, 0.0)), pb)
-    return (math.dist((pa[0], -pa[1], pa[2]), pb) <= MIRROR_EPS and dot(sight, other) >= OPTICAL_AXIS
-            and _apart(pb, pa, sight) > VIEWPOINT)
+    return (abs(pa[1]) > MIRROR_EPS and math.dist((pa[0], -pa[1], pa[2]), pb) <= MIRROR_EPS
+            and dot(sight, other) >= OPTICAL_AXIS and _apart(pb, pa, sight) > VIEWPOINT)
 
 
 def _apart(a: Vector, b: Vector, sight: Vector | None) -> float:

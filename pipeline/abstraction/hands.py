@@ -321,7 +321,8 @@ def spinning_low(tree: KinematicTree) -> frozenset[str]:
     """Leaves that spin on their own joint (Edge.spins) in the lowest LOW_SHARE of the robot's height at the zero
     pose, two or more of them: wheels, wherever they hang (a rover's on steering joints and bogies, a caster's under
     its swivel); never a tool, whose jaws close over a bounded arc at a limb's end (the spinning drive screw or prop
-    of a gripper rides with the arm above them: a half to all of the robot's height in the files seen)."""
+    of a gripper an arm carries rides half to all of the robot's height up in the files seen; the shape step leaves
+    out a hand's leaves, as a hand published on its own lies at the bottom of its file)."""
     heights = {link: tree.position_in(link, tree.root)[2] for link in tree.links if link != tree.root}
     if not heights:
         return frozenset()

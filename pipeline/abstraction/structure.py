@@ -292,10 +292,13 @@ def linkage_bars(tree: KinematicTree, links: tuple[str, ...]) -> frozenset[str]:
 
 def _half_closed(tree: KinematicTree, chains: dict[str, tuple[tuple[str, ...], Edge, str]], bodies: set[str],
                  pose: dict[str, float], spreads: AbstractSet[str]) -> dict[str, float]:
-    """`pose` with every revolute or prismatic joint of the chains with bodies that has a range, moves on its own
-    and does not spread its finger (`spreads`) halfway through that range, and the joints following those by
-    <mimic> with them: a hand written flat, its fingers curling the same way at first, seen as it grasps. Spread
-    joints and joints without a range (continuous) stay where `pose` has them."""
+    """`pose` with the joint at the root of the <mimic> chain of every joint of the chains with bodies that does not
+    spread its finger (`spreads`) (the joint itself where it follows none; an underactuated hand's synergy joint;
+    another finger's joint, even one that spreads its own finger, as the Schunk SVH's ring and little fingers follow
+    its thumb's opposition) halfway through its range where it is revolute or prismatic and has one, and every joint
+    following those, directly or through others, with them: a hand written flat, its fingers curling the same way
+    at first, seen as it grasps. Spread joints no other follows, and joints without a range (continuous), stay where
+    `pose` has them."""
     moved = dict(pose)
     changed = set()
     for a in bodies:

@@ -81,11 +81,13 @@ def build_robot(world: rdf.World, tree: KinematicTree, robot_name: str, abstract
         _set(world, "urdfName", robot, tree.robot_name)
         links, joints = _add_structure(world, onto, robot, tree, vocab, numbers)
         parts = _add_body(world, onto, robot, body, links, joints)
+        camera = vocab.domain("viewpointCount")
+        cameras = [link for comp in components if vocab.is_a(comp.cls, camera) for link in _leaves(tree, comp)]
         for comp in components:
             individual, subs = _add_component(world, onto, robot, comp, links, joints, parts)
             _add_fingers(world, onto, individual, comp, joints)
             if comp.kind == SENSOR:
-                _add_sensor_facts(world, onto, individual, subs, comp, tree, vocab, links, numbers)
+                _add_sensor_facts(world, onto, individual, subs, comp, tree, vocab, links, numbers, cameras)
             elif vocab.is_a(comp.cls, vocab.domain("maxOpeningMetres")):
                 numbers.decimal(CORE_IRI + "maxOpeningMetres", individual, capabilities.opening(tree, comp.links))
         _add_body_facts(world, tree, vocab, body, components, parts, numbers)
@@ -271,15 +273,19 @@ _SYSTEM_PROPERTIES = (("Frequency", "frequency", ("rate",), "HTZ"), ("Measuremen
                       ("Resolution", "resolution", ("resolution",), "MTR"))
 
 
+def _leaves(tree, comp: Component) -> list[str]:
+    return [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
+
+
 def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab: Vocabulary, links: dict,
-                      numbers: _Numbers) -> None:
-    """A camera's viewpoint count (frames.viewpoints over its leaf links, so that a reasoner can check its class
-    against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
+                      numbers: _Numbers, cameras: list[str]) -> None:
+    """A camera's viewpoint count (frames.viewpoints over its leaf links, beside the other `cameras`' leaves, so that
+    a reasoner can check its class against core:viewpointCount's restrictions) and optical frames; a sensor's reference frames and declared
     specification (capabilities): the numbers SSN names as an ssn-system:SystemCapability with its system
     properties, the others as core data, and what a ranging sensor emits where its class allows it."""
     if vocab.is_a(comp.cls, vocab.domain("viewpointCount")):
-        leaves = [link for link in comp.links if tree.is_leaf(link)] or list(comp.links)
-        if (views := viewpoints(tree, leaves)) is not None:
+        leaves = _leaves(tree, comp)
+        if (views := viewpoints(tree, leaves, [c for c in cameras if c not in leaves])) is not None:
             _set(world, "viewpointCount", ind, views)
     if vocab.is_a(comp.cls, vocab.domain("hasOpticalFrame")):
         for sub in comp.subcomponents:

@@ -92,7 +92,8 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
 
 
 def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
-    """Joints whose limits leave them no range (lower = upper) and that carry devices' links alone: sensor mounts
+    """Joints whose limits leave them no range (lower = upper) and that carry devices' links alone (sensors' or
+    end-effectors'): sensor mounts
     written revolute so that a simulator keeps their links apart (UUV Simulator, RotorS, VRX). A joint so written
     that carries a link of the body is the robot's (SolidWorks' exporter writes every joint 0..0 unless told), and
     one that spins (Edge.spins: a wheel's, whatever limits its file writes) is never a mount."""

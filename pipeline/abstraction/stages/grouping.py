@@ -130,14 +130,19 @@ def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
 
 
 def _looking_alike(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
-    """Two frames look the same way from `mount`: their x and z axes alike (within ALIKE), or one's x axis along the
-    other's z axis (a camera's own frame, x forward, beside its optical frame, z forward, however it is tilted)."""
-    def axes(link: str) -> tuple[Vector, Vector]:
+    """Two frames look the same way from `mount`: their x and z axes alike (within ALIKE), or one is a camera's own
+    frame (x forward, z up) and the other its optical frame (REP 103: z forward, y down), however it is tilted."""
+    def axes(link: str) -> tuple[Vector, Vector, Vector]:
         origin = tree.position_in(link, mount)
-        return (sub(tree.position_in(link, mount, (1.0, 0.0, 0.0)), origin),
-                sub(tree.position_in(link, mount, (0.0, 0.0, 1.0)), origin))
-    (xa, za), (xb, zb) = axes(a), axes(b)
-    return (dot(xa, xb) >= ALIKE and dot(za, zb) >= ALIKE) or dot(xa, zb) >= ALIKE or dot(za, xb) >= ALIKE
+        x, y, z = (sub(tree.position_in(link, mount, unit), origin)
+                   for unit in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
+        return x, y, z
+
+    def optical_of(own: tuple[Vector, Vector, Vector], optical: tuple[Vector, Vector, Vector]) -> bool:
+        return dot(own[0], optical[2]) >= ALIKE and dot(own[2], optical[1]) <= -ALIKE
+    first, second = axes(a), axes(b)
+    same = dot(first[0], second[0]) >= ALIKE and dot(first[2], second[2]) >= ALIKE
+    return same or optical_of(first, second) or optical_of(second, first)
 
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:

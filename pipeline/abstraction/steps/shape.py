@@ -49,7 +49,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rods = rods(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
-        | (spinning_on_trunk(robot) | spinning_low(robot)) - declared
+        | spinning_on_trunk(robot) - declared | spinning_low(robot) - declared - set(found.hand_mounts)
     found.last_segments = last_segments(robot, found.limb_ends)
     found.loop_frames = loop_closures(robot) - declared
     found.collision_volumes = collision_volumes(robot) - declared
