@@ -680,10 +680,7 @@ def test_a_leaf_spinning_from_the_trunk_is_no_tool():
             yaw = k * math.pi / 3
             w.joint("continuous", hull, thruster, (0.25 * math.cos(yaw), 0.15 * math.sin(yaw), 0.0), (1.0, 0.0, 0.0))
             thrusters.append(thruster)
-        wrist = _serial(w, hull, 4, (-2.0, 2.0))
-        screw, jaw = w.link('<cylinder radius="0.005" length="0.04"/>'), w.link('<box size="0.02 0.01 0.06"/>')
-        w.joint("continuous", wrist, screw, (0.0, 0.0, 0.05), (0.0, 0.0, 1.0))
-        w.joint("revolute", wrist, jaw, (0.02, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-0.5, 0.0))
+        screw, jaw = _gripper_with_screw(w, hull)
         tree = load_urdf(w.urdf())
         assert spinning_on_trunk(tree) == set(thrusters), seed
         erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.2, NONE: 0.3}
@@ -708,15 +705,21 @@ def test_wheels_on_steering_joints_and_bogies_are_no_tools(seed):
             w.joint("revolute", bogie, steer, (x, side * 0.05, -0.05), (0.0, 0.0, 1.0), limits=(-1.57, 1.57))
             w.joint("continuous", steer, wheel, (0.0, 0.0, -0.08), (0.0, 1.0, 0.0))
             wheels.append(wheel)
-    wrist = _serial(w, chassis, 4, (-2.0, 2.0))
-    screw, jaw = w.link('<cylinder radius="0.005" length="0.04"/>'), w.link('<box size="0.02 0.01 0.06"/>')
-    w.joint("continuous", wrist, screw, (0.0, 0.0, 0.05), (0.0, 0.0, 1.0))
-    w.joint("revolute", wrist, jaw, (0.02, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-0.5, 0.0))
+    screw, jaw = _gripper_with_screw(w, chassis)
     tree = load_urdf(w.urdf())
     assert spinning_on_trunk(tree) == frozenset() and spinning_low(tree) == set(wheels)
     erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.2, NONE: 0.3}
     claims = _identified(w.urdf(), lambda q: erring)
     assert TOOL_CLS not in {claims[wheel] for wheel in wheels} and claims[screw] == claims[jaw] == TOOL_CLS
+
+
+def _gripper_with_screw(w: Writer, base: str) -> tuple[str, str]:
+    """An arm of four joints on `base` ending in a gripper's drive screw, spinning, and a jaw on a bounded hinge."""
+    wrist = _serial(w, base, 4, (-2.0, 2.0))
+    screw, jaw = w.link('<cylinder radius="0.005" length="0.04"/>'), w.link('<box size="0.02 0.01 0.06"/>')
+    w.joint("continuous", wrist, screw, (0.0, 0.0, 0.05), (0.0, 0.0, 1.0))
+    w.joint("revolute", wrist, jaw, (0.02, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-0.5, 0.0))
+    return screw, jaw
 
 
 def _fixed_chains(w: Writer, parent: str, size: str) -> list[str]:

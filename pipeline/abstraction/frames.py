@@ -95,8 +95,8 @@ def viewpoints(tree: KinematicTree, leaves: list[str], cameras: Iterable[str] = 
     along the x axis of the link they hang from), only those count (a camera's inertial frames see nothing),
     and two of them see from one place when they lie within VIEWPOINT across their line of sight.
     A lone link that is no optical frame stands for a camera written as one body, which shows no imager: one
-    place where it is an eye of a pair (one of `cameras`, other cameras' links, is its twin: eye_pair), else
-    None (unknown)."""
+    place where it is an eye of a pair (one of `cameras`, the cameras' links, is its twin: eye_pair, which no link
+    is of itself), else None (unknown)."""
     optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
     if not optical and len(leaves) == 1:
         return 1 if any(eye_pair(tree, leaves[0], other) for other in cameras) else None

@@ -451,31 +451,32 @@ def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose
     return value
 
 
+def _followed(tree: KinematicTree, edge: Edge) -> list[tuple[Edge, float]]:
+    """The joints `edge` follows by <mimic>, itself first, each with how fast `edge` moves when that joint moves at
+    unit rate (the product of the multipliers up to it); the walk ends at a joint following none, at a missing one
+    or where the chain turns back on itself."""
+    by_joint = {e.joint: e for e in tree.edges}
+    chain, rate, seen = [(edge, 1.0)], 1.0, {edge.joint}
+    current = edge
+    while current.mimic is not None and current.mimic in by_joint and current.mimic not in seen:
+        rate *= current.mimic_multiplier
+        current = by_joint[current.mimic]
+        chain.append((current, rate))
+        seen.add(current.joint)
+    return chain
+
+
 def _source(tree: KinematicTree, drive: Edge) -> Edge:
     """The joint that moves on its own at the root of the drive's <mimic> chain (the drive itself where it follows
     none): an underactuated hand's synergy joint that every finger joint follows, directly or through another."""
-    by_joint = {e.joint: e for e in tree.edges}
-    seen, current = {drive.joint}, drive
-    while current.mimic is not None and current.mimic in by_joint and current.mimic not in seen:
-        current = by_joint[current.mimic]
-        seen.add(current.joint)
-    return current
+    return _followed(tree, drive)[-1][0]
 
 
 def _rate(tree: KinematicTree, source: Edge, edge: Edge) -> float:
-    """How fast `edge` moves when `source` moves at unit rate: the product of the <mimic> multipliers from it up to
-    `source` (0: it does not follow `source`)."""
+    """How fast `edge` moves when `source` moves at unit rate (0: it does not follow `source`)."""
     if not edge.movable:
         return 0.0
-    rate, current, seen = 1.0, edge, {edge.joint}
-    while current.joint != source.joint:
-        followed = next((e for e in tree.edges if e.joint == current.mimic), None)
-        if followed is None or followed.joint in seen:
-            return 0.0
-        rate *= current.mimic_multiplier
-        current = followed
-        seen.add(current.joint)
-    return rate
+    return next((rate for followed, rate in _followed(tree, edge) if followed.joint == source.joint), 0.0)
 
 
 def _opposed(a: Motion | None, b: Motion | None) -> bool:

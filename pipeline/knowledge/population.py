@@ -285,7 +285,7 @@ def _add_sensor_facts(world, onto, ind, subs: dict, comp: Component, tree, vocab
     properties, the others as core data, and what a ranging sensor emits where its class allows it."""
     if vocab.is_a(comp.cls, vocab.domain("viewpointCount")):
         leaves = _leaves(tree, comp)
-        if (views := viewpoints(tree, leaves, [c for c in cameras if c not in leaves])) is not None:
+        if (views := viewpoints(tree, leaves, cameras)) is not None:
             _set(world, "viewpointCount", ind, views)
     if vocab.is_a(comp.cls, vocab.domain("hasOpticalFrame")):
         for sub in comp.subcomponents:

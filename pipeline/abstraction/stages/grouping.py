@@ -121,26 +121,25 @@ def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
 def _side_by_side(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
     """Links `a` and `b`, at the zero pose in their mount's frame, lie within DEVICE_SPAN and face the
     same way (the same x and z axes)."""
-    def axes(link: str) -> list[tuple[float, ...]]:
-        origin = tree.position_in(link, mount)
-        return [tuple(p - o for p, o in zip(tree.position_in(link, mount, unit), origin))
-                for unit in ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0))]
+    (xa, _, za), (xb, _, zb) = _axes(tree, a, mount), _axes(tree, b, mount)
     near = math.dist(tree.position_in(a, mount), tree.position_in(b, mount)) <= DEVICE_SPAN
-    return near and all(sum(x * y for x, y in zip(u, v)) >= ALIKE for u, v in zip(axes(a), axes(b)))
+    return near and dot(xa, xb) >= ALIKE and dot(za, zb) >= ALIKE
+
+
+def _axes(tree: KinematicTree, link: str, mount: str) -> tuple[Vector, Vector, Vector]:
+    """The link's x, y and z axes in `mount`'s frame at the zero pose."""
+    origin = tree.position_in(link, mount)
+    x, y, z = (sub(tree.position_in(link, mount, unit), origin)
+               for unit in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
+    return x, y, z
 
 
 def _looking_alike(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
     """Two frames look the same way from `mount`: their x and z axes alike (within ALIKE), or one is a camera's own
     frame (x forward, z up) and the other its optical frame (REP 103: z forward, y down), however it is tilted."""
-    def axes(link: str) -> tuple[Vector, Vector, Vector]:
-        origin = tree.position_in(link, mount)
-        x, y, z = (sub(tree.position_in(link, mount, unit), origin)
-                   for unit in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
-        return x, y, z
-
     def optical_of(own: tuple[Vector, Vector, Vector], optical: tuple[Vector, Vector, Vector]) -> bool:
         return dot(own[0], optical[2]) >= ALIKE and dot(own[2], optical[1]) <= -ALIKE
-    first, second = axes(a), axes(b)
+    first, second = _axes(tree, a, mount), _axes(tree, b, mount)
     same = dot(first[0], second[0]) >= ALIKE and dot(first[2], second[2]) >= ALIKE
     return same or optical_of(first, second) or optical_of(second, first)
 

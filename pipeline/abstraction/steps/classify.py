@@ -143,7 +143,7 @@ def post_classification(ctx: Context, found: Findings) -> None:
     imaging = {id(g): _imaging(ctx, found, g) for g in found.groups}
     camera = vocab.domain("viewpointCount")
     cameras = [leaf for g in found.groups for leaf in g.leaves if vocab.is_a(pre[leaf].cls, camera)]
-    views = {id(g): viewpoints(tree, g.leaves, [c for c in cameras if c not in g.leaves]) for g in found.groups}
+    views = {id(g): viewpoints(tree, g.leaves, cameras) for g in found.groups}
     counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
                    for g in found.groups}  # by where its frames see from, and by how many there are
     for g in found.groups:
