@@ -17,6 +17,7 @@ from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.passes import PassManager
+from urdfkb.pipeline.abstraction import hands
 from urdfkb.pipeline.abstraction.stages import body
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 
@@ -351,9 +352,10 @@ def test_a_continuous_joint_its_file_bounds_to_less_than_half_a_turn_does_not_sp
     assert [body._motion(tree.edge_to(link)) for link in links] == ["revolute", "continuous", "continuous", "continuous"]
 
 
-def _sprawled(seed: int, pairs: int) -> tuple[bytes, list[list[str]]]:
-    """A trunk with `pairs` mirrored pairs of legs spread front to back, each of 3 joints, that the zero pose holds
-    out level with the trunk and folded (its foot back beside its hip), its name meaningless."""
+def _sprawled(seed: int, pairs: int, kind: str = "revolute", rise: float = 0.0) -> tuple[bytes, list[list[str]]]:
+    """A trunk with `pairs` mirrored pairs of legs spread front to back, each of 3 joints of `kind`, that the zero
+    pose holds out level with the trunk and folded (its foot back beside its hip), `rise` above it (actuators
+    stacked at the hip), its name meaningless."""
     rng = random.Random(seed)
     w = Writer(rng)
     trunk = w.link('<box size="0.8 0.2 0.1"/>')
@@ -363,9 +365,9 @@ def _sprawled(seed: int, pairs: int) -> tuple[bytes, list[list[str]]]:
         for y in (0.1, -0.1):
             hip, thigh, shank, foot = w.link('<box size="0.1 0.05 0.05"/>'), w.link('<box size="0.3 0.04 0.04"/>'), \
                 w.link('<box size="0.3 0.03 0.03"/>'), w.link('<sphere radius="0.03"/>')
-            legs.append([w.joint("revolute", trunk, hip, (x, y, 0.0), (1.0, 0.0, 0.0)),
-                         w.joint("revolute", hip, thigh, (0.0, 0.08 if y > 0 else -0.08, 0.0), (0.0, 1.0, 0.0)),
-                         w.joint("revolute", thigh, shank, (0.3, 0.0, 0.0), (0.0, 1.0, 0.0))])
+            legs.append([w.joint(kind, trunk, hip, (x, y, 0.0), (1.0, 0.0, 0.0)),
+                         w.joint(kind, hip, thigh, (0.0, 0.08 if y > 0 else -0.08, rise), (0.0, 1.0, 0.0)),
+                         w.joint(kind, thigh, shank, (0.3, 0.0, 0.0), (0.0, 1.0, 0.0))])
             w.joint("fixed", shank, foot, (-0.3, 0.0, 0.0))
     return w.urdf(), legs
 
@@ -383,3 +385,60 @@ def test_legs_the_zero_pose_holds_out_level_are_legs(seed, pairs):
         return question.options[0] if question.key.startswith("side:") else "torso"
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
     assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+
+
+@pytest.mark.parametrize("seed,pairs", [(5, 2), (6, 3)])
+def test_legs_written_continuous_with_their_hips_raised_are_legs_not_wheels(seed, pairs):
+    """Sprawled legs whose joints the file writes continuous (servo legs' files leave the limits out) and whose
+    hips lift them 0.1 m above the trunk: each leg's last segment spins on its knee but carries its foot out from
+    it (hands.wheel_body), so the limbs are legs and no knee is split off as a wheel (on the code before: six wheels
+    and no feet)."""
+    urdf, legs = _sprawled(seed, pairs, kind="continuous", rise=0.1)
+    tree = load_urdf(urdf)
+    assert len(hands.feet(tree)) == 2 * pairs
+
+    def rule(question):
+        return question.options[0] if question.key.startswith("side:") else "wheel"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
+    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+
+
+def test_a_spinning_wheel_on_a_steering_joint_is_still_a_wheel_module():
+    """Four mirrored steered wheels spread front to back, level with the trunk: the drive joint spins a body whose
+    frames all lie on its axis (hands.wheel_body), so the limbs are wheel modules, not sprawled legs."""
+    w = Writer(random.Random(8))
+    trunk, wheels = w.link('<box size="0.8 0.4 0.1"/>'), []
+    for x in (0.3, -0.3):
+        for y in (0.2, -0.2):
+            fork, wheel, hub = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<cylinder radius="0.08" length="0.04"/>'), w.link()
+            w.joint("revolute", trunk, fork, (x, y, 0.0), (0.0, 0.0, 1.0))
+            w.joint("continuous", fork, wheel, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+            w.joint("fixed", wheel, hub, (0.0, 0.03, 0.0))
+            wheels.append(wheel)
+    tree = load_urdf(w.urdf())
+    assert all(hands.wheel_body(tree, wheel) for wheel in wheels) and hands.feet(tree) == frozenset()
+
+
+@pytest.mark.parametrize("seed", [12, 13])
+def test_a_second_motor_that_follows_a_joint_joins_that_joints_part(seed):
+    """A six-joint arm whose shoulder and elbow each have a second motor written as a joint that follows them by
+    <mimic> from the same link and moves nothing further (a dead-end link): the followers are no candidates of
+    their own, so the arm is not cut at the shoulder into pieces the model would call heads, and their links join
+    the arm (on the code before: three candidates more, each asked)."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.4 0.2"/>')
+    link, joints, followers = base, [], []
+    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        axis = (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0)
+        joints.append(w.joint("revolute", link, child, (0.0, 0.0, z), axis))
+        if i in (1, 2):
+            twin = w.link()
+            w.joint("revolute", link, twin, (0.0, 0.0, z), axis, mimic=joints[-1])
+            followers.append(twin)
+        link = child
+    tree = load_urdf(w.urdf())
+    oracle = Oracle(ScriptedBackend(lambda q: pytest.fail(f"unexpected question {q.key}")))
+    parts, _ = body_pass(oracle, tree, [])
+    assert [(p.cls, p.joints) for p in parts] == [("Arm", tuple(joints))]
+    assert set(followers) <= set(parts[0].links)

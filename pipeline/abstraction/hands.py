@@ -21,6 +21,7 @@ TOOL_POINT = 0.03  # m: a tool centre point lies this close to the fingertips' s
 TIP_DEPTH = 0.6  # and at least this share of the way out from where the fingers part to their tips (touch pads on a
 # hand's back or sides lie under half of it)
 FOOT_BAND = 0.05  # m: feet are the limb tips within this of the robot's lowest point at the zero pose
+LEVEL_RISE = 0.25  # share of its length a sprawled leg held out level may rise above its trunk (0.15 at most seen)
 LOW_SHARE = 1 / 3  # of a robot's height: wheels spin this low (0.23 at most in the files seen; grippers' spinning
 # parts 0.56 and up)
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
@@ -379,16 +380,16 @@ def feet(tree: KinematicTree) -> frozenset[str]:
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
     """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), no higher than the trunk
-    (FOOT_BAND), each on joints that turn or slide within a range and carrying no wheel (a leaf that rolls: `rolling`),
-    as many joints in each, that leave it
+    (FOOT_BAND, or LEVEL_RISE of the limb's length: actuators stacked at its hips lift it), each carrying no wheel
+    (wheel_body, or a leaf that rolls: `rolling`), as many joints in each, that leave it
     in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane, REP 103's left and right,
     lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the longest one's length or more (a
     limb's length is the sum of its joints' offsets: a leg written folded is as long as stretched out): a quadruped's
     or hexapod's legs, whatever its zero pose or size. A hand's fingers leave its palm in a row, its thumb
     unpaired."""
     top = tree.position_in(trunk, tree.root)[2]
-    tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:]
-            and tree.position_in(leaf, tree.root)[2] <= top + FOOT_BAND]  # a leg comes down, or out level
+    tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:]  # a leg comes down, or out level
+            and tree.position_in(leaf, tree.root)[2] - top <= max(FOOT_BAND, LEVEL_RISE * _length(tree, leaf, trunk))]
     limbs: dict[str, tuple[str, float]] = {}  # the limb's first moving link -> its tip, its length
     for tip in tips:
         path = tree.chain_to_root(tip)
@@ -396,7 +397,7 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         if len(moving) < 2 or not _from_trunk_by_legs(tree, tip, set(tips), placing):
             continue
         first = moving[-1]
-        if any(tree.edge_to(x).spins or tree.is_leaf(x) and rolling(tree, x) for x in (first, *tree.descendants(first))):
+        if any(wheel_body(tree, x) or tree.is_leaf(x) and rolling(tree, x) for x in (first, *tree.descendants(first))):
             continue  # a wheel anywhere on it: a wheel module
         length = _length(tree, tip, first)
         if length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
@@ -412,6 +413,17 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         if len(firsts) >= 4 and mirrored and spread >= TRUNK_TO_LEG * max(limbs[first][1] for first in firsts):
             return frozenset(limbs[first][0] for first in firsts)
     return frozenset()
+
+
+def wheel_body(tree: KinematicTree, link: str) -> bool:
+    """The link spins on its joint (Edge.spins) with no movable joint below it and every frame of its rigid body
+    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis: a wheel, a roller or a rotor. A leg's
+    last segment written continuous (servo legs' files leave the limits out) carries its foot's frame out from the
+    knee; its upper joints carry joints on."""
+    edge, below = tree.edge_to(link), tree.descendants(link)
+    axis = unit(edge.axis)
+    return edge.spins and axis is not None and not any(tree.edge_to(x).movable for x in below) \
+        and all(off_axis(tree.position_in(x, link), axis) <= ROLL_OFFSET for x in below)
 
 
 def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:

@@ -451,7 +451,7 @@ def _in_frame(tree: KinematicTree, link: str, ancestor: str, value: Vector, pose
     return value
 
 
-def _followed(tree: KinematicTree, edge: Edge) -> list[tuple[Edge, float]]:
+def followed(tree: KinematicTree, edge: Edge) -> list[tuple[Edge, float]]:
     """The joints `edge` follows by <mimic>, itself first, each with how fast `edge` moves when that joint moves at
     unit rate (the product of the multipliers up to it); the walk ends at a joint following none, at a missing one
     or where the chain turns back on itself."""
@@ -469,14 +469,14 @@ def _followed(tree: KinematicTree, edge: Edge) -> list[tuple[Edge, float]]:
 def _source(tree: KinematicTree, drive: Edge) -> Edge:
     """The joint that moves on its own at the root of the drive's <mimic> chain (the drive itself where it follows
     none): an underactuated hand's synergy joint that every finger joint follows, directly or through another."""
-    return _followed(tree, drive)[-1][0]
+    return followed(tree, drive)[-1][0]
 
 
 def _rate(tree: KinematicTree, source: Edge, edge: Edge) -> float:
     """How fast `edge` moves when `source` moves at unit rate (0: it does not follow `source`)."""
     if not edge.movable:
         return 0.0
-    return next((rate for followed, rate in _followed(tree, edge) if followed.joint == source.joint), 0.0)
+    return next((rate for joint, rate in followed(tree, edge) if joint.joint == source.joint), 0.0)
 
 
 def _opposed(a: Motion | None, b: Motion | None) -> bool:

@@ -2,8 +2,10 @@
 
 Structure proposes; the ontology and the model decide. Candidates are the serial chains of body
 joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from
-which two or more chains go on), cut after a sliding joint that lifts turning ones, with a trailing joint that spins (continuous, or revolute with no range) and
-carries nothing split off as a wheel candidate. The code asserts what structure says of
+which two or more chains go on), cut after a sliding joint that lifts turning ones, with a trailing joint that spins
+(continuous, or revolute with no range) and carries nothing but a wheel's body (hands.wheel_body) split off as a wheel
+candidate. A joint that follows another by <mimic> and moves nothing that moves on its own (a second motor on the same
+axis, a linkage's bar) is no candidate: what it moves joins the part of the joint it follows. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
 the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
 (a part carrying an end-effector off the ground is an arm, ...). The model classifies the
@@ -27,7 +29,8 @@ from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, placing_joints
-from urdfkb.pipeline.abstraction.hands import feet
+from urdfkb.pipeline.abstraction import structure
+from urdfkb.pipeline.abstraction.hands import feet, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 
@@ -71,8 +74,10 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
     """Candidate chains of body joints, in document order of their first joints; no sensor mount (_mounts)."""
     placing, mounts = placing_joints(tree), _mounts(tree, owned_links)
-    body = [e for e in tree.edges if e.movable and e.joint not in owned_joints | placing | mounts]
-    names = {e.joint for e in body}
+    movable = [e for e in tree.edges if e.movable and e.joint not in owned_joints | placing | mounts]
+    followers = _followers(tree, movable)
+    body = [e for e in movable if e.joint not in followers]
+    names = {e.joint for e in movable}
     upper = {e.joint: _upper(tree, e, names) for e in body}
     below: dict[str | None, list[Edge]] = {}
     for e in body:
@@ -88,7 +93,27 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
         out += [piece for part in _split_lifts(run) for piece in _split_wheel(tree, part, below, owned_links)]
     for chain in out:
         chain.links = [link for e in chain.joints for link in _moved(tree, e.child, names, owned_links)]
+    by_joint = {e.joint: chain for chain in out for e in chain.joints}
+    for edge in movable:
+        if followers.get(edge.joint) in by_joint:
+            by_joint[followers[edge.joint]].links += _moved(tree, edge.child, names, owned_links)
     return out
+
+
+def _followers(tree: KinematicTree, movable: list[Edge]) -> dict[str, str]:
+    """Joints that follow another of `movable` through <mimic> and move nothing that moves on its own (a second
+    motor on the same axis, a linkage's bar), each with the first joint of `movable` up its <mimic> chain that is
+    no such follower: no candidate of their own, what they move joins that joint's part."""
+    names = {e.joint for e in movable}
+    dead_ends = {e.joint: e for e in movable if e.mimic is not None
+                 and not any(tree.edge_to(x).independent for x in tree.descendants(e.child))}
+    found: dict[str, str] = {}
+    for edge in dead_ends.values():
+        followed = next((e.joint for e, _ in structure.followed(tree, edge)[1:]
+                         if e.joint in names and e.joint not in dead_ends), None)
+        if followed is not None:
+            found[edge.joint] = followed
+    return found
 
 
 def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
@@ -129,10 +154,12 @@ def _motion(edge: Edge) -> str:
 
 
 def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
-    """A trailing joint that spins (Edge.spins) and carries nothing (no further joint, no device) is its own candidate."""
+    """A trailing joint that spins and carries nothing (no further joint, no device) but a wheel's body
+    (wheel_body: a leg's last segment written continuous carries its foot out from the knee) is its own
+    candidate."""
     last = run[-1]
     carries = {last.child, *tree.descendants(last.child)} & owned_links
-    if len(run) > 1 and last.spins and not below.get(last.joint) and not carries:
+    if len(run) > 1 and wheel_body(tree, last.child) and not below.get(last.joint) and not carries:
         return [Chain(run[:-1], []), Chain([last], [])]
     return [Chain(run, [])]
 
