@@ -232,3 +232,50 @@ def test_a_tool_in_which_nothing_moves_may_stay_a_plain_end_effector(end, offere
     (tool,) = [c for c in comps if c.kind == "end_effector"]
     assert asked and ("rigid tool" in asked[0]) is offered
     assert (tool.cls == "EndEffector") is offered
+
+
+def test_a_rigid_body_swung_by_joints_that_meet_at_one_point_is_the_limbs_segment_not_a_tool():
+    """An upper body with a short arm (shoulder pitch and roll meeting at one point, the forearm fixed 0.15 m out
+    from them) and a six-joint arm ending in a rigid tool 0.05 m out from its flange, names meaningless: the
+    forearm reaches farther out than the limb above it is long, so it is the limb's own segment, no tool; the
+    rigid tool is small beside its arm and stays one."""
+    w = Writer(random.Random(21))
+    torso = w.link('<box size="0.3 0.4 0.6"/>')
+    shoulder, upper, fore = w.link(), w.link('<box size="0.05 0.05 0.2"/>'), w.link('<box size="0.05 0.05 0.2"/>')
+    w.joint("revolute", torso, shoulder, (0.0, -0.2, 0.45), (0.0, 1.0, 0.0))
+    w.joint("revolute", shoulder, upper, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+    w.joint("fixed", upper, fore, (0.0, -0.15, 0.0))
+    link = torso
+    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.2 if i == 0 else 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
+        link = child
+    tip = w.link('<cylinder radius="0.02" length="0.05"/>')
+    w.joint("fixed", link, tip, (0.0, 0.0, 0.05))
+    tree = load_urdf(w.urdf())
+    notes: list[str] = []
+    groups = [Group([sub_chain(tree, fore, upper)]), Group([sub_chain(tree, tip, link)])]
+    settled = settle(tree, groups, lambda leaf: True, notes.append)
+    assert [g.leaves for g, _ in settled] == [[tip]]
+    assert notes[0] == f"no tool: ['{fore}'] reach out from {upper} farther than the limb carrying it is long (its segment)"
+
+
+@pytest.mark.parametrize("seed", [31, 32])
+def test_jaws_written_as_one_link_each_close_where_their_mass_is(seed):
+    """Two jaws, each one link whose frame lies on its hinge (one following the other by <mimic>, about the opposite
+    axis), their centres of mass 0.03 m out along them: at their frames nothing moves, so the jaws are read where
+    their mass is and close on each other, two opposing fingers (on the code before: two mechanisms and no finger)."""
+    w = Writer(random.Random(seed))
+    link = w.link('<box size="0.3 0.3 0.1"/>')
+    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
+        link = child
+    jaw_a = w.link('<box size="0.01 0.01 0.06"/>', centre=(0.0, -0.005, 0.03))
+    jaw_b = w.link('<box size="0.01 0.01 0.06"/>', centre=(0.0, 0.005, 0.03))
+    drive = w.joint("revolute", link, jaw_a, (0.0, 0.02, 0.05), (1.0, 0.0, 0.0), (0.0, 1.0))
+    w.joint("revolute", link, jaw_b, (0.0, -0.02, 0.05), (-1.0, 0.0, 0.0), (0.0, 1.0), mimic=drive)
+    tree = load_urdf(w.urdf())
+    structure = tool_structure(tree, [jaw_a, jaw_b])
+    assert {(f.name, f.opposes) for f in structure.fingers} == {(jaw_a, (jaw_b,)), (jaw_b, (jaw_a,))}
+    assert structure.mechanisms == ()

@@ -25,7 +25,9 @@
   less far (_linkages: a four-bar's crank beside the finger it moves) is that finger's linkage. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
   floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
-  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger.
+  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger. Where
+  nothing closes so, jaws written as one link each (their frames on their hinges, where nothing moves) are looked
+  at again where their mass is.
 - Two chains *move together* when their tips' closing motions are within 60 degrees
   (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
@@ -165,17 +167,22 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
                               spreads, closing_sense=True)
         if len(again.fingers) > len(structure.fingers):
             return again
+    jaws = {a for a in bodies - linkages if chains[a][0] == (a,) and (f := tree.evidence.get(a)) and f.centre}
+    if not structure.fingers and len(jaws) >= 2:  # jaws written as one link each, their frames on their hinges
+        return _structure_at(tree, fork, chains, bodies, linkages, pose, at_mass=frozenset(jaws))
     return structure
 
 
 def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
                   bodies: set[str], linkages: AbstractSet[str], pose: dict[str, float],
-                  spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False) -> ToolStructure:
+                  spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False,
+                  at_mass: AbstractSet[str] = frozenset()) -> ToolStructure:
     """The tool's fingers and mechanisms as its chains move from `pose`, none closing by a joint of `spreads`
     where it moves by another, and none of `linkages` (other chains' linkages) closing at all; `closing_sense`:
     each joint moving the way its range reaches further wherever it stands (_closes_backwards), so fingers
-    written with mirrored signs close alike away from zero too."""
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense)
+    written with mirrored signs close alike away from zero too; `at_mass`: chains whose tip is taken at its centre
+    of mass (a jaw written as one link has its frame on its hinge, where it does not move)."""
+    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, a in at_mass)
                if (a in bodies or not bodies) and a not in linkages else []
                for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
@@ -363,14 +370,15 @@ def _closing(own: list[Motion], others: list[Motion]) -> Motion | None:
 
 
 def _joint_motions(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float],
-                   spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False) -> list[Motion]:
+                   spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False,
+                   at_mass: bool = False) -> list[Motion]:
     """The tip's motion under each joint between the drive and the tip that moves on its own (the drive
     first, then every joint following no <mimic>, each with the joints coupled to it), where the tip
     moves at all; a joint of `spreads` only where no other moves it."""
     path = tree.chain_to_root(tip)
     below = [e for link in reversed(path[:path.index(drive.child)]) if (e := tree.edge_to(link)).independent]
     found = [(e.joint, m) for e in [drive, *below]
-             if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose, closing_sense))]
+             if e.joint_type in MOTIONS and (m := _tip_motion(tree, fork, e, tip, pose, closing_sense, at_mass))]
     return [m for joint, m in found if joint not in spreads] or [m for _, m in found]
 
 
@@ -387,12 +395,14 @@ def moving_children(tree: KinematicTree, fork: str) -> list[str]:
 
 
 def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dict[str, float],
-                closing_sense: bool = False) -> Motion | None:
+                closing_sense: bool = False, at_mass: bool = False) -> Motion | None:
     """Where the tip is and the direction it moves in as the drive moves positively (as it closes, by
     _closes_backwards; a drive that follows another joint by <mimic>, as that joint closes: a hand's fingers
     following its thumb, which closes negatively), with every joint of the chain coupled to it by <mimic>, all
-    joints at `pose` (None: it does not move)."""
-    point = _in_frame(tree, tip, fork, (0.0, 0.0, 0.0), pose)
+    joints at `pose` (None: it does not move); `at_mass`: the tip's centre of mass, not its frame's origin."""
+    facts = tree.evidence.get(tip)
+    centre = facts.centre if at_mass and facts is not None and facts.centre is not None else (0.0, 0.0, 0.0)
+    point = _in_frame(tree, tip, fork, centre, pose)
     path = tree.chain_to_root(tip)
     velocity = (0.0, 0.0, 0.0)
     source = _source(tree, drive)

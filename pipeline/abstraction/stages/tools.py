@@ -9,6 +9,9 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
   ARM_JOINTS independent moving joints reaching at least ARM_REACH of the fork's distance from the
   root, and at least ARM_MIN_REACH from its own first joint: an arm, not a finger of four joints) is
   split at that fork;
+- a tool in which nothing moves, reaching out from its mount farther than the limb carrying it is long (measured
+  from the limb's first moving joint), is no tool but the limb's own segment (a forearm fixed to an upper arm that a
+  shoulder's pitch and roll, meeting at one point, swing);
 - the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
   never above the arm's last moving link: links above that mount leave the tool;
 - the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
@@ -23,7 +26,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from urdfkb.pipeline.abstraction.structure import ToolStructure, tool_structure
+from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.grouping import Group
@@ -57,6 +60,9 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
         if (_joints_above(tree, mount) < 2 and not alone) or any(
                 _carries_arm(tree, child) for child in tree.children(mount) if child not in links):
             log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
+            continue
+        if nothing_moves(tree, structure, mount) and _limb_segment(tree, mount, links):
+            log(f"no tool: {leaves} reach out from {mount} farther than the limb carrying it is long (its segment)")
             continue
         tool_leaves = [link for link in tree.links if link in links and tree.is_leaf(link)]
         group = Group([sub_chain(tree, leaf, mount) for leaf in tool_leaves])
@@ -101,6 +107,25 @@ def _carries_arm(tree: KinematicTree, top: str) -> bool:
     reach = max(_norm(tree.position_in(link, parent)) for link in below)
     length = max(_norm(tree.position_in(link, top)) for link in below)
     return reach >= ARM_REACH * _norm(tree.position_in(parent, tree.root)) and length >= ARM_MIN_REACH
+
+
+def _limb_segment(tree: KinematicTree, mount: str, links: set[str]) -> bool:
+    """Links fixed to `mount` reach out from it farther than the limb carrying it is long, measured from the limb's
+    first moving joint down to the mount (the sum of the joint offsets between; the limb starts below the first
+    link above that carries another moving chain, or the root; static frames hung along it do not end it): a rigid
+    body swung by joints that meet at one point, as an upper arm by its shoulder's pitch and roll, is the limb's own
+    segment. A tool is small beside the arm that carries it."""
+    path = tree.chain_to_root(mount)
+
+    def moves(link: str) -> bool:
+        return any(tree.edge_to(x).movable for x in (link, *tree.descendants(link)))
+    top = next((i for i, link in enumerate(path[1:], start=1)
+                if any(moves(c) for c in tree.children(link) if c != path[i - 1])), len(path) - 1)
+    moving = [i for i in range(top) if tree.edge_to(path[i]).movable]
+    if not moving:
+        return False
+    length = sum(_norm(tree.edge_to(x).origin.xyz) for x in path[:moving[-1]])
+    return max(_norm(tree.position_in(link, mount)) for link in links) > length
 
 
 def _norm(v) -> float:
