@@ -436,3 +436,24 @@ def _matmul(a: list[list[float]], b: list[list[float]]) -> list[list[float]]:
 def _rpy(m: list[list[float]]) -> tuple[float, float, float]:
     """URDF roll, pitch, yaw of a rotation matrix (R = Rz(yaw) Ry(pitch) Rx(roll))."""
     return math.atan2(m[2][1], m[2][2]), math.asin(-m[2][0]), math.atan2(m[1][0], m[0][0])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_two_frames_at_one_point_of_a_body_are_one_device_however_far_its_origin_lies(seed):
+    """A camera body fixed on an arm's last link, its origin on the wrist and its two bare frames at one point 0.12 m
+    out (beyond CAMERA_BODY), turned apart, the model naming each its own device: frames at one point are one
+    imager's, so they are one device mounted where the body is fixed (on the code before: two cameras)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    wrist, body = w.link('<box size="0.05 0.05 0.05"/>'), w.link('<box size="0.03 0.1 0.03"/>')
+    w.joint("fixed", wrist, body)
+    lens = (rng.uniform(0.11, 0.14), rng.uniform(-0.03, 0.03), -0.005)
+    first, second = w.link(), w.link()
+    w.joint("fixed", body, first, lens, rpy=(math.pi, 0.0, -math.pi / 2))
+    w.joint("fixed", body, second, lens, rpy=(0.0, 0.0, math.pi / 2))
+    tree = load_urdf(w.urdf())
+    chains = one_mount(tree, [sub_chain(tree, first, body), sub_chain(tree, second, body)])
+    assert {c.root for c in chains} == {wrist}
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                   dict.fromkeys([first, second], "VisionSensor"))
+    assert [sorted(g.leaves) for g in groups] == [sorted([first, second])]

@@ -49,11 +49,13 @@ def placing_joints(tree: KinematicTree) -> frozenset[str]:
 
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     """The link both leaves hang from as parts of one body: by fixed joints through frames (is_frame), within
-    CAMERA_BODY of it, each on a branch that leads to one imager alone (None where they do not). A leaf with
+    CAMERA_BODY of it or within VIEWPOINT of each other (two frames of one point, turned apart, however far the
+    body's origin lies from its lens), each on a branch that leads to one imager alone (None where they do not). A leaf with
     geometry fixed straight to that link, beside an optical frame (REP 103) or a frame the file declares a
     simulator sensor on, is the device's own housing piece (a camera's model frame, a lidar's cap): it belongs
     to the body too."""
     body = fork_of(tree, [a, b])
+    one_point = math.dist(tree.position_in(a, body), tree.position_in(b, body)) <= VIEWPOINT
     housings = 0
     for leaf, other in ((a, b), (b, a)):
         path = tree.chain_to_root(leaf)
@@ -66,7 +68,7 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
             return None
         if any(_imagers_below(tree, link) > 1 for link in branch[1:]):
             return None
-        if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY:
+        if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY and not one_point:
             return None
     return body if housings < 2 else None
 

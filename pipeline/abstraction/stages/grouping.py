@@ -19,7 +19,7 @@ the tool's provisional mount is the deepest mount the model named for any of its
 them all (stages.tools then settles extent and mount from structure).
 One body, one device: two sensor sub-chains of one category whose leaves are frames (no geometry) hanging
 by fixed joints from one link inside both (the device's body, a housing or a bare camera frame), within
-CAMERA_BODY of it, each by a branch of that link that leads to one imager alone, are one device whatever their
+CAMERA_BODY of it or at one point (frames.body_of), each by a branch of that link that leads to one imager alone, are one device whatever their
 names: the colour, depth, infrared and inertial frames of an RGB-D camera, which the name question
 split into one device per frame; one device name is asked for them all. A frame of the body binds to one
 called a vision sensor whatever category its own pre-class falls in: the camera's own inertial frames belong
