@@ -349,7 +349,7 @@ def test_a_continuous_joint_its_file_bounds_to_less_than_half_a_turn_does_not_sp
     tree = load_urdf(w.urdf())
     links = (bounded, free, wide, rear)
     assert [tree.edge_to(link).spins for link in links] == [False, True, True, False]
-    assert [body._motion(tree.edge_to(link)) for link in links] == ["revolute", "continuous", "continuous", "continuous"]
+    assert [body._motion(tree, tree.edge_to(link)) for link in links] == ["revolute", "continuous", "continuous", "continuous"]
 
 
 def _sprawled(seed: int, pairs: int, kind: str = "revolute", rise: float = 0.0) -> tuple[bytes, list[list[str]]]:

@@ -145,11 +145,14 @@ def _split_lifts(run: list[Edge]) -> list[list[Edge]]:
     return pieces
 
 
-def _motion(edge: Edge) -> str:
+def _motion(tree: KinematicTree, edge: Edge) -> str:
     """The joint type the reasoner is told: what the joint does, so a joint that spins (Edge.spins) is continuous
-    whatever the file wrote, and a continuous one its file bounds (Edge.bounded) revolute."""
+    whatever the file wrote where it spins a wheel's body (wheel_body) or carries joints on, and revolute where it
+    swings a body out from its axis with nothing moving below (a neck or a limb whose file leaves its limits out:
+    no wheel rolls so); a continuous one its file bounds (Edge.bounded) is revolute."""
     if edge.spins:
-        return "continuous"
+        carries_on = any(tree.edge_to(x).movable for x in tree.descendants(edge.child))
+        return "continuous" if carries_on or wheel_body(tree, edge.child) else "revolute"
     return "revolute" if edge.bounded else edge.joint_type
 
 
@@ -238,7 +241,7 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     carries = [[i for i, other in enumerate(found) if other is not chain and other.mount in chain.links] for chain in found]
     tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
     grounded = [_reaches_ground(tree, chain, lowest, tools, standing) for chain in found]
-    facts = [reasoning.PartFacts(tuple(_motion(e) for e in chain.joints), tuple(c.cls for c in held),
+    facts = [reasoning.PartFacts(tuple(_motion(tree, e) for e in chain.joints), tuple(c.cls for c in held),
                                  tuple(follow), ground)
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     return Findings(devices, carries, grounded, facts)
