@@ -442,3 +442,28 @@ def test_a_second_motor_that_follows_a_joint_joins_that_joints_part(seed):
     parts, _ = body_pass(oracle, tree, [])
     assert [(p.cls, p.joints) for p in parts] == [("Arm", tuple(joints))]
     assert set(followers) <= set(parts[0].links)
+
+
+def test_a_wheel_with_a_contact_frame_on_its_rim_is_still_a_wheel_and_a_skid_steer_base_keeps_four():
+    """Four wheels drawn as cylinders, each with a contact frame fixed on its rim, the rear ones following the front
+    ones by <mimic> from the same chassis but another pivot: the front wheels spin a wheel's body, and each wheel is a
+    wheel of its own (a follower off its joint's pivot and limb is no second motor)."""
+    w = Writer(random.Random(9))
+    base, wheels = w.link('<box size="0.6 0.4 0.1"/>'), []
+    for y in (0.2, -0.2):
+        front = None
+        for x in (0.2, -0.2):
+            wheel, contact = w.link('<cylinder radius="0.08" length="0.04"/>'), w.link()
+            joint = w.joint("continuous", base, wheel, (x, y, 0.0), (0.0, 1.0, 0.0), mimic=front)
+            w.joint("fixed", wheel, contact, (0.0, 0.0, -0.08))
+            front = front or joint
+            wheels.append(wheel)
+    tree = load_urdf(w.urdf())
+    front_wheels = wheels[::2]  # the rear ones follow them, so they do not spin on their own (Edge.spins)
+    assert all(hands.wheel_body(tree, wheel) for wheel in front_wheels)
+    assert not body._followers(tree, [e for e in tree.edges if e.movable])
+
+    def rule(question):
+        return question.options[0]
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
+    assert sorted(p.cls for p in parts) == ["MobileBase"] + ["Wheel"] * 4

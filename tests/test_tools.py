@@ -279,3 +279,19 @@ def test_jaws_written_as_one_link_each_close_where_their_mass_is(seed):
     structure = tool_structure(tree, [jaw_a, jaw_b])
     assert {(f.name, f.opposes) for f in structure.fingers} == {(jaw_a, (jaw_b,)), (jaw_b, (jaw_a,))}
     assert structure.mechanisms == ()
+
+
+def test_a_rigid_tool_on_a_gantrys_sliding_joints_stays_a_tool():
+    """A gantry's three sliding joints carry a rigid spindle 0.12 m below the last carriage: their travel is no
+    offset, so the tool is no limb segment."""
+    w = Writer(random.Random(22))
+    link = w.link('<box size="1.0 1.0 0.1"/>')
+    for axis in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
+        child = w.link('<box size="0.1 0.1 0.1"/>')
+        w.joint("prismatic", link, child, (0.0, 0.0, 0.0), axis, (0.0, 0.5))
+        link = child
+    spindle = w.link('<cylinder radius="0.02" length="0.1"/>')
+    w.joint("fixed", link, spindle, (0.0, 0.0, -0.12))
+    tree = load_urdf(w.urdf())
+    settled = settle(tree, [Group([sub_chain(tree, spindle, link)])], lambda leaf: True, lambda _note: None)
+    assert [g.leaves for g, _ in settled] == [[spindle]]

@@ -417,13 +417,17 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
 
 def wheel_body(tree: KinematicTree, link: str) -> bool:
     """The link spins on its joint (Edge.spins) with no movable joint below it and every frame of its rigid body
-    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis: a wheel, a roller or a rotor. A leg's
-    last segment written continuous (servo legs' files leave the limits out) carries its foot's frame out from the
-    knee; its upper joints carry joints on."""
+    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis, or of its own cylinder's rim where it
+    is drawn as one (a contact frame on the rim): a wheel, a roller or a rotor. A leg's
+    last segment written continuous (servo legs' files leave the limits out) carries its foot's frame, or the screws
+    of a shank drawn as a mesh, out from the knee; its upper joints carry joints on. A shank with no frame below it
+    says nothing, and stays a wheel."""
     edge, below = tree.edge_to(link), tree.descendants(link)
-    axis = unit(edge.axis)
+    axis, facts = unit(edge.axis), tree.evidence.get(link)
+    cylinder = facts.cylinder if facts is not None else None
+    within = ROLL_OFFSET + (cylinder[0] if cylinder else 0.0)
     return edge.spins and axis is not None and not any(tree.edge_to(x).movable for x in below) \
-        and all(off_axis(tree.position_in(x, link), axis) <= ROLL_OFFSET for x in below)
+        and all(off_axis(tree.position_in(x, link), axis) <= within for x in below)
 
 
 def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:

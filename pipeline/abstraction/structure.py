@@ -169,7 +169,9 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
             return again
     jaws = {a for a in bodies - linkages if chains[a][0] == (a,) and (f := tree.evidence.get(a)) and f.centre}
     if not structure.fingers and len(jaws) >= 2:  # jaws written as one link each, their frames on their hinges
-        return _structure_at(tree, fork, chains, bodies, linkages, pose, at_mass=frozenset(jaws))
+        again = _structure_at(tree, fork, chains, bodies, linkages, pose, at_mass=frozenset(jaws))
+        if again.fingers:
+            return again
     return structure
 
 

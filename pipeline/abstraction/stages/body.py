@@ -19,6 +19,7 @@ per class of mirrored parts against the model's reading of the names, which wins
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -33,9 +34,11 @@ from urdfkb.pipeline.abstraction import structure
 from urdfkb.pipeline.abstraction.hands import feet, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
+from urdfkb.pipeline.abstraction.vectors import dot, unit
 
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
+PARALLEL = 0.99  # |cosine| above which two joint axes are parallel
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
 Log = Callable[[str], None]
 
@@ -101,19 +104,31 @@ def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -
 
 
 def _followers(tree: KinematicTree, movable: list[Edge]) -> dict[str, str]:
-    """Joints that follow another of `movable` through <mimic> and move nothing that moves on its own (a second
-    motor on the same axis, a linkage's bar), each with the first joint of `movable` up its <mimic> chain that is
-    no such follower: no candidate of their own, what they move joins that joint's part."""
+    """Joints that follow another of `movable` through <mimic>, move nothing that moves on its own and belong to
+    that joint's limb: a second motor on the same axis (hung from the same link, its pivot on the other's, the axes
+    parallel) or a linkage's bar hung below it. Each maps to the first joint of `movable` up its <mimic> chain that
+    is no such follower: no candidate of its own, what it moves joins that joint's part. A follower elsewhere (a
+    skid-steer base's rear wheel following the front one, a finger following a thumb) stays a candidate."""
     names = {e.joint for e in movable}
     dead_ends = {e.joint: e for e in movable if e.mimic is not None
                  and not any(tree.edge_to(x).independent for x in tree.descendants(e.child))}
     found: dict[str, str] = {}
     for edge in dead_ends.values():
-        followed = next((e.joint for e, _ in structure.followed(tree, edge)[1:]
+        followed = next((e for e, _ in structure.followed(tree, edge)[1:]
                          if e.joint in names and e.joint not in dead_ends), None)
-        if followed is not None:
-            found[edge.joint] = followed
+        if followed is not None and (_same_pivot(tree, edge, followed)
+                                     or followed.child in tree.chain_to_root(edge.parent)):
+            found[edge.joint] = followed.joint
     return found
+
+
+def _same_pivot(tree: KinematicTree, a: Edge, b: Edge) -> bool:
+    """Two joints hung from one link, their pivots within SIDE_EPS of each other and their axes parallel."""
+    if a.parent != b.parent:
+        return False
+    axis_a, axis_b = (unit(tree.direction_in(e.child, e.parent, e.axis)) for e in (a, b))
+    return axis_a is not None and axis_b is not None and abs(dot(axis_a, axis_b)) >= PARALLEL \
+        and math.dist(a.origin.xyz, b.origin.xyz) <= SIDE_EPS
 
 
 def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:

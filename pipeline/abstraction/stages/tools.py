@@ -114,7 +114,8 @@ def _limb_segment(tree: KinematicTree, mount: str, links: set[str]) -> bool:
     first moving joint down to the mount (the sum of the joint offsets between; the limb starts below the first
     link above that carries another moving chain, or the root; static frames hung along it do not end it): a rigid
     body swung by joints that meet at one point, as an upper arm by its shoulder's pitch and roll, is the limb's own
-    segment. A tool is small beside the arm that carries it."""
+    segment. A tool is small beside the arm that carries it. Not on a limb with a sliding joint, whose travel is
+    no offset."""
     path = tree.chain_to_root(mount)
 
     def moves(link: str) -> bool:
@@ -122,8 +123,8 @@ def _limb_segment(tree: KinematicTree, mount: str, links: set[str]) -> bool:
     top = next((i for i, link in enumerate(path[1:], start=1)
                 if any(moves(c) for c in tree.children(link) if c != path[i - 1])), len(path) - 1)
     moving = [i for i in range(top) if tree.edge_to(path[i]).movable]
-    if not moving:
-        return False
+    if not moving or any(tree.edge_to(path[i]).joint_type == "prismatic" for i in moving):
+        return False  # a sliding joint carries the tool farther than its offset says (a gantry's spindle)
     length = sum(_norm(tree.edge_to(x).origin.xyz) for x in path[:moving[-1]])
     return max(_norm(tree.position_in(link, mount)) for link in links) > length
 
