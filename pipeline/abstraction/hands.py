@@ -90,7 +90,7 @@ def _leg_length(tree: KinematicTree, standing: frozenset[str]) -> float:
     return max(norm(tree.position_in(foot, meet)) for foot in standing)
 
 
-def _length(tree: KinematicTree, link: str, ancestor: str) -> float:
+def limb_length(tree: KinematicTree, link: str, ancestor: str) -> float:
     """The sum of the joint offsets from `ancestor` down to `link`: a limb written folded is as long as stretched."""
     path = tree.chain_to_root(link)
     return sum(norm(tree.edge_to(x).origin.xyz) for x in path[:path.index(ancestor)])
@@ -221,7 +221,7 @@ def _off_its_axis(tree: KinematicTree, leaf: str, path: tuple[str, ...]) -> bool
     or more out from its own joint's axis: a segment swinging on its joint, as a forearm on its elbow, not a payload
     balanced on it, as a camera on a gimbal is (a leaf with no <inertial> is neither)."""
     facts, axis = tree.evidence.get(leaf), unit(tree.edge_to(leaf).axis)
-    length = _length(tree, leaf, path[-1])
+    length = limb_length(tree, leaf, path[-1])
     return facts is not None and facts.centre is not None and axis is not None and length > 0 \
         and off_axis(facts.centre, axis) >= LAST_SEGMENT * length
 
@@ -389,7 +389,7 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
     unpaired."""
     top = tree.position_in(trunk, tree.root)[2]
     tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:]  # a leg comes down, or out level
-            and tree.position_in(leaf, tree.root)[2] - top <= max(FOOT_BAND, LEVEL_RISE * _length(tree, leaf, trunk))]
+            and tree.position_in(leaf, tree.root)[2] - top <= max(FOOT_BAND, LEVEL_RISE * limb_length(tree, leaf, trunk))]
     limbs: dict[str, tuple[str, float]] = {}  # the limb's first moving link -> its tip, its length
     for tip in tips:
         path = tree.chain_to_root(tip)
@@ -399,7 +399,7 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         first = moving[-1]
         if any(wheel_body(tree, x) or tree.is_leaf(x) and rolling(tree, x) for x in (first, *tree.descendants(first))):
             continue  # a wheel anywhere on it: a wheel module
-        length = _length(tree, tip, first)
+        length = limb_length(tree, tip, first)
         if length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
             limbs[first] = (tip, length)
     by_count: dict[int, list[str]] = {}

@@ -4,8 +4,9 @@ Structure proposes; the ontology and the model decide. Candidates are the serial
 joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from
 which two or more chains go on), cut after a sliding joint that lifts turning ones, with a trailing joint that spins
 (continuous, or revolute with no range) and carries nothing but a wheel's body (hands.wheel_body) split off as a wheel
-candidate. A joint that follows another by <mimic> and moves nothing that moves on its own (a second motor on the same
-axis, a linkage's bar) is no candidate: what it moves joins the part of the joint it follows. The code asserts what structure says of
+candidate. A joint that follows another by <mimic>, moves nothing that moves on its own and belongs to that joint's
+limb (a second motor on its pivot, a linkage's bar below it: _followers) is no candidate: what it moves joins the part
+of the joint it follows. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
 the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
 (a part carrying an end-effector off the ground is an arm, ...). The model classifies the

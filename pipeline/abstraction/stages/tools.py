@@ -10,8 +10,8 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
   root, and at least ARM_MIN_REACH from its own first joint: an arm, not a finger of four joints) is
   split at that fork;
 - a tool in which nothing moves, reaching out from its mount farther than the limb carrying it is long (measured
-  from the limb's first moving joint), is no tool but the limb's own segment (a forearm fixed to an upper arm that a
-  shoulder's pitch and roll, meeting at one point, swing);
+  from the limb's first moving joint; a limb that slides is not measured so), is no tool but the limb's own segment
+  (a forearm fixed to an upper arm that a shoulder's pitch and roll, meeting at one point, swing);
 - the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
   never above the arm's last moving link: links above that mount leave the tool;
 - the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
+from urdfkb.pipeline.abstraction.hands import limb_length
 from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
@@ -125,8 +126,7 @@ def _limb_segment(tree: KinematicTree, mount: str, links: set[str]) -> bool:
     moving = [i for i in range(top) if tree.edge_to(path[i]).movable]
     if not moving or any(tree.edge_to(path[i]).joint_type == "prismatic" for i in moving):
         return False  # a sliding joint carries the tool farther than its offset says (a gantry's spindle)
-    length = sum(_norm(tree.edge_to(x).origin.xyz) for x in path[:moving[-1]])
-    return max(_norm(tree.position_in(link, mount)) for link in links) > length
+    return max(_norm(tree.position_in(link, mount)) for link in links) > limb_length(tree, mount, path[moving[-1]])
 
 
 def _norm(v) -> float:
