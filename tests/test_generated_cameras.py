@@ -457,3 +457,65 @@ def test_two_frames_at_one_point_of_a_body_are_one_device_however_far_its_origin
     groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
                    dict.fromkeys([first, second], "VisionSensor"))
     assert [sorted(g.leaves) for g in groups] == [sorted([first, second])]
+
+
+OPTICAL = (-math.pi / 2, 0.0, -math.pi / 2)  # REP 103: an optical frame's z along its parent's x
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_a_cameras_inertial_frames_below_its_colour_frame_leave_it_one_device(seed):
+    """A camera written with its inertial unit's frames (each an x-forward frame and its optical twin, as REP 103
+    writes them) hung below its colour frame rather than beside it, on a housing with a depth frame: the colour
+    frame carries one imager and its sensors, so the housing's frames are one device, though the model names each
+    frame a device of its own (the L515 on a wrist and a base was split into three cameras)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base, head = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.1 0.2 0.1"/>')
+    w.joint("fixed", base, head, (0.0, 0.0, 0.5))
+    housing = w.link('<box size="0.03 0.06 0.06"/>')
+    w.joint("fixed", head, housing, (0.06, 0.0, 0.02))
+    colour, depth = w.link(), w.link()
+    w.joint("fixed", housing, colour, (0.0, 0.0, rng.uniform(0.01, 0.03)))
+    w.joint("fixed", housing, depth, (0.0, 0.0, 0.0))
+    leaves, categories = [], {}
+    for parent, kind in ((colour, "VisionSensor"), (depth, "VisionSensor")):
+        optical = w.link()
+        w.joint("fixed", parent, optical, rpy=OPTICAL)
+        leaves.append(optical)
+        categories[optical] = kind
+    offset = (rng.uniform(-0.005, 0.0), rng.uniform(-0.015, -0.01), rng.uniform(0.0, 0.003))
+    for _ in range(2):  # gyroscope and accelerometer, at one point
+        own, optical = w.link(), w.link()
+        w.joint("fixed", colour, own, offset)
+        w.joint("fixed", own, optical, rpy=OPTICAL)
+        leaves.append(optical)
+        categories[optical] = "InertialSensor"
+    tree = load_urdf(w.urdf())
+    chains = one_mount(tree, [sub_chain(tree, leaf, head) for leaf in leaves])
+    oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
+    groups = merge(oracle, tree, chains, "sensor", categories)
+    assert [sorted(g.leaves) for g in groups] == [sorted(leaves)]
+
+
+def test_frames_on_a_tilting_cameras_own_frame_are_one_device():
+    """A camera on a tilt motor, written as a bare frame the tilt joint moves, carrying the colour optical frame, the
+    camera's housing and a depth frame with its optical twin: its frames are mounted on that frame, as the motion
+    ends there, so no mount above it can gather them; the frame they all hang from is their body, so they are one
+    device though the model names each a device of its own (a mobile manipulator's tilting RGB-D camera became
+    three)."""
+    w = Writer(random.Random(5))
+    base, mast = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.04 0.04 0.3"/>')
+    w.joint("fixed", base, mast, (0.0, 0.0, 0.25))
+    tilted = w.link()
+    w.joint("revolute", mast, tilted, (0.03, 0.0, 0.17), (0.0, 1.0, 0.0), limits=(-1.5, 1.5))
+    colour, housing, depth, depth_optical = w.link(), w.link('<box size="0.07 0.28 0.07"/>'), w.link(), w.link()
+    w.joint("fixed", tilted, colour, rpy=OPTICAL)
+    w.joint("fixed", tilted, housing, (-0.03, 0.0, -0.016))
+    w.joint("fixed", tilted, depth)
+    w.joint("fixed", depth, depth_optical, rpy=OPTICAL)
+    tree = load_urdf(w.urdf())
+    leaves = [colour, housing, depth_optical]
+    chains = one_mount(tree, [sub_chain(tree, leaf, tilted) for leaf in leaves])
+    oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))
+    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(leaves, "VisionSensor"))
+    assert [sorted(g.leaves) for g in groups] == [sorted(leaves)]

@@ -81,7 +81,13 @@ def declares_sensor(tree: KinematicTree, link: str) -> bool:
 
 def _imagers_below(tree: KinematicTree, link: str) -> int:
     """How many imagers a branch link carries: its optical-convention leaves (REP 103), or all its leaves where
-    none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs)."""
+    none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs).
+    A link with one optical leaf of its own, fixed at its origin, is that imager's frame: optical frames hung below
+    it through frames of their own are its built-in sensors' (an inertial unit's below a colour frame), so it
+    carries one."""
+    own = [child for child in tree.children(link) if tree.is_leaf(child) and is_optical(tree, child)]
+    if len(own) == 1 and norm(tree.position_in(own[0], link)) <= VIEWPOINT:
+        return 1
     leaves = [d for d in tree.descendants(link) if tree.is_leaf(d)]
     return sum(is_optical(tree, leaf) for leaf in leaves) or len(leaves)
 

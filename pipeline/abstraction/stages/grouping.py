@@ -26,7 +26,8 @@ called a vision sensor whatever category its own pre-class falls in: the camera'
 to the camera (ontology.md). A housing piece fixed straight to that
 link beside an optical frame (a camera's model frame) is bound with them. A branch that carries several
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
-its own frames bind below it (frames.body_of).
+its own frames bind below it (frames.body_of). The body may also be the bare frame the sub-chains are all mounted on
+where a joint moves it (a camera's own frame on its tilt motor): the mount cannot be raised above the motion.
 One ranger, one device: two sub-chains each declaring a ray sensor or a depth camera of its own (no declaration in
 common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
 plugin; a sensor head's time-of-flight cameras, each with its own depth image).
@@ -145,9 +146,15 @@ def _looking_alike(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
 
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """The two leaves are frames of one body (frames.body_of) that lies inside both sub-chains."""
+    """The two leaves are frames of one body (frames.body_of) that lies inside both sub-chains, or that both are
+    mounted on where it is a bare frame a joint moves (a camera's own frame on its tilt motor, which one_mount
+    cannot raise above the joint)."""
     body = body_of(tree, a.leaf, b.leaf)
-    return body is not None and body in a.links and body in b.links
+    if body is None:
+        return False
+    moved_frame = body == a.root == b.root and is_frame(tree, body) and tree.parent(body) is not None \
+        and tree.edge_to(body).movable
+    return moved_frame or body in a.links and body in b.links
 
 
 def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
