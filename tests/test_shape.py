@@ -786,6 +786,75 @@ def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
     assert all(TAX.answer("Palm") not in parts[link] for link in fingers), {k: parts[k] for k in fingers}
 
 
+def _frozen_gripper(w: Writer) -> tuple[list[str], str, list[str]]:
+    """A base, an arm of six joints, and on its wrist a gripper written fixed: two jaws of three boxes each, mirror
+    images across the wrist's x-z plane, a one-box bar beside each, and a box alone on the wrist (a camera's body);
+    on the base a pan-tilt head with two eyes of two boxes each, mirror images too. The jaws' tips and bars, the
+    lone box, the eyes' tips."""
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    wrist = w.link('<box size="0.06 0.06 0.02"/>')
+    w.joint("revolute", _serial(w, base, 5), wrist, (0.0, 0.0, 0.1))
+    parts = []
+    for side in (1.0, -1.0):
+        link = wrist
+        for k in range(3):
+            child = w.link('<box size="0.01 0.02 0.03"/>')
+            w.joint("fixed", link, child, (0.0, side * 0.03, 0.03) if k == 0 else (0.0, -side * 0.005, 0.03))
+            link = child
+        bar = w.link('<box size="0.01 0.01 0.04"/>')
+        w.joint("fixed", wrist, bar, (0.0, side * 0.015, 0.05))
+        parts += [link, bar]
+    lone = w.link('<box size="0.02 0.03 0.02"/>')
+    w.joint("fixed", wrist, lone, (0.04, 0.0, 0.0))
+    head = _serial(w, base, 2)
+    eyes = []
+    for side in (1.0, -1.0):
+        mount, eye = w.link('<box size="0.02 0.02 0.02"/>'), w.link('<box size="0.03 0.02 0.02"/>')
+        w.joint("fixed", head, mount, (0.05, side * 0.04, 0.0))
+        w.joint("fixed", mount, eye, (0.02, 0.0, 0.0))
+        eyes.append(eye)
+    return parts, lone, eyes
+
+
+def test_the_jaws_of_a_gripper_written_fixed_are_no_sensors():
+    """A gripper whose jaw joints are all written fixed (a description that froze them): two chains of three bodies
+    mirror images of each other at an arm's end, a bar beside each, are its fingers; a lone body beside them may be
+    a camera, and two eyes on a pan-tilt head (no limb) are no jaws. The erring model calls each a touch sensor at
+    0.6 (a humanoid's claws became eight tactile sensors): a finger is no sensor, so the model's next answer stands."""
+    w = Writer(random.Random(11))
+    parts, lone, eyes = _frozen_gripper(w)
+    tree = load_urdf(w.urdf())
+    assert frozen_fingertips(tree) == set(parts)
+    erring = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1}
+    claims = _identified(w.urdf(), lambda q: erring if _leaf(q) in parts + eyes + [lone] else NONE)
+    assert {leaf: claims[leaf] for leaf in parts} == dict.fromkeys(parts, TOOL_CLS)
+    assert {leaf: claims[leaf] for leaf in eyes + [lone]} == dict.fromkeys(eyes + [lone], SENSOR_CLS)
+
+
+def test_a_gripper_written_fixed_is_asked_about_as_jaws():
+    """The frozen gripper of the test above, through the whole pipeline with a scripted model that calls its parts
+    sensors at 0.6: they go to one end effector, whose kind is asked with its structure said as jaws facing each
+    other (a count of fingers made a humanoid's claw grippers hands), without the rigid tool among the answers."""
+    from tests.scripted_reasoner import scripted_reasoner
+    from urdfkb.pipeline import runner
+    w = Writer(random.Random(11))
+    parts, _, _ = _frozen_gripper(w)
+    asked: dict[str, Question] = {}
+
+    def erring(q: Question):
+        asked[q.key] = q
+        if q.key.startswith("identify:"):
+            return {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1} if _leaf(q) in parts else NONE
+        return q.options[0]
+    result = runner.run(load_urdf(w.urdf()), runner.Settings(use_cache=False), backend=ScriptedBackend(erring),
+                        reasoner=scripted_reasoner)
+    post = [q for key, q in asked.items() if key.startswith("post:") and key.endswith("@EndEffector")]
+    assert len(post) == 1 and "Structure: jaws written fixed, facing each other in mirror-image pairs" in post[0].user
+    assert "rigid tool" not in post[0].options
+    tools = [c for c in result.components if c.kind == "end_effector"]
+    assert len(tools) == 1 and set(parts) <= {s.link for s in tools[0].subcomponents}
+
+
 def _collision_only(w: Writer, parent: str, geometry: str, xyz=(0.0, 0.0, 0.0)) -> str:
     """A leaf fixed to `parent` at `xyz` with `geometry` as its <collision> and no <visual>."""
     name = w.link(collision=geometry)

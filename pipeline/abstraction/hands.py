@@ -274,10 +274,13 @@ def swinging_leaves(tree: KinematicTree) -> frozenset[str]:
 
 
 def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
-    """The tips of a hand written with every finger joint fixed: three chains or more, each of two links or more
-    with geometry fixed in series (one child each) from one body at a limb's end (LIMB_JOINTS movable joints or more
-    above it), each tip within HAND_REACH of that body. Fingers, never sensors (a stack of standoffs on a mobile
-    base has the shape, but no limb carries it)."""
+    """The tips of a hand or gripper written with every finger joint fixed: chains each of two links or more with
+    geometry fixed in series (one child each) from one body at a limb's end (LIMB_JOINTS movable joints or more
+    above it), each tip within HAND_REACH of that body; three chains or more (a hand's fingers), or two whose tips
+    are mirror images of each other across a plane of the body (a gripper's jaws). With them, the body's other
+    leaves with geometry fixed to it that are mirror images of each other (a jaw's second bar, a knuckle) are
+    finger parts. Fingers, never sensors (a stack of standoffs on a mobile base has the shape, but no limb carries
+    it)."""
     tips: list[str] = []
     for body in tree.links:
         if _movable_above(tree, body) < LIMB_JOINTS:
@@ -291,9 +294,28 @@ def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
                     and sum(not is_frame(tree, link) for link in path) >= 2 \
                     and norm(tree.position_in(path[-1], body)) <= HAND_REACH:
                 ends.append(path[-1])
-        if len(ends) >= 3:
-            tips += ends
+        if len(ends) >= 3 or len(ends) == 2 and mirror_images(tree, body, *ends):
+            pieces = [c for c in tree.children(body) if c not in ends and tree.is_leaf(c)
+                      and not tree.edge_to(c).movable and not is_frame(tree, c)]
+            tips += ends + [p for p in pieces if any(q != p and mirror_images(tree, body, p, q) for q in pieces)]
     return frozenset(tips)
+
+
+def mirror_images(tree: KinematicTree, body: str, a: str, b: str) -> bool:
+    """Links `a` and `b` are mirror images of each other across a plane of `body` (one of its axes' planes):
+    further than MIRROR_EPS apart across it and within MIRROR_EPS of each other along it."""
+    pa, pb = tree.position_in(a, body), tree.position_in(b, body)
+    return any(abs(pa[axis] - pb[axis]) > MIRROR_EPS and all(abs(pa[k] + pb[k] if k == axis else pa[k] - pb[k]) <= MIRROR_EPS
+                                                  for k in range(3)) for axis in range(3))
+
+
+def in_mirror_pairs(tree: KinematicTree, tips: list[str]) -> bool:
+    """The tips pair off as mirror images across a plane of the link they fork from (a gripper's jaws, each
+    with its bars): no thumb and no odd finger."""
+    if len(tips) < 2 or len(tips) % 2:
+        return False
+    body = fork_of(tree, tips)
+    return all(sum(mirror_images(tree, body, a, b) for b in tips if b != a) == 1 for a in tips)
 
 
 def rolling(tree: KinematicTree, leaf: str) -> bool:
