@@ -519,3 +519,58 @@ def test_frames_on_a_tilting_cameras_own_frame_are_one_device():
     oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))
     groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(leaves, "VisionSensor"))
     assert [sorted(g.leaves) for g in groups] == [sorted(leaves)]
+
+
+def test_two_stereo_cameras_each_with_an_eye_below_the_other_stay_two_on_one_bar():
+    """Two stereo cameras on one bare bar, each written as its left eye's frame carrying its optical frame and the
+    right eye's frame a baseline below it: an eye hung below another's frame lies a baseline away, no built-in
+    sensor of it, so each camera is one body of its own and the two stay apart, whatever the model names them."""
+    w = Writer(random.Random(3))
+    base, head = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.1 0.2 0.1"/>')
+    w.joint("fixed", base, head, (0.0, 0.0, 0.5))
+    bar = w.link()
+    w.joint("fixed", head, bar, (0.05, 0.0, 0.08))
+    cameras = []
+    for z, baseline in ((0.03, 0.09), (-0.03, 0.06)):
+        left, left_optical, right, right_optical = w.link(), w.link(), w.link(), w.link()
+        w.joint("fixed", bar, left, (0.0, baseline / 2, z))
+        w.joint("fixed", left, left_optical, rpy=OPTICAL)
+        w.joint("fixed", left, right, (0.0, -baseline, 0.0))
+        w.joint("fixed", right, right_optical, rpy=OPTICAL)
+        cameras.append([left_optical, right_optical])
+    tree = load_urdf(w.urdf())
+    leaves = [leaf for camera in cameras for leaf in camera]
+    chains = one_mount(tree, [sub_chain(tree, leaf, head) for leaf in leaves])
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                   dict.fromkeys(leaves, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(c) for c in cameras)
+
+
+def test_devices_on_a_bare_tilted_frame_that_see_from_two_places_stay_apart():
+    """A pan-tilt unit whose tilted link is a bare frame, carrying two cameras 8 cm apart (each an own frame and its
+    optical frame), or a head's two eyes and its inertial unit's frame: not a camera's own frame, which sees from
+    one place, so each stays a device of its own whatever the model names it."""
+    for eyes, inertial in ((0.04, False), (0.035, True)):
+        w = Writer(random.Random(2))
+        base, mast = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.04 0.04 0.3"/>')
+        w.joint("fixed", base, mast, (0.0, 0.0, 0.25))
+        pan, tilted = w.link('<box size="0.06 0.06 0.04"/>'), w.link()
+        w.joint("revolute", mast, pan, (0.0, 0.0, 0.17), (0.0, 0.0, 1.0), limits=(-2.5, 2.5))
+        w.joint("revolute", pan, tilted, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-1.0, 1.0))
+        devices, categories = [], {}
+        for y in (eyes, -eyes):
+            own, optical = w.link(), w.link()
+            w.joint("fixed", tilted, own, (0.03, y, 0.0))
+            w.joint("fixed", own, optical, rpy=OPTICAL)
+            devices.append([optical])
+            categories[optical] = "VisionSensor"
+        if inertial:
+            imu = w.link()
+            w.joint("fixed", tilted, imu, (0.0, 0.0, 0.02))
+            devices.append([imu])
+            categories[imu] = "InertialSensor"
+        tree = load_urdf(w.urdf())
+        leaves = [leaf for d in devices for leaf in d]
+        chains = one_mount(tree, [sub_chain(tree, leaf, tilted) for leaf in leaves])
+        groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor", categories)
+        assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(d) for d in devices), inertial

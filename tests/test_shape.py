@@ -831,6 +831,28 @@ def test_the_jaws_of_a_gripper_written_fixed_are_no_sensors():
     assert {leaf: claims[leaf] for leaf in eyes + [lone]} == dict.fromkeys(eyes + [lone], SENSOR_CLS)
 
 
+def test_mirrored_sensors_beside_a_moving_gripper_or_on_a_head_beside_arms_are_no_jaws():
+    """Two mirrored sensors of two bodies each, on the wrist a moving gripper hangs from, or on a head whose neck
+    starts where the arms do (its four joints are the trunk's and the neck's, not one limb's): no gripper written
+    fixed, so the model's 'sensor' stands for them."""
+    w = Writer(random.Random(4))
+    base = w.link('<box size="0.4 0.3 0.2"/>')
+    wrist = _serial(w, base, 6)
+    jaw = w.link('<box size="0.01 0.02 0.04"/>')
+    w.joint("prismatic", wrist, jaw, (0.0, 0.02, 0.1), (0.0, 1.0, 0.0), limits=(0.0, 0.03))
+    chest = _serial(w, base, 2)
+    for _ in range(2):
+        _serial(w, chest, 4)  # an arm on either side of the neck
+    head = _serial(w, chest, 2)
+    for body in (wrist, head):
+        for side in (1.0, -1.0):
+            mount, sensor = w.link('<box size="0.02 0.02 0.02"/>'), w.link('<box size="0.03 0.02 0.02"/>')
+            w.joint("fixed", body, mount, (0.05, side * 0.04, 0.0))
+            w.joint("fixed", mount, sensor, (0.02, 0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    assert frozen_fingertips(tree) == frozenset()
+
+
 def test_a_gripper_written_fixed_is_asked_about_as_jaws():
     """The frozen gripper of the test above, through the whole pipeline with a scripted model that calls its parts
     sensors at 0.6: they go to one end effector, whose kind is asked with its structure said as jaws facing each

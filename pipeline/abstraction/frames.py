@@ -15,6 +15,8 @@ FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) on
 CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
 SQUARE = 0.1  # |cosine| under which two unit axes are square to each other
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
+BUILT_IN = 0.02  # m: a camera's built-in sensors' frames lie this close to its imager's (the L515's IMU 14 mm away;
+# the eyes of a stereo pair hang 5 to 12 cm apart)
 MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points, a pair's eyes) this near each other's mirror
 # image across a plane of the root pair across it
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
@@ -82,14 +84,16 @@ def declares_sensor(tree: KinematicTree, link: str) -> bool:
 def _imagers_below(tree: KinematicTree, link: str) -> int:
     """How many imagers a branch link carries: its optical-convention leaves (REP 103), or all its leaves where
     none follows the convention. A link carrying two is a camera of its own (one of a stereo head's pairs).
-    A link with one optical leaf of its own, fixed at its origin, is that imager's frame: optical frames hung below
-    it through frames of their own are its built-in sensors' (an inertial unit's below a colour frame), so it
-    carries one."""
-    own = [child for child in tree.children(link) if tree.is_leaf(child) and is_optical(tree, child)]
-    if len(own) == 1 and norm(tree.position_in(own[0], link)) <= VIEWPOINT:
-        return 1
+    A link with one optical leaf of its own at its origin is that imager's frame: optical frames hung below it
+    through frames of their own within BUILT_IN of it are its built-in sensors' (an inertial unit's below a colour
+    frame), so it carries one; an eye hung below the other eye's frame lies a stereo baseline away."""
     leaves = [d for d in tree.descendants(link) if tree.is_leaf(d)]
-    return sum(is_optical(tree, leaf) for leaf in leaves) or len(leaves)
+    optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
+    own = [leaf for leaf in optical if tree.parent(leaf) == link]
+    if len(own) == 1 and norm(tree.position_in(own[0], link)) <= VIEWPOINT \
+            and all(norm(tree.position_in(leaf, link)) <= BUILT_IN for leaf in optical):
+        return 1
+    return len(optical) or len(leaves)
 
 
 def frames_of_one_body(tree: KinematicTree, leaves: list[str]) -> list[list[str]]:

@@ -274,31 +274,49 @@ def swinging_leaves(tree: KinematicTree) -> frozenset[str]:
 
 
 def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
-    """The tips of a hand or gripper written with every finger joint fixed: chains each of two links or more with
-    geometry fixed in series (one child each) from one body at a limb's end (LIMB_JOINTS movable joints or more
-    above it), each tip within HAND_REACH of that body; three chains or more (a hand's fingers), or two whose tips
-    are mirror images of each other across a plane of the body (a gripper's jaws). With them, the body's other
-    leaves with geometry fixed to it that are mirror images of each other (a jaw's second bar, a knuckle) are
-    finger parts. Fingers, never sensors (a stack of standoffs on a mobile base has the shape, but no limb carries
+    """The tips of a hand written with every finger joint fixed: three chains or more (_fixed_chains) from one body
+    at a limb's end (LIMB_JOINTS movable joints or more above it), and the jaws of a gripper so written
+    (frozen_jaws). Fingers, never sensors (a stack of standoffs on a mobile base has the shape, but no limb carries
     it)."""
+    tips: set[str] = set()
+    for body in tree.links:
+        if _movable_above(tree, body) >= LIMB_JOINTS and len(ends := _fixed_chains(tree, body)) >= 3:
+            tips.update(ends)
+    return frozenset(tips) | frozen_jaws(tree)
+
+
+def frozen_jaws(tree: KinematicTree) -> frozenset[str]:
+    """The jaws of a gripper written with every joint fixed: on a body at the end of a limb (LIMB_JOINTS movable
+    joints or more from it up to the limb's top, limb_top, and none below it), exactly two fixed chains
+    (_fixed_chains) whose tips are mirror images of each other across a plane of the body; with them the body's
+    other leaves with geometry fixed to it that are mirror images of each other (a jaw's second bar, an inner
+    knuckle). Two cameras on a head carried with the arms, sensors beside a gripper that moves, or bumpers half way
+    along an arm are on no such body."""
     tips: list[str] = []
     for body in tree.links:
-        if _movable_above(tree, body) < LIMB_JOINTS:
+        if any(tree.edge_to(x).movable for x in tree.descendants(body)) or tree.parent(body) is None \
+                or _movable_between(tree, body, limb_top(tree, body)) < LIMB_JOINTS:
             continue
-        ends = []
-        for child in tree.children(body):
-            path = [child]
-            while not tree.edge_to(path[-1]).movable and len(below := tree.children(path[-1])) == 1:
-                path.append(below[0])
-            if tree.is_leaf(path[-1]) and not any(tree.edge_to(link).movable for link in path) \
-                    and sum(not is_frame(tree, link) for link in path) >= 2 \
-                    and norm(tree.position_in(path[-1], body)) <= HAND_REACH:
-                ends.append(path[-1])
-        if len(ends) >= 3 or len(ends) == 2 and mirror_images(tree, body, *ends):
-            pieces = [c for c in tree.children(body) if c not in ends and tree.is_leaf(c)
-                      and not tree.edge_to(c).movable and not is_frame(tree, c)]
+        ends = _fixed_chains(tree, body)
+        if len(ends) == 2 and mirror_images(tree, body, *ends):
+            pieces = [c for c in tree.children(body) if c not in ends and tree.is_leaf(c) and not is_frame(tree, c)]
             tips += ends + [p for p in pieces if any(q != p and mirror_images(tree, body, p, q) for q in pieces)]
     return frozenset(tips)
+
+
+def _fixed_chains(tree: KinematicTree, body: str) -> list[str]:
+    """The tips of the chains of two links or more with geometry fixed in series (one child each) from `body`, each
+    within HAND_REACH of it."""
+    ends = []
+    for child in tree.children(body):
+        path = [child]
+        while not tree.edge_to(path[-1]).movable and len(below := tree.children(path[-1])) == 1:
+            path.append(below[0])
+        if tree.is_leaf(path[-1]) and not any(tree.edge_to(link).movable for link in path) \
+                and sum(not is_frame(tree, link) for link in path) >= 2 \
+                and norm(tree.position_in(path[-1], body)) <= HAND_REACH:
+            ends.append(path[-1])
+    return ends
 
 
 def mirror_images(tree: KinematicTree, body: str, a: str, b: str) -> bool:
@@ -306,16 +324,18 @@ def mirror_images(tree: KinematicTree, body: str, a: str, b: str) -> bool:
     further than MIRROR_EPS apart across it and within MIRROR_EPS of each other along it."""
     pa, pb = tree.position_in(a, body), tree.position_in(b, body)
     return any(abs(pa[axis] - pb[axis]) > MIRROR_EPS and all(abs(pa[k] + pb[k] if k == axis else pa[k] - pb[k]) <= MIRROR_EPS
-                                                  for k in range(3)) for axis in range(3))
+                                                             for k in range(3)) for axis in range(3))
 
 
-def in_mirror_pairs(tree: KinematicTree, tips: list[str]) -> bool:
-    """The tips pair off as mirror images across a plane of the link they fork from (a gripper's jaws, each
-    with its bars): no thumb and no odd finger."""
-    if len(tips) < 2 or len(tips) % 2:
-        return False
-    body = fork_of(tree, tips)
-    return all(sum(mirror_images(tree, body, a, b) for b in tips if b != a) == 1 for a in tips)
+def limb_top(tree: KinematicTree, link: str) -> str:
+    """The link a limb ending at `link` starts below: the first link above it that carries another moving chain
+    (static frames hung along the limb do not end it), or the root."""
+    path = tree.chain_to_root(link)
+
+    def moves(x: str) -> bool:
+        return any(tree.edge_to(y).movable for y in (x, *tree.descendants(x)))
+    return next((above for i, above in enumerate(path[1:], start=1)
+                 if any(moves(c) for c in tree.children(above) if c != path[i - 1])), path[-1])
 
 
 def rolling(tree: KinematicTree, leaf: str) -> bool:

@@ -27,7 +27,8 @@ to the camera (ontology.md). A housing piece fixed straight to that
 link beside an optical frame (a camera's model frame) is bound with them. A branch that carries several
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
 its own frames bind below it (frames.body_of). The body may also be the bare frame the sub-chains are all mounted on
-where a joint moves it (a camera's own frame on its tilt motor): the mount cannot be raised above the motion.
+where a joint moves it and it is a camera's own (its optical frames see from one place, beside one housing at
+most: a camera on its tilt motor): the mount cannot be raised above the motion.
 One ranger, one device: two sub-chains each declaring a ray sensor or a depth camera of its own (no declaration in
 common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
 plugin; a sensor head's time-of-flight cameras, each with its own depth image).
@@ -49,7 +50,7 @@ from urdfkb.pipeline.abstraction.prompts import device_name_question
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
-from urdfkb.pipeline.abstraction.frames import body_of, is_frame
+from urdfkb.pipeline.abstraction.frames import body_of, is_frame, is_optical, viewpoints
 from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
 from urdfkb.pipeline.abstraction.vectors import dot, sub
@@ -147,14 +148,24 @@ def _looking_alike(tree: KinematicTree, mount: str, a: str, b: str) -> bool:
 
 def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     """The two leaves are frames of one body (frames.body_of) that lies inside both sub-chains, or that both are
-    mounted on where it is a bare frame a joint moves (a camera's own frame on its tilt motor, which one_mount
-    cannot raise above the joint)."""
+    mounted on where it is a camera's own frame on a motor (_tilting_camera), which one_mount cannot raise above the
+    joint."""
     body = body_of(tree, a.leaf, b.leaf)
     if body is None:
         return False
-    moved_frame = body == a.root == b.root and is_frame(tree, body) and tree.parent(body) is not None \
-        and tree.edge_to(body).movable
-    return moved_frame or body in a.links and body in b.links
+    return (body in a.links and body in b.links) or (body == a.root == b.root and _tilting_camera(tree, body))
+
+
+def _tilting_camera(tree: KinematicTree, frame: str) -> bool:
+    """`frame` is a camera's own frame moved by a joint (a tilt motor): bare, with every optical frame below it
+    seeing from one place (frames.viewpoints) and at most one body with geometry hung from it, the housing. A bare
+    pan-tilt or head frame carrying two cameras, or eyes and an inertial unit, sees from more places."""
+    if tree.parent(frame) is None or not tree.edge_to(frame).movable or not is_frame(tree, frame):
+        return False
+    leaves = [leaf for leaf in tree.descendants(frame) if tree.is_leaf(leaf)]
+    optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
+    return bool(optical) and viewpoints(tree, optical) == 1 and sum(not is_frame(tree, leaf) for leaf in leaves) <= 1 \
+        and all(leaf in optical or not is_frame(tree, leaf) for leaf in leaves)
 
 
 def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from urdfkb.pipeline.abstraction.hands import limb_length
+from urdfkb.pipeline.abstraction.hands import limb_length, limb_top
 from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
@@ -118,11 +118,7 @@ def _limb_segment(tree: KinematicTree, mount: str, links: set[str]) -> bool:
     segment. A tool is small beside the arm that carries it. Not on a limb with a sliding joint, whose travel is
     no offset."""
     path = tree.chain_to_root(mount)
-
-    def moves(link: str) -> bool:
-        return any(tree.edge_to(x).movable for x in (link, *tree.descendants(link)))
-    top = next((i for i, link in enumerate(path[1:], start=1)
-                if any(moves(c) for c in tree.children(link) if c != path[i - 1])), len(path) - 1)
+    top = path.index(limb_top(tree, mount))
     moving = [i for i in range(top) if tree.edge_to(path[i]).movable]
     if not moving or any(tree.edge_to(path[i]).joint_type == "prismatic" for i in moving):
         return False  # a sliding joint carries the tool farther than its offset says (a gantry's spindle)

@@ -7,7 +7,7 @@ from dataclasses import replace
 
 from urdfkb.pipeline.knowledge import reasoning
 from urdfkb.pipeline.abstraction.components import FingerFact
-from urdfkb.pipeline.abstraction.hands import in_mirror_pairs
+from urdfkb.pipeline.abstraction.hands import frozen_jaws
 from urdfkb.pipeline.reading.evidence import named as named_link
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.prompts import RIGID_TOOL
@@ -21,7 +21,6 @@ from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.devices import mount
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.structure import nothing_moves
-from urdfkb.pipeline.reading.tree import KinematicTree
 
 
 @step("tool extent", needs=("groups", "claims"), makes=("groups", "structures"))
@@ -85,16 +84,17 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     (structure.nothing_moves) may also stay a plain end effector (prompts.RIGID_TOOL: a probe, a ball), which the
     ontology allows and no kind below it fits, unless its links name a catalogue product of a kind below
     (a suction gripper's tip frame): then the kinds that product is not are not offered. A tool holding the tips of
-    fingers written fixed (hands.frozen_fingertips) is described so (as jaws where they pair off as mirror images),
-    and is no rigid tool."""
+    fingers written fixed (hands.frozen_fingertips) is described so (as jaws where they are a gripper's,
+    hands.frozen_jaws), and is no rigid tool."""
     tree, top = ctx.tree, ctx.device_kind.cls
     open_groups = [(g, st) for g, st, i in zip(found.groups, found.structures, found.inferred) if not i.settled]
     ruled = [_product_rules_out(ctx, g, top) for g, _ in open_groups]
     frozen = [[leaf for leaf in g.leaves if leaf in found.frozen_tips] for g, _ in open_groups]
+    jaws = frozen_jaws(tree) if any(frozen) else frozenset()
     asked = descend(ctx.oracle, ctx.vocab, top, [
         Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
                 f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
-                f"\nStructure: {_written_fixed(tree, tips) if tips else st.describe()}", out,
+                f"\nStructure: {_written_fixed(tips, jaws) if tips else st.describe()}", out,
                 stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not tips else None)
         for (g, st), out, tips in zip(open_groups, ruled, frozen)
     ], "end-effector classification", ctx.progress)
@@ -102,9 +102,9 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     found.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(found.groups, found.inferred)]
 
 
-def _written_fixed(tree: KinematicTree, tips: list[str]) -> str:
-    """A tool's fingers written fixed, as the model is told: jaws where they pair off as mirror images."""
-    if in_mirror_pairs(tree, tips):
+def _written_fixed(tips: list[str], jaws: frozenset[str]) -> str:
+    """A tool's fingers written fixed, as the model is told: a gripper's jaws (hands.frozen_jaws), or fingers."""
+    if set(tips) <= jaws:
         return "jaws written fixed, facing each other in mirror-image pairs"
     return f"{len(tips)} fingers written fixed"
 
