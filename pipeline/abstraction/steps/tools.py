@@ -89,14 +89,15 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     tree, top = ctx.tree, ctx.device_kind.cls
     open_groups = [(g, st) for g, st, i in zip(found.groups, found.structures, found.inferred) if not i.settled]
     ruled = [_product_rules_out(ctx, g, top) for g, _ in open_groups]
-    frozen = [[leaf for leaf in g.leaves if leaf in found.frozen_tips] for g, _ in open_groups]
+    tips = found.frozen_tips
+    frozen = [[leaf for leaf in g.leaves if leaf in tips] for g, _ in open_groups]
     jaws = frozen_jaws(tree) if any(frozen) else frozenset()
     asked = descend(ctx.oracle, ctx.vocab, top, [
         Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
                 f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
-                f"\nStructure: {_written_fixed(tips, jaws) if tips else st.describe()}", out,
-                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not tips else None)
-        for (g, st), out, tips in zip(open_groups, ruled, frozen)
+                f"\nStructure: {_written_fixed(fixed, jaws) if fixed else st.describe()}", out,
+                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not fixed else None)
+        for (g, st), out, fixed in zip(open_groups, ruled, frozen)
     ], "end-effector classification", ctx.progress)
     by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
     found.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(found.groups, found.inferred)]
