@@ -50,10 +50,10 @@ TURNING_BASE = ("tool extent: a revolute joint inside a tool (the OnRobot RG2's 
 MOUNT_POINT = ("one device, many components: a bare mount-point frame on a camera's housing (the MultiSense S21's "
                "top_left_rear_mount, beside its IMU frames) is split off the device where the model names each frame "
                "a device of its own (structure alone does not bind it: it lies 0.108 m out from the housing's origin)")
-IMU_UNDER_COLOUR = ("one device, many components: a camera whose IMU frames hang from its colour frame (the RealSense "
-                    "L515's gyro and accel frames) is split into the colour-and-IMU branch and its depth and infrared "
-                    "frames, and the bare mount points on its case (lower_mount, upper_mount) into a third, however "
-                    "the model names them")
+CASE_MOUNTS = ("one device, many components: the bare mount points on a camera's case (the RealSense L515's lower_mount "
+               "and upper_mount, beside its body under its bottom screw frame) are split off its colour, depth, infrared "
+               "and IMU frames where the model names each frame a device of its own, and on the wrist where it names "
+               "them one (there the names they share begin the mount's)")
 OPTICAL_ROOT = ("mount: a camera whose description starts at its optical frame (the MultiSense S21's "
                 "left_camera_optical_frame, the link the host fixes) keeps that frame as its own frames' mount")
 FORK_BELOW_BASE = ("tool extent: a hand whose fingers fork from a frame below its base (the Schunk SVH's e1, fixed under "
@@ -61,8 +61,8 @@ FORK_BELOW_BASE = ("tool extent: a hand whose fingers fork from a frame below it
                    "fixed spread dummy beside mimicking spread joints, is read as a mechanism")
 KNOWN = {
     ("group", "carnegie_multisense_s21"): MOUNT_POINT, ("mount", "carnegie_multisense_s21"): OPTICAL_ROOT,
-    ("group", "realsense_l515"): IMU_UNDER_COLOUR, ("group together", "realsense_l515"): IMU_UNDER_COLOUR,
-    ("stay", "realsense_l515"): IMU_UNDER_COLOUR,
+    ("group", "realsense_l515"): CASE_MOUNTS, ("group together", "realsense_l515"): CASE_MOUNTS,
+    ("stay", "realsense_l515"): CASE_MOUNTS,
     ("tool", "onrobot_rg2"): TURNING_BASE,
     ("tool", "schunk_svh_right"): FORK_BELOW_BASE, ("seen", "schunk_svh_right"): FORK_BELOW_BASE,
 }
