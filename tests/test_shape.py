@@ -12,6 +12,7 @@ from tests.hand_robots import build
 from tests.urdf_writer import Writer
 
 from urdfkb.pipeline.abstraction.abstractor import SENSOR_PASS, Abstractor
+from urdfkb.pipeline.abstraction.components import Abstraction
 from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.base import Question
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -760,23 +761,31 @@ def test_the_fingertips_of_a_hand_written_fixed_are_no_sensors():
     assert {leaf: claims[leaf] for leaf in stacks} == dict.fromkeys(stacks, SENSOR_CLS)
 
 
-def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
-    """The frozen hand of the test above, through the whole pipeline with a scripted model that calls every
-    fingertip a sensor at 0.6: the tips go to one end effector, whose kind is asked with its structure said as
-    "4 fingers written fixed" and without the rigid tool (a probe, a ball) among the answers."""
+def _run_calling_sensors(w: Writer, leaves: list[str]) -> tuple[dict[str, Question], Abstraction]:
+    """The whole pipeline over `w`'s robot with a scripted model that identifies `leaves` as sensors at 0.6 (a tool
+    0.3), every other leaf as none, and answers every other question with its first option; the questions asked
+    by key, and the result."""
     from tests.scripted_reasoner import scripted_reasoner
     from urdfkb.pipeline import runner
-    w = Writer(random.Random(7))
-    _, tips = _frozen_hand(w)
     asked: dict[str, Question] = {}
 
     def erring(q: Question):
         asked[q.key] = q
         if q.key.startswith("identify:"):
-            return {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1} if _leaf(q) in tips else NONE
+            return {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1} if _leaf(q) in leaves else NONE
         return q.options[0]
-    runner.run(load_urdf(w.urdf()), runner.Settings(use_cache=False), backend=ScriptedBackend(erring),
-               reasoner=scripted_reasoner)
+    result = runner.run(load_urdf(w.urdf()), runner.Settings(use_cache=False), backend=ScriptedBackend(erring),
+                        reasoner=scripted_reasoner)
+    return asked, result
+
+
+def test_a_hand_written_fixed_is_asked_about_as_one_with_fingers():
+    """The frozen hand of the test above, through the whole pipeline with a scripted model that calls every
+    fingertip a sensor at 0.6: the tips go to one end effector, whose kind is asked with its structure said as
+    "4 fingers written fixed" and without the rigid tool (a probe, a ball) among the answers."""
+    w = Writer(random.Random(7))
+    _, tips = _frozen_hand(w)
+    asked, _ = _run_calling_sensors(w, tips)
     post = [q for key, q in asked.items() if key.startswith("post:") and key.endswith("@EndEffector")]
     assert len(post) == 1 and "Structure: 4 fingers written fixed" in post[0].user
     assert "rigid tool" not in post[0].options
@@ -857,19 +866,9 @@ def test_a_gripper_written_fixed_is_asked_about_as_jaws():
     """The frozen gripper of the test above, through the whole pipeline with a scripted model that calls its parts
     sensors at 0.6: they go to one end effector, whose kind is asked with its structure said as jaws facing each
     other (a count of fingers made a humanoid's claw grippers hands), without the rigid tool among the answers."""
-    from tests.scripted_reasoner import scripted_reasoner
-    from urdfkb.pipeline import runner
     w = Writer(random.Random(11))
     parts, _, _ = _frozen_gripper(w)
-    asked: dict[str, Question] = {}
-
-    def erring(q: Question):
-        asked[q.key] = q
-        if q.key.startswith("identify:"):
-            return {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1} if _leaf(q) in parts else NONE
-        return q.options[0]
-    result = runner.run(load_urdf(w.urdf()), runner.Settings(use_cache=False), backend=ScriptedBackend(erring),
-                        reasoner=scripted_reasoner)
+    asked, result = _run_calling_sensors(w, parts)
     post = [q for key, q in asked.items() if key.startswith("post:") and key.endswith("@EndEffector")]
     assert len(post) == 1 and "Structure: jaws written fixed, facing each other in mirror-image pairs" in post[0].user
     assert "rigid tool" not in post[0].options

@@ -134,6 +134,12 @@ def eye_pair(tree: KinematicTree, a: str, b: str) -> bool:
             and dot(sight, other) >= OPTICAL_AXIS and _apart(pb, pa, sight) > VIEWPOINT)
 
 
+def mirrored(a: Vector, b: Vector, axis: int) -> bool:
+    """Points `a` and `b` are each other's mirror image across the plane square to coordinate `axis` through the
+    origin, within MIRROR_EPS."""
+    return all(abs(a[k] + b[k] if k == axis else a[k] - b[k]) <= MIRROR_EPS for k in range(3))
+
+
 def _apart(a: Vector, b: Vector, sight: Vector | None) -> float:
     """How far apart two frames see from: across `sight`, the line of sight through `b` (a frame further along
     it, as optical frames are often written a centimetre ahead of the lens, sees from the same place)."""

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, is_frame, placing_joints
+from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, is_frame, mirrored, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
@@ -294,13 +294,12 @@ def frozen_jaws(tree: KinematicTree) -> frozenset[str]:
     along an arm are on no such body."""
     tips: list[str] = []
     for body in tree.links:
-        if any(tree.edge_to(x).movable for x in tree.descendants(body)) or tree.parent(body) is None \
-                or _movable_between(tree, body, limb_top(tree, body)) < LIMB_JOINTS:
-            continue
-        ends = _fixed_chains(tree, body)
-        if len(ends) == 2 and mirror_images(tree, body, *ends):
+        ends = _fixed_chains(tree, body)  # the cheap test first: most links carry no two such chains
+        if len(ends) == 2 and _mirror_images(tree, body, *ends) \
+                and not any(tree.edge_to(x).movable for x in tree.descendants(body)) \
+                and _movable_between(tree, body, limb_top(tree, body)) >= LIMB_JOINTS:
             pieces = [c for c in tree.children(body) if c not in ends and tree.is_leaf(c) and not is_frame(tree, c)]
-            tips += ends + [p for p in pieces if any(q != p and mirror_images(tree, body, p, q) for q in pieces)]
+            tips += ends + [p for p in pieces if any(q != p and _mirror_images(tree, body, p, q) for q in pieces)]
     return frozenset(tips)
 
 
@@ -319,12 +318,11 @@ def _fixed_chains(tree: KinematicTree, body: str) -> list[str]:
     return ends
 
 
-def mirror_images(tree: KinematicTree, body: str, a: str, b: str) -> bool:
+def _mirror_images(tree: KinematicTree, body: str, a: str, b: str) -> bool:
     """Links `a` and `b` are mirror images of each other across a plane of `body` (one of its axes' planes):
     further than MIRROR_EPS apart across it and within MIRROR_EPS of each other along it."""
     pa, pb = tree.position_in(a, body), tree.position_in(b, body)
-    return any(abs(pa[axis] - pb[axis]) > MIRROR_EPS and all(abs(pa[k] + pb[k] if k == axis else pa[k] - pb[k]) <= MIRROR_EPS
-                                                             for k in range(3)) for axis in range(3))
+    return any(abs(pa[axis] - pb[axis]) > MIRROR_EPS and mirrored(pa, pb, axis) for axis in range(3))
 
 
 def limb_top(tree: KinematicTree, link: str) -> str:

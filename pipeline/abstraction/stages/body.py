@@ -30,7 +30,7 @@ from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
-from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, placing_joints
+from urdfkb.pipeline.abstraction.frames import mirrored, placing_joints
 from urdfkb.pipeline.abstraction import structure
 from urdfkb.pipeline.abstraction.hands import feet, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
@@ -405,16 +405,12 @@ def _lateral_axis(parts: list[BodyPart], at: dict[str, Vector]) -> int:
     """The root axis parts pair across: y, unless no class has parts on both sides of it and the classes whose
     parts are mirror images (within MIRROR_EPS) across x or across z all pair across the same one."""
     def across(axis: int) -> bool:
-        return any(a.cls == b.cls and at[a.name][axis] > SIDE_EPS and _mirrored(at[a.name], at[b.name], axis)
+        return any(a.cls == b.cls and at[a.name][axis] > SIDE_EPS and mirrored(at[a.name], at[b.name], axis)
                    for a in parts for b in parts)
     if any(at[a.name][1] > SIDE_EPS and at[b.name][1] < -SIDE_EPS for a in parts for b in parts if a.cls == b.cls):
         return 1
     found = [axis for axis in (0, 2) if across(axis)]
     return found[0] if len(found) == 1 else 1
-
-
-def _mirrored(a: Vector, b: Vector, axis: int) -> bool:
-    return all(abs(a[k] + b[k] if k == axis else a[k] - b[k]) <= MIRROR_EPS for k in range(3))
 
 
 def _mean_position(tree: KinematicTree, links: list[str]) -> Vector:
