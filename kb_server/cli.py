@@ -135,7 +135,7 @@ def cmd_populate(args: argparse.Namespace) -> int:
     for c in abstraction.components:
         print(f"  {c.kind:12} {c.cls:20} on {c.root:30} {c.confidence:.2f}  {', '.join(c.links)}")
     for h in abstraction.held:
-        print(f"  held back, not written (it breaks the shapes): {h.cls} {h.name} on {', '.join(h.links)}\n    "
+        print(f"  held back for review, not written: {h.cls} {h.name} on {', '.join(h.links)}\n    "
               + "\n    ".join(h.violations))
     if args.timings:
         print(timings.table())

@@ -19,7 +19,7 @@ from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle, check_voting
 from urdfkb.pipeline.knowledge.population import stamp
 from urdfkb.pipeline.knowledge.reasoning import Placer, Reasoner, classify_together, placements
-from urdfkb.pipeline.knowledge.screen import screen
+from urdfkb.pipeline.knowledge.screen import hold_unsure, screen
 from urdfkb.pipeline.abstraction.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.reading.tree import KinematicTree
@@ -145,8 +145,8 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     run; when the result cache answers, the counts and seconds are those of the run that computed it,
     and result_cache=hit. `timings` receives the model load's and every step's timing records (else
     the steps' go to the trace). `reasoner` and `placer` stand in for HermiT (tests inject ones that agree
-    with it: they are no part of the cache key). Components and body parts that break the SHACL shapes are
-    held back for review (pipeline.knowledge.screen), each recorded in the trace.
+    with it: they are no part of the cache key). Sensors under the confidence floor, and components and body parts
+    that break the SHACL shapes, are held back for review (pipeline.knowledge.screen), each recorded in the trace.
     """
     if settings.structure_only:
         return Abstraction((), {"mode": "structure-only", **stamp(tree)})
@@ -184,7 +184,8 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
     finally:
         if owned:
             backend.close()
-    result = screen(tree, Abstraction(tuple(components), provenance, tuple(body)), _trace_writer(trace) if trace else None)
+    record = _trace_writer(trace) if trace else None
+    result = screen(tree, hold_unsure(Abstraction(tuple(components), provenance, tuple(body)), record), record)
     if settings.use_cache:
         cache.store(digest, result)
     return result.with_provenance(stamp(tree))

@@ -72,7 +72,7 @@ def test_populate_names_what_the_shapes_held_back(tmp_path, capsys, monkeypatch)
     monkeypatch.setattr("urdfkb.pipeline.runner.run", lambda *_args, **_kw: Abstraction(held=(held,)))
     assert main(["populate", str(TOY), "-o", str(tmp_path / "toy.owl")]) == 0
     out = capsys.readouterr().out
-    assert "held back, not written (it breaks the shapes): MonocularCamera mast_cam on claw_status_light" in out
+    assert "held back for review, not written: MonocularCamera mast_cam on claw_status_light" in out
     assert "    CameraShape: comp_mast_cam: why" in out
 
 

@@ -73,8 +73,9 @@ class BodyPart:
 
 @dataclass(frozen=True)
 class Held:
-    """A component or body part that broke the SHACL shapes before population (pipeline.knowledge.screen): not written,
-    listed for review with the violations, one line each ("CameraShape: comp_x hasOpticalFrame: ...")."""
+    """A component or body part held back for review before population (pipeline.knowledge.screen): one that broke
+    the SHACL shapes, or a sensor the model hardly believes in. Not written; listed for review with the reasons,
+    one line each ("CameraShape: comp_x hasOpticalFrame: ...", "SensorFloor: ...")."""
 
     name: str
     kind: str | None                  # its component kind; None: a body part

@@ -1,5 +1,10 @@
-"""SHACL before population: every component and body part is checked against ontologies/shapes.ttl before
-the robot is written, and one that breaks them is held back for review, never silently written.
+"""Two gates before population, each holding back for review what must not be written silently: a sensor the
+model hardly believes in (`hold_unsure`), and a component or body part that breaks ontologies/shapes.ttl (`screen`).
+
+A sensor whose confidence (its class's share of the votes times its kind's, steps.assembly) is under
+settings.SENSOR_FLOOR is held with one line saying so: below that, over the truth robots and the probe robots of
+other families, sensors were lamps, logos, antennas, feet and fragments of devices, not sensors. A tool is never
+held for that: tools below it were as often right as wrong.
 
 The robot is built as population builds it, in a scratch world, and validated whole (pipeline.knowledge.shacl). Each
 violation's focus node names the component or body part it belongs to (a sub-component, finger chain or
@@ -20,14 +25,33 @@ import rdflib
 
 from urdfkb import local_name
 from urdfkb.pipeline.knowledge import rdf
-from urdfkb.pipeline.abstraction.components import Abstraction, Held
+from urdfkb.pipeline.abstraction.components import SENSOR, Abstraction, Held
 from urdfkb.pipeline.knowledge.export import robot_graph
 from urdfkb.pipeline.knowledge.namespaces import escape, owner
 from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.knowledge.shacl import Violation, broken
 from urdfkb.pipeline.reading.tree import KinematicTree
+from urdfkb.settings import SENSOR_FLOOR
 
 Record = Callable[[dict], None]
+
+
+def hold_unsure(abstraction: Abstraction, record: Record | None = None) -> Abstraction:
+    """`abstraction` less its sensors of confidence under SENSOR_FLOOR, those in its `held`; `record` receives one
+    {"key": "held", ...} record for each."""
+    held = tuple(Held(c.name, c.kind, c.cls, c.links,
+                      (f"SensorFloor: {c.name}: confidence {c.confidence:.2f} is under {SENSOR_FLOOR}, the least a "
+                       "sensor is written with",))
+                 for c in abstraction.components if c.kind == SENSOR and c.confidence < SENSOR_FLOOR)
+    if not held:
+        return abstraction
+    if record is not None:
+        for h in held:
+            record({"key": "held", "why": "floor", "name": h.name, "kind": h.kind, "class": h.cls,
+                    "violations": list(h.violations)})
+    names = {h.name for h in held}
+    return replace(abstraction, held=abstraction.held + held,
+                   components=tuple(c for c in abstraction.components if c.name not in names))
 
 
 def screen(tree: KinematicTree, abstraction: Abstraction, record: Record | None = None) -> Abstraction:
@@ -50,7 +74,7 @@ def screen(tree: KinematicTree, abstraction: Abstraction, record: Record | None 
              if (vs := by_owner.get(("body", escape(p.name))))]
     if record is not None:
         for h in held:
-            record({"key": "held", "name": h.name, "kind": h.kind, "class": h.cls,
+            record({"key": "held", "why": "shapes", "name": h.name, "kind": h.kind, "class": h.cls,
                     "shapes": sorted({line.split(":", 1)[0] for line in h.violations}), "violations": list(h.violations)})
     if not held:
         return abstraction
