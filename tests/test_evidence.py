@@ -462,3 +462,46 @@ def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(s
         return next((o for o in q.options if o.startswith("depth ")), q.options[0])
     cameras = Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(tree).components
     assert [c.cls for c in cameras] == ["RGBDCamera" if colour else "DepthCamera"]
+
+
+def _legged(seed: int, pose: str | None) -> tuple[bytes, str, str]:
+    """A pelvis on two three-joint legs, each foot carrying a frame at (0.02, 0, -0.05) and a sole frame below; the
+    left ankle declares a force-torque sensor at `pose` (Gazebo's way: on the joint). (urdf, that frame, the sole)"""
+    w = Writer(random.Random(seed))
+    pelvis = w.link('<box size="0.2 0.3 0.1"/>', centre=(0, 0, 0), mass=5)
+    frames = []
+    for y in (0.1, -0.1):
+        hip, knee, foot = (w.link('<box size="0.05 0.05 0.3"/>', centre=(0, 0, -0.15)) for _ in range(3))
+        w.joint("revolute", pelvis, hip, (0, y, -0.05), (1, 0, 0))
+        w.joint("revolute", hip, knee, (0, 0, -0.3), (0, 1, 0))
+        ankle = w.joint("revolute", knee, foot, (0, 0, -0.3), (0, 1, 0))
+        at, sole = w.link(), w.link()
+        w.joint("fixed", foot, at, (0.02, 0, -0.05))
+        w.joint("fixed", foot, sole, (0, 0, -0.08))
+        frames.append((ankle, at, sole))
+    (ankle, at, sole), _ = frames
+    stated = f"<pose>{pose}</pose>" if pose is not None else ""
+    block = (f'<gazebo reference="{ankle}"><sensor name="{w.name()}" type="force_torque">{stated}'
+             '<update_rate>500</update_rate></sensor></gazebo>')
+    return w.urdf().replace(b"</robot>", block.encode() + b"</robot>"), at, sole
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_sensor_declared_on_a_joint_is_the_frame_its_pose_puts_it_on(seed, tmp_path):
+    urdf, at, sole = _legged(seed, "0.02 0 -0.05 3.14 0 0")
+    (tmp_path / "legs.urdf").write_bytes(urdf)
+    tree = load_urdf(tmp_path / "legs.urdf")
+    [ft] = tree.evidence[at].sensors
+    assert (ft.type, ft.reference, ft.rate) == ("force_torque", at, 500.0)
+    assert [link for link, facts in tree.evidence.items() if facts.sensors] == [at]
+    found = run(tree, Settings(use_cache=False), backend=ScriptedBackend(
+        lambda q: NONE if q.key.startswith("identify:") else q.options[0])).components
+    assert [(c.cls, c.links) for c in found] == [("ForceTorqueSensor", (at,))]  # the soles stay the feet's
+
+
+def test_a_joint_sensor_placed_nowhere_a_frame_is_belongs_to_no_link(tmp_path):
+    """No pose (iCub's force-torque joints between two bodies) or one where no frame sits: no link declares it."""
+    for pose in (None, "0.3 0 0 0 0 0"):
+        urdf, _, _ = _legged(0, pose)
+        (tmp_path / "legs.urdf").write_bytes(urdf)
+        assert not any(facts.sensors for facts in load_urdf(tmp_path / "legs.urdf").evidence.values())

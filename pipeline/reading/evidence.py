@@ -5,7 +5,8 @@ rendered as a few words in the questions that concern a link (the model still de
 sensor declarations use SDF's closed vocabulary of sensor types (`camera`, `depth`, `ray`, `imu`,
 `contact`, ...); the older Gazebo form `<sensor:camera>` / `<sensor:ray>` of PR2-era files is read
 as the same types. A declaration is attached to the link it references and to the link its
-plugin publishes in (`frameName`), when that is another link of the robot. The numbers it states
+plugin publishes in (`frameName`), when that is another link of the robot; one declared on a joint (a force-torque
+sensor, as Gazebo wants it), to the frame fixed on the joint's child where the sensor's `<pose>` puts it. The numbers it states
 (rate, field of view, image size, rays, range) are kept in SI units whichever form wrote them
 (the old form gives angles in degrees); a number it does not state, or states unreadably, is None.
 A ray sensor publishing ROS range messages (one distance valid over a cone) states in its plugin what it emits
@@ -35,7 +36,7 @@ class SimSensor:
 
     type: str
     plugins: tuple[str, ...] = ()
-    reference: str = ""               # the link its <gazebo reference="..."> block names
+    reference: str = ""               # the link its <gazebo reference="..."> block names (or puts it on: a joint's)
     frame: str | None = None          # the link its plugin expresses its data in (frameName), where one of the robot's
     rate: float | None = None         # Hz: how often it updates (its own update_rate / updateRate)
     fov: float | None = None          # rad: a camera's horizontal field of view, a ray sensor's horizontal span
@@ -236,15 +237,20 @@ def _centre(link: ET.Element) -> tuple[float, float, float] | None:
 
 
 def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimSensor]]:
-    """link → sensors declared in `<gazebo reference="link">` blocks (and at their output frame)."""
+    """link → sensors declared in `<gazebo reference="link">` blocks (and at their output frame). A sensor declared
+    on a joint (Gazebo's way for a force-torque sensor) is the link's its <pose> puts it on (`_at_joint`)."""
     found: dict[str, list[SimSensor]] = {}
+    joints = {j.get("name"): j for j in robot.findall("joint")}
     for gazebo in robot.findall("gazebo"):
-        reference = gazebo.get("reference")
-        if reference not in known:
+        named_link = gazebo.get("reference")
+        if named_link not in known and named_link not in joints:
             continue
         for element in gazebo:
             sensor_type = _sensor_type(element)
             if sensor_type is None:
+                continue
+            reference = named_link if named_link in known else _at_joint(robot, joints[named_link], element, known)
+            if reference is None:
                 continue
             frames = _output_frames(element, known)
             sensor = SimSensor(sensor_type, _plugins(element), reference, frames[0] if frames else None,
@@ -253,6 +259,36 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
             for link in dict.fromkeys([reference, *frames]):
                 found.setdefault(link, []).append(sensor)
     return found
+
+
+AT_POSE = 0.001  # m: a frame this close to a joint sensor's <pose> is where the sensor is
+
+
+def _at_joint(robot: ET.Element, joint: ET.Element, sensor: ET.Element, known: set[str]) -> str | None:
+    """The link a sensor declared on `joint` is: the frame fixed on the joint's child at the sensor's <pose> (SDF
+    gives a joint sensor's pose in the joint's frame, URDF's child frame). None where it states no pose or no such
+    frame sits there: the joint alone places it between two bodies, no link of its own."""
+    child = joint.find("child")
+    pose = _floats(sensor.findtext("pose"), 6)
+    if child is None or pose is None:
+        return None
+    for frame in robot.findall("joint"):
+        parent, link, origin = frame.find("parent"), frame.find("child"), frame.find("origin")
+        if (frame.get("type") == "fixed" and parent is not None and parent.get("link") == child.get("link")
+                and link is not None and link.get("link") in known):
+            xyz = _floats(origin.get("xyz", "0 0 0") if origin is not None else "0 0 0", 3)
+            if xyz is not None and math.dist(xyz, pose[:3]) <= AT_POSE:
+                return link.get("link")
+    return None
+
+
+def _floats(text: str | None, n: int) -> tuple[float, ...] | None:
+    """`n` finite numbers written in `text`, or None."""
+    try:
+        values = tuple(float(v) for v in (text or "").split())
+    except ValueError:
+        return None
+    return values if len(values) == n and all(map(math.isfinite, values)) else None
 
 
 def _naming_plugins(robot: ET.Element, known: set[str]) -> dict[str, list[str]]:
