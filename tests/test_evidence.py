@@ -155,7 +155,10 @@ def test_evidence_survives_condensing_and_a_change_of_evidence_misses_the_cache(
 
 def test_the_ontology_aligns_simulator_sensor_types_to_classes():
     assert TAX.declared_classes(["ray"]) == {"RangingSensor"}
-    assert TAX.declared_classes(["depth"]) == {"RGBDCamera", "DepthCamera"}
+    assert TAX.declared_classes(["depth"]) == {"RGBDCamera", "DepthCamera", "DepthFrame", "InfraredFrame"}
+    assert TAX.disagreeing(TAX.declared_classes(["wideanglecamera"]), "OpticalFrame") == {"DepthFrame"}
+    assert TAX.disagreeing(TAX.declared_classes(["depth"]), "OpticalFrame") == {"RgbFrame"}
+    assert TAX.disagreeing(TAX.declared_classes(["rgbd_camera"]), "OpticalFrame") == frozenset()
     assert TAX.declared_classes(["GPU_RAY", "no_such_type"]) == {"Lidar"}
     ruled_out = TAX.disagreeing(TAX.declared_classes(["ray"]), "Sensor")
     assert {"VisionSensor", "ContactSensor"} <= ruled_out and not {"RangingSensor", "Lidar", "Sonar"} & ruled_out
@@ -424,13 +427,14 @@ def test_a_depth_sensor_publishing_colour_is_an_rgbd_camera_whatever_the_model_s
 @pytest.mark.parametrize("seed", range(3))
 @pytest.mark.parametrize("pixels, together, colour", [("B8G8R8", True, True), ("RGB_INT8", True, True),
                                                       ("L8", True, False), ("L_INT8", True, False),
-                                                      ("B8G8R8", False, False)])
+                                                      ("B8G8R8", False, True)])
 def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(seed, pixels, together, colour):
     """A torso camera written as the simulator's plain camera and a depth sensor of no topics on one imager's frame,
     a monochrome camera on the other's, all under one housing, was typed a depth camera: a camera giving colour and a
     depth sensor declared on one link are one device's, SDF's rgbd_camera, and so are the device's other imagers;
-    beside a monochrome camera, or with the colour camera declared on another link (two devices the grouping may
-    have joined), the model decides."""
+    with the colour camera declared on the other imager, its format still says colour beside the depth. Beside a
+    monochrome camera alone, the model decides (a model seeing depth wherever it is offered: a depth camera; the
+    monochrome imager offered no colour image)."""
     w = Writer(random.Random(seed))
     base = w.link('<box size="0.4 0.3 0.1"/>')
     housing = w.link('<box size="0.03 0.12 0.03"/>')
@@ -505,3 +509,42 @@ def test_a_joint_sensor_placed_nowhere_a_frame_is_belongs_to_no_link(tmp_path):
         urdf, _, _ = _legged(0, pose)
         (tmp_path / "legs.urdf").write_bytes(urdf)
         assert not any(facts.sensors for facts in load_urdf(tmp_path / "legs.urdf").evidence.values())
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_frame_is_offered_only_the_images_its_declared_camera_gives(seed):
+    """A tracking camera's two fisheye optical frames, each declaring SDF's wide-angle camera, 6 cm apart under one
+    housing; a model that sees depth wherever it is offered (as the real one did): no depth image is offered, so
+    the two frames make a stereo camera, not an RGB-D one. A frame whose camera states L8 is offered no colour."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    housing = w.link('<box size="0.02 0.1 0.02"/>')
+    w.joint("fixed", base, housing, xyz=(0.2, 0.0, 0.3))
+    eyes = [w.link(), w.link()]
+    for side, eye in zip((1, -1), eyes):
+        w.joint("fixed", housing, eye, xyz=(0.0, 0.03 * side, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+    pixels = ("", "<image><format>L8</format></image>")
+    gazebo = "".join(f'<gazebo reference="{eye}"><sensor name="{w.name()}" type="wideanglecamera"><camera>{fmt}'
+                     '</camera></sensor></gazebo>' for eye, fmt in zip(eyes, pixels))
+    urdf = w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>")
+    for eye in eyes:
+        urdf = urdf.replace(f'"{eye}"'.encode(), f'"{housing}_{eye}"'.encode())
+    tree = load_urdf(urdf)
+    asked: dict[str, Question] = {}
+
+    def rule(q: Question):
+        asked[q.key] = q
+        stage = q.key.partition(":")[0]
+        if stage in ("check", "identify"):
+            return "sensor"
+        if stage == "root":
+            return base
+        if stage == "device":
+            return min(q.options, key=len)
+        return next((o for o in q.options if o.startswith("depth ")), q.options[0])
+    [camera] = Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(tree).components
+    assert camera.cls == "StereoCamera"
+    first, second = (f"{housing}_{eye}" for eye in eyes)
+    assert {s.link: s.cls for s in camera.subcomponents if s.link != housing} == {first: "RgbFrame",
+                                                                                   second: "InfraredFrame"}
+    assert not any(o.startswith("depth ") for k, q in asked.items() if k.startswith("part:") for o in q.options)

@@ -574,3 +574,37 @@ def test_devices_on_a_bare_tilted_frame_that_see_from_two_places_stay_apart():
         chains = one_mount(tree, [sub_chain(tree, leaf, tilted) for leaf in leaves])
         groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor", categories)
         assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(d) for d in devices), inertial
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_a_lone_optical_frame_gives_one_image_and_that_says_the_camera(seed):
+    """The model calls cameras RGB-D where it may and reads each optical frame's image right. A housing with one
+    optical frame below it (z along the housing's x: REP 103) gives one image: a colour one makes a monocular camera,
+    a depth one a depth camera. A camera written as one body (a RealSense as one link) keeps the model's RGB-D: its
+    one answer cannot show colour and depth together."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.6 0.4 0.3"/>')
+    frames, image = [], {}
+    for kind in ("rgb", "depth"):
+        housing = w.link('<box size="0.03 0.1 0.03"/>')
+        w.joint("fixed", base, housing, (rng.uniform(0.1, 0.3), rng.uniform(-0.1, 0.1), rng.uniform(0.2, 0.5)))
+        frames.append(w.link())
+        w.joint("fixed", housing, frames[-1], rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        image[frames[-1]] = kind
+    body = w.link('<box size="0.03 0.1 0.03"/>')
+    w.joint("fixed", base, body, (0.2, 0.0, 0.6))
+    tree = load_urdf(w.urdf())
+    rgbd = TAX.answer("RGBDCamera")
+
+    def rule(q):
+        leaf = q.key.split(":", 1)[1].split("@")[0]
+        if q.key.startswith("part:"):
+            return TAX.answer(MODALITY[image[leaf]])
+        return next((o for o in (rgbd,) if o in q.options), q.options[0])
+    groups = [Group([sub_chain(tree, link, base)]) for link in (*frames, body)]
+    state = Findings(groups=groups)
+    state.pre = {link: Typed("RGBDCamera", 0.9) for link in (*frames, body)}
+    post_classification(Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor"), state)
+    assert [t.cls for t in state.post] == ["MonocularCamera", "DepthCamera", "RGBDCamera"]
+    assert {f: state.parts[f].cls for f in frames} == {f: MODALITY[image[f]] for f in frames}

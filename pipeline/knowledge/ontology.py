@@ -109,6 +109,7 @@ class Vocabulary:
         self._excluded: dict[str, set[str]] = {}
         self._needed: dict[str, list[frozenset[str]]] = {}  # class → for each ∃hasComponent.(X ⊔ …): {X, …}
         self._declared_by: dict[str, set[str]] = {}  # SDF sensor type → classes aligned to it
+        self._pixels: dict[str, set[str]] = {}  # class → the SDF pixel formats of its images (core:pixelFormat)
         self._joint_class: dict[str, str] = {}  # URDF joint type → its class
         self._chain_class: dict[str, str] = {}  # a finger chain's drive motion → its class
         self._roles: dict[str, str] = {}  # class → its core:fingerChainRole
@@ -147,6 +148,8 @@ class Vocabulary:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
                 self._declared_by.setdefault(str(sim_type).strip().lower(), set()).add(name)
+            for pixels in graph.objects(node, CORE.pixelFormat):
+                self._pixels.setdefault(name, set()).add(str(pixels).strip().lower())
             for joint_type in graph.objects(node, CORE.urdfJointType):
                 self._joint_class[str(joint_type)] = name
             for motion in graph.objects(node, CORE.fingerDrive):
@@ -368,6 +371,14 @@ class Vocabulary:
     def declared_classes(self, sim_types: Iterable[str]) -> frozenset[str]:
         """Classes the ontology aligns to any of these simulator (SDF) sensor types (core:simulatorSensorType)."""
         return frozenset(c for t in sim_types for c in self._declared_by.get(t.strip().lower(), ()))
+
+    def unformatted(self, formats: Iterable[str], below: str) -> frozenset[str]:
+        """Classes under `below` whose images none of these SDF pixel formats is (core:pixelFormat: a frame whose
+        camera states L8 gives no colour image); none where no format is stated."""
+        stated = {f.strip().lower() for f in formats}
+        if not stated:
+            return frozenset()
+        return frozenset(c for c in self.subclasses_below(below) if c in self._pixels and not stated & self._pixels[c])
 
     def unseen(self, count: int | None, below: str) -> frozenset[str]:
         """Classes under `below` that a device whose optical frames see from `count` places cannot be

@@ -46,6 +46,7 @@ class SimSensor:
     max_range: float | None = None
     resolution: float | None = None   # m: a ray sensor's range resolution
     colour: bool = False              # it gives colour images (_gives_colour)
+    pixels: str | None = None         # the pixel format its images are written in (SDF's <format>, as written)
     radiation: str | None = None      # what a one-beam ranger emits, as its ROS range plugin states it (_RADIATIONS)
     name: str = ""                    # the name the file gives the declaration (`<sensor name="...">`)
 
@@ -255,6 +256,7 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
             frames = _output_frames(element, known)
             sensor = SimSensor(sensor_type, _plugins(element), reference, frames[0] if frames else None,
                                **_numbers(element, sensor_type), colour=_gives_colour(element, sensor_type),
+                               pixels=_child_text(element, "camera/image/format") or None,
                                name=(element.get("name") or "").strip())
             for link in dict.fromkeys([reference, *frames]):
                 found.setdefault(link, []).append(sensor)

@@ -17,7 +17,7 @@ from urdfkb.pipeline.knowledge.ontology import Kind, Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.stages.asking import Progress
 from urdfkb.pipeline.abstraction.stages.classification import Subject, Typed, descend
-from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.stages.grouping import DEPTH_IMAGES, Group
 from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.abstraction.structure import ToolStructure
 from urdfkb.pipeline.reading.tree import KinematicTree
@@ -56,23 +56,48 @@ def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Ki
 
 
 def required_parts_first(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[str], device: str,
-                         progress: Progress | None = None) -> dict[str, Typed]:
+                         progress: Progress | None = None, typed_as: dict[str, str] | None = None) -> dict[str, Typed]:
     """The kind of the part a `device` class requires (a camera: an optical frame) at each of `leaves`, asked
     before the device's own class, with nothing ruled out: what the frames are then says which classes the
-    device can be (Vocabulary.unfit). Empty when that part has no kinds to choose among."""
+    device can be (Vocabulary.unfit). Empty when that part has no kinds to choose among. A leaf `typed_as` a
+    class under `device` already (a lone frame's pre-class) is asked as type_subparts asks it, so its answer is
+    the one sub-part typing would get."""
     part = tax.required_part(device)
     if part is None or not tax.subclasses(part):
         return {}
-    subjects = [(leaf, _required_subject(tax, tree, leaf, device, part, frozenset())) for leaf in leaves]
+    typed_as = typed_as or {}
+    subjects = [(leaf, _required_subject(tax, tree, leaf, typed_as.get(leaf, device), part,
+                                         tax.excluded_parts(typed_as[leaf]) if leaf in typed_as else frozenset()))
+                for leaf in leaves]
     return _descend_alike(oracle, tax, tree, part, subjects, "required parts", progress)
 
 
 def _required_subject(tax: Vocabulary, tree: KinematicTree, link: str, device: str, part: str,
                       exclude: frozenset[str]) -> Subject:
-    """Which kind of `part` (the part a `device` requires) `link` is."""
+    """Which kind of `part` (the part a `device` requires) `link` is, without `exclude` and the kinds the simulator
+    sensors declared on it rule out (`_undeclared`), where some kind is left."""
+    declared = exclude | _undeclared(tax, tree, link, part)
+    if set(tax.subclasses_below(part)) - declared:
+        exclude = declared
     holder = tax.label(tax.requiring_class(device) or device)
     return Subject(f"part:{link}", tax.part_question(part) or "The link below is the {concept} of its device: which kind?",
                    f"Link: {named(tree.evidence, link)}\n{holder[:1].upper() + holder[1:]}: {tax.label(device)}", exclude)
+
+
+def _undeclared(tax: Vocabulary, tree: KinematicTree, link: str, part: str) -> frozenset[str]:
+    """The kinds of `part` no simulator sensor declared on `link` gives: each gives those its type allows
+    (core:simulatorSensorType on the kinds: a wide-angle camera gives no depth image) and, for a camera stating
+    its pixel format, that format allows (core:pixelFormat: an L8 image is no colour one; a depth sensor's format
+    is only its preview's)."""
+    kinds = set(tax.subclasses_below(part))
+    given: set[str] = set()
+    for sensor in tree.evidence[link].sensors if link in tree.evidence else ():
+        typed = tax.disagreeing(tax.declared_classes([sensor.sdf_type]), part)
+        if not typed and not tax.declared_classes([sensor.sdf_type]) & kinds:
+            return frozenset()  # a declaration saying nothing of images (an IMU's, a ranger's) allows every kind
+        formatted = tax.unformatted([sensor.pixels] if sensor.pixels and sensor.sdf_type not in DEPTH_IMAGES else [], part)
+        given |= kinds - typed - formatted
+    return frozenset(kinds - given) if given else frozenset()  # none given: they contradict, the model decides
 
 
 def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: str,

@@ -21,7 +21,7 @@ from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.devices import category
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_sets
-from urdfkb.pipeline.abstraction.frames import viewpoints
+from urdfkb.pipeline.abstraction.frames import is_optical, viewpoints
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 MAX_FACTS = 3  # links of a chain shown with their facts
@@ -124,7 +124,8 @@ def built_in_frames(ctx: Context, found: Findings) -> None:
 @step("post-classification", needs=("groups", "pre"), makes=("post", "parts"))
 def post_classification(ctx: Context, found: Findings) -> None:
     """Multi-chain groups descend again from what their members share; a lone chain keeps its class,
-    unless where its frames see from rules that class out (below).
+    unless where its frames see from rules that class out, or, for a lone optical frame, the kind of image it
+    gives (below).
 
     The descent starts at the deepest class common to the members' pre-classes (a camera's: its imaging
     frames', not its own inertial or model frames'), or one level
@@ -146,14 +147,18 @@ def post_classification(ctx: Context, found: Findings) -> None:
     views = {id(g): viewpoints(tree, g.leaves, cameras) for g in found.groups}
     counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
                    for g in found.groups}  # by where its frames see from, and by how many there are
+    lone_frames = [g for g in found.groups if len(g.chains) == 1 and pre[g.leaves[0]].cls not in counted_out[id(g)]
+                   and vocab.is_a(pre[g.leaves[0]].cls, camera) and is_optical(tree, g.leaves[0])]
+    unfit = _frames_first(ctx, found, lone_frames, camera, imaging, classified=True)  # one image's kind
     for g in found.groups:
         if len(g.chains) > 1:
             by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in imaging[id(g)]}, top), []).append(g)
-        elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)]:
-            ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
+        elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)] | unfit.get(id(g), frozenset()):
+            if cls in counted_out[id(g)]:
+                ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
             by_start.setdefault(vocab.parents(cls)[0], []).append(g)
     for start, members in by_start.items():
-        unfit = _frames_first(ctx, found, [g for g in members if len(g.chains) > 1], start, imaging)
+        unfit |= _frames_first(ctx, found, [g for g in members if len(g.chains) > 1], start, imaging)
         results = descend(ctx.oracle, vocab, start, [
             Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                     "Frames: " + "; ".join(f"{leaf} ({vocab.label(pre[leaf].cls)})" for leaf in g.leaves),
@@ -181,19 +186,22 @@ def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str],
 
 
 def _frames_first(ctx: Context, found: Findings, groups: list[Group], start: str,
-                  imaging: dict[int, list[str]]) -> dict[int, frozenset[str]]:
+                  imaging: dict[int, list[str]], classified: bool = False) -> dict[int, frozenset[str]]:
     """The frames say the device: the part a `start` device requires (a camera's optical frame) is typed at
     each imaging leaf of `groups` first (`imaging`: a group's leaves that say what it is, by id; into
     `found.parts`), and each group is not offered the classes under `start`
     that the ontology says such parts rule out (Vocabulary.unfit: colour and depth frames make an RGB-D
     camera, a depth frame no monocular camera), except the class of a catalogue product the device names where
-    only a part it needs is missing. Only for devices of several frames: a lone link may stand
-    for a whole camera (a RealSense written as one link), and its one answer cannot show colour and depth
-    together."""
+    only a part it needs is missing. For devices of several frames, and for a lone optical frame (frames.is_optical:
+    one image, colour or depth, never a whole camera's): another lone link may stand for a whole camera (a RealSense
+    written as one link), and its one answer cannot show colour and depth together. A lone frame is asked as
+    sub-part typing would ask it, its pre-class (`classified`) as its device's: only an image that class cannot
+    give changes it."""
     if not groups:
         return {}
     leaves = [leaf for g in groups for leaf in imaging[id(g)]]
-    frames = required_parts_first(ctx.oracle, ctx.vocab, ctx.tree, leaves, start, ctx.progress)
+    typed_as = {leaf: found.pre[leaf].cls for leaf in leaves} if classified else None
+    frames = required_parts_first(ctx.oracle, ctx.vocab, ctx.tree, leaves, start, ctx.progress, typed_as)
     if not frames:
         return {}
     found.parts.update(frames)
