@@ -17,7 +17,9 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
 - the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
   every static frame on its palm; where the fingers hang straight on the arm's last link (the
   mount), only static frames identified as end-effector parts join;
-- groups that end up on one mount are one tool.
+- groups that end up on one mount are one tool, and so are groups whose chains begin at one point of one body
+  (one's mount hung from the other's where a link of the other hangs: a hand written as finger joints beside its
+  tool frame on the wrist).
 A sensor device found in the sensor pass is no longer in the tree, so it is never part of a tool;
 the link it is mounted on may be (a camera on a palm).
 """
@@ -48,7 +50,8 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
         leaves = pending.pop(0)
         structure = tool_structure(tree, leaves)
         links = _extent(tree, structure, leaves, part_of_tool)
-        clash = [d for d in done if set(d[0]) & links or set(leaves) & d[2] or d[1].mount == structure.mount]
+        clash = [d for d in done if set(d[0]) & links or set(leaves) & d[2] or d[1].mount == structure.mount
+                 or _hung_together(tree, (d[1].mount, d[2]), (structure.mount, links))]
         if clash:  # this group lies on a tool already settled, or that tool on it: one tool, settled again
             done = [d for d in done if d not in clash]
             pending.append(leaves + [x for d in clash for x in d[0] if x not in leaves])
@@ -73,6 +76,24 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
             + (f"; joined by structure: {added}" if added else ""))
         settled.append((group, structure))
     return sorted(settled, key=lambda gs: tree.links.index(gs[0].chains[0].leaf))
+
+
+TOGETHER = 0.005  # m: links hung this close together on one body begin one tool (frames.body_of's 5 mm)
+
+
+def _hung_together(tree: KinematicTree, a: tuple[str, set[str]], b: tuple[str, set[str]]) -> bool:
+    """One tool's mount hangs from the other's at the point where a link of that other tool hangs from it (each:
+    its mount and its links): the chains of one tool beginning at one point (a hand whose fingers' joint and whose
+    tool frame are written side by side on the wrist), not a tool on a limb beyond another."""
+    for (mount, links), (other, _) in ((a, b), (b, a)):
+        edge = tree.parent_edge(other)
+        if edge is None or edge.parent != mount:
+            continue
+        at = tree.position_in(other, mount)
+        if any(math.dist(tree.position_in(link, mount), at) <= TOGETHER
+               for link in tree.children(mount) if link != other and link in links):
+            return True
+    return False
 
 
 def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
