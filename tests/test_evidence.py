@@ -155,10 +155,12 @@ def test_evidence_survives_condensing_and_a_change_of_evidence_misses_the_cache(
 
 def test_the_ontology_aligns_simulator_sensor_types_to_classes():
     assert TAX.declared_classes(["ray"]) == {"RangingSensor"}
-    assert TAX.declared_classes(["depth"]) == {"RGBDCamera", "DepthCamera", "DepthFrame", "InfraredFrame"}
+    assert TAX.declared_classes(["depth"]) == {"RGBDCamera", "DepthCamera", "RgbFrame", "DepthFrame", "InfraredFrame"}
     assert TAX.disagreeing(TAX.declared_classes(["wideanglecamera"]), "OpticalFrame") == {"DepthFrame"}
-    assert TAX.disagreeing(TAX.declared_classes(["depth"]), "OpticalFrame") == {"RgbFrame"}
-    assert TAX.disagreeing(TAX.declared_classes(["rgbd_camera"]), "OpticalFrame") == frozenset()
+    assert TAX.disagreeing(TAX.declared_classes(["depth_camera"]), "OpticalFrame") == {"RgbFrame"}
+    # a Gazebo classic depth sensor (openni, gazebo_ros_camera) publishes colour too, whatever its topics say
+    assert TAX.disagreeing(TAX.declared_classes(["depth"]), "OpticalFrame") == frozenset()
+    assert TAX.unformatted(["L8"], "OpticalFrame") == {"RgbFrame"} and TAX.unformatted(["R8G8B8"], "OpticalFrame") == set()
     assert TAX.declared_classes(["GPU_RAY", "no_such_type"]) == {"Lidar"}
     ruled_out = TAX.disagreeing(TAX.declared_classes(["ray"]), "Sensor")
     assert {"VisionSensor", "ContactSensor"} <= ruled_out and not {"RangingSensor", "Lidar", "Sonar"} & ruled_out
@@ -468,9 +470,10 @@ def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(s
     assert [c.cls for c in cameras] == ["RGBDCamera" if colour else "DepthCamera"]
 
 
-def _legged(seed: int, pose: str | None) -> tuple[bytes, str, str]:
+def _legged(seed: int, pose: str | None, own: bool = False) -> tuple[bytes, str, str]:
     """A pelvis on two three-joint legs, each foot carrying a frame at (0.02, 0, -0.05) and a sole frame below; the
-    left ankle declares a force-torque sensor at `pose` (Gazebo's way: on the joint). (urdf, that frame, the sole)"""
+    left ankle declares a force-torque sensor at `pose` (Gazebo's way: on the joint); `own`: that frame declares an
+    IMU of its own. (urdf, that frame, the sole)"""
     w = Writer(random.Random(seed))
     pelvis = w.link('<box size="0.2 0.3 0.1"/>', centre=(0, 0, 0), mass=5)
     frames = []
@@ -487,6 +490,8 @@ def _legged(seed: int, pose: str | None) -> tuple[bytes, str, str]:
     stated = f"<pose>{pose}</pose>" if pose is not None else ""
     block = (f'<gazebo reference="{ankle}"><sensor name="{w.name()}" type="force_torque">{stated}'
              '<update_rate>500</update_rate></sensor></gazebo>')
+    if own:
+        block += f'<gazebo reference="{at}"><sensor name="{w.name()}" type="imu"/></gazebo>'
     return w.urdf().replace(b"</robot>", block.encode() + b"</robot>"), at, sole
 
 
@@ -504,8 +509,9 @@ def test_a_sensor_declared_on_a_joint_is_the_frame_its_pose_puts_it_on(seed, tmp
 
 
 def test_a_joint_sensor_placed_nowhere_a_frame_is_belongs_to_no_link(tmp_path):
-    """No pose (iCub's force-torque joints between two bodies) or one where no frame sits: no link declares it."""
-    for pose in (None, "0.3 0 0 0 0 0"):
+    """No pose (iCub's force-torque joints between two bodies), a pose at the joint itself (the copied zero), or one
+    where no frame sits: no link declares it."""
+    for pose in (None, "0 0 0 0 0 0", "0.3 0 0 0 0 0"):
         urdf, _, _ = _legged(0, pose)
         (tmp_path / "legs.urdf").write_bytes(urdf)
         assert not any(facts.sensors for facts in load_urdf(tmp_path / "legs.urdf").evidence.values())
@@ -548,3 +554,10 @@ def test_a_frame_is_offered_only_the_images_its_declared_camera_gives(seed):
     assert {s.link: s.cls for s in camera.subcomponents if s.link != housing} == {first: "RgbFrame",
                                                                                    second: "InfraredFrame"}
     assert not any(o.startswith("depth ") for k, q in asked.items() if k.startswith("part:") for o in q.options)
+
+
+def test_a_joint_sensor_at_a_frame_declaring_its_own_sensor_is_not_that_frames(tmp_path):
+    """A foot's IMU frame sits where the ankle's force-torque sensor is declared: it stays an IMU alone."""
+    urdf, at, _ = _legged(1, "0.02 0 -0.05 3.14 0 0", own=True)
+    (tmp_path / "legs.urdf").write_bytes(urdf)
+    assert [s.type for s in load_urdf(tmp_path / "legs.urdf").evidence[at].sensors] == ["imu"]

@@ -19,8 +19,7 @@ from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
-from urdfkb.pipeline.knowledge.screen import hold_unsure, screen
-from urdfkb.settings import SENSOR_FLOOR
+from urdfkb.pipeline.knowledge.screen import SENSOR_FLOOR, hold_unsure, screen
 from urdfkb.pipeline.knowledge.shacl import validate
 
 HTML = {"Accept": "text/html"}

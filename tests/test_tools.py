@@ -297,19 +297,20 @@ def test_a_rigid_tool_on_a_gantrys_sliding_joints_stays_a_tool():
     assert [g.leaves for g, _ in settled] == [[spindle]]
 
 
-@pytest.mark.parametrize("apart", [0.0, 0.04])
-def test_chains_hung_at_one_point_of_the_arms_end_are_one_tool(apart):
+@pytest.mark.parametrize("apart, palm", [(0.0, False), (0.04, False), (0.0, True)])
+def test_chains_hung_at_one_point_of_the_arms_end_are_one_tool(apart, palm):
     """A four-joint arm whose last link carries, at one point, a bare tool frame with a one-link finger turning
     below it and a two-joint finger (its hand written as joints beside the tool frame, as PAL's are); the model
     mounts each finger on the link just above it, so they were two tools, the second on a link of the first's
-    arm. Hung at one point, they are one tool on the arm's last link; a chain hung 4 cm away stays a tool of its own."""
+    arm. Hung at one point, they are one tool on the arm's last link; a chain hung 4 cm away stays a tool of its
+    own, and so does one beside a tool's body (a palm: two tools on one flange)."""
     w = Writer(random.Random(5))
     link = w.link('<box size="0.05 0.05 0.2"/>')
     for i in range(4):
         child = w.link('<box size="0.05 0.05 0.2"/>')
         w.joint("revolute", link, child, (0.0, 0.0, 0.2 if i else 0.5), (0.0, 1.0, 0.0) if i % 2 else (0.0, 0.0, 1.0))
         link = child
-    frame, finger = w.link(), w.link('<sphere radius="0.001"/>')
+    frame, finger = w.link('<box size="0.08 0.08 0.04"/>' if palm else ""), w.link('<sphere radius="0.001"/>')
     w.joint("fixed", link, frame, (0.0, 0.0, 0.25))
     w.joint("revolute", frame, finger, axis=(0.0, 1.0, 0.0), limits=(0.0, 1.3))
     knuckle, tip = w.link('<box size="0.02 0.02 0.05"/>'), w.link('<box size="0.02 0.02 0.05"/>')
@@ -319,4 +320,4 @@ def test_chains_hung_at_one_point_of_the_arms_end_are_one_tool(apart):
     groups = [Group([sub_chain(tree, finger, frame)]), Group([sub_chain(tree, tip, knuckle)])]
     settled = settle(tree, groups, lambda leaf: True, lambda note: None)
     by_mount = {structure.mount: set(g.leaves) for g, structure in settled}
-    assert by_mount == ({link: {finger, tip}} if not apart else {link: {finger}, knuckle: {tip}})
+    assert by_mount == ({link: {finger}, knuckle: {tip}} if apart or palm else {link: {finger, tip}})

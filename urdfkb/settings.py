@@ -70,9 +70,6 @@ MAX_QUESTION = 500  # characters of a question: 400
 
 # Review
 REVIEW_THRESHOLD = 0.5  # confidence below which a component or sub-component is shown for review
-# confidence below which a sensor is held back for review, not written (pipeline.knowledge.screen): over the 37
-# truth robots every sensor under it was wrong (14), over 44 robots of other families 30 of 33 (docs/pipeline.md)
-SENSOR_FLOOR = 0.2
 
 # The client (urdfkb.client)
 CLIENT_TIMEOUT = 10.0  # seconds the client waits for the server's answer

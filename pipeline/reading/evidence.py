@@ -239,9 +239,10 @@ def _centre(link: ET.Element) -> tuple[float, float, float] | None:
 
 def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimSensor]]:
     """link → sensors declared in `<gazebo reference="link">` blocks (and at their output frame). A sensor declared
-    on a joint (Gazebo's way for a force-torque sensor) is the link's its <pose> puts it on (`_at_joint`)."""
+    on a joint (Gazebo's way for a force-torque sensor) belongs to the frame its <pose> puts it at (`_at_joint`)."""
     found: dict[str, list[SimSensor]] = {}
     joints = {j.get("name"): j for j in robot.findall("joint")}
+    declaring = {g.get("reference") for g in robot.findall("gazebo") if any(_sensor_type(e) for e in g)}
     for gazebo in robot.findall("gazebo"):
         named_link = gazebo.get("reference")
         if named_link not in known and named_link not in joints:
@@ -250,7 +251,8 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
             sensor_type = _sensor_type(element)
             if sensor_type is None:
                 continue
-            reference = named_link if named_link in known else _at_joint(robot, joints[named_link], element, known)
+            reference = (named_link if named_link in known
+                         else _at_joint(robot, joints[named_link], element, known - declaring))
             if reference is None:
                 continue
             frames = _output_frames(element, known)
@@ -266,22 +268,24 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
 AT_POSE = 0.001  # m: a frame this close to a joint sensor's <pose> is where the sensor is
 
 
-def _at_joint(robot: ET.Element, joint: ET.Element, sensor: ET.Element, known: set[str]) -> str | None:
-    """The link a sensor declared on `joint` is: the frame fixed on the joint's child at the sensor's <pose> (SDF
-    gives a joint sensor's pose in the joint's frame, URDF's child frame). None where it states no pose or no such
-    frame sits there: the joint alone places it between two bodies, no link of its own."""
+def _at_joint(robot: ET.Element, joint: ET.Element, sensor: ET.Element, free: set[str]) -> str | None:
+    """The link a sensor declared on `joint` is: the one frame among `free` (links declaring no sensor of their own)
+    fixed on the joint's child at the sensor's <pose> (SDF gives a joint sensor's pose in the joint's frame, URDF's
+    child frame). None where it states no pose, a pose at the joint itself, or no one such frame sits there: the
+    joint alone places it between two bodies, no link of its own."""
     child = joint.find("child")
     pose = _floats(sensor.findtext("pose"), 6)
-    if child is None or pose is None:
+    if child is None or pose is None or math.dist(pose[:3], (0.0, 0.0, 0.0)) <= AT_POSE:
         return None
+    at = []
     for frame in robot.findall("joint"):
         parent, link, origin = frame.find("parent"), frame.find("child"), frame.find("origin")
         if (frame.get("type") == "fixed" and parent is not None and parent.get("link") == child.get("link")
-                and link is not None and link.get("link") in known):
+                and link is not None and link.get("link") in free):
             xyz = _floats(origin.get("xyz", "0 0 0") if origin is not None else "0 0 0", 3)
             if xyz is not None and math.dist(xyz, pose[:3]) <= AT_POSE:
-                return link.get("link")
-    return None
+                at.append(link.get("link"))
+    return at[0] if len(at) == 1 else None
 
 
 def _floats(text: str | None, n: int) -> tuple[float, ...] | None:

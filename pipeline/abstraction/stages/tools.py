@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
+from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.hands import limb_length, limb_top
 from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
@@ -82,15 +83,16 @@ TOGETHER = 0.005  # m: links hung this close together on one body begin one tool
 
 
 def _hung_together(tree: KinematicTree, a: tuple[str, set[str]], b: tuple[str, set[str]]) -> bool:
-    """One tool's mount hangs from the other's at the point where a link of that other tool hangs from it (each:
-    its mount and its links): the chains of one tool beginning at one point (a hand whose fingers' joint and whose
-    tool frame are written side by side on the wrist), not a tool on a limb beyond another."""
+    """One tool's mount hangs from the other's at the point where a bare frame of that other tool hangs from it
+    (each: its mount and its links): the chains of one tool beginning at one point, beside its tool frame (a hand
+    whose finger joints and tool frame are written side by side on the wrist). Not beside a body of the other tool
+    (a gripper's palm with a suction slide next to it: two tools on one flange), nor on a limb beyond it."""
     for (mount, links), (other, _) in ((a, b), (b, a)):
         edge = tree.parent_edge(other)
         if edge is None or edge.parent != mount:
             continue
         at = tree.position_in(other, mount)
-        if any(math.dist(tree.position_in(link, mount), at) <= TOGETHER
+        if any(math.dist(tree.position_in(link, mount), at) <= TOGETHER and is_frame(tree, link)
                for link in tree.children(mount) if link != other and link in links):
             return True
     return False
