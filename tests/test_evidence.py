@@ -426,6 +426,23 @@ def test_a_depth_sensor_publishing_colour_is_an_rgbd_camera_whatever_the_model_s
     assert camera.cls == ("RGBDCamera" if colour else "DepthCamera")
 
 
+def _seeing_depth(base: str, asked: dict[str, Question] | None = None):
+    """A model that finds the sensors, mounts them on `base`, names one device, and sees depth wherever it is
+    offered: a depth camera of depth frames (as the real model did); each question into `asked`."""
+    def rule(q: Question):
+        if asked is not None:
+            asked[q.key] = q
+        stage = q.key.partition(":")[0]
+        if stage in ("check", "identify"):
+            return "sensor"
+        if stage == "root":
+            return base
+        if stage == "device":
+            return min(q.options, key=len)
+        return next((o for o in q.options if o.startswith("depth ")), q.options[0])
+    return rule
+
+
 @pytest.mark.parametrize("seed", range(3))
 @pytest.mark.parametrize("pixels, together, colour", [("B8G8R8", True, True), ("RGB_INT8", True, True),
                                                       ("L8", True, False), ("L_INT8", True, False),
@@ -457,16 +474,7 @@ def test_a_depth_sensor_beside_a_colour_camera_of_one_device_is_an_rgbd_camera(s
         urdf = urdf.replace(f'"{imager}"'.encode(), f'"{housing}_{imager}"'.encode())
     tree = load_urdf(urdf)
 
-    def rule(q: Question):  # finds the sensors, mounts them on the base, names one device, and sees depth wherever
-        stage = q.key.partition(":")[0]  # it is offered: a depth camera of depth frames (as the real model did)
-        if stage in ("check", "identify"):
-            return "sensor"
-        if stage == "root":
-            return base
-        if stage == "device":
-            return min(q.options, key=len)
-        return next((o for o in q.options if o.startswith("depth ")), q.options[0])
-    cameras = Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(tree).components
+    cameras = Abstractor(Oracle(ScriptedBackend(_seeing_depth(base))), TAX).run(tree).components
     assert [c.cls for c in cameras] == ["RGBDCamera" if colour else "DepthCamera"]
 
 
@@ -537,18 +545,7 @@ def test_a_frame_is_offered_only_the_images_its_declared_camera_gives(seed):
         urdf = urdf.replace(f'"{eye}"'.encode(), f'"{housing}_{eye}"'.encode())
     tree = load_urdf(urdf)
     asked: dict[str, Question] = {}
-
-    def rule(q: Question):
-        asked[q.key] = q
-        stage = q.key.partition(":")[0]
-        if stage in ("check", "identify"):
-            return "sensor"
-        if stage == "root":
-            return base
-        if stage == "device":
-            return min(q.options, key=len)
-        return next((o for o in q.options if o.startswith("depth ")), q.options[0])
-    [camera] = Abstractor(Oracle(ScriptedBackend(rule)), TAX).run(tree).components
+    [camera] = Abstractor(Oracle(ScriptedBackend(_seeing_depth(base, asked))), TAX).run(tree).components
     assert camera.cls == "StereoCamera"
     first, second = (f"{housing}_{eye}" for eye in eyes)
     assert {s.link: s.cls for s in camera.subcomponents if s.link != housing} == {first: "RgbFrame",

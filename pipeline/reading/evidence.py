@@ -224,14 +224,14 @@ def _centre(link: ET.Element) -> tuple[float, float, float] | None:
     """The <inertial> origin's xyz (the URDF default: the link's origin), or None without <inertial> or with a
     malformed or non-finite one."""
     inertial = link.find("inertial")
-    if inertial is None:
-        return None
-    origin = inertial.find("origin")
-    try:
-        x, y, z = (float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split())
-    except ValueError:
-        return None
-    return (x, y, z) if all(map(math.isfinite, (x, y, z))) else None
+    return _origin_xyz(inertial) if inertial is not None else None
+
+
+def _origin_xyz(element: ET.Element) -> tuple[float, float, float] | None:
+    """The xyz of `element`'s <origin> (URDF's default: 0 0 0), or None where it is malformed or not finite."""
+    origin = element.find("origin")
+    xyz = _floats(origin.get("xyz", "0 0 0") if origin is not None else "0 0 0", 3)
+    return (xyz[0], xyz[1], xyz[2]) if xyz is not None else None
 
 
 # -- simulator sensors ------------------------------------------------------------------
@@ -279,10 +279,10 @@ def _at_joint(robot: ET.Element, joint: ET.Element, sensor: ET.Element, free: se
         return None
     at = []
     for frame in robot.findall("joint"):
-        parent, link, origin = frame.find("parent"), frame.find("child"), frame.find("origin")
+        parent, link = frame.find("parent"), frame.find("child")
         if (frame.get("type") == "fixed" and parent is not None and parent.get("link") == child.get("link")
                 and link is not None and link.get("link") in free):
-            xyz = _floats(origin.get("xyz", "0 0 0") if origin is not None else "0 0 0", 3)
+            xyz = _origin_xyz(frame)
             if xyz is not None and math.dist(xyz, pose[:3]) <= AT_POSE:
                 at.append(link.get("link"))
     return at[0] if len(at) == 1 else None

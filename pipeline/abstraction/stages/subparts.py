@@ -92,9 +92,10 @@ def _undeclared(tax: Vocabulary, tree: KinematicTree, link: str, part: str) -> f
     kinds = set(tax.subclasses_below(part))
     given: set[str] = set()
     for sensor in tree.evidence[link].sensors if link in tree.evidence else ():
-        typed = tax.disagreeing(tax.declared_classes([sensor.sdf_type]), part)
-        if not typed and not tax.declared_classes([sensor.sdf_type]) & kinds:
+        declared = tax.declared_classes([sensor.sdf_type])
+        if not declared & kinds:
             return frozenset()  # a declaration saying nothing of images (an IMU's, a ranger's) allows every kind
+        typed = tax.disagreeing(declared, part)
         formatted = tax.unformatted([sensor.pixels] if sensor.pixels and sensor.sdf_type not in DEPTH_IMAGES else [], part)
         given |= kinds - typed - formatted
     return frozenset(kinds - given) if given else frozenset()  # none given: they contradict, the model decides
