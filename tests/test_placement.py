@@ -58,3 +58,25 @@ def test_nothing_is_asked_again_where_every_class_fits_its_place():
     button = by_leaf[robot.button]
     assert button.cls == "Bumper" and (button.located_on or "").startswith("mobile_base")
     assert not any(q.key.startswith("placement:") for q in asked)
+
+
+def test_a_component_asked_again_keeps_the_doubt_about_its_kind():
+    """The model takes the button for a sensor by 0.6 of its votes: asked again for its class, it keeps that
+    factor (its confidence the new class's share times 0.6, as every device's is)."""
+    robot, asked = build(0), list[Question]()
+    rule = model(robot, asked)
+
+    def doubting(q: Question):
+        answer = rule(q)
+        if q.key.startswith(f"identify:{robot.button}"):
+            other = next(o for o in q.options if o != answer)
+            return {answer: 0.6, other: 0.4}
+        return answer
+    trace = StringIO()
+    abstractor = Abstractor(Oracle(ScriptedBackend(doubting), trace=trace), TAX,
+                            reasoner=scripted_reasoner, placer=scripted_placements)
+    button = next(c for c in abstractor.run(load_urdf(robot.urdf)).components if robot.button in c.links)
+    (fired,) = [r for line in trace.getvalue().splitlines() if (r := json.loads(line))["key"] == "placement"
+                and r["component"] == button.name]
+    assert button.cls == "Button" and button.kind_share == 0.6
+    assert button.confidence == pytest.approx(fired["confidence"] * 0.6, abs=1e-4)

@@ -50,6 +50,7 @@ class Component:
     joints: tuple[str, ...] = ()      # an end-effector's own movable joints (fingers, jaws)
     located_on: str | None = None     # the name of the BodyPart carrying its mount
     side: str | None = None           # "left"/"right" where it carries its body part's side
+    kind_share: float = 1.0           # the share of the votes that took its leaves for its kind (confidence's factor)
 
     @property
     def links(self) -> tuple[str, ...]:

@@ -28,6 +28,7 @@ def device(ctx: Context, shares: dict[str, float], i: int, g: Group, t: Typed, p
         root=mount(ctx.tree, g),
         subcomponents=tuple(SubComponent(link, p.cls, round(p.confidence, 4)) for link, p in zip(g.members, links)),
         fingers=fingers,
+        kind_share=round(of_kind, 4),
     )
 
 

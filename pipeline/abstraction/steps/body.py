@@ -65,7 +65,8 @@ def placement(ctx: Context, found: Findings) -> None:
     down, without the classes the part rules out, and the trace records the restriction that fired.
     The question is its sub-chain's pre-classification (a device of several frames: its frames together),
     so only the options change. Its sub-parts stay as typed: a new class that requires other parts is
-    held back for review by the shapes (pipeline.knowledge.screen)."""
+    held back for review by the shapes (pipeline.knowledge.screen). Its confidence is the new class's share times
+    its kind's, as assembly.device gives it."""
     vocab = ctx.vocab
     sits = {p.name: p.cls for p in found.body}
     checked = [(c, sits[c.located_on]) for c in found.components if c.located_on is not None and vocab.placement(c.cls)]
@@ -82,7 +83,7 @@ def placement(ctx: Context, found: Findings) -> None:
         ctx.trace({"key": "placement", "component": comp.name, "class": comp.cls, "located_on": comp.located_on,
                    "part_class": part, "restriction": restriction, "reasked": typed.cls,
                    "confidence": round(typed.confidence, 4)})
-        found.components = [replace(c, cls=typed.cls, confidence=round(typed.confidence, 4)) if c is comp else c
+        found.components = [replace(c, cls=typed.cls, confidence=round(typed.confidence * c.kind_share, 4)) if c is comp else c
                             for c in found.components]
 
 
