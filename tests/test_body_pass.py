@@ -467,3 +467,50 @@ def test_a_wheel_with_a_contact_frame_on_its_rim_is_still_a_wheel_and_a_skid_ste
         return question.options[0]
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
     assert sorted(p.cls for p in parts) == ["MobileBase"] + ["Wheel"] * 4
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_wheel_whose_tyre_is_fixed_on_its_hub_ends_a_leg_as_a_wheel(seed):
+    """A wheel-legged robot's leg ends in a motor rotor (a narrow cylinder) that the wheel joint turns, with the hub
+    and the tyre (a wide cylinder) fixed on it and a ground-contact frame on the tyre's rim: the rotor, hub and tyre
+    are one wheel's body, so the wheel joint is a wheel candidate of its own beside the leg."""
+    w = Writer(random.Random(seed))
+    trunk = w.link('<box size="0.2 0.3 0.1"/>')
+    parent, leg = trunk, []
+    for i in range(2):
+        child = w.link('<box size="0.03 0.03 0.2"/>')
+        leg.append(w.joint("revolute", parent, child, (0.0, 0.1, 0.0) if not i else (0.0, 0.0, -0.2), (0, 1, 0)))
+        parent = child
+    rotor, hub, tyre, contact = (w.link('<cylinder radius="0.034" length="0.016"/>'), w.link(),
+                                 w.link('<cylinder radius="0.05" length="0.04"/>'), w.link())
+    spin = w.joint("continuous", parent, rotor, (0.0, 0.0, -0.2), (0, 0, 1), rpy=(1.5708, 0.0, 0.0))
+    w.joint("fixed", rotor, hub, (0.0, 0.0, 0.025))
+    w.joint("fixed", hub, tyre, (0.0, 0.0, 0.021))
+    w.joint("fixed", tyre, contact, (0.0, 0.047, 0.0))
+    tree = load_urdf(w.urdf())
+    assert hands.wheel_body(tree, rotor)
+    assert _joints(body.chains(tree, set(), set())) == {tuple(leg), (spin,)}
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_joints_that_move_bare_frames_alone_are_no_part(seed):
+    """A mower's boundary-wire and collision sensor points are bare frames (a mass, nothing drawn), each on a
+    continuous joint from the chassis so that a simulator keeps it: they move nothing of the body, so they are no
+    wheels; the drive wheels beside them, and a pan joint whose bare frame carries a camera, stay candidates."""
+    w = Writer(random.Random(seed))
+    chassis = w.link('<box size="0.6 0.4 0.2"/>')
+    points = [w.joint("continuous", chassis, w.link(centre=(0.0, 0.0, 1.0), mass=0.01), (0.3, y, 0.0))
+              for y in (-0.2, 0.0, 0.2)]
+    wheels = [w.joint("continuous", chassis, w.link('<cylinder radius="0.1" length="0.04"/>'), (-0.2, y, -0.1),
+                      (0, 1, 0)) for y in (-0.25, 0.25)]
+    pan_frame, camera = w.link(), w.link('<box size="0.03 0.1 0.03"/>')
+    pan = w.joint("revolute", chassis, pan_frame, (0.2, 0.0, 0.2))
+    w.joint("fixed", pan_frame, camera, (0.02, 0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    found = _joints(body.chains(tree, set(), set()))
+    assert found == {(wheels[0],), (wheels[1],), (pan,)} and not {(p,) for p in points} & found
+    assert _joints(body.chains(tree, set(), {camera})) == {(wheels[0],), (wheels[1],), (pan,)}  # the camera a device
+
+
+def _joints(chains) -> set[tuple[str, ...]]:
+    return {tuple(e.joint for e in c.joints) for c in chains}

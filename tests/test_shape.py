@@ -999,3 +999,18 @@ def test_a_small_quadrupeds_legs_are_legs_not_a_hands_fingers_and_its_feet_carry
     def erring(q):
         return TAX.answer(TOOL_CLS) if _leaf(q) == toe else NONE
     assert _identified(urdf, erring)[toe] != TOOL_CLS
+
+
+@pytest.mark.parametrize("seed", range(0, 60, 3))
+def test_a_robot_fixed_to_a_world_frame_on_the_floor_still_stands_on_its_feet(seed):
+    """The same legged robot with its trunk fixed to a bare `world` frame at the floor below it (files do so to
+    hang a humanoid in a simulator): its feet are the same leg tips, as when its trunk is the root."""
+    built = legged(seed)
+    tree = load_urdf(built.urdf)
+    lowest = min(tree.position_in(link, tree.root)[2] for link in tree.links)
+    text = built.urdf.decode()
+    at = text.index("<link ")
+    hung = (text[:at] + '<link name="world"/><joint name="world_fixed" type="fixed"><parent link="world"/>'
+            f'<child link="{tree.root}"/><origin xyz="0 0 {-lowest}" rpy="0 0 0"/></joint>' + text[at:]).encode()
+    standing = load_urdf(hung)
+    assert standing.root == "world" and feet(standing) == feet(tree) == _leg_tips(built, tree)

@@ -396,15 +396,15 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     of the robot's lowest link origin at the zero pose, reached from the trunk by legs (_from_trunk_by_legs) that
     part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
     underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
-    arm, parts a few centimetres above its fingertips), on a robot whose root (or trunk, below joints placing it: frames.placing_joints)
-    lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool.
+    arm, parts a few centimetres above its fingertips), on a robot whose trunk (its root, or the link below joints placing
+    it, frames.placing_joints, or below a bare frame it is fixed to: _first_body) lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool.
     A robot whose zero pose holds its legs out level with its trunk stands on none that way: its feet are those of
     its sprawled legs (_sprawled_feet)."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
     placing = placing_joints(tree)  # where joints place the robot from a frame on the floor, the trunk below them
     top = max((e.child for e in tree.edges if e.joint in placing), key=lambda x: len(tree.chain_to_root(x)),
-              default=tree.root)
+              default=_first_body(tree))
     if height[top] - lowest < STANCE:
         return _sprawled_feet(tree, top, placing)
     low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
@@ -416,6 +416,15 @@ def feet(tree: KinematicTree) -> frozenset[str]:
         return frozenset()
     legs = [leaf for leaf in limbs if _movable_between(tree, leaf, meet) >= 2]
     return frozenset(legs) if len(legs) >= 2 else frozenset()
+
+
+def _first_body(tree: KinematicTree) -> str:
+    """The root, or where the root is a bare frame (frames.is_frame) the robot hangs from by one fixed joint (a
+    `world` or footprint frame on the floor), the first link below such frames that is not one."""
+    link = tree.root
+    while is_frame(tree, link) and len(kids := tree.children(link)) == 1 and not tree.edge_to(kids[0]).movable:
+        link = kids[0]
+    return link
 
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
@@ -457,15 +466,15 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
 
 def wheel_body(tree: KinematicTree, link: str) -> bool:
     """The link spins on its joint (Edge.spins) with no movable joint below it and every frame of its rigid body
-    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis, or of its own cylinder's rim where it
-    is drawn as one (a contact frame on the rim): a wheel, a roller or a rotor. A leg's
+    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis, or of the rim of the widest cylinder
+    the body is drawn with (a contact frame on a tyre fixed to the hub the joint turns): a wheel, a roller or a rotor. A leg's
     last segment written continuous (servo legs' files leave the limits out) carries its foot's frame, or the screws
     of a shank drawn as a mesh, out from the knee; its upper joints carry joints on. A shank with no frame below it
     says nothing, and stays a wheel."""
     edge, below = tree.edge_to(link), tree.descendants(link)
-    axis, facts = unit(edge.axis), tree.evidence.get(link)
-    cylinder = facts.cylinder if facts is not None else None
-    within = ROLL_OFFSET + (cylinder[0] if cylinder else 0.0)
+    axis = unit(edge.axis)
+    radii = [c[0] for x in (link, *below) if (facts := tree.evidence.get(x)) is not None and (c := facts.cylinder)]
+    within = ROLL_OFFSET + max(radii, default=0.0)
     return edge.spins and axis is not None and not any(tree.edge_to(x).movable for x in below) \
         and all(off_axis(tree.position_in(x, link), axis) <= within for x in below)
 

@@ -4,7 +4,8 @@ Structure proposes; the ontology and the model decide. Candidates are the serial
 joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from
 which two or more chains go on), cut after a sliding joint that lifts turning ones, with a trailing joint that spins
 (continuous, or revolute with no range) and carries nothing but a wheel's body (hands.wheel_body) split off as a wheel
-candidate. A joint that follows another by <mimic>, moves nothing that moves on its own and belongs to that joint's
+candidate. A joint that moves bare frames alone (no body drawn, no device: _moves_nothing) is no candidate. A joint
+that follows another by <mimic>, moves nothing that moves on its own and belongs to that joint's
 limb (a second motor on its pivot, a linkage's bar below it: _followers) is no candidate: what it moves joins the part
 of the joint it follows. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
@@ -30,7 +31,7 @@ from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
-from urdfkb.pipeline.abstraction.frames import mirrored, placing_joints
+from urdfkb.pipeline.abstraction.frames import is_frame, mirrored, placing_joints
 from urdfkb.pipeline.abstraction import structure
 from urdfkb.pipeline.abstraction.hands import feet, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
@@ -78,7 +79,8 @@ def device_joints(tree: KinematicTree, comp: Component) -> tuple[str, ...]:
 def chains(tree: KinematicTree, owned_joints: set[str], owned_links: set[str]) -> list[Chain]:
     """Candidate chains of body joints, in document order of their first joints; no sensor mount (_mounts)."""
     placing, mounts = placing_joints(tree), _mounts(tree, owned_links)
-    movable = [e for e in tree.edges if e.movable and e.joint not in owned_joints | placing | mounts]
+    movable = [e for e in tree.edges if e.movable and e.joint not in owned_joints | placing | mounts
+               and not _moves_nothing(tree, e, owned_links)]
     followers = _followers(tree, movable)
     body = [e for e in movable if e.joint not in followers]
     names = {e.joint for e in movable}
@@ -140,6 +142,14 @@ def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
     one that spins (Edge.spins: a wheel's, whatever limits its file writes) is never a mount."""
     return frozenset(e.joint for e in tree.edges if e.movable and not e.moves and not e.spins
                      and {e.child, *tree.descendants(e.child)} <= owned_links)
+
+
+def _moves_nothing(tree: KinematicTree, edge: Edge, owned_links: set[str]) -> bool:
+    """The joint moves bare frames alone (frames.is_frame: no body drawn, none of them a device's): a point a
+    plugin reads (a mower's loop and collision sensor points, each written on a continuous joint so that a
+    simulator keeps it), no part of the body; nothing there rolls or reaches."""
+    moved = {edge.child, *tree.descendants(edge.child)}
+    return not moved & owned_links and all(is_frame(tree, link) for link in moved)
 
 
 def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:
