@@ -496,7 +496,8 @@ def test_a_wheel_whose_tyre_is_fixed_on_its_hub_ends_a_leg_as_a_wheel(seed):
 def test_joints_that_move_bare_frames_alone_are_no_part(seed):
     """A mower's boundary-wire and collision sensor points are bare frames (a mass, nothing drawn), each on a
     continuous joint from the chassis so that a simulator keeps it: they move nothing of the body, so they are no
-    wheels; the drive wheels beside them, and a pan joint whose bare frame carries a camera, stay candidates."""
+    wheels; the drive wheels beside them, a pan joint whose bare frame carries a camera, and a flipper's track drive
+    (a bare frame on a continuous joint that a transmission drives) stay candidates."""
     w = Writer(random.Random(seed))
     chassis = w.link('<box size="0.6 0.4 0.2"/>')
     points = [w.joint("continuous", chassis, w.link(centre=(0.0, 0.0, 1.0), mass=0.01), (0.3, y, 0.0))
@@ -506,10 +507,14 @@ def test_joints_that_move_bare_frames_alone_are_no_part(seed):
     pan_frame, camera = w.link(), w.link('<box size="0.03 0.1 0.03"/>')
     pan = w.joint("revolute", chassis, pan_frame, (0.2, 0.0, 0.2))
     w.joint("fixed", pan_frame, camera, (0.02, 0.0, 0.0))
-    tree = load_urdf(w.urdf())
+    flipper = w.link('<box size="0.3 0.05 0.1"/>')
+    swing = w.joint("revolute", chassis, flipper, (-0.3, 0.25, 0.0), (0, 1, 0))
+    drive = w.joint("continuous", flipper, w.link(centre=(0.0, 0.0, 0.0), mass=0.0001), axis=(0, 1, 0))
+    urdf = w.urdf().replace(b"</robot>", f'<transmission name="t"><joint name="{drive}"/></transmission></robot>'.encode())
+    tree = load_urdf(urdf)
     found = _joints(body.chains(tree, set(), set()))
-    assert found == {(wheels[0],), (wheels[1],), (pan,)} and not {(p,) for p in points} & found
-    assert _joints(body.chains(tree, set(), {camera})) == {(wheels[0],), (wheels[1],), (pan,)}  # the camera a device
+    assert found == {(wheels[0],), (wheels[1],), (pan,), (swing,), (drive,)} and not {(p,) for p in points} & found
+    assert _joints(body.chains(tree, set(), {camera})) == found  # the camera a device
 
 
 def _joints(chains) -> set[tuple[str, ...]]:

@@ -608,3 +608,29 @@ def test_a_lone_optical_frame_gives_one_image_and_that_says_the_camera(seed):
     post_classification(Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor"), state)
     assert [t.cls for t in state.post] == ["MonocularCamera", "DepthCamera", "RGBDCamera"]
     assert {f: state.parts[f].cls for f in frames} == {f: MODALITY[image[f]] for f in frames}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_bare_frame_where_a_lidars_base_is_is_that_lidar(seed):
+    """A tower carries a lidar (its base, a cylinder, and its scan frame above it) and a bare frame fixed where the
+    lidar's base is, turned as it is (the driver's frame name), beside a second lidar's base 0.2 m away. The model
+    names every frame a device of its own: the bare frame is another name for the first lidar's base, one device;
+    the second lidar, and a bare frame 1 cm off the first's base, stay devices of their own."""
+    w = Writer(random.Random(seed))
+    base, tower = w.link('<box size="0.6 0.4 0.2"/>'), w.link('<box size="0.1 0.1 0.4"/>')
+    w.joint("fixed", base, tower, (-0.2, 0.0, 0.2))
+    leaves = []
+    for x in (0.0, 0.2):
+        lidar, scan = w.link('<cylinder radius="0.05" length="0.07"/>'), w.link()
+        w.joint("fixed", tower, lidar, (x, 0.0, 0.35))
+        w.joint("fixed", lidar, scan, (0.0, 0.0, 0.04))
+        leaves.append(scan)
+    alias, apart = w.link(), w.link()
+    w.joint("fixed", tower, alias, (0.0, 0.0, 0.35))
+    w.joint("fixed", tower, apart, (0.0, 0.01, 0.35))
+    tree = load_urdf(w.urdf())
+    frames = [*leaves, alias, apart]
+    chains = [sub_chain(tree, frame, tower) for frame in frames]
+    oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
+    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "RangingSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([leaves[0], alias]), [leaves[1]], [apart]])

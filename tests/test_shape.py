@@ -1014,3 +1014,21 @@ def test_a_robot_fixed_to_a_world_frame_on_the_floor_still_stands_on_its_feet(se
             f'<child link="{tree.root}"/><origin xyz="0 0 {-lowest}" rpy="0 0 0"/></joint>' + text[at:]).encode()
     standing = load_urdf(hung)
     assert standing.root == "world" and feet(standing) == feet(tree) == _leg_tips(built, tree)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_contact_sensors_declared_on_the_trunk_are_sensors_and_on_feet_are_left_to_the_model(seed):
+    """A Gazebo contact sensor declared on a panel fixed to the trunk (a bumper) says the panel is a sensor, whatever
+    the model thinks; declared on a leg's foot it also reports where the robot stands, so the model decides there."""
+    built = legged(seed)
+    tree = load_urdf(built.urdf)
+    foot = sorted(_leg_tips(built, tree))[0]
+    text = built.urdf.decode()
+    panel = ('<link name="panel"><collision><geometry><box size="0.01 0.25 0.05"/></geometry></collision></link>'
+             f'<joint name="panel_joint" type="fixed"><parent link="{tree.root}"/><child link="panel"/>'
+             '<origin xyz="0.3 0 0" rpy="0 0 0"/></joint>')
+    declared = "".join(f'<gazebo reference="{link}"><sensor name="{link}_contact" type="contact"><contact>'
+                       f'<collision>{link}_collision</collision></contact></sensor></gazebo>' for link in ("panel", foot))
+    urdf = text.replace("</robot>", panel + declared + "</robot>").encode()
+    claims = _identified(urdf, lambda q: "none" if "none" in q.options else q.options[-1])
+    assert claims["panel"] == TAX.kinds["sensor"].cls and claims.get(foot) != TAX.kinds["sensor"].cls

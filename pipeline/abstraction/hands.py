@@ -374,17 +374,17 @@ def spinning_low(tree: KinematicTree) -> frozenset[str]:
 
 
 def spinning_on_trunk(tree: KinematicTree) -> frozenset[str]:
-    """Leaves that spin on their own joint (continuous, or revolute with no range given) from the trunk (_on_trunk),
+    """Leaves that spin on their own joint (continuous, or revolute with no range given) from the trunk (on_trunk),
     two or more of them: wheels, rotors, propellers, thrusters; never a tool, whose jaws and fingers close over a
     bounded arc at a limb's end (a gripper's own spinning drive screw hangs below the arm's joints). A lone spinner
     (a spindle, a mower's blade) is left to the model."""
     placing = placing_joints(tree)
     spinning = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None and tree.edge_to(leaf).spins
-                and _on_trunk(tree, tree.edge_to(leaf).parent, placing)]
+                and on_trunk(tree, tree.edge_to(leaf).parent, placing)]
     return frozenset(spinning) if len(spinning) >= 2 else frozenset()
 
 
-def _on_trunk(tree: KinematicTree, link: str, placing: frozenset[str]) -> bool:
+def on_trunk(tree: KinematicTree, link: str, placing: frozenset[str]) -> bool:
     """No joint that turns or slides lies between the root and `link` but those placing the whole robot
     (frames.placing_joints): the link is part of the trunk."""
     return not any(tree.edge_to(x).joint_type in _SWINGS and tree.edge_to(x).joint not in placing
@@ -486,13 +486,13 @@ def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:
 
 
 def _from_trunk_by_legs(tree: KinematicTree, tip: str, tips: set[str], placing: frozenset[str]) -> bool:
-    """Between the trunk (_on_trunk) and `tip`, no link where limbs to two of `tips` or more part carries a moving
+    """Between the trunk (on_trunk) and `tip`, no link where limbs to two of `tips` or more part carries a moving
     subtree that ends at none of them: the limb leaves the trunk, or a pelvis carrying only legs, as a leg does (its
     own bars, toes and springs aside). The fingertips of an upper body's hands hanging lowest pass a torso that
     carries a head beside the arms: no feet."""
     path = tree.chain_to_root(tip)
     for link in path[1:]:
-        if _on_trunk(tree, link, placing):
+        if on_trunk(tree, link, placing):
             return True  # the trunk: limbs leave it
         ends_at_tip = {c: bool(tips & {c, *tree.descendants(c)}) for c in tree.children(link)}
         if sum(ends_at_tip.values()) < 2:

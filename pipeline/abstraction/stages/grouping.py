@@ -32,6 +32,8 @@ most: a camera on its tilt motor): the mount cannot be raised above the motion.
 One ranger, one device: two sub-chains each declaring a ray sensor or a depth camera of its own (no declaration in
 common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
 plugin; a sensor head's time-of-flight cameras, each with its own depth image).
+One place, one device: a bare frame fixed where a link of a near sub-chain of its category is, turned as it is, on the
+same parent, is another name for that link (_alias: a driver's `velodyne` frame beside the lidar's own base).
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
 publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
@@ -50,7 +52,7 @@ from urdfkb.pipeline.abstraction.prompts import device_name_question
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
-from urdfkb.pipeline.abstraction.frames import body_of, is_frame, is_optical, viewpoints
+from urdfkb.pipeline.abstraction.frames import SAME_PLACE, body_of, is_frame, is_optical, viewpoints
 from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
 from urdfkb.pipeline.abstraction.vectors import dot, sub
@@ -179,6 +181,19 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
+def _alias(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """The leaf of one sub-chain is a bare frame fixed to the parent of a link of the other, where that link is and
+    turned as it is: another name for that link (a driver's frame written beside a lidar's own base)."""
+    def alias(x: SubChain, y: SubChain) -> bool:
+        edge = tree.parent_edge(x.leaf)
+        if edge is None or edge.movable or not is_frame(tree, x.leaf):
+            return False
+        return any((other := tree.parent_edge(link)) is not None and other.parent == edge.parent and link != x.leaf
+                   and not other.movable and math.dist(other.origin.xyz, edge.origin.xyz) < SAME_PLACE
+                   and math.dist(other.origin.rpy, edge.origin.rpy) < SAME_PLACE for link in y.links)
+    return alias(a, b) or alias(b, a)
+
+
 def _two_rangers(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     """Each of the two sub-chains declares a ray or depth sensor of its own (_rangers), none in common."""
     shared = set(a.links) & set(b.links)  # one chain may hang below the other's sensor
@@ -260,7 +275,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
-        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b)) for j, b in enumerate(chains)]
+        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or _alias(tree, a, b))
+                  for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
         device = _device_names(oracle, chains, joinable,

@@ -7,9 +7,9 @@ from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
-                                              off_limb_ends, on_feet, palm, rolling, spinning_low, spinning_on_trunk,
-                                              swinging_leaves)
-from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, rods
+                                              off_limb_ends, on_feet, on_trunk, palm, rolling, spinning_low,
+                                              spinning_on_trunk, swinging_leaves)
+from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, placing_joints, rods
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
@@ -71,12 +71,14 @@ def _body(tree: KinematicTree, link: str) -> bool:
 
 
 def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
-    """The file declares on `leaf` a simulator sensor the ontology aligns to a sensor class other than a contact
-    sensor's: a camera, ranging, inertial, force-torque... declaration is made for what measures. (A contact
-    declaration also reports collisions of feet and fingertips, so those are left to the model.)"""
+    """The file declares on `leaf` a simulator sensor the ontology aligns to a sensor class: a camera, ranging,
+    inertial, force-torque... declaration is made for what measures. A contact declaration counts only on a leaf
+    fixed to the trunk (a bumper panel on the base); on a limb it also reports the collisions of a foot or a
+    fingertip, so those are left to the model."""
     vocab = ctx.vocab
     if SENSOR not in vocab.kinds:
         return False
     top, contact = vocab.kinds[SENSOR].cls, vocab.declared_classes(["contact"])  # SDF's sensor type
     declared = vocab.declared_classes(s.sdf_type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
-    return any(vocab.is_a(c, top) and not any(vocab.is_a(c, k) for k in contact) for c in declared)
+    fixed = on_trunk(tree, leaf, placing_joints(tree))
+    return any(vocab.is_a(c, top) and (fixed or not any(vocab.is_a(c, k) for k in contact)) for c in declared)
