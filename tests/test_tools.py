@@ -321,3 +321,30 @@ def test_chains_hung_at_one_point_of_the_arms_end_are_one_tool(apart, palm):
     settled = settle(tree, groups, lambda leaf: True, lambda note: None)
     by_mount = {structure.mount: set(g.leaves) for g, structure in settled}
     assert by_mount == ({link: {finger}, knuckle: {tip}} if apart or palm else {link: {finger, tip}})
+
+
+@pytest.mark.parametrize("seed", [41, 42])
+def test_a_thumb_written_as_one_link_closes_on_the_fingers_where_its_mass_is(seed):
+    """Two fingers of two links side by side curl the same way; a thumb across from them is one link whose frame
+    lies on its hinge, its centre of mass 0.03 m out along it: at its frame nothing moves, so it is read where its
+    mass is and closes on both fingers (on the code before: no finger at all, the hand a plain end effector)."""
+    w = Writer(random.Random(seed))
+    link = w.link('<box size="0.3 0.3 0.1"/>')
+    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
+        link = child
+    fingers = []
+    for x in (0.015, -0.015):
+        proximal, distal, tip = w.link('<box size="0.01 0.01 0.03"/>'), w.link('<box size="0.01 0.01 0.03"/>'), w.link()
+        w.joint("revolute", link, proximal, (x, 0.01, 0.05), (1.0, 0.0, 0.0), (0.0, 1.0))
+        w.joint("revolute", proximal, distal, (0.0, 0.0, 0.03), (1.0, 0.0, 0.0), (0.0, 1.0))
+        w.joint("fixed", distal, tip, (0.0, 0.0, 0.03))
+        fingers.append((proximal, tip))
+    thumb = w.link('<box size="0.01 0.01 0.06"/>', centre=(0.0, 0.0, 0.03))
+    w.joint("revolute", link, thumb, (0.0, -0.03, 0.05), (-1.0, 0.0, 0.0), (0.0, 1.0))
+    tree = load_urdf(w.urdf())
+    structure = tool_structure(tree, [thumb, *(tip for _, tip in fingers)])
+    opposes = {f.name: set(f.opposes) for f in structure.fingers}
+    assert opposes[thumb] == {proximal for proximal, _ in fingers}
+    assert all(opposes[proximal] == {thumb} for proximal, _ in fingers)

@@ -168,7 +168,8 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         if len(again.fingers) > len(structure.fingers):
             return again
     jaws = {a for a in bodies - linkages if chains[a][0] == (a,) and (f := tree.evidence.get(a)) and f.centre}
-    if not structure.fingers and len(jaws) >= 2:  # jaws written as one link each, their frames on their hinges
+    if not structure.fingers and jaws and len(bodies - linkages) >= 2:  # a jaw or thumb written as one link, its
+        # frame on its hinge, closing on another jaw or on fingers
         again = _structure_at(tree, fork, chains, bodies, linkages, pose, at_mass=frozenset(jaws))
         if again.fingers:
             return again
