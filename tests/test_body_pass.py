@@ -519,3 +519,44 @@ def test_joints_that_move_bare_frames_alone_are_no_part(seed):
 
 def _joints(chains) -> set[tuple[str, ...]]:
     return {tuple(e.joint for e in c.joints) for c in chains}
+
+
+def test_a_cylinder_off_the_axis_or_a_frame_beyond_it_along_the_axis_makes_no_wheel():
+    """Only a cylinder drawn around the spinning joint's axis lets frames lie out to its rim, and only beside it
+    along the axis: a servo ankle (written without limits) whose foot carries a round pad 3.5 cm below the axis and a
+    sole frame under it, and a continuous wrist whose flange adapter is a cylinder on the axis with a tool point
+    4 cm off the axis and 10 cm out along it, spin no wheel's body."""
+    w = Writer(random.Random(3))
+    shank, foot, pad, sole = (w.link('<box size="0.03 0.03 0.2"/>'), w.link('<box size="0.04 0.04 0.03"/>'),
+                              w.link('<cylinder radius="0.05" length="0.01"/>'), w.link())
+    w.joint("revolute", w.link('<box size="0.3 0.2 0.1"/>'), shank, (0.0, 0.1, 0.0), (0, 1, 0))
+    w.joint("continuous", shank, foot, (0.0, 0.0, -0.2), (0, 1, 0))
+    w.joint("fixed", foot, pad, (0.0, 0.0, -0.035))
+    w.joint("fixed", pad, sole, (0.0, 0.0, -0.005))
+    wrist, adapter, tip = w.link('<box size="0.05 0.05 0.05"/>'), w.link('<cylinder radius="0.05" length="0.02"/>'), w.link()
+    w.joint("continuous", shank, wrist, (0.1, 0.0, 0.0), (0, 0, 1))
+    w.joint("fixed", wrist, adapter, (0.0, 0.0, 0.01))
+    w.joint("fixed", adapter, tip, (0.04, 0.0, 0.1))
+    tree = load_urdf(w.urdf())
+    assert not hands.wheel_body(tree, foot) and not hands.wheel_body(tree, wrist)
+
+
+def test_a_drive_a_ros2_control_block_commands_and_an_undrawn_arm_keep_their_joints():
+    """A flipper's track drive (a bare frame on a continuous joint) that a <ros2_control> block commands is driven as
+    one a <transmission> names; an arm written for kinematics alone (masses, nothing drawn) keeps its joints: only a
+    joint hung from a drawn body can move nothing."""
+    w = Writer(random.Random(12))
+    chassis, flipper = w.link('<box size="0.6 0.4 0.2"/>'), w.link('<box size="0.3 0.05 0.1"/>')
+    swing = w.joint("revolute", chassis, flipper, (0.3, 0.25, 0.0), (0, 1, 0))
+    drive = w.joint("continuous", flipper, w.link(centre=(0.0, 0.0, 0.0), mass=0.0001), axis=(0, 1, 0))
+    link, arm = w.link(centre=(0.0, 0.0, 0.0)), []
+    w.joint("fixed", chassis, link, (0.0, 0.0, 0.1))
+    for i in range(6):
+        child = w.link(centre=(0.0, 0.0, 0.05), mass=1.0)
+        arm.append(w.joint("revolute", link, child, (0.0, 0.0, 0.1), (0, 0, 1) if i % 2 == 0 else (0, 1, 0)))
+        link = child
+    block = (f'<ros2_control name="tracks" type="system"><hardware><plugin>x</plugin></hardware><joint name="{drive}">'
+             '<command_interface name="velocity"/><state_interface name="position"/></joint></ros2_control>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    assert next(e for e in tree.edges if e.joint == drive).driven
+    assert {(swing,), (drive,), tuple(arm)} <= _joints(body.chains(tree, set(), set()))

@@ -634,3 +634,25 @@ def test_a_bare_frame_where_a_lidars_base_is_is_that_lidar(seed):
     oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
     groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "RangingSensor"))
     assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([leaves[0], alias]), [leaves[1]], [apart]])
+
+
+def test_a_bare_frame_where_two_devices_links_are_names_neither():
+    """Two lidars written with their macros' default pose, both bases at the tower's origin, and a bare frame there
+    too: it could name either, so it joins neither."""
+    w = Writer(random.Random(8))
+    base, tower = w.link('<box size="0.6 0.4 0.2"/>'), w.link('<box size="0.1 0.1 0.4"/>')
+    w.joint("fixed", base, tower, (-0.2, 0.0, 0.2))
+    leaves = []
+    for _ in range(2):
+        lidar, scan = w.link('<cylinder radius="0.05" length="0.07"/>'), w.link()
+        w.joint("fixed", tower, lidar)
+        w.joint("fixed", lidar, scan, (0.0, 0.0, 0.04))
+        leaves.append(scan)
+    alias = w.link()
+    w.joint("fixed", tower, alias)
+    tree = load_urdf(w.urdf())
+    frames = [*leaves, alias]
+    chains = [sub_chain(tree, frame, tower) for frame in frames]
+    oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))
+    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "RangingSensor"))
+    assert [alias] in [g.leaves for g in groups]

@@ -1017,18 +1017,38 @@ def test_a_robot_fixed_to_a_world_frame_on_the_floor_still_stands_on_its_feet(se
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_contact_sensors_declared_on_the_trunk_are_sensors_and_on_feet_are_left_to_the_model(seed):
-    """A Gazebo contact sensor declared on a panel fixed to the trunk (a bumper) says the panel is a sensor, whatever
-    the model thinks; declared on a leg's foot it also reports where the robot stands, so the model decides there."""
-    built = legged(seed)
-    tree = load_urdf(built.urdf)
-    foot = sorted(_leg_tips(built, tree))[0]
-    text = built.urdf.decode()
-    panel = ('<link name="panel"><collision><geometry><box size="0.01 0.25 0.05"/></geometry></collision></link>'
-             f'<joint name="panel_joint" type="fixed"><parent link="{tree.root}"/><child link="panel"/>'
-             '<origin xyz="0.3 0 0" rpy="0 0 0"/></joint>')
-    declared = "".join(f'<gazebo reference="{link}"><sensor name="{link}_contact" type="contact"><contact>'
-                       f'<collision>{link}_collision</collision></contact></sensor></gazebo>' for link in ("panel", foot))
-    urdf = text.replace("</robot>", panel + declared + "</robot>").encode()
-    claims = _identified(urdf, lambda q: "none" if "none" in q.options else q.options[-1])
-    assert claims["panel"] == TAX.kinds["sensor"].cls and claims.get(foot) != TAX.kinds["sensor"].cls
+def test_contact_sensors_declared_on_a_wheeled_trunk_are_sensors_and_elsewhere_left_to_the_model(seed):
+    """A Gazebo contact sensor declared on a panel fixed to the trunk of a robot on wheels (a bumper) says the panel
+    is a sensor, whatever the model thinks; declared on a legged robot's trunk (a skid it lands on) or foot, it also
+    reports touching the ground, so the model decides there."""
+    for make in (wheeled, legged):
+        built = make(seed)
+        tree = load_urdf(built.urdf)
+        foot = sorted(_leg_tips(built, tree))[0] if make is legged else None
+        panel = ('<link name="panel"><collision><geometry><box size="0.01 0.25 0.05"/></geometry></collision></link>'
+                 f'<joint name="panel_joint" type="fixed"><parent link="{tree.root}"/><child link="panel"/>'
+                 '<origin xyz="0.3 0 0" rpy="0 0 0"/></joint>')
+        declared = "".join(f'<gazebo reference="{link}"><sensor name="{link}_contact" type="contact"><contact>'
+                           f'<collision>{link}_collision</collision></contact></sensor></gazebo>'
+                           for link in ("panel", foot) if link)
+        urdf = built.urdf.decode().replace("</robot>", panel + declared + "</robot>").encode()
+        claims = _identified(urdf, lambda q: "none" if "none" in q.options else q.options[-1])
+        sensor = TAX.kinds["sensor"].cls
+        assert (claims["panel"] == sensor) == (make is wheeled), (make.__name__, seed)
+        assert foot is None or claims.get(foot) != sensor
+
+
+def test_the_swivel_casters_of_a_base_on_a_footprint_frame_are_no_feet():
+    """A wheeled base fixed 0.2 m above a bare footprint frame on the floor, on two drive wheels and two swivel
+    casters (a continuous swivel carrying a continuous wheel, its centre 3 cm up): the casters' wheels roll, they
+    are no feet (so a gripper's fingers on its arm are measured against no legs)."""
+    w = Writer(random.Random(4))
+    footprint, base = w.link(), w.link('<box size="0.5 0.4 0.15"/>')
+    w.joint("fixed", footprint, base, (0.0, 0.0, 0.2))
+    for y in (0.2, -0.2):
+        w.joint("continuous", base, w.link('<cylinder radius="0.1" length="0.04"/>'), (0.0, y, -0.1), (0, 1, 0))
+        swivel, wheel = w.link('<box size="0.02 0.02 0.1"/>'), w.link('<cylinder radius="0.03" length="0.02"/>')
+        w.joint("continuous", base, swivel, (-0.2, y / 2, -0.1), (0, 0, 1))
+        w.joint("continuous", swivel, wheel, (-0.03, 0.0, -0.07), (0, 1, 0))
+    tree = load_urdf(w.urdf())
+    assert feet(tree) == frozenset()

@@ -396,18 +396,18 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     of the robot's lowest link origin at the zero pose, reached from the trunk by legs (_from_trunk_by_legs) that
     part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
     underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
-    arm, parts a few centimetres above its fingertips), on a robot whose trunk (its root, or the link below joints placing
-    it, frames.placing_joints, or below a bare frame it is fixed to: _first_body) lies STANCE above that point and that has two such tips at least. Where a limb ends there is a foot, not a tool.
-    A robot whose zero pose holds its legs out level with its trunk stands on none that way: its feet are those of
-    its sprawled legs (_sprawled_feet)."""
+    arm, parts a few centimetres above its fingertips), on a robot whose trunk (_trunk) lies STANCE above that
+    point and that has two such tips at least. Where a limb ends there is a foot, not a tool; a wheel's body
+    (wheel_body: a caster's wheel on its swivel) rolls and is none. A robot whose zero pose holds its legs out
+    level with its trunk stands on none that way: its feet are those of its sprawled legs (_sprawled_feet)."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
-    placing = placing_joints(tree)  # where joints place the robot from a frame on the floor, the trunk below them
-    top = max((e.child for e in tree.edges if e.joint in placing), key=lambda x: len(tree.chain_to_root(x)),
-              default=_first_body(tree))
+    placing = placing_joints(tree)
+    top = _trunk(tree, placing)
     if height[top] - lowest < STANCE:
         return _sprawled_feet(tree, top, placing)
-    low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2]
+    low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2
+           and not _rolls(tree, leaf)]
     limbs = [leaf for leaf in low if _from_trunk_by_legs(tree, leaf, set(low), placing)]
     if len(limbs) < 2:
         return frozenset()
@@ -418,13 +418,23 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     return frozenset(legs) if len(legs) >= 2 else frozenset()
 
 
-def _first_body(tree: KinematicTree) -> str:
-    """The root, or where the root is a bare frame (frames.is_frame) the robot hangs from by one fixed joint (a
-    `world` or footprint frame on the floor), the first link below such frames that is not one."""
+def _trunk(tree: KinematicTree, placing: frozenset[str]) -> str:
+    """The link a robot's limbs hang from: below the joints placing it (frames.placing_joints), or the link that
+    the run of bare frames from the root (frames.is_frame, each the parent of one link by a fixed joint: a `world`
+    or footprint frame) ends at."""
+    if placing:
+        return max((e.child for e in tree.edges if e.joint in placing), key=lambda x: len(tree.chain_to_root(x)))
     link = tree.root
     while is_frame(tree, link) and len(kids := tree.children(link)) == 1 and not tree.edge_to(kids[0]).movable:
         link = kids[0]
     return link
+
+
+def _rolls(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf belongs to the rigid body of the nearest link above it (itself included) that a joint moves, and
+    that body is a wheel's (wheel_body)."""
+    moved = next((x for x in tree.chain_to_root(leaf)[:-1] if tree.edge_to(x).movable), None)
+    return moved is not None and wheel_body(tree, moved)
 
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
@@ -466,17 +476,35 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
 
 def wheel_body(tree: KinematicTree, link: str) -> bool:
     """The link spins on its joint (Edge.spins) with no movable joint below it and every frame of its rigid body
-    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis, or of the rim of the widest cylinder
-    the body is drawn with (a contact frame on a tyre fixed to the hub the joint turns): a wheel, a roller or a rotor. A leg's
-    last segment written continuous (servo legs' files leave the limits out) carries its foot's frame, or the screws
-    of a shank drawn as a mesh, out from the knee; its upper joints carry joints on. A shank with no frame below it
-    says nothing, and stays a wheel."""
+    (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis, or of the rim of a cylinder of the body
+    drawn around the axis, beside it along the axis (_tread): a wheel, a roller or a rotor, a contact frame on its
+    tyre. A leg's last segment written continuous (servo legs' files leave the limits out) carries its foot's
+    frame, or the screws of a shank drawn as a mesh, out from the knee; its upper joints carry joints on. A shank
+    with no frame below it says nothing, and stays a wheel."""
     edge, below = tree.edge_to(link), tree.descendants(link)
     axis = unit(edge.axis)
-    radii = [c[0] for x in (link, *below) if (facts := tree.evidence.get(x)) is not None and (c := facts.cylinder)]
-    within = ROLL_OFFSET + max(radii, default=0.0)
-    return edge.spins and axis is not None and not any(tree.edge_to(x).movable for x in below) \
-        and all(off_axis(tree.position_in(x, link), axis) <= within for x in below)
+    if not edge.spins or axis is None or any(tree.edge_to(x).movable for x in below):
+        return False
+    treads = [tread for x in (link, *below) if (tread := _tread(tree, link, x, axis)) is not None]
+    return all(_on_wheel(tree.position_in(x, link), axis, treads) for x in below)
+
+
+def _tread(tree: KinematicTree, link: str, x: str, axis: Vector) -> tuple[float, float, float] | None:
+    """Where `x` of the rigid body of spinning `link` is drawn as a cylinder whose origin lies on the axis (within
+    ROLL_OFFSET): its position along the axis, its radius and its half length."""
+    facts = tree.evidence.get(x)
+    cylinder = facts.cylinder if facts is not None else None
+    at = tree.position_in(x, link)
+    if cylinder is None or off_axis(at, axis) > ROLL_OFFSET:
+        return None
+    return dot(at, axis), cylinder[0], cylinder[1] / 2
+
+
+def _on_wheel(point: Vector, axis: Vector, treads: list[tuple[float, float, float]]) -> bool:
+    """The point lies within ROLL_OFFSET of the axis, or of the rim of a tread beside it along the axis."""
+    out, along = off_axis(point, axis), dot(point, axis)
+    return out <= ROLL_OFFSET or any(out <= ROLL_OFFSET + radius and abs(along - centre) <= half + ROLL_OFFSET
+                                     for centre, radius, half in treads)
 
 
 def _movable_between(tree: KinematicTree, link: str, ancestor: str) -> int:

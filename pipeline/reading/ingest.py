@@ -314,12 +314,12 @@ def _tree_from(model: yourdfpy.URDF, robot: ET.Element, sha256: str) -> Kinemati
     validated_links = tuple(link.get("name") for link in robot.findall("link"))
     if links != validated_links or [j.name for j in model.robot.joints] != list(written):
         raise URDFError("yourdfpy read other links or joints than were validated", "robot")
-    actuated = _transmitted_joints(robot)
-    edges = tuple(_edge(j, written[j.name], j.name in actuated) for j in model.robot.joints)
+    actuated, commanded = _transmitted_joints(robot), _commanded_joints(robot)
+    edges = tuple(_edge(j, written[j.name], j.name in actuated, j.name in commanded) for j in model.robot.joints)
     return KinematicTree(model.robot.name, links, edges, evidence.extract(robot, links), sha256)
 
 
-def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:
+def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool, commanded: bool) -> Edge:
     axis, limit, mimic = (element.find(tag) for tag in ("axis", "limit", "mimic"))
     lower, upper = (None, None) if limit is None else (limit.get("lower"), limit.get("upper"))
     lower_upper = (float(lower), float(upper)) if lower is not None and upper is not None else None
@@ -330,6 +330,7 @@ def _edge(joint: yourdfpy.Joint, element: ET.Element, actuated: bool) -> Edge:
         mimic=mimic.get("joint") if mimic is not None else None,
         mimic_multiplier=float(mimic.get("multiplier", "1")) if mimic is not None else 1.0,
         actuated=actuated,
+        commanded=commanded,
         velocity=_number(limit, "velocity"),
         effort=_number(limit, "effort"),
         mimic_offset=float(mimic.get("offset", "0")) if mimic is not None else 0.0,
@@ -349,6 +350,12 @@ def _transmitted_joints(robot: ET.Element) -> set[str]:
         for element in transmission.iter()
         if element.tag in ("joint", "gap_joint") and (name := element.get("name"))
     }
+
+
+def _commanded_joints(robot: ET.Element) -> set[str]:
+    """Joints a <ros2_control> block commands: its <joint name=...> with a <command_interface>."""
+    return {name for block in robot.iter("ros2_control") for joint in block.iter("joint")
+            if (name := joint.get("name")) and joint.find("command_interface") is not None}
 
 
 def _origin(element: ET.Element | None) -> Origin:

@@ -28,7 +28,7 @@ class Edge:
     `axis` is in the joint (child) frame, (1, 0, 0) where the URDF gives none; `limits` is (lower, upper)
     where a <limit> gives them, `velocity` and `effort` its other two bounds; `mimic` names the joint this
     one follows (position = mimic_multiplier x that joint's + mimic_offset); `actuated` says a
-    <transmission> names the joint.
+    <transmission> names the joint, `commanded` that a <ros2_control> block gives it a command interface.
     """
 
     joint: str
@@ -44,6 +44,12 @@ class Edge:
     velocity: float | None = None
     effort: float | None = None
     mimic_offset: float = 0.0
+    commanded: bool = False
+
+    @property
+    def driven(self) -> bool:
+        """A motor drives it: a <transmission> or a <ros2_control> command interface names it."""
+        return self.actuated or self.commanded
 
     @property
     def movable(self) -> bool:

@@ -4,11 +4,10 @@ Structure proposes; the ontology and the model decide. Candidates are the serial
 joints (not those placing the whole robot: frames.placing_joints) between branch points (a link from
 which two or more chains go on), cut after a sliding joint that lifts turning ones, with a trailing joint that spins
 (continuous, or revolute with no range) and carries nothing but a wheel's body (hands.wheel_body) split off as a wheel
-candidate. A joint that moves bare frames alone (no body drawn, no device) and that no transmission drives
-(_moves_nothing) is no candidate. A joint
-that follows another by <mimic>, moves nothing that moves on its own and belongs to that joint's
-limb (a second motor on its pivot, a linkage's bar below it: _followers) is no candidate: what it moves joins the part
-of the joint it follows. The code asserts what structure says of
+candidate. A joint hung from a drawn body that moves bare frames alone (no body drawn, no device) and that no
+motor drives (_moves_nothing) is no candidate. A joint that follows another by <mimic>, moves nothing that moves
+on its own and belongs to that joint's limb (a second motor on its pivot, a linkage's bar below it: _followers) is
+no candidate: what it moves joins the part of the joint it follows. The code asserts what structure says of
 each (its joint types, the devices on its links, the candidates hanging from it, whether it reaches
 the ground) and the reasoner applies the ontology's sufficient conditions for the BodyPart classes
 (a part carrying an end-effector off the ground is an arm, ...). The model classifies the
@@ -146,12 +145,12 @@ def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
 
 
 def _moves_nothing(tree: KinematicTree, edge: Edge, owned_links: set[str]) -> bool:
-    """The joint moves bare frames alone (frames.is_frame: no body drawn, none of them a device's) and no
-    transmission drives it: a point a plugin reads (a mower's loop and collision sensor points, each written on a
-    continuous joint so that a simulator keeps it), no part of the body. A driven one is a motor's (a flipper's
-    track drive, its track drawn on the flipper): it moves what the file draws elsewhere."""
+    """The joint hangs from a drawn body and moves bare frames alone (frames.is_frame: nothing drawn, none of them a
+    device's), and no motor drives it (Edge.driven): a point a simulator plugin reads, no part of the body. A driven
+    one moves what the file draws elsewhere; a file drawing nothing at all still has its joints."""
     moved = {edge.child, *tree.descendants(edge.child)}
-    return not edge.actuated and not moved & owned_links and all(is_frame(tree, link) for link in moved)
+    return not edge.driven and not is_frame(tree, edge.parent) and not moved & owned_links \
+        and all(is_frame(tree, link) for link in moved)
 
 
 def _upper(tree: KinematicTree, edge: Edge, body: set[str]) -> str | None:

@@ -33,7 +33,8 @@ One ranger, one device: two sub-chains each declaring a ray sensor or a depth ca
 common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
 plugin; a sensor head's time-of-flight cameras, each with its own depth image).
 One place, one device: a bare frame fixed where a link of a near sub-chain of its category is, turned as it is, on the
-same parent, is another name for that link (_alias: a driver's `velodyne` frame beside the lidar's own base).
+same parent (and of no other sub-chain), is another name for that link (_aliases: a driver's `velodyne` frame beside
+the lidar's own base).
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
 publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
@@ -62,6 +63,7 @@ ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis wi
 VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
+SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are turned alike
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
 
@@ -181,17 +183,29 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
-def _alias(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """The leaf of one sub-chain is a bare frame fixed to the parent of a link of the other, where that link is and
-    turned as it is: another name for that link (a driver's frame written beside a lidar's own base)."""
-    def alias(x: SubChain, y: SubChain) -> bool:
-        edge = tree.parent_edge(x.leaf)
-        if edge is None or edge.movable or not is_frame(tree, x.leaf):
-            return False
-        return any((other := tree.parent_edge(link)) is not None and other.parent == edge.parent and link != x.leaf
-                   and not other.movable and math.dist(other.origin.xyz, edge.origin.xyz) < SAME_PLACE
-                   and math.dist(other.origin.rpy, edge.origin.rpy) < SAME_PLACE for link in y.links)
-    return alias(a, b) or alias(b, a)
+def _aliases(tree: KinematicTree, chains: list[SubChain]) -> set[tuple[int, int]]:
+    """The pairs of sub-chains (both ways) where the leaf of one is a bare frame fixed where a link of the other, and
+    of no third, is fixed on the same parent, turned as it is: another name for that link (a driver's frame written
+    beside a lidar's own base)."""
+    found: set[tuple[int, int]] = set()
+    for i, a in enumerate(chains):
+        if not is_frame(tree, a.leaf):
+            continue
+        twins = [j for j, b in enumerate(chains)
+                 if j != i and any(link != a.leaf and _coincident(tree, a.leaf, link) for link in b.links)]
+        if len(twins) == 1:
+            found |= {(i, twins[0]), (twins[0], i)}
+    return found
+
+
+def _coincident(tree: KinematicTree, a: str, b: str) -> bool:
+    """Links `a` and `b` are fixed to one parent at one place, turned alike."""
+    edge_a, edge_b = tree.parent_edge(a), tree.parent_edge(b)
+    if edge_a is None or edge_b is None or edge_a.movable or edge_b.movable or edge_a.parent != edge_b.parent:
+        return False
+    axes = zip(_axes(tree, a, edge_a.parent), _axes(tree, b, edge_a.parent))
+    return math.dist(edge_a.origin.xyz, edge_b.origin.xyz) < SAME_PLACE and all(dot(u, v) >= 1.0 - SAME_TURN
+                                                                                for u, v in axes)
 
 
 def _two_rangers(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
@@ -275,7 +289,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
-        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or _alias(tree, a, b))
+        aliases = _aliases(tree, chains)
+        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or (i, j) in aliases)
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]

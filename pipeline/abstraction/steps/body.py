@@ -83,7 +83,8 @@ def placement(ctx: Context, found: Findings) -> None:
         ctx.trace({"key": "placement", "component": comp.name, "class": comp.cls, "located_on": comp.located_on,
                    "part_class": part, "restriction": restriction, "reasked": typed.cls,
                    "confidence": round(typed.confidence, 4)})
-        found.components = [replace(c, cls=typed.cls, confidence=round(typed.confidence * c.kind_share, 4)) if c is comp else c
+        confidence = round(typed.confidence * comp.kind_share, 4)
+        found.components = [replace(c, cls=typed.cls, confidence=confidence) if c is comp else c
                             for c in found.components]
 
 

@@ -54,7 +54,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.loop_frames = loop_closures(robot) - declared
     found.collision_volumes = collision_volumes(robot) - declared
     found.palms = frozenset(link for structure, _ in seen for link in palm(robot, structure.fork))
-    found.declared_sensors = frozenset(leaf for leaf in robot.leaves() if _measures(ctx, robot, leaf))
+    found.declared_sensors = _measuring(ctx, robot)
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "body_feet": sorted(found.body_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
@@ -70,15 +70,20 @@ def _body(tree: KinematicTree, link: str) -> bool:
     return not is_frame(tree, link) or bool(facts and facts.mass)
 
 
-def _measures(ctx: Context, tree: KinematicTree, leaf: str) -> bool:
-    """The file declares on `leaf` a simulator sensor the ontology aligns to a sensor class: a camera, ranging,
-    inertial, force-torque... declaration is made for what measures. A contact declaration counts only on a leaf
-    fixed to the trunk (a bumper panel on the base); on a limb it also reports the collisions of a foot or a
-    fingertip, so those are left to the model."""
+def _measuring(ctx: Context, tree: KinematicTree) -> frozenset[str]:
+    """The leaves the file declares a simulator sensor on that the ontology aligns to a sensor class: a camera,
+    ranging, inertial, force-torque... declaration is made for what measures. A contact declaration counts only on a
+    leaf fixed to the trunk (hands.on_trunk) of a robot that rolls on wheels (hands.spinning_low): a bumper panel on
+    its base. On a limb it also reports the collisions of a foot or a fingertip, and on a robot without wheels those
+    of a drone's landing skid, so those are left to the model."""
     vocab = ctx.vocab
     if SENSOR not in vocab.kinds:
-        return False
+        return frozenset()
     top, contact = vocab.kinds[SENSOR].cls, vocab.declared_classes(["contact"])  # SDF's sensor type
-    declared = vocab.declared_classes(s.sdf_type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
-    fixed = on_trunk(tree, leaf, placing_joints(tree))
-    return any(vocab.is_a(c, top) and (fixed or not any(vocab.is_a(c, k) for k in contact)) for c in declared)
+    rolls, placing = bool(spinning_low(tree)), placing_joints(tree)
+
+    def measures(leaf: str) -> bool:
+        declared = vocab.declared_classes(s.sdf_type for s in tree.evidence.get(leaf, _NO_FACTS).sensors)
+        bumper = rolls and on_trunk(tree, leaf, placing)
+        return any(vocab.is_a(c, top) and (bumper or not any(vocab.is_a(c, k) for k in contact)) for c in declared)
+    return frozenset(leaf for leaf in tree.leaves() if measures(leaf))
