@@ -356,7 +356,7 @@ def test_a_hands_leaves_are_mounted_where_its_shape_says_unasked():
     for seed in range(0, 300, 5):
         built = build(seed, False)
         tree = load_urdf(built.urdf)
-        mounts = hand_mounts(hands(tree))
+        mounts = hand_mounts(tree, hands(tree))
         assert set(mounts.values()) == {built.mount}, (seed, built.layout)
         asked: list[str] = []
 
@@ -1052,3 +1052,29 @@ def test_the_swivel_casters_of_a_base_on_a_footprint_frame_are_no_feet():
         w.joint("continuous", swivel, wheel, (-0.03, 0.0, -0.07), (0, 1, 0))
     tree = load_urdf(w.urdf())
     assert feet(tree) == frozenset()
+
+
+def test_a_grippers_tool_point_on_the_flange_beside_its_coupling_is_mounted_with_it():
+    """A two-jaw gripper bolted through a coupling to an arm's flange, with the arm's tool point a bare frame on the
+    flange out among the jaws' tips: the shape mounts the jaws and the point at the flange, where they meet, so
+    they are one tool (the point on its own became a second, rigid tool)."""
+    w = Writer(random.Random(6))
+    link = w.link('<box size="0.3 0.3 0.1"/>')
+    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
+        link = child
+    flange, coupling, palm = w.link(), w.link('<cylinder radius="0.04" length="0.02"/>'), w.link('<box size="0.08 0.04 0.06"/>')
+    w.joint("fixed", link, flange, (0.0, 0.0, 0.1))
+    w.joint("fixed", flange, coupling, (0.0, 0.0, 0.01))
+    w.joint("fixed", coupling, palm, (0.0, 0.0, 0.04))
+    jaws = []
+    for y, axis in ((0.03, (0.0, -1.0, 0.0)), (-0.03, (0.0, 1.0, 0.0))):
+        jaw = w.link('<box size="0.01 0.01 0.06"/>')
+        w.joint("prismatic", palm, jaw, (0.0, y, 0.06), axis, (0.0, 0.025))
+        jaws.append(jaw)
+    point = w.link()
+    w.joint("fixed", flange, point, (0.0, 0.0, 0.16))
+    tree = load_urdf(w.urdf())
+    mounts = hand_mounts(tree, hands(tree))
+    assert mounts == {jaws[0]: flange, jaws[1]: flange, point: flange}

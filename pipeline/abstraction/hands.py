@@ -40,13 +40,14 @@ _SWINGS = ("revolute", "continuous", "prismatic")  # a floating or planar root j
 
 def hand_leaves(tree: KinematicTree) -> frozenset[str]:
     """The leaves of every hand or gripper the tree's shape shows (hand_mounts)."""
-    return frozenset(hand_mounts(hands(tree)))
+    return frozenset(hand_mounts(tree, hands(tree)))
 
 
-def hand_mounts(found: list[tuple[ToolStructure, list[str]]]) -> dict[str, str]:
+def hand_mounts(tree: KinematicTree, found: list[tuple[ToolStructure, list[str]]]) -> dict[str, str]:
     """Each leaf of the hands `found` (hands) → the hand's mount, read before anything is asked, so that they
-    go to the end-effector pass and not to the sensors."""
-    return {leaf: structure.mount for structure, leaves in found for leaf in leaves}
+    go to the end-effector pass and not to the sensors. A hand whose tool point lies on the flange it is bolted to,
+    beside its mount (a coupling), is mounted where the two meet: one tool with its point."""
+    return {leaf: fork_of(tree, [structure.mount, *leaves]) for structure, leaves in found for leaf in leaves}
 
 
 def hands(tree: KinematicTree) -> list[tuple[ToolStructure, list[str]]]:

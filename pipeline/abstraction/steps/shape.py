@@ -39,7 +39,7 @@ def shape(ctx: Context, found: Findings) -> None:
     robot = ctx.robot
     declared = {link for link, facts in robot.evidence.items() if facts.sensors}
     seen = hands(robot)
-    found.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(seen).items() if leaf not in declared}
+    found.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(robot, seen).items() if leaf not in declared}
     found.feet = feet(robot)
     found.body_feet = frozenset(f for f in found.feet if f not in declared
                                 and (robot.edge_to(f).movable or _body(robot, f)))
