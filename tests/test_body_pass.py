@@ -560,3 +560,30 @@ def test_a_drive_a_ros2_control_block_commands_and_an_undrawn_arm_keep_their_joi
     tree = load_urdf(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
     assert next(e for e in tree.edges if e.joint == drive).driven
     assert {(swing,), (drive,), tuple(arm)} <= _joints(body.chains(tree, set(), set()))
+
+
+def test_a_sensor_mount_without_range_carrying_the_housing_is_no_body_joint_where_other_joints_move():
+    """A simulator's vehicle (thrusters spinning on the hull) mounts its camera housing on a revolute joint limited to
+    0..0, the optical frame below it on another: the model took the housing for the mount, so the device owns only the
+    optical frame. Nothing below moves and the file gives other joints their motion: a mount, no head. An arm
+    exported with every joint 0..0 (SolidWorks' default) keeps its joints though its last one carries a camera."""
+    w = Writer(random.Random(2))
+    hull = w.link('<box size="1.0 0.4 0.3"/>')
+    thrusters = [w.joint("continuous", hull, w.link('<cylinder radius="0.05" length="0.02"/>'), (-0.5, y, 0.0))
+                 for y in (0.15, -0.15)]
+    housing, optical = w.link('<box size="0.05 0.05 0.05"/>'), w.link()
+    camera = w.joint("revolute", hull, housing, (0.5, 0.0, 0.0), limits=(0.0, 0.0))
+    w.joint("revolute", housing, optical, rpy=(-1.5708, 0.0, -1.5708), limits=(0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    assert _joints(body.chains(tree, set(), {optical})) == {(t,) for t in thrusters}
+    assert camera not in {j for c in body.chains(tree, set(), {optical}) for j in (e.joint for e in c.joints)}
+    w = Writer(random.Random(2))
+    link, arm = w.link('<box size="0.3 0.3 0.1"/>'), []
+    for i in range(6):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        arm.append(w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0, 0, 1) if i % 2 == 0 else (0, 1, 0), (0.0, 0.0)))
+        link = child
+    lens = w.link('<box size="0.03 0.03 0.03"/>')
+    w.joint("fixed", link, lens, (0.0, 0.05, 0.1))
+    tree = load_urdf(w.urdf())
+    assert _joints(body.chains(tree, set(), {lens})) == {tuple(arm)}

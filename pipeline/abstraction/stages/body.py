@@ -135,13 +135,21 @@ def _same_pivot(tree: KinematicTree, a: Edge, b: Edge) -> bool:
 
 
 def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
-    """Joints whose limits leave them no range (lower = upper) and that carry devices' links alone (sensors' or
-    end-effectors'): sensor mounts
-    written revolute so that a simulator keeps their links apart (UUV Simulator, RotorS, VRX). A joint so written
-    that carries a link of the body is the robot's (SolidWorks' exporter writes every joint 0..0 unless told), and
-    one that spins (Edge.spins: a wheel's, whatever limits its file writes) is never a mount."""
-    return frozenset(e.joint for e in tree.edges if e.movable and not e.moves and not e.spins
-                     and {e.child, *tree.descendants(e.child)} <= owned_links)
+    """Joints whose limits leave them no range (lower = upper) and that carry devices' links, nothing below them
+    moving: sensor mounts written revolute so that a simulator keeps their links apart (UUV Simulator, RotorS, VRX),
+    with the device's housing where the file gives other joints a range. A joint so written that carries a link of
+    the body is the robot's (SolidWorks' exporter writes every joint 0..0 unless told: where no joint has a range,
+    only one carrying devices' links alone is a mount), and one that spins (Edge.spins: a wheel's, whatever limits
+    its file writes) is never a mount."""
+    ranged = any(e.moves for e in tree.edges if e.movable)
+
+    def mount(edge: Edge) -> bool:
+        carried = {edge.child, *tree.descendants(edge.child)}
+        if carried <= owned_links:
+            return True
+        still = not any(tree.edge_to(link).moves for link in carried if link != edge.child)
+        return ranged and still and bool(carried & owned_links)
+    return frozenset(e.joint for e in tree.edges if e.movable and not e.moves and not e.spins and mount(e))
 
 
 def _moves_nothing(tree: KinematicTree, edge: Edge, owned_links: set[str]) -> bool:
