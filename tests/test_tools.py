@@ -348,3 +348,29 @@ def test_a_thumb_written_as_one_link_closes_on_the_fingers_where_its_mass_is(see
     opposes = {f.name: set(f.opposes) for f in structure.fingers}
     assert opposes[thumb] == {proximal for proximal, _ in fingers}
     assert all(opposes[proximal] == {thumb} for proximal, _ in fingers)
+
+
+def test_a_finger_curling_beside_a_finger_the_thumb_closes_on_is_a_finger_too():
+    """A thumb closes on the index finger; a ring finger further along the palm curls beside the index (its tip
+    moving within 60 degrees of the index's) but, splayed, not towards the thumb: it is a finger moving with the
+    index, not a mechanism (a humanoid's left and right hands, mirror images, counted three and four fingers and were
+    typed two classes)."""
+    w = Writer(random.Random(5))
+    palm = w.link('<box size="0.12 0.04 0.08"/>')
+    tips = {}
+
+    def finger(at, axis) -> str:
+        parent, first = palm, None
+        for i in range(2):
+            child = w.link('<box size="0.01 0.01 0.03"/>')
+            w.joint("revolute", parent, child, at if i == 0 else (0.0, 0.0, 0.03), axis, (0.0, 1.5))
+            first, parent = first or child, child
+        tips[first] = w.link()
+        w.joint("fixed", parent, tips[first], (0.0, 0.0, 0.03))
+        return first
+    thumb, index, ring = finger((0.0, -0.05, 0.0), (-1.0, 0.0, 0.0)), finger((0.0, 0.0, 0.02), (1.0, 0.0, 0.0)), \
+        finger((0.08, 0.0, 0.02), (0.8, 0.6, 0.0))
+    structure = tool_structure(load_urdf(w.urdf()), list(tips.values()))
+    fingers = {f.name: f for f in structure.fingers}
+    assert set(fingers) == {thumb, index, ring} and structure.mechanisms == ()
+    assert fingers[ring].opposes == () and fingers[ring].moves_with == (index,)

@@ -180,7 +180,8 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
                   bodies: set[str], linkages: AbstractSet[str], pose: dict[str, float],
                   spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False,
                   at_mass: AbstractSet[str] = frozenset()) -> ToolStructure:
-    """The tool's fingers and mechanisms as its chains move from `pose`, none closing by a joint of `spreads`
+    """The tool's fingers and mechanisms as its chains move from `pose` (a finger opposes another, or curls beside
+    one that does: _alongside), none closing by a joint of `spreads`
     where it moves by another, and none of `linkages` (other chains' linkages) closing at all; `closing_sense`:
     each joint moving the way its range reaches further wherever it stands (_closes_backwards), so fingers
     written with mirrored signs close alike away from zero too; `at_mass`: chains whose tip is taken at its centre
@@ -196,7 +197,9 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
             opposes[a] = tuple(dict.fromkeys([*opposes[a], *closed_on]))
             for b in closed_on:
                 opposes[b] = tuple(dict.fromkeys([*opposes[b], a]))
-    finger_names = [a for a in chains if opposes[a]]
+    opposing = [a for a in chains if opposes[a]]
+    finger_names = [a for a in chains if opposes[a] or (a in bodies and a not in linkages and any(
+        _alongside(closing[a], closing[b]) for b in opposing if b != a))]  # a ring finger curling beside the index
     alongside = {a: tuple(b for b in finger_names if b != a and _alongside(closing[a], closing[b])) for a in finger_names}
     joint_owner = {tree.edge_to(link).joint: a for a in finger_names for link in chains[a][0]}
     fingers = tuple(
