@@ -471,25 +471,32 @@ def test_a_wheel_with_a_contact_frame_on_its_rim_is_still_a_wheel_and_a_skid_ste
 
 @pytest.mark.parametrize("seed", range(3))
 def test_a_wheel_whose_tyre_is_fixed_on_its_hub_ends_a_leg_as_a_wheel(seed):
-    """A wheel-legged robot's leg ends in a motor rotor (a narrow cylinder) that the wheel joint turns, with the hub
+    """A wheel-legged biped's legs end in a motor rotor (a narrow cylinder) that the wheel joint turns, with the hub
     and the tyre (a wide cylinder) fixed on it and a ground-contact frame on the tyre's rim: the rotor, hub and tyre
-    are one wheel's body, so the wheel joint is a wheel candidate of its own beside the leg."""
+    are one wheel's body, so each wheel joint is a wheel candidate of its own beside its leg, and the contact frames
+    are the feet the robot stands on (they are no wheels of their own)."""
     w = Writer(random.Random(seed))
     trunk = w.link('<box size="0.2 0.3 0.1"/>')
-    parent, leg = trunk, []
-    for i in range(2):
-        child = w.link('<box size="0.03 0.03 0.2"/>')
-        leg.append(w.joint("revolute", parent, child, (0.0, 0.1, 0.0) if not i else (0.0, 0.0, -0.2), (0, 1, 0)))
-        parent = child
-    rotor, hub, tyre, contact = (w.link('<cylinder radius="0.034" length="0.016"/>'), w.link(),
-                                 w.link('<cylinder radius="0.05" length="0.04"/>'), w.link())
-    spin = w.joint("continuous", parent, rotor, (0.0, 0.0, -0.2), (0, 0, 1), rpy=(1.5708, 0.0, 0.0))
-    w.joint("fixed", rotor, hub, (0.0, 0.0, 0.025))
-    w.joint("fixed", hub, tyre, (0.0, 0.0, 0.021))
-    w.joint("fixed", tyre, contact, (0.0, 0.047, 0.0))
+    legs, spins, contacts, rotors = [], [], [], []
+    for y in (0.1, -0.1):
+        parent, leg = trunk, []
+        for i in range(2):
+            child = w.link('<box size="0.03 0.03 0.2"/>')
+            leg.append(w.joint("revolute", parent, child, (0.0, y, 0.0) if not i else (0.0, 0.0, -0.2), (0, 1, 0)))
+            parent = child
+        rotor, hub, tyre, contact = (w.link('<cylinder radius="0.034" length="0.016"/>'), w.link(),
+                                     w.link('<cylinder radius="0.05" length="0.04"/>'), w.link())
+        spins.append(w.joint("continuous", parent, rotor, (0.0, 0.0, -0.2), (0, 0, 1), rpy=(1.5708, 0.0, 0.0)))
+        w.joint("fixed", rotor, hub, (0.0, 0.0, 0.025))
+        w.joint("fixed", hub, tyre, (0.0, 0.0, 0.021))
+        w.joint("fixed", tyre, contact, (0.0, 0.047, 0.0))
+        legs.append(tuple(leg))
+        contacts.append(contact)
+        rotors.append(rotor)
     tree = load_urdf(w.urdf())
-    assert hands.wheel_body(tree, rotor)
-    assert _joints(body.chains(tree, set(), set())) == {tuple(leg), (spin,)}
+    assert all(hands.wheel_body(tree, rotor) for rotor in rotors)
+    assert _joints(body.chains(tree, set(), set())) == {*legs, *((spin,) for spin in spins)}
+    assert hands.feet(tree) == set(contacts)
 
 
 @pytest.mark.parametrize("seed", range(3))

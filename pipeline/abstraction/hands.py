@@ -398,8 +398,8 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
     underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
     arm, parts a few centimetres above its fingertips), on a robot whose trunk (_trunk) lies STANCE above that
-    point and that has two such tips at least. Where a limb ends there is a foot, not a tool; a wheel's body
-    (wheel_body: a caster's wheel on its swivel) rolls and is none. A robot whose zero pose holds its legs out
+    point and that has two such tips at least. Where a limb ends there is a foot, not a tool; a wheel (_rolls: a
+    caster's wheel on its swivel) rolls and is none. A robot whose zero pose holds its legs out
     level with its trunk stands on none that way: its feet are those of its sprawled legs (_sprawled_feet)."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     lowest = min(height.values())
@@ -432,10 +432,10 @@ def _trunk(tree: KinematicTree, placing: frozenset[str]) -> str:
 
 
 def _rolls(tree: KinematicTree, leaf: str) -> bool:
-    """The leaf belongs to the rigid body of the nearest link above it (itself included) that a joint moves, and
-    that body is a wheel's (wheel_body)."""
-    moved = next((x for x in tree.chain_to_root(leaf)[:-1] if tree.edge_to(x).movable), None)
-    return moved is not None and wheel_body(tree, moved)
+    """The leaf is a wheel: it spins on its own joint as a wheel's body does (wheel_body: a caster's wheel on its
+    swivel). A frame fixed on a wheel's tyre (a ground-contact point) may still be a foot: a wheel-legged robot's
+    legs end there."""
+    return tree.edge_to(leaf).movable and wheel_body(tree, leaf)
 
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
