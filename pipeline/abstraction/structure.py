@@ -161,11 +161,11 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
     held = {tree.edge_to(link).joint for link in [*bars, *(link for a in linkages for link in chains[a][0])]}
     pose = _configuration(tree, held)
     structure = _structure_at(tree, fork, chains, bodies, linkages, pose)
-    if len(fingered := bodies - linkages) >= 2 and len(structure.fingers) < len(fingered):
+    if len(fingered := bodies - linkages) >= 2 and _closing_on_others(structure) < len(fingered):
         spreads = {joint for a in fingered for joint in _spreads(tree, chains[a][0])}
         again = _structure_at(tree, fork, chains, bodies, linkages, _half_closed(tree, chains, fingered, pose, spreads),
                               spreads, closing_sense=True)
-        if len(again.fingers) > len(structure.fingers):
+        if _closing_on_others(again) > _closing_on_others(structure):
             return again
     jaws = {a for a in bodies - linkages if chains[a][0] == (a,) and (f := tree.evidence.get(a)) and f.centre}
     if not structure.fingers and jaws and len(bodies - linkages) >= 2:  # a jaw or thumb written as one link, its
@@ -174,6 +174,11 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
         if again.fingers:
             return again
     return structure
+
+
+def _closing_on_others(structure: ToolStructure) -> int:
+    """How many of the tool's fingers close on another (a finger curling beside one does not)."""
+    return sum(1 for finger in structure.fingers if finger.opposes)
 
 
 def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
