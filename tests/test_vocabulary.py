@@ -61,7 +61,7 @@ def test_the_vocabulary_reads_the_schema_from_the_ontology_and_shapes():
     assert "image" in (vocab.part_question("OpticalFrame") or "") and vocab.part_question("SensingElement") is None
     assert vocab.has_numbered_units("TactileArray") and not vocab.has_numbered_units("Sonar")
     assert vocab.built_in("Accelerometer") and not vocab.built_in("Lidar") and not vocab.built_in("Sensor")
-    assert vocab.miscounted(3, "Sensor") == {"TactileSensor", "Microphone"} and not vocab.miscounted(1, "Sensor")
+    assert vocab.miscounted(3, "Sensor") == {"TactileSensor", "Microphone", "Accelerometer", "Gyroscope"} and not vocab.miscounted(1, "Sensor")
     assert vocab.finger_chain_role("link") == {"Finger"} and vocab.finger_chain_role("tip") == {"ContactSurface"}
     assert vocab.finger_chain_role("carrier") == {"Palm"}
     assert vocab.joint_class("continuous") == "ContinuousJoint" and vocab.joint_class("planar") == "PlanarJoint"
@@ -178,3 +178,11 @@ def test_a_sensor_class_added_to_the_ontology_is_offered_and_written_out(tmp_pat
     assert graph.value(CORE.Thermometer, RDFS.label) == rdflib.Literal("thermometer", lang="en")
     conforms, report = validate(graph, vocab)
     assert conforms, report
+
+
+def test_an_accelerometers_and_a_gyroscopes_frames_written_as_one_device_are_an_imu():
+    """core:elementCount on Accelerometer and Gyroscope: each is one sensing frame, so an inertial device written with
+    two (an accelerometer's and a gyroscope's frames at one point, one device by structure) can only be an IMU."""
+    tax = vocabulary()
+    assert tax.miscounted(2, "InertialSensor") == {"Accelerometer", "Gyroscope"}
+    assert not tax.miscounted(1, "InertialSensor")
