@@ -1059,11 +1059,7 @@ def test_a_grippers_tool_point_on_the_flange_beside_its_coupling_is_mounted_with
     flange out among the jaws' tips: the shape mounts the jaws and the point at the flange, where they meet, so
     they are one tool (the point on its own became a second, rigid tool)."""
     w = Writer(random.Random(6))
-    link = w.link('<box size="0.3 0.3 0.1"/>')
-    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
-        child = w.link('<box size="0.05 0.05 0.2"/>')
-        w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
-        link = child
+    link = w.arm(w.link('<box size="0.3 0.3 0.1"/>'))
     flange, coupling, palm = w.link(), w.link('<cylinder radius="0.04" length="0.02"/>'), w.link('<box size="0.08 0.04 0.06"/>')
     w.joint("fixed", link, flange, (0.0, 0.0, 0.1))
     w.joint("fixed", flange, coupling, (0.0, 0.0, 0.01))

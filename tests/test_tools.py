@@ -266,11 +266,7 @@ def test_jaws_written_as_one_link_each_close_where_their_mass_is(seed):
     axis), their centres of mass 0.03 m out along them: at their frames nothing moves, so the jaws are read where
     their mass is and close on each other, two opposing fingers (on the code before: two mechanisms and no finger)."""
     w = Writer(random.Random(seed))
-    link = w.link('<box size="0.3 0.3 0.1"/>')
-    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
-        child = w.link('<box size="0.05 0.05 0.2"/>')
-        w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
-        link = child
+    link = w.arm(w.link('<box size="0.3 0.3 0.1"/>'))
     jaw_a = w.link('<box size="0.01 0.01 0.06"/>', centre=(0.0, -0.005, 0.03))
     jaw_b = w.link('<box size="0.01 0.01 0.06"/>', centre=(0.0, 0.005, 0.03))
     drive = w.joint("revolute", link, jaw_a, (0.0, 0.02, 0.05), (1.0, 0.0, 0.0), (0.0, 1.0))
@@ -329,11 +325,7 @@ def test_a_thumb_written_as_one_link_closes_on_the_fingers_where_its_mass_is(see
     lies on its hinge, its centre of mass 0.03 m out along it: at its frame nothing moves, so it is read where its
     mass is and closes on both fingers (on the code before: no finger at all, the hand a plain end effector)."""
     w = Writer(random.Random(seed))
-    link = w.link('<box size="0.3 0.3 0.1"/>')
-    for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
-        child = w.link('<box size="0.05 0.05 0.2"/>')
-        w.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
-        link = child
+    link = w.arm(w.link('<box size="0.3 0.3 0.1"/>'))
     fingers = []
     for x in (0.015, -0.015):
         proximal, distal, tip = w.link('<box size="0.01 0.01 0.03"/>'), w.link('<box size="0.01 0.01 0.03"/>'), w.link()

@@ -28,6 +28,15 @@ class Writer:
                 self.used.add(stem)
                 return stem
 
+    def arm(self, base: str) -> str:
+        """Six revolute links up from `base` (yaw, pitch, pitch in turn, 0.1 to 0.3 m apart): an arm's last link."""
+        link = base
+        for i, z in enumerate((0.2, 0.1, 0.3, 0.1, 0.25, 0.1)):
+            child = self.link('<box size="0.05 0.05 0.2"/>')
+            self.joint("revolute", link, child, (0.0, 0.0, z), (0.0, 0.0, 1.0) if i % 3 == 0 else (0.0, 1.0, 0.0))
+            link = child
+        return link
+
     def link(self, geometry: str = "", collision: str = "", centre=None, mass: float = 0.1) -> str:
         """A new link; `geometry` (a URDF geometry element) gives it a visual, `collision` a collision shape, `centre`
         an <inertial> of `mass` with its centre of mass there."""
