@@ -352,11 +352,10 @@ def test_a_finger_curling_beside_a_finger_the_thumb_closes_on_is_a_finger_too():
     tips = {}
 
     def finger(at, axis) -> str:
-        parent, first = palm, None
-        for i in range(2):
-            child = w.link('<box size="0.01 0.01 0.03"/>')
-            w.joint("revolute", parent, child, at if i == 0 else (0.0, 0.0, 0.03), axis, (0.0, 1.5))
-            first, parent = first or child, child
+        first = w.link('<box size="0.01 0.01 0.03"/>')
+        w.joint("revolute", palm, first, at, axis, (0.0, 1.5))
+        parent = w.link('<box size="0.01 0.01 0.03"/>')
+        w.joint("revolute", first, parent, (0.0, 0.0, 0.03), axis, (0.0, 1.5))
         tips[first] = w.link()
         w.joint("fixed", parent, tips[first], (0.0, 0.0, 0.03))
         return first
