@@ -86,7 +86,7 @@ def test_alike_sensors_are_mounted_checked_and_typed_by_one_question_each(seed):
     assert len(chains[0].links) == len(chains[1].links) and chains[0].root in left and chains[1].root in right
     assert sum(k.startswith("root:") for k in asked) == 1
 
-    kept = not_sensors(oracle, tree, [left[-1], right[-1]], {left[-1]: 0.9, right[-1]: 0.9}, lambda _m: None)
+    kept = not_sensors(oracle, TAX, tree, [left[-1], right[-1]], {left[-1]: 0.9, right[-1]: 0.9}, lambda _m: None)
     assert kept == [] and sum(k.startswith("check:") for k in asked) == 1
 
     groups = [Group([c]) for c in chains]

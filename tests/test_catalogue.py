@@ -145,3 +145,49 @@ def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_may_stay_a_sensor(
     assert "satellite navigation (GNSS) receiver" in chain_subject(ctx, tree, found.chains[0], "Sensor").evidence
     assert seen["pre:navsat_link@Sensor"][-1] == "other sensor" and found.pre["navsat_link"].cls == "Sensor"
     assert "other sensor" not in seen["pre:plate@Sensor"] and found.pre["plate"].cls != "Sensor"
+
+
+def test_the_sensor_check_shows_the_product_a_leaf_names_as_identification_did():
+    """A bare leaf named for an IMU product, identified as a sensor, was asked again without its product and
+    called a passive part: the check shows the catalogue's line too, and a leaf naming nothing is asked as before."""
+    from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
+    w = Writer(random.Random(3))
+    base = w.link('<box size="0.5 0.4 0.2"/>')
+    named_leaf, plain_leaf = f"{w.name()}_microstrain", w.link()
+    w.links.append(f'<link name="{named_leaf}"/>')
+    w.joint("fixed", base, named_leaf, (0.1, 0.0, 0.1))
+    w.joint("fixed", base, plain_leaf, (-0.1, 0.05, 0.12))
+    tree = load_urdf(w.urdf())
+    users = {}
+
+    def check(q):
+        users[q.key] = q.user
+        return "sensor" if "\nProduct: " in users[q.key] else "passive part"
+    dropped = not_sensors(Oracle(ScriptedBackend(check)), TAX, tree, [named_leaf, plain_leaf],
+                          {named_leaf: 0.7, plain_leaf: 0.7}, lambda _m: None)
+    assert dropped == [plain_leaf]
+    assert users[f"check:{named_leaf}"].endswith(f"Product: LORD MicroStrain 3DM-GX5 ({TAX.label('IMU')})")
+    assert "Product" not in users[f"check:{plain_leaf}"]
+
+
+def test_alike_leaves_naming_different_products_are_checked_apart():
+    """Two mirrored sensor heads on tilt joints, alike but for the product one's frame names: one check each, the
+    product shown for its own leaf alone."""
+    from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
+    w = Writer(random.Random(4))
+    base = w.link('<box size="0.5 0.4 0.2"/>')
+    leaves = []
+    for y, name in ((0.2, f"{w.name()}_microstrain"), (-0.2, w.name())):
+        tilt = w.link('<box size="0.04 0.04 0.04"/>')
+        w.joint("revolute", base, tilt, (0.0, y, 0.1), (0.0, 1.0, 0.0), (-0.5, 0.5))
+        w.links.append(f'<link name="{name}"/>')
+        w.joint("fixed", tilt, name, (0.03, 0.0, 0.0))
+        leaves.append(name)
+    tree = load_urdf(w.urdf())
+    users = {}
+
+    def check(q):
+        users[q.key] = q.user
+        return "sensor" if "\nProduct: " in q.user else "passive part"
+    dropped = not_sensors(Oracle(ScriptedBackend(check)), TAX, tree, leaves, dict.fromkeys(leaves, 0.7), lambda _m: None)
+    assert dropped == [leaves[1]] and set(users) == {f"check:{leaf}" for leaf in leaves}

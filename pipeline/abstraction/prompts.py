@@ -94,9 +94,10 @@ DRIVE_PART = "mechanism"  # the sensor check's answers that take a leaf off the 
 PASSIVE_PART = "passive part"  # or a part that senses nothing and that others locate or power
 
 
-def sensor_check(link: str, shown: str, ancestors: Sequence[str]) -> Question:
+def sensor_check(link: str, shown: str, ancestors: Sequence[str], product: str = "") -> Question:
     """A second, differently framed look at a leaf identified as a sensor (`shown`: its name with its
-    facts): what is it?"""
+    facts; `product`: product_text's line for the catalogue product it names, as identification showed it):
+    what is it?"""
     system = (
         _PREAMBLE + "A leaf link taken for a sensor may instead be something else. Say what the leaf link is:"
         "\n- sensor: the frame of a device that measures: camera, laser scanner, sonar, IMU, touch pad, bumper,"
@@ -111,7 +112,7 @@ def sensor_check(link: str, shown: str, ancestors: Sequence[str]) -> Question:
         " fiducial marker or tag, reflector that other sensors locate."
         f"\nReply with one of: sensor, emitter, {DRIVE_PART}, reference frame, {PASSIVE_PART}."
     )
-    user = f"Leaf link: {shown}\nParents: {chain_text(ancestors)}"
+    user = f"Leaf link: {shown}\nParents: {chain_text(ancestors)}{product}"
     return Question(system, user, ("sensor", "emitter", DRIVE_PART, "reference frame", PASSIVE_PART),
                     key=f"check:{link}")
 

@@ -6,7 +6,7 @@
   motor link that turns a gripper's fingers).
 - Every other leaf identified as a sensor is asked once more, framed differently (sensor, emitter,
   drive part, reference frame or passive part?), unless the file declares a simulator sensor on it;
-  alike leaves (alike.alike_leaves) once for all. "Part of a motor or drive" and "passive part"
+  alike leaves naming the same product (alike.alike_sets) once for all. "Part of a motor or drive" and "passive part"
   overrule identification: over the truth robots they went to motor screws, rotors, an actuator's
   dummy link, a battery, a reflector and links the truth ignores, and to no true sensor, while 'emitter'
   and 'reference frame' alone also took laser scanners and optical frames, so they are traced but change
@@ -21,11 +21,13 @@ from __future__ import annotations
 
 from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.abstraction.oracle import Oracle
-from urdfkb.pipeline.abstraction.prompts import DRIVE_PART, PASSIVE_PART, sensor_check
+from urdfkb.pipeline.abstraction.prompts import DRIVE_PART, PASSIVE_PART, product_text, sensor_check
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
+from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.abstraction.stages.verification import Log
-from urdfkb.pipeline.abstraction.alike import alike_leaves
+from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.abstraction.frames import declares_sensor
+from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 
@@ -52,14 +54,18 @@ MAJORITY = 0.5  # a share of the votes above which an answer is the model's majo
 LAYOUT_NOISE = 0.1
 
 
-def not_sensors(oracle: Oracle, tree: KinematicTree, leaves: list[str], sensors: dict[str, float], log: Log,
-                progress: Progress | None = None) -> list[str]:
+def not_sensors(oracle: Oracle, vocab: Vocabulary, tree: KinematicTree, leaves: list[str], sensors: dict[str, float],
+                log: Log, progress: Progress | None = None) -> list[str]:
     """The leaves among `sensors` (leaf → share of identification's votes for 'sensor') with no declared
     simulator sensor that the check calls a part of a motor or drive or a passive part, or that neither question calls a
-    sensor with a majority while both lean clearly against it."""
+    sensor with a majority while both lean clearly against it. The check is shown the catalogue product a leaf
+    names, as identification was."""
     checked = [leaf for leaf in leaves if leaf in sensors and not declares_sensor(tree, leaf)]
-    alike = alike_leaves(tree, checked)  # asked once, the first standing for all, as in identification
-    questions = [sensor_check(group[0], named(tree.evidence, group[0]), tree.chain_to_root(group[0])[1:])
+    products = {leaf: named_product(tree, [leaf]) for leaf in checked}
+    # asked once, the first standing for all, as in identification; leaves naming different products apart
+    alike = alike_sets(tree, checked, lambda a, b: products[a] == products[b])
+    questions = [sensor_check(group[0], named(tree.evidence, group[0]), tree.chain_to_root(group[0])[1:],
+                              product_text(vocab, products[group[0]]))
                  for group in alike]
     found = []
     for group, verdict in zip(alike, ask(oracle, questions, "sensor check", progress)):

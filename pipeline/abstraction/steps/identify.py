@@ -104,5 +104,5 @@ def sensor_check(ctx: Context, found: Findings) -> None:
     """Leaves the model took for sensors on a thin majority, asked again whether they measure
     (stages.sensor_check.not_sensors)."""
     sensors = {leaf: found.shares[leaf] for leaf in claimed(ctx, found)}
-    for leaf in not_sensors(ctx.oracle, ctx.tree, found.leaves, sensors, ctx.log, ctx.progress):
+    for leaf in not_sensors(ctx.oracle, ctx.vocab, ctx.tree, found.leaves, sensors, ctx.log, ctx.progress):
         found.claims[leaf] = NONE
