@@ -53,8 +53,9 @@ def _arm(w: Writer, built: Built, mount: str, y: float, z: float, side: str | No
     built.parts.append(Part("Arm", joints, side))
 
 
-def wheeled(seed: int) -> Built:
-    """A mobile manipulator: drive wheels (and casters), a lift carrying a head and one or two arms."""
+def wheeled(seed: int, head_camera: bool = True) -> Built:
+    """A mobile manipulator: drive wheels (and casters), a lift carrying a head and one or two arms;
+    without `head_camera`, the head carries no camera (a file that leaves it out)."""
     rng = random.Random(seed)
     w = Writer(rng)
     built = Built(b"", [], [])
@@ -76,9 +77,10 @@ def wheeled(seed: int) -> Built:
     head = [w.joint("revolute", lift, pan, (0, 0, 0.4)), w.joint("revolute", pan, tilt, (0, 0, 0.05), (0, 1, 0))]
     w.joint("fixed", tilt, camera, (0.05, 0, 0))
     w.joint("fixed", camera, optical)
-    built.components.append(Component("camera", SENSOR, "MonocularCamera", 1.0, tilt,
-                                      (SubComponent(camera, "SensorHousing", 1.0), SubComponent(optical, "RgbFrame", 1.0))))
-    built.located["camera"] = head[0]
+    if head_camera:
+        built.components.append(Component("camera", SENSOR, "MonocularCamera", 1.0, tilt,
+                                          (SubComponent(camera, "SensorHousing", 1.0), SubComponent(optical, "RgbFrame", 1.0))))
+        built.located["camera"] = head[0]
     built.parts.append(Part("Head", head))
     arms = rng.random()
     if arms < 0.3:  # one arm on the base: the lift carries the head alone (a run the pass cuts after the lift)

@@ -52,7 +52,8 @@ def _symmetric(relation: dict[str, tuple[str, ...]]) -> dict[str, set[str]]:
 
 def _parts(parts: list[PartFacts]) -> list[str | None]:
     wheels = [_is_wheel(f) for f in parts]
-    first = [_part(f, wheels) for f in parts]
+    tooled = [_tools(f) > 0 for f in parts]
+    first = [_part(f, wheels, tooled) for f in parts]
     # a part off the ground carrying an arm and a head (classes the first round settled): a torso
     return [("Torso" if cls is None and not f.reaches_ground and {"Arm", "Head"} <= {first[k] for k in f.carries}
              else cls) for f, cls in zip(parts, first)]
@@ -65,10 +66,16 @@ def _is_wheel(f: PartFacts) -> bool:
             and not f.carries and not f.devices)
 
 
-def _part(f: PartFacts, wheels: list[bool]) -> str | None:
+def _tools(f: PartFacts) -> int:
+    """How many end-effectors are on the part's links (a tool of the same run is an EndEffector)."""
+    tax = vocabulary()
+    return sum(d.startswith(TOOL_REF) or tax.is_a(d, TOOL) for d in f.devices)
+
+
+def _part(f: PartFacts, wheels: list[bool], tooled: list[bool]) -> str | None:
     tax = vocabulary()
     devices = [TOOL if d.startswith(TOOL_REF) else d for d in f.devices]  # a tool of the same run is an EndEffector
-    tools = sum(tax.is_a(d, TOOL) for d in devices)
+    tools = _tools(f)
     joints, ground = len(f.joint_types), f.reaches_ground
     held = {
         "Wheel": _is_wheel(f),
@@ -77,6 +84,7 @@ def _part(f: PartFacts, wheels: list[bool]) -> str | None:
         "Head": (not ground and any(tax.is_a(d, "Camera") for d in devices) and not tools and not f.carries
                  and joints <= 3),
         "MobileBase": joints == 1 and any(wheels[k] for k in f.carries) and not tools,
+        "Torso": not ground and not tools and sum(tooled[k] for k in f.carries) >= 2,
     }
     settled = [cls for cls, holds in held.items() if holds]
     return settled[0] if len(settled) == 1 else None

@@ -163,6 +163,10 @@ def body_pass(oracle: Oracle, tree, components) -> tuple[list, list]:
     return found.body, found.components
 
 
+def _two_arms_on_the_lift(seed: int) -> bool:
+    return sum(p.cls == "Arm" for p in wheeled(seed).parts) == 2
+
+
 def _run(built: Built, flip_sides: bool = False):
     tree = load_urdf(built.urdf)
     oracle = Oracle(ScriptedBackend(_torso_rule(built, flip_sides)))
@@ -182,6 +186,27 @@ def test_the_pass_finds_every_part_with_its_class_side_and_devices(make, seed):
     located = {c.name: (list(c.joints), by_name[c.located_on].joints[0], c.side == by_name[c.located_on].side)
                for c in components}
     assert located == {c.name: (built.device_joints.get(c.name, []), built.located[c.name], True) for c in built.components}
+
+
+@pytest.mark.parametrize("seed", [s for s in range(40) if _two_arms_on_the_lift(s)][:3])
+def test_a_lift_carrying_two_arms_with_their_tools_is_a_torso_without_asking(seed):
+    """A lift carrying two arms, each with its gripper, and a head the file gives no camera: the head is the model's
+    to say, the lift is a torso by the ontology (it lifts both arms), never asked (a dual-arm robot's lift was typed
+    an arm, its head bare)."""
+    built = wheeled(seed, head_camera=False)
+    lift = next(p.joints[0] for p in built.parts if p.cls == "Torso")
+    head = next(p.joints[0] for p in built.parts if p.cls == "Head")
+    asked = []
+
+    def rule(question):
+        asked.append(question.key)
+        if question.key.startswith("side:"):
+            return question.options[0]
+        return "head" if question.key == f"body:{head}" else "arm"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), load_urdf(built.urdf), list(built.components))
+    assert f"body:{head}" in asked and f"body:{lift}" not in asked
+    found = {(p.cls, p.joints, p.side) for p in parts if p.joints or p.cls == "MobileBase"}
+    assert found == {(p.cls, tuple(p.joints), p.side) for p in built.parts if p.joints or p.cls == "MobileBase"}
 
 
 def test_names_win_over_geometry_for_a_whole_class_of_mirrored_parts():

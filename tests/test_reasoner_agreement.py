@@ -48,13 +48,18 @@ def generated_body(built, tools_in_run: bool) -> Call:
 
 def boundaries() -> Call:
     """Candidates on both sides of each body-part condition: one to five joints (one continuous), a camera,
-    a tool, another sensor, both or nothing, carrying a wheel, another part or none, on the ground or off it."""
+    a tool, another sensor, both or nothing, carrying a wheel, another part, one or two parts with tools or none,
+    on the ground or off it."""
     wheel, other = PartFacts(("continuous",), (), (), True), PartFacts(("revolute", "revolute"), (), (), False)
+    arm = PartFacts(("revolute",) * 6, ("ParallelGripper",), (), False)
     joints = [("continuous",), ("revolute",), ("revolute", "continuous"), ("revolute", "revolute", "prismatic"),
               ("revolute",) * 4, ("revolute",) * 5]
     devices = [(), ("MonocularCamera",), ("ParallelGripper",), ("Lidar",), ("RGBDCamera", "ParallelGripper")]
-    return [], [wheel, other, *(PartFacts(j, d, carries, ground) for j in joints for d in devices
-                                for carries in ((), (0,), (1,)) for ground in (True, False))]
+    return [], [wheel, other, arm, arm,
+                *(PartFacts(j, d, carries, ground) for j in joints for d in devices
+                  for carries in ((), (0,), (1,)) for ground in (True, False)),
+                *(PartFacts(("prismatic",), d, carries, ground) for d in devices
+                  for carries in ((2,), (2, 3), (1, 2)) for ground in (True, False))]
 
 
 def merged(calls: list[Call]) -> Call:
@@ -86,7 +91,7 @@ CASES = {
     "toy": (lambda: merged(toy_run()), {"ParallelGripper"}, {"Wheel", "Arm"}),
     "hands": (hands, {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand", "EndEffector"}, set()),
     "bodies": (bodies, {"ParallelGripper"}, {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
-    "boundaries": (boundaries, set(), {"Wheel", "MobileBase", "Leg", "Arm", "Head", None}),
+    "boundaries": (boundaries, set(), {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
 }
 
 

@@ -158,6 +158,7 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
     """Each candidate as a BodyPart individual with the facts the code asserts of it."""
     vocab, tool = vocabulary(), _tool_class()
     individuals = [core[vocab.body_part](f"part{i}") for i in range(len(parts))]
+    tools_on = [sum(cls.startswith(TOOL_REF) or vocab.is_a(cls, tool) for cls in facts.devices) for facts in parts]
     for i, (facts, part) in enumerate(zip(parts, individuals)):
         part.hasJoint = [core[vocab.joint_class(t)](f"part{i}_joint{j}") for j, t in enumerate(facts.joint_types)]
         part.carriesDevice = [tools[int(cls[len(TOOL_REF):])] if cls.startswith(TOOL_REF) else core[cls](f"part{i}_device{j}")
@@ -166,8 +167,8 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
         part.reachesGround = facts.reaches_ground
         # what the conditions count is asserted as counts: no closure, no cardinality reasoning
         part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
-        part.deviceCount = len(facts.devices)
-        part.endEffectorCount = sum(cls.startswith(TOOL_REF) or vocab.is_a(cls, tool) for cls in facts.devices)
+        part.deviceCount, part.endEffectorCount = len(facts.devices), tools_on[i]
+        part.toolPartCount = sum(tools_on[k] > 0 for k in facts.carries)
     return individuals
 
 
