@@ -18,6 +18,7 @@ from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.abstraction.steps.classify import chain_subject, pre_classification
+from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.reading.ingest import load_urdf
@@ -150,7 +151,6 @@ def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_may_stay_a_sensor(
 def test_the_sensor_check_shows_the_product_a_leaf_names_as_identification_did():
     """A bare leaf named for an IMU product, identified as a sensor, was asked again without its product and
     called a passive part: the check shows the catalogue's line too, and a leaf naming nothing is asked as before."""
-    from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
     w = Writer(random.Random(3))
     base = w.link('<box size="0.5 0.4 0.2"/>')
     named_leaf, plain_leaf = f"{w.name()}_microstrain", w.link()
@@ -173,7 +173,6 @@ def test_the_sensor_check_shows_the_product_a_leaf_names_as_identification_did()
 def test_alike_leaves_naming_different_products_are_checked_apart():
     """Two mirrored sensor heads on tilt joints, alike but for the product one's frame names: one check each, the
     product shown for its own leaf alone."""
-    from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
     w = Writer(random.Random(4))
     base = w.link('<box size="0.5 0.4 0.2"/>')
     leaves = []
