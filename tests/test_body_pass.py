@@ -377,10 +377,12 @@ def test_a_continuous_joint_its_file_bounds_to_less_than_half_a_turn_does_not_sp
     assert [body._motion(tree, tree.edge_to(link)) for link in links] == ["revolute", "continuous", "continuous", "continuous"]
 
 
-def _sprawled(seed: int, pairs: int, kind: str = "revolute", rise: float = 0.0) -> tuple[bytes, list[list[str]]]:
-    """A trunk with `pairs` mirrored pairs of legs spread front to back, each of 3 joints of `kind`, that the zero
-    pose holds out level with the trunk and folded (its foot back beside its hip), `rise` above it (actuators
-    stacked at the hip), its name meaningless."""
+def _sprawled(seed: int, pairs: int, kind: str = "revolute", rise: float = 0.0,
+              limits: tuple[float, float] | None = None, feet: bool = True) -> tuple[bytes, list[list[str]]]:
+    """A trunk with `pairs` mirrored pairs of legs spread front to back, each of 3 joints of `kind` (within `limits`,
+    where given), that the zero pose holds out level with the trunk and folded (its foot back beside its hip; with
+    no `feet`, the shank is the leg's last link), `rise` above it (actuators stacked at the hip), its name
+    meaningless."""
     rng = random.Random(seed)
     w = Writer(rng)
     trunk = w.link('<box size="0.8 0.2 0.1"/>')
@@ -388,12 +390,13 @@ def _sprawled(seed: int, pairs: int, kind: str = "revolute", rise: float = 0.0) 
     for k in range(pairs):
         x = 0.3 - 0.6 * k / (pairs - 1)
         for y in (0.1, -0.1):
-            hip, thigh, shank, foot = w.link('<box size="0.1 0.05 0.05"/>'), w.link('<box size="0.3 0.04 0.04"/>'), \
-                w.link('<box size="0.3 0.03 0.03"/>'), w.link('<sphere radius="0.03"/>')
-            legs.append([w.joint(kind, trunk, hip, (x, y, 0.0), (1.0, 0.0, 0.0)),
-                         w.joint(kind, hip, thigh, (0.0, 0.08 if y > 0 else -0.08, rise), (0.0, 1.0, 0.0)),
-                         w.joint(kind, thigh, shank, (0.3, 0.0, 0.0), (0.0, 1.0, 0.0))])
-            w.joint("fixed", shank, foot, (-0.3, 0.0, 0.0))
+            hip, thigh, shank = w.link('<box size="0.1 0.05 0.05"/>'), w.link('<box size="0.3 0.04 0.04"/>'), \
+                w.link('<box size="0.3 0.03 0.03"/>')
+            legs.append([w.joint(kind, trunk, hip, (x, y, 0.0), (1.0, 0.0, 0.0), limits),
+                         w.joint(kind, hip, thigh, (0.0, 0.08 if y > 0 else -0.08, rise), (0.0, 1.0, 0.0), limits),
+                         w.joint(kind, thigh, shank, (0.3, 0.0, 0.0), (0.0, 1.0, 0.0), limits)])
+            if feet:
+                w.joint("fixed", shank, w.link('<sphere radius="0.03"/>'), (-0.3, 0.0, 0.0))
     return w.urdf(), legs
 
 
@@ -424,6 +427,21 @@ def test_legs_written_continuous_with_their_hips_raised_are_legs_not_wheels(seed
 
     def rule(question):
         return question.options[0] if question.key.startswith("side:") else "wheel"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
+    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+
+
+@pytest.mark.parametrize("seed,pairs", [(7, 2), (8, 3)])
+def test_servo_legs_ending_in_their_shanks_are_legs_not_a_hand(seed, pairs):
+    """Sprawled legs on hobby servos (each joint's range 300 degrees, more than half a turn) that end in their
+    shanks, no foot link: a shank's range is no wheel's full turn, so the tips are feet and each limb a leg (on the
+    code before the shanks rolled as wheels do: no feet, and a real hexapod so written became one hand)."""
+    urdf, legs = _sprawled(seed, pairs, limits=(-2.618, 2.618), feet=False)
+    tree = load_urdf(urdf)
+    assert len(hands.feet(tree)) == 2 * pairs
+
+    def rule(question):
+        return question.options[0] if question.key.startswith("side:") else "arm"
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
     assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
 

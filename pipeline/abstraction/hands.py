@@ -29,6 +29,7 @@ TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their le
 # rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
+FULL_TURN = 0.99 * 2 * math.pi  # rad: a joint's range at which it turns a wheel (files write -3.14..3.14)
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
 SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
 # sensor tilting on its own joint hangs from a trunk or a lift: fewer)
@@ -354,6 +355,12 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
     return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
 
 
+def _turns_fully(edge: Edge) -> bool:
+    """The joint spins, or its limits give it a full turn or more (FULL_TURN): a wheel the file writes revolute.
+    A servo's range, up to 300 degrees on the hobby servos small legged robots are built of, rolls no wheel."""
+    return edge.spins or edge.limits is not None and edge.limits[1] - edge.limits[0] >= FULL_TURN
+
+
 def _past_half_turn(edge: Edge) -> bool:
     """The joint's limits give it a range of more than half a turn."""
     return edge.limits is not None and edge.limits[1] - edge.limits[0] > math.pi
@@ -441,7 +448,7 @@ def _rolls(tree: KinematicTree, leaf: str) -> bool:
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
     """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), no higher than the trunk
     (FOOT_BAND, or LEVEL_RISE of the limb's length: actuators stacked at its hips lift it), each carrying no wheel
-    (wheel_body, or a leaf that rolls: `rolling`), as many joints in each, that leave it
+    (wheel_body, or a leaf turning a full turn: `_turns_fully`), as many joints in each, that leave it
     in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane, REP 103's left and right,
     lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the longest one's length or more (a
     limb's length is the sum of its joints' offsets: a leg written folded is as long as stretched out): a quadruped's
@@ -457,7 +464,8 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         if len(moving) < 2 or not _from_trunk_by_legs(tree, tip, set(tips), placing):
             continue
         first = moving[-1]
-        if any(wheel_body(tree, x) or tree.is_leaf(x) and rolling(tree, x) for x in (first, *tree.descendants(first))):
+        if any(wheel_body(tree, x) or tree.is_leaf(x) and _turns_fully(tree.edge_to(x))
+               for x in (first, *tree.descendants(first))):
             continue  # a wheel anywhere on it: a wheel module
         length = limb_length(tree, tip, first)
         if length > limbs.get(first, ("", 0.0))[1]:  # one tip per limb: the farthest out
