@@ -656,3 +656,27 @@ def test_a_bare_frame_where_two_devices_links_are_names_neither():
     oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))
     groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(frames, "RangingSensor"))
     assert [alias] in [g.leaves for g in groups]
+
+
+@pytest.mark.parametrize("pitch", [0.5, 1.05])
+def test_cameras_on_one_face_that_look_apart_are_two_devices(pitch):
+    """A legged robot's face: a bare body (its mass alone) carrying a shell and two cameras, each its own frame and
+    an optical frame below it, one looking ahead and one pitched down by `pitch` (30 or 60 degrees): their lines of
+    sight part, so they are two devices whatever the model names them (on the code before: one device, the face
+    their body)."""
+    w = Writer(random.Random(5))
+    trunk, face = w.link('<box size="0.6 0.3 0.15"/>'), w.link(centre=(0.0, 0.0, 0.0), mass=0.5)
+    w.joint("fixed", trunk, face, (0.35, 0.0, 0.0))
+    w.joint("fixed", face, w.link('<box size="0.05 0.25 0.12"/>'), (0.0, 0.0, 0.0))
+    devices = []
+    for z, tilt in ((0.0, 0.0), (-0.06, pitch)):
+        own, optical = w.link(centre=(0.0, 0.0, 0.0), mass=0.06), w.link()
+        w.joint("fixed", face, own, (-0.02, 0.0, z), rpy=(0.0, tilt, 0.0))
+        w.joint("fixed", own, optical, rpy=OPTICAL)
+        devices.append([optical])
+    tree = load_urdf(w.urdf())
+    leaves = [d[0] for d in devices]
+    chains = one_mount(tree, [sub_chain(tree, leaf, face) for leaf in leaves])
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                   dict.fromkeys(leaves, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted(devices)

@@ -20,6 +20,8 @@ BUILT_IN = 0.02  # m: a camera's built-in sensors' frames lie this close to its 
 MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points, a pair's eyes) this near each other's mirror
 # image across a plane of the root pair across it
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
+LINE_OF_SIGHT = math.cos(math.radians(25))  # the imagers of one camera look the same way, within this (a Femto
+# Bolt's depth imager is tilted 8 degrees from its colour imager; a legged robot's face cameras 14 to 60 apart)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
 ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick (poles, standoffs, antennas: 5 to 17)
 ROD_THICKNESS = 0.02  # m: and at most this thick (they are 8 to 12 mm; a stereo camera drawn as a cylinder, 3 cm)
@@ -55,8 +57,11 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     body's origin lies from its lens), each on a branch that leads to one imager alone (None where they do not). A leaf with
     geometry fixed straight to that link, beside an optical frame (REP 103) or a frame the file declares a
     simulator sensor on, is the device's own housing piece (a camera's model frame, a lidar's cap): it belongs
-    to the body too."""
+    to the body too. Two optical frames (REP 103) whose lines of sight part by more than LINE_OF_SIGHT are two
+    cameras, however close: a face carrying a camera looking ahead and one looking down."""
     body = fork_of(tree, [a, b])
+    if is_optical(tree, a) and is_optical(tree, b) and dot(_sight(tree, a, body), _sight(tree, b, body)) < LINE_OF_SIGHT:
+        return None
     one_point = math.dist(tree.position_in(a, body), tree.position_in(b, body)) <= VIEWPOINT
     housings = 0
     for leaf, other in ((a, b), (b, a)):
@@ -73,6 +78,11 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
         if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY and not one_point:
             return None
     return body if housings < 2 else None
+
+
+def _sight(tree: KinematicTree, leaf: str, body: str) -> Vector:
+    """An optical frame's line of sight (its z axis, REP 103) in `body`'s frame at the zero pose."""
+    return sub(tree.position_in(leaf, body, (0.0, 0.0, 1.0)), tree.position_in(leaf, body))
 
 
 def declares_sensor(tree: KinematicTree, link: str) -> bool:
