@@ -561,6 +561,25 @@ def test_a_small_humanoids_arms_are_no_fingers_and_end_in_no_tool():
     assert sorted(leaf for _, leaves in hands(load_urdf(urdf)) for leaf in leaves) == sorted(jaws)
 
 
+def test_a_jaw_on_a_joint_with_no_range_ends_its_arm_where_no_joint_of_the_file_has_one():
+    """SolidWorks' exporter writes every joint 0..0 unless told: an arm of four joints so written, ending in a jaw
+    on a fifth. No joint of the file has a range, so the limits say nothing: the jaw ends a limb, and the erring
+    model's "sensor" (0.6) gives way to its next answer, a tool (on the code before: a sensor). Where another joint
+    of the file has a range, a joint with none still moves nothing (test above: the force sensor's frame)."""
+    for ranged in (False, True):
+        w = Writer(random.Random(21))
+        trunk = w.link('<box size="0.3 0.3 0.4"/>')
+        jaw = w.link('<box size="0.02 0.01 0.06"/>')
+        w.joint("revolute", _serial(w, trunk, 4, (0.0, 0.0)), jaw, (0.02, 0.0, 0.1), (0.0, 1.0, 0.0), limits=(0.0, 0.0))
+        if ranged:  # a pan joint elsewhere with a range
+            w.joint("revolute", trunk, w.link('<box size="0.05 0.05 0.05"/>'), (0.0, 0.0, 0.3), limits=(-1.0, 1.0))
+        tree = load_urdf(w.urdf())
+        assert (jaw in limb_ends(tree)) == (not ranged)
+        options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.3, NONE: 0.1}
+        claims = _identified(w.urdf(), lambda q: options if _leaf(q) == jaw else NONE)
+        assert claims[jaw] == (SENSOR_CLS if ranged else TOOL_CLS), ranged
+
+
 @pytest.mark.parametrize("centre", [None, (0.0, 0.0, 0.0)])
 def test_a_camera_balanced_at_the_end_of_a_gimbal_is_a_sensor(centre):
     """A drone's camera is the last link of a three-joint gimbal whose pitch turns 4.1 rad, past half a turn as a

@@ -202,13 +202,14 @@ def limb_ends(tree: KinematicTree) -> frozenset[str]:
     pitching 4.1 rad, is balanced on it). Such a leaf is the limb's own last link (a bare arm's flange, a foot), a jaw that
     closes against it or a finger, never a sensor, which is fixed to what it measures from (a lidar's spinning head
     or a bumper on its own hinge is moved by one joint, not by a limb; a camera on a pan and tilt tilts over a
-    bounded arc). A joint whose limits give it no range does not move it."""
+    bounded arc). A joint whose limits give it no range does not move it, unless no joint of the file has one
+    (KinematicTree.moving)."""
     ends = []
     for leaf in tree.leaves():
         if tree.parent(leaf) is None:  # a robot of one link
             continue
         edge = tree.edge_to(leaf)
-        if not edge.moves:
+        if not tree.moving(edge):
             continue
         path = _limb_path(tree, leaf)
         joints = _movable_between(tree, leaf, path[-1])
@@ -267,7 +268,7 @@ def swinging_leaves(tree: KinematicTree) -> frozenset[str]:
     swinging = []
     for leaf in tree.leaves():
         edge = tree.edge_to(leaf)
-        if not edge.moves or edge.spins:
+        if not tree.moving(edge) or edge.spins:
             continue
         moved = sum(tree.edge_to(link).joint_type in _SWINGS for link in tree.chain_to_root(edge.parent)[:-1])
         if moved >= SWING_JOINTS and any(goes_on(c) for c in tree.children(edge.parent) if c != leaf):

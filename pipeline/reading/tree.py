@@ -192,6 +192,7 @@ class KinematicTree:
     root: str = field(init=False)
     _parent_edge: dict[str, Edge] = field(init=False, repr=False, compare=False)
     _children: dict[str, tuple[str, ...]] = field(init=False, repr=False, compare=False)
+    ranged: bool = field(init=False, repr=False, compare=False)  # some joint's limits give it a range (Edge.moves)
 
     def __post_init__(self) -> None:
         links, edges = tuple(self.links), tuple(self.edges)
@@ -205,6 +206,7 @@ class KinematicTree:
             ("root", root),
             ("_parent_edge", {e.child: e for e in edges}),
             ("_children", {link: tuple(kids) for link, kids in children.items()}),
+            ("ranged", any(e.moves for e in edges)),
         ):
             object.__setattr__(self, name, value)
 
@@ -220,6 +222,11 @@ class KinematicTree:
                       for e in data["edges"])
         evidence = {link: LinkEvidence.from_dict(facts) for link, facts in data.get("evidence", {}).items()}
         return cls(data["robot_name"], tuple(data["links"]), edges, evidence, data.get("source_sha256", ""))
+
+    def moving(self, edge: Edge) -> bool:
+        """The joint moves its child: Edge.moves, or movable with limits that give it no range in a file that gives
+        no joint a range (SolidWorks' exporter writes every joint 0..0 unless told: there the limits say nothing)."""
+        return edge.moves or (edge.movable and not self.ranged)
 
     def _known(self, link: str) -> str:
         if link not in self._children:

@@ -141,7 +141,7 @@ def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
     the body is the robot's (SolidWorks' exporter writes every joint 0..0 unless told: where no joint has a range,
     only one carrying devices' links alone is a mount), and one that spins (Edge.spins: a wheel's, whatever limits
     its file writes) is never a mount."""
-    ranged = any(e.moves for e in tree.edges if e.movable)
+    ranged = tree.ranged
 
     def mount(edge: Edge) -> bool:
         carried = {edge.child, *tree.descendants(edge.child)}
