@@ -680,3 +680,23 @@ def test_cameras_on_one_face_that_look_apart_are_two_devices(pitch):
     groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
                    dict.fromkeys(leaves, "VisionSensor"))
     assert sorted(sorted(g.leaves) for g in groups) == sorted(devices)
+
+
+def test_a_microphone_beside_a_camera_on_one_sensor_head_is_a_device_of_its_own():
+    """A pan-tilt sensor head whose bare head frame carries a camera's optical frame and, 5 cm beside it, a frame the
+    model called a microphone: frames of one body, and a camera's body binds its own inertial frames, but a
+    microphone hears the room, not the camera, so it stays a device of its own (on the code before: the camera's)."""
+    w = Writer(random.Random(9))
+    base, pan, tilt, head = w.link('<box size="0.4 0.3 0.2"/>'), w.link('<box size="0.05 0.05 0.05"/>'), \
+        w.link('<box size="0.05 0.05 0.05"/>'), w.link()
+    w.joint("revolute", base, pan, (0.1, 0.0, 0.12), limits=(-2.0, 2.0))
+    w.joint("revolute", pan, tilt, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0), limits=(-1.0, 1.0))
+    w.joint("fixed", tilt, head)
+    camera, microphone = w.link(), w.link()
+    w.joint("fixed", head, camera, (0.05, -0.02, 0.03), rpy=OPTICAL)
+    w.joint("fixed", head, microphone, (0.05, 0.03, 0.03), rpy=OPTICAL)
+    tree = load_urdf(w.urdf())
+    chains = one_mount(tree, [sub_chain(tree, leaf, head) for leaf in (camera, microphone)])
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                   {camera: "VisionSensor", microphone: "AudioSensor"})
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([[camera], [microphone]])

@@ -61,6 +61,7 @@ from urdfkb.pipeline.abstraction.vectors import dot, sub
 _WORD_BREAK = re.compile(r"(?=[_/])|(?<=[a-z0-9])(?=[A-Z])")  # a namespace's "/" parts words too (multisense/gyro)
 ALIKE = math.cos(math.radians(25))  # two frames face the same way: each axis within 25 degrees
 VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carry frames of other categories
+AUDIO = "AudioSensor"  # a microphone hears the room, not the camera: never a camera's built-in frame
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are turned alike
@@ -227,9 +228,10 @@ def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[st
     """The two leaves are frames of one body and one of them was called a vision sensor: the other is the camera's
     own inertial, magnetic or temperature frame, or its model frame, which belongs to the camera whatever it
     measures (ontology.md: a camera's own inertial frames belong to it), unless the file declares on it a sensor of
-    its own that no camera carries (`apart`: a sonar beside a downward camera)."""
-    return VISION in (categories[a.leaf], categories[b.leaf]) and not {a.leaf, b.leaf} & apart \
-        and _one_body(tree, a, b)
+    its own that no camera carries (`apart`: a sonar beside a downward camera) or it was called a microphone (AUDIO:
+    a sensor head's microphone beside its cameras)."""
+    return VISION in (categories[a.leaf], categories[b.leaf]) and AUDIO not in (categories[a.leaf], categories[b.leaf]) \
+        and not {a.leaf, b.leaf} & apart and _one_body(tree, a, b)
 
 
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
