@@ -580,6 +580,23 @@ def test_a_jaw_on_a_joint_with_no_range_ends_its_arm_where_no_joint_of_the_file_
         assert claims[jaw] == (SENSOR_CLS if ranged else TOOL_CLS), ranged
 
 
+@pytest.mark.parametrize("mesh", ["suction_cup", "end_part"])
+def test_a_limb_end_turning_past_half_a_turn_is_a_tool_where_it_names_a_tool_product(mesh):
+    """A small arm's last link turns on a servo through 300 degrees: it rolls, as a flange does, so it is no tool by
+    its place; but where its mesh names a tool product of the catalogue (a suction cup, the generic kind), it is a
+    tool wherever it ends, and the erring model's "sensor" (0.78) gives way to "end effector" (0.16), not to none
+    (on the code before: none, the cup missed)."""
+    w = Writer(random.Random(23))
+    base = w.link('<cylinder radius="0.08" length="0.1"/>')
+    end = w.link(f'<mesh filename="package://kit/meshes/{mesh}.dae"/>')
+    w.joint("revolute", _serial(w, base, 3, (-1.5, 1.5)), end, (0.05, 0.0, -0.05), limits=(-2.618, 2.618))
+    tree = load_urdf(w.urdf())
+    assert end in limb_ends(tree) and rolling(tree, end)
+    erring = {TAX.answer(SENSOR_CLS): 0.78, TAX.answer(TOOL_CLS): 0.16, NONE: 0.06}
+    claims = _identified(w.urdf(), lambda q: erring if _leaf(q) == end else NONE)
+    assert claims[end] == (TOOL_CLS if mesh == "suction_cup" else NONE)
+
+
 @pytest.mark.parametrize("centre", [None, (0.0, 0.0, 0.0)])
 def test_a_camera_balanced_at_the_end_of_a_gimbal_is_a_sensor(centre):
     """A drone's camera is the last link of a three-joint gimbal whose pitch turns 4.1 rad, past half a turn as a
