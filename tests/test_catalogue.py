@@ -49,6 +49,9 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("head/swissranger_frame", "MESA SwissRanger"),
     ("front_tfmini_link", "Benewake TFmini / TF-Luna / TF02"),
     ("base_lidar_lite_v3", "Garmin LIDAR-Lite"),
+    ("robot/tof/front_center", "time-of-flight rangefinder"),  # the generic kind, a single beam
+    ("head_tof_camera_optical", "time-of-flight camera"),      # the longer fragment: a depth image
+    ("toffee_link", None),
     ("left_sdh_palm", "Schunk SDH"),
     ("sdhx_frame", None),         # "sdh" followed by letters
     ("normalized_frame", None),   # "zed" inside a word
