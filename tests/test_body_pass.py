@@ -400,6 +400,14 @@ def _sprawled(seed: int, pairs: int, kind: str = "revolute", rise: float = 0.0,
     return w.urdf(), legs
 
 
+def _each_a_leg_whatever_the_model_says(tree, legs: list[list[str]], answer: str) -> None:
+    """The body pass, the model answering `answer` for every part, makes each of `legs` (its joints) a leg."""
+    def rule(question):
+        return question.options[0] if question.key.startswith("side:") else answer
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
+    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+
+
 @pytest.mark.parametrize("seed,pairs", [(3, 2), (4, 3)])
 def test_legs_the_zero_pose_holds_out_level_are_legs(seed, pairs):
     """A quadruped or hexapod whose file's zero pose folds its legs flat beside its trunk: nothing lies below the
@@ -408,11 +416,7 @@ def test_legs_the_zero_pose_holds_out_level_are_legs(seed, pairs):
     urdf, legs = _sprawled(seed, pairs)
     tree = load_urdf(urdf)
     assert max(abs(tree.position_in(link, tree.root)[2]) for link in tree.links) < 0.01  # all level with the trunk
-
-    def rule(question):
-        return question.options[0] if question.key.startswith("side:") else "torso"
-    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
-    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+    _each_a_leg_whatever_the_model_says(tree, legs, "torso")
 
 
 @pytest.mark.parametrize("seed,pairs", [(5, 2), (6, 3)])
@@ -424,11 +428,7 @@ def test_legs_written_continuous_with_their_hips_raised_are_legs_not_wheels(seed
     urdf, legs = _sprawled(seed, pairs, kind="continuous", rise=0.1)
     tree = load_urdf(urdf)
     assert len(hands.feet(tree)) == 2 * pairs
-
-    def rule(question):
-        return question.options[0] if question.key.startswith("side:") else "wheel"
-    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
-    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+    _each_a_leg_whatever_the_model_says(tree, legs, "wheel")
 
 
 @pytest.mark.parametrize("seed,pairs", [(7, 2), (8, 3)])
@@ -439,11 +439,7 @@ def test_servo_legs_ending_in_their_shanks_are_legs_not_a_hand(seed, pairs):
     urdf, legs = _sprawled(seed, pairs, limits=(-2.618, 2.618), feet=False)
     tree = load_urdf(urdf)
     assert len(hands.feet(tree)) == 2 * pairs
-
-    def rule(question):
-        return question.options[0] if question.key.startswith("side:") else "arm"
-    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [])
-    assert sorted((p.cls, list(p.joints)) for p in parts) == sorted(("Leg", joints) for joints in legs)
+    _each_a_leg_whatever_the_model_says(tree, legs, "arm")
 
 
 def test_a_spinning_wheel_on_a_steering_joint_is_still_a_wheel_module():

@@ -60,7 +60,9 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
     to the body too. Two optical frames (REP 103) whose lines of sight part by more than LINE_OF_SIGHT are two
     cameras, however close: a face carrying a camera looking ahead and one looking down."""
     body = fork_of(tree, [a, b])
-    if is_optical(tree, a) and is_optical(tree, b) and dot(_sight(tree, a, body), _sight(tree, b, body)) < LINE_OF_SIGHT:
+    sight = (0.0, 0.0, 1.0)  # an optical frame's line of sight, its z axis (REP 103)
+    if is_optical(tree, a) and is_optical(tree, b) \
+            and dot(tree.direction_in(a, body, sight), tree.direction_in(b, body, sight)) < LINE_OF_SIGHT:
         return None
     one_point = math.dist(tree.position_in(a, body), tree.position_in(b, body)) <= VIEWPOINT
     housings = 0
@@ -78,11 +80,6 @@ def body_of(tree: KinematicTree, a: str, b: str) -> str | None:
         if math.dist(tree.position_in(leaf, body), (0.0, 0.0, 0.0)) > CAMERA_BODY and not one_point:
             return None
     return body if housings < 2 else None
-
-
-def _sight(tree: KinematicTree, leaf: str, body: str) -> Vector:
-    """An optical frame's line of sight (its z axis, REP 103) in `body`'s frame at the zero pose."""
-    return sub(tree.position_in(leaf, body, (0.0, 0.0, 1.0)), tree.position_in(leaf, body))
 
 
 def declares_sensor(tree: KinematicTree, link: str) -> bool:

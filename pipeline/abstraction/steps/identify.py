@@ -44,9 +44,10 @@ def identification(ctx: Context, found: Findings) -> None:
     unasked = [leaf for leaf in found.leaves if leaf not in claims]
     # the kinds a leaf's place rules out; a leaf naming a tool product (a suction cup on the servo that turns it) is
     # a tool wherever it ends
-    named_tools = {leaf for leaf in unasked if tools and (product := named_product(ctx.tree, [leaf]))
+    no_tool = found.off_ends | found.rolling_ends | found.last_segments
+    named_tools = {leaf for leaf in no_tool if tools and (product := named_product(ctx.tree, [leaf]))
                    and product.cls in vocab and vocab.is_a(product.cls, tools)}
-    rules = ((tools, (found.off_ends | found.rolling_ends | found.last_segments) - named_tools),
+    rules = ((tools, no_tool - named_tools),
              (sensors, found.limb_ends | found.swinging | found.frozen_tips | found.rods))
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
