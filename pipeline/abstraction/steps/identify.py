@@ -45,7 +45,7 @@ def identification(ctx: Context, found: Findings) -> None:
     # the kinds a leaf's place rules out; a leaf naming a tool product (a suction cup on the servo that turns it) is
     # a tool wherever it ends
     no_tool = found.off_ends | found.rolling_ends | found.last_segments
-    named_tools = {leaf for leaf in no_tool if tools and (product := named_product(ctx.tree, [leaf]))
+    named_tools = {leaf for leaf in no_tool.intersection(unasked) if tools and (product := named_product(ctx.tree, [leaf]))
                    and product.cls in vocab and vocab.is_a(product.cls, tools)}
     rules = ((tools, no_tool - named_tools),
              (sensors, found.limb_ends | found.swinging | found.frozen_tips | found.rods))
