@@ -700,3 +700,40 @@ def test_a_microphone_beside_a_camera_on_one_sensor_head_is_a_device_of_its_own(
     groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
                    {camera: "VisionSensor", microphone: "AudioSensor"})
     assert sorted(sorted(g.leaves) for g in groups) == sorted([[camera], [microphone]])
+
+
+def _camera_block(link: str, i: int, fmt: str = "R8G8B8", cloud: bool = False) -> str:
+    """A plain simulator camera on `link` giving `fmt` images; `cloud`: its plugin publishes a point cloud too."""
+    topic = f"<pointCloudTopicName>c{i}/points</pointCloudTopicName>" if cloud else ""
+    return (f'<gazebo reference="{link}"><sensor name="{link}_s{i}" type="camera"><camera><image><width>640</width>'
+            f'<height>480</height><format>{fmt}</format></image></camera><plugin name="{link}_p{i}" '
+            f'filename="libgazebo_ros_camera.so">{topic}</plugin></sensor></gazebo>')
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_a_camera_body_declaring_one_plain_image_is_no_rgbd_camera(seed):
+    """The model calls cameras RGB-D where it may. A camera written as one body on which the file declares one plain
+    simulator camera (SDF `camera`: one image, colour or infrared) gives one image, and an RGB-D camera needs two
+    kinds: it is offered the other kinds. It stays RGB-D where that camera's plugin publishes a point cloud beside
+    its image (the openni plugin on an old Gazebo's camera), where two cameras are declared on it (colour and
+    infrared), where nothing is declared (a RealSense written as one link) and where its mesh names an RGB-D
+    product of the catalogue."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.6 0.4 0.3"/>')
+    bodies = []
+    for i in range(5):
+        geometry = ('<mesh filename="package://p/meshes/d435.dae"/>' if i == 4 else '<box size="0.03 0.1 0.03"/>')
+        bodies.append(w.link(geometry))
+        w.joint("fixed", base, bodies[-1], (rng.uniform(0.1, 0.3), 0.2 * i - 0.4, rng.uniform(0.2, 0.5)))
+    one, cloud, two, bare, product = bodies
+    blocks = [_camera_block(one, 0), _camera_block(cloud, 1, cloud=True), _camera_block(two, 2),
+              _camera_block(two, 3, fmt="L8"), _camera_block(product, 4)]
+    tree = load_urdf(w.urdf().replace(b"</robot>", "".join(blocks).encode() + b"</robot>"))
+    prefer = [TAX.answer("RGBDCamera"), TAX.answer("MonocularCamera")]
+    groups = [Group([sub_chain(tree, link, base)]) for link in bodies]
+    state = Findings(groups=groups)
+    state.pre = {link: Typed("RGBDCamera", 0.9) for link in bodies}
+    post_classification(Abstractor(Oracle(ScriptedBackend(_answer(prefer))), TAX).context(tree, kind="sensor"), state)
+    assert [t.cls for t in state.post] == ["MonocularCamera", "RGBDCamera", "RGBDCamera", "RGBDCamera", "RGBDCamera"]
+    assert tree.evidence[cloud].sensors[0].sdf_type == "rgbd_camera"

@@ -46,6 +46,7 @@ class SimSensor:
     max_range: float | None = None
     resolution: float | None = None   # m: a ray sensor's range resolution
     colour: bool = False              # it gives colour images (_gives_colour)
+    depth: bool = False               # its plugin publishes depth beside its images (_gives_depth)
     pixels: str | None = None         # the pixel format its images are written in (SDF's <format>, as written)
     radiation: str | None = None      # what a one-beam ranger emits, as its ROS range plugin states it (_RADIATIONS)
     name: str = ""                    # the name the file gives the declaration (`<sensor name="...">`)
@@ -58,8 +59,11 @@ class SimSensor:
     @property
     def sdf_type(self) -> str:
         """The SDF sensor type the declaration amounts to: a Gazebo classic `depth` sensor whose plugin publishes a
-        colour image beside the depth (the openni_kinect plugin's RGB-D mode) is SDF's `rgbd_camera`."""
-        return "rgbd_camera" if self.type == "depth" and self.colour else self.type
+        colour image beside the depth (the openni_kinect plugin's RGB-D mode), or a `camera` whose plugin publishes
+        depth beside its image (that plugin on an old Gazebo's camera sensor), is SDF's `rgbd_camera`."""
+        if (self.type == "depth" and self.colour) or (self.type == "camera" and self.depth):
+            return "rgbd_camera"
+        return self.type
 
 
 @dataclass(frozen=True)
@@ -258,6 +262,7 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
             frames = _output_frames(element, known)
             sensor = SimSensor(sensor_type, _plugins(element), reference, frames[0] if frames else None,
                                **_numbers(element, sensor_type), colour=_gives_colour(element, sensor_type),
+                               depth=_gives_depth(element),
                                pixels=_child_text(element, "camera/image/format") or None,
                                name=(element.get("name") or "").strip())
             for link in dict.fromkeys([reference, *frames]):
@@ -386,6 +391,15 @@ def _gives_colour(sensor: ET.Element, sensor_type: str) -> bool:
             if _COLOUR_WORDS.intersection(segments[:-1]) or (segments and segments[-1].endswith("_color")):
                 return True
     return False
+
+
+_DEPTH_OUTPUTS = ("depthimage", "pointcloud")  # the ROS camera plugins' depth image and point cloud parameters
+
+
+def _gives_depth(sensor: ET.Element) -> bool:
+    """Its plugin publishes a depth image or a point cloud: it names one (the ROS openni_kinect and depth camera
+    plugins' `depthImageTopicName`, `pointCloudTopicName`)."""
+    return any(_local(e.tag)[1].lower().startswith(_DEPTH_OUTPUTS) for e in sensor.iter())
 
 
 def _child_text(element: ET.Element, path: str) -> str | None:

@@ -12,7 +12,7 @@ kept here where the class the device got still allows them.
 """
 from __future__ import annotations
 
-from urdfkb.pipeline.reading.evidence import named
+from urdfkb.pipeline.reading.evidence import SimSensor, named
 from urdfkb.pipeline.knowledge.ontology import Kind, Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.stages.asking import Progress
@@ -92,13 +92,25 @@ def _undeclared(tax: Vocabulary, tree: KinematicTree, link: str, part: str) -> f
     kinds = set(tax.subclasses_below(part))
     given: set[str] = set()
     for sensor in tree.evidence[link].sensors if link in tree.evidence else ():
-        declared = tax.declared_classes([sensor.sdf_type])
-        if not declared & kinds:
+        images = image_kinds(tax, sensor, part)
+        if images is None:
             return frozenset()  # a declaration saying nothing of images (an IMU's, a ranger's) allows every kind
-        typed = tax.disagreeing(declared, part)
-        formatted = tax.unformatted([sensor.pixels] if sensor.pixels and sensor.sdf_type not in DEPTH_IMAGES else [], part)
-        given |= kinds - typed - formatted
+        given |= images
     return frozenset(kinds - given) if given else frozenset()  # none given: they contradict, the model decides
+
+
+def image_kinds(tax: Vocabulary, sensor: SimSensor, part: str) -> frozenset[str] | None:
+    """The kinds of `part` (a camera's optical frame) a simulator sensor's images may be: those its type allows
+    (core:simulatorSensorType on the kinds: a wide-angle camera gives no depth image) and, for a camera stating its
+    pixel format, that format allows (core:pixelFormat: an L8 image is no colour one; a depth sensor's format is
+    only its preview's). None for a declaration saying nothing of images (an IMU's, a ranger's)."""
+    kinds = frozenset(tax.subclasses_below(part))
+    declared = tax.declared_classes([sensor.sdf_type])
+    if not declared & kinds:
+        return None
+    typed = tax.disagreeing(declared, part)
+    formatted = tax.unformatted([sensor.pixels] if sensor.pixels and sensor.sdf_type not in DEPTH_IMAGES else [], part)
+    return kinds - typed - formatted
 
 
 def _descend_alike(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, start: str,

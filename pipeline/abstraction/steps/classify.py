@@ -3,6 +3,7 @@ members' (post-classification), numbered units, and each member link's sub-part 
 (stages.classification, stages.subparts)."""
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable
 
 from urdfkb.pipeline.abstraction.catalogue import Product
@@ -15,7 +16,7 @@ from urdfkb.pipeline.abstraction.stages.classification import Subject, descend
 from urdfkb.pipeline.abstraction.stages.grouping import VISION, Group
 from urdfkb.pipeline.abstraction.stages.identification import device_product, named_product
 from urdfkb.pipeline.abstraction.stages.sensor_check import MAJORITY
-from urdfkb.pipeline.abstraction.stages.subparts import required_parts_first, type_subparts
+from urdfkb.pipeline.abstraction.stages.subparts import image_kinds, required_parts_first, type_subparts
 from urdfkb.pipeline.abstraction.stages.verification import indexed_units
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.devices import category
@@ -147,6 +148,11 @@ def post_classification(ctx: Context, found: Findings) -> None:
     views = {id(g): viewpoints(tree, g.leaves, cameras) for g in found.groups}
     counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
                    for g in found.groups}  # by where its frames see from, and by how many there are
+    imaged_out = {id(g): _images_out(ctx, g, camera, top) for g in found.groups if len(g.chains) == 1}
+    for g in found.groups:
+        if pre[g.leaves[0]].cls in imaged_out.get(id(g), ()):
+            ctx.log(f"post:{g.leaves[0]}: the images declared on it fit no {pre[g.leaves[0]].cls}")
+        counted_out[id(g)] |= imaged_out.get(id(g), frozenset())
     lone_frames = [g for g in found.groups if len(g.chains) == 1 and pre[g.leaves[0]].cls not in counted_out[id(g)]
                    and vocab.is_a(pre[g.leaves[0]].cls, camera) and is_optical(tree, g.leaves[0])]
     unfit = _frames_first(ctx, found, lone_frames, camera, imaging, classified=True)  # one image's kind
@@ -154,7 +160,7 @@ def post_classification(ctx: Context, found: Findings) -> None:
         if len(g.chains) > 1:
             by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in imaging[id(g)]}, top), []).append(g)
         elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)] | unfit.get(id(g), frozenset()):
-            if cls in counted_out[id(g)]:
+            if cls in counted_out[id(g)] - imaged_out.get(id(g), frozenset()):
                 ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
             by_start.setdefault(vocab.parents(cls)[0], []).append(g)
     for start, members in by_start.items():
@@ -167,6 +173,31 @@ def post_classification(ctx: Context, found: Findings) -> None:
         ], "post-classification", ctx.progress)
         typed.update({id(g): t for g, t in zip(members, results)})
     found.post = [typed[id(g)] for g in found.groups]
+
+
+def _images_out(ctx: Context, g: Group, camera: str, top: str) -> frozenset[str]:
+    """Classes under `top` a lone chain cannot be by the images declared on its links, where each declaration giving
+    images is a plain camera (its type names no kind of camera: SDF's `camera`) publishing no depth: such a
+    declaration renders one image, of a kind its type and format allow (stages.subparts.image_kinds), so the
+    device's frames are one such image per declaration, and a class no such set of frames fits is out
+    (Vocabulary.unfit: an RGB-D camera needs a colour and a depth or infrared frame), but the class of a catalogue
+    product its links name. Nothing where a declaration names a kind of camera or none gives images."""
+    vocab = ctx.vocab
+    part = vocab.required_part(camera)
+    if part is None:
+        return frozenset()
+    images = []
+    for sensor in dict.fromkeys(s for link in g.members for s in ctx.tree.evidence.get(link, _NO_FACTS).sensors):
+        kinds = image_kinds(vocab, sensor, part)
+        if kinds is None:
+            continue
+        if {c for c in vocab.declared_classes([sensor.sdf_type]) if vocab.is_a(c, camera)} != {camera} or not kinds:
+            return frozenset()
+        images.append(kinds)
+    if not images:
+        return frozenset()
+    out = frozenset.intersection(*(vocab.unfit(frozenset(frames), top) for frames in itertools.product(*images)))
+    return out.intersection(vocab.subclasses_below(camera)) - _named_classes(ctx, g)
 
 
 def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str],
