@@ -11,7 +11,7 @@ from tests.body_robots import Built, legged, wheeled
 from tests.scripted_reasoner import scripted_reasoner
 from tests.urdf_writer import Writer
 from urdfkb.pipeline.abstraction.abstractor import BODY_PASS, Abstractor
-from urdfkb.pipeline.abstraction.components import BodyPart, Component, SubComponent
+from urdfkb.pipeline.abstraction.components import SENSOR, BodyPart, Component, SubComponent
 from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.knowledge.ontology import vocabulary
@@ -633,3 +633,50 @@ def test_a_sensor_mount_without_range_carrying_the_housing_is_no_body_joint_wher
     w.joint("fixed", link, lens, (0.0, 0.05, 0.1))
     tree = load_urdf(w.urdf())
     assert _joints(body.chains(tree, set(), {lens})) == {tuple(arm)}
+
+
+def _camera(w: Writer, name: str, on: str) -> Component:
+    """A camera body and its optical frame fixed on `on`, as the sensor pass would give it."""
+    housing, optical = w.link('<box size="0.03 0.1 0.03"/>'), w.link()
+    w.joint("fixed", on, housing, (0.05, 0.0, 0.0))
+    w.joint("fixed", housing, optical)
+    return Component(name, SENSOR, "MonocularCamera", 1.0, on,
+                     (SubComponent(housing, "SensorHousing", 1.0), SubComponent(optical, "RgbFrame", 1.0)))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_neck_branching_into_a_camera_unit_and_a_sensor_ring_is_one_head_and_a_hip_into_two_legs_three_legs(seed):
+    """The model calls every candidate it is asked of a head (above) or a leg (below). A neck of two joints whose
+    last link carries a pan-tilt camera unit and a turning ring with a camera (each of which the ontology settles as
+    a head) is one head with them. A hip joint carrying a leg on either side stays a part of its own beside them:
+    two chains of its class on either side of the robot are two limbs."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.4 0.3 0.3"/>')
+    neck = [w.link('<box size="0.05 0.05 0.1"/>'), w.link('<box size="0.1 0.1 0.1"/>')]
+    neck_joints = [w.joint("revolute", base, neck[0], (0.0, 0.0, 0.3)),
+                   w.joint("revolute", neck[0], neck[1], (0.0, 0.0, 0.1), (0.0, 1.0, 0.0))]
+    unit, ring = w.link('<box size="0.1 0.15 0.1"/>'), w.link('<cylinder radius="0.1" length="0.02"/>')
+    unit_joint = w.joint("revolute", neck[1], unit, (0.02, 0.0, 0.1), (0.0, 1.0, 0.0))
+    ring_joint = w.joint("revolute", neck[1], ring, (0.0, 0.0, 0.05))
+    components = [_camera(w, "unit_camera", unit), _camera(w, "ring_camera", ring)]
+    hip = w.link('<box size="0.2 0.3 0.05"/>')
+    hip_joint = w.joint("revolute", base, hip, (0.0, 0.0, -0.2))
+    legs = []
+    for y in (0.1, -0.1):
+        link, joints = hip, []
+        for z in (-0.05, -0.3, -0.3):
+            child = w.link('<box size="0.05 0.05 0.3"/>')
+            joints.append(w.joint("revolute", link, child, (0.0, y if not joints else 0.0, z), (0.0, 1.0, 0.0)))
+            link = child
+        legs.append(tuple(joints))
+    tree = load_urdf(w.urdf())
+    below = set(tree.descendants(hip))
+
+    def rule(q):
+        if q.key.startswith("side:"):
+            return q.options[0]
+        edge = next(e for e in tree.edges if e.joint == q.key[len("body:"):])
+        return "leg" if edge.child in below or edge.child == hip else "head"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, components)
+    assert sorted((p.cls, p.joints) for p in parts) == sorted([
+        ("Head", (*neck_joints, unit_joint, ring_joint)), ("Leg", (hip_joint,)), ("Leg", legs[0]), ("Leg", legs[1])])

@@ -334,30 +334,38 @@ def _nearest(tree: KinematicTree, link: str, by_link: dict[str, Chain]) -> Chain
     return next((by_link[a] for a in tree.chain_to_root(link) if a in by_link), None)
 
 
-def _join(tax: Vocabulary, found: list[Chain]) -> list[Chain]:
+def _join(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Chain]:
     """A chain of a joining class (every body class but the base, whose chains join around its chassis,
-    and the wheel) whose only follower of that class hangs from its links is one part with it."""
+    and the wheel) is one part with the followers of that class hanging from its links (a neck with the pan-tilt
+    unit and the turning sensor ring it carries), unless two of them lie on either side of the robot (two
+    limbs: two arms below a chain the model also called an arm)."""
     joining = set(tax.body_classes) - {tax.mobile_base, tax.wheel}
     joined = True
     while joined:
         joined = False
         for parent in found:
             followers = [c for c in found if c is not parent and c.mount in parent.links and c.cls == parent.cls]
-            if parent.cls in joining and len(followers) == 1:
-                child = followers[0]
-                parent.joints += child.joints
-                parent.links += child.links
-                parent.confidence = min(parent.confidence, child.confidence)
-                found.remove(child)
+            if parent.cls in joining and followers and not _either_side(tree, followers):
+                for child in followers:
+                    parent.joints += child.joints
+                    parent.links += child.links
+                    parent.confidence = min(parent.confidence, child.confidence)
+                    found.remove(child)
                 joined = True
                 break
     return found
 
 
+def _either_side(tree: KinematicTree, chains: list[Chain]) -> bool:
+    """Two of `chains` lie on either side of the root's x-z plane (their joints' child links, at the zero pose)."""
+    y = [_mean_position(tree, [e.child for e in c.joints])[1] for c in chains]
+    return max(y) > SIDE_EPS and min(y) < -SIDE_EPS
+
+
 def assemble(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
     """Body parts from the classified candidates: adjacent chains of one joining class as one part, the
     base chains joined into one MobileBase around its chassis; candidates classified none drop out."""
-    return _parts(tax, tree, [c for c in _join(tax, found) if c.cls != NONE])
+    return _parts(tax, tree, [c for c in _join(tax, tree, found) if c.cls != NONE])
 
 
 def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
