@@ -663,7 +663,8 @@ def test_a_neck_branching_into_a_camera_unit_and_a_sensor_ring_is_one_head_and_a
     hip_joint = w.joint("revolute", base, hip, (0.0, 0.0, -0.2))
     legs = []
     for y in (0.1, -0.1):
-        link, joints = hip, []
+        link = hip
+        joints: list[str] = []
         for z in (-0.05, -0.3, -0.3):
             child = w.link('<box size="0.05 0.05 0.3"/>')
             joints.append(w.joint("revolute", link, child, (0.0, y if not joints else 0.0, z), (0.0, 1.0, 0.0)))
