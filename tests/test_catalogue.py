@@ -52,6 +52,7 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("robot/tof/front_center", "time-of-flight rangefinder"),  # the generic kind, a single beam
     ("head_tof_camera_optical", "time-of-flight camera"),      # the longer fragment: a depth image
     ("toffee_link", None),
+    ("vectorNav", "VectorNav VN-100"),  # a product name written in camel case is one word too
     ("base/us_2_frame", "ultrasonic sensor"),  # the generic abbreviation
     ("usb_cam_link", None),       # "us" followed by letters
     ("bus_bar_link", None),       # "us" inside a word
