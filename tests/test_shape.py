@@ -485,6 +485,26 @@ def test_bars_swinging_beside_an_arm_are_no_sensors(seed):
     assert claims[camera] == claims[tilting] == SENSOR_CLS
 
 
+def test_a_flange_turning_about_its_own_centre_of_mass_is_no_tool_wherever_its_joint_sits():
+    """A bare arm's flange link on a wrist roll of a quarter turn each way, its joint set beside the line of the arm
+    (as an offset wrist's file does: the line out to it runs 20 degrees off the axis), its centre of mass on the
+    axis, 3 mm along it: it turns about itself, as no jaw does, so the erring model's end effector (0.6) does not
+    stand. The same link with its centre of mass written at the joint's origin says nothing of that (files leave it
+    there), nor does a jaw whose mass lies 20 mm off its hinge: both stay the model's tool."""
+    found = {}
+    for name, centre, axis in (("flange", (0.0034, 0.0, 0.0), (1.0, 0.0, 0.0)), ("unplaced", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),
+                               ("jaw", (0.0, 0.02, 0.0), (1.0, 0.0, 0.0))):
+        w = Writer(random.Random(9))
+        base = w.link('<cylinder radius="0.1" length="0.2"/>')
+        end = w.link('<cylinder radius="0.04" length="0.02"/>', centre=centre)
+        w.joint("revolute", _serial(w, base, 5), end, (0.123, -0.045, 0.0), axis, limits=(-1.57, 1.57))
+        tree = load_urdf(w.urdf())
+        assert end in limb_ends(tree)
+        erring = {TAX.answer(TOOL_CLS): 0.6, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.1}
+        found[name] = (rolling(tree, end), _identified(w.urdf(), lambda q: erring if _leaf(q) == end else NONE)[end])
+    assert found == {"flange": (True, NONE), "unplaced": (False, TOOL_CLS), "jaw": (False, TOOL_CLS)}
+
+
 def test_a_bare_arms_last_link_that_rolls_is_no_tool_either():
     """A bare industrial arm's flange link turns through more than half a turn (here +-3 rad, or without bound), or
     about the line out to it from the link before, whatever its range (a quarter turn each way, as some files limit

@@ -29,6 +29,8 @@ TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their le
 # rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
+ON_AXIS = 0.001  # m: a centre of mass this near a joint's axis lies on it (every other limb end of the truth robots,
+# the parts library and the probe files lies 10 mm or more off its axis, or at its joint's origin)
 FULL_TURN = 0.99 * 2 * math.pi  # rad: a joint's range at which it turns a wheel (files write -3.14..3.14)
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
 SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
@@ -341,19 +343,30 @@ def limb_top(tree: KinematicTree, link: str) -> str:
 
 def rolling(tree: KinematicTree, leaf: str) -> bool:
     """The leaf's joint turns through more than half a turn (or spins), or turns about the line from its parent's
-    origin out to it (ROLL_OFFSET or more along its own axis: a wrist roll, the limb running along that axis),
-    whatever its range: a limb end so moved is a flange that rolls or a wheel, not a jaw or a finger, which close
-    over a bounded arc (under 2.5 rad in the hands, grippers and arms of the truth robots and the parts library)
-    about a hinge across the line they hang out along."""
+    origin out to it (ROLL_OFFSET or more along its own axis: a wrist roll, the limb running along that axis), or
+    about an axis through the leaf's own centre of mass (_about_itself), whatever its range: a limb end so moved is
+    a flange that rolls or a wheel, not a jaw or a finger, which close over a bounded arc (under 2.5 rad in the
+    hands, grippers and arms of the truth robots and the parts library) about a hinge across the line they hang
+    out along, their mass swinging off it."""
     edge = tree.edge_to(leaf)
     if edge.spins:
         return True
     if edge.joint_type not in ("revolute", "continuous"):
         return False
-    if _past_half_turn(edge):
+    if _past_half_turn(edge) or _about_itself(tree, leaf):
         return True
     out, axis = edge.origin.xyz, unit(rotate_rpy(edge.origin.rpy, edge.axis))
     return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
+
+
+def _about_itself(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf's centre of mass lies on its joint's axis (within ON_AXIS) and is placed off the joint's origin
+    (ON_AXIS or more along it): the link turns about itself, as a flange on a wrist roll whose origin the file sets
+    beside the line of the arm. A centre of mass written at the origin itself says nothing (files leave it there)."""
+    facts, axis = tree.evidence.get(leaf), unit(tree.edge_to(leaf).axis)
+    if facts is None or facts.centre is None or axis is None:
+        return False
+    return off_axis(facts.centre, axis) < ON_AXIS <= norm(facts.centre)
 
 
 def _turns_fully(edge: Edge) -> bool:
