@@ -5,7 +5,8 @@ catalogue (ontologies/products.ttl, with each entry's maker and product as its s
 named in URDFKB_PRODUCTS, separated as PATH is) says so; a matching product is shown beside the link in
 the questions about it ("Product: Livox Mid-360, a lidar"), and the model still decides. A fragment
 matches where a word of the name or mesh path starts (after a separator, a hyphen among them, or at a capital:
-`RFsrFL`; a name in camel case is read as one word too: `vectorNav`), and, ending in a letter, where that word's letters end ("zed" in `zed2_camera`, not in `normalized`).
+`RFsrFL`; a name in camel case is read as one word too: `vectorNav`), and, ending in a letter, where that word's
+letters end ("zed" in `zed2_camera`, not in `normalized`).
 """
 from __future__ import annotations
 
@@ -50,10 +51,9 @@ class Catalogue:
     def match(self, names: Sequence[str]) -> Product | None:
         """The product the first of `names` (a link name, then its mesh stems) that names one names."""
         for name in names:
-            plain = name.lower().replace("-", "_")
-            texts = (_CAMEL.sub("_", name).lower().replace("-", "_"), plain)  # a word starts at a capital or a
-            # hyphen too (RFsrFL -> r_fsr_fl, oak-d_frame -> oak_d_frame); a name written in camel case is also one
-            # word (vectorNav: vectornav)
+            # a word starts at a capital or a hyphen too (RFsrFL -> r_fsr_fl, oak-d_frame -> oak_d_frame); a name
+            # written in camel case is also one word (vectorNav: vectornav); a name with no capital is read once
+            texts = dict.fromkeys(t.lower().replace("-", "_") for t in (_CAMEL.sub("_", name), name))
             for _, pattern, product in self._patterns:
                 if any(pattern.search(text) for text in texts):
                     return product

@@ -148,27 +148,27 @@ def post_classification(ctx: Context, found: Findings) -> None:
     views = {id(g): viewpoints(tree, g.leaves, cameras) for g in found.groups}
     counted_out = {id(g): vocab.unseen(views[id(g)], top) | vocab.miscounted(len(g.chains), top)
                    for g in found.groups}  # by where its frames see from, and by how many there are
-    imaged_out = {id(g): _images_out(ctx, g, camera, top) for g in found.groups if len(g.chains) == 1}
-    for g in found.groups:
-        if pre[g.leaves[0]].cls in imaged_out.get(id(g), ()):
-            ctx.log(f"post:{g.leaves[0]}: the images declared on it fit no {pre[g.leaves[0]].cls}")
-        counted_out[id(g)] |= imaged_out.get(id(g), frozenset())
-    lone_frames = [g for g in found.groups if len(g.chains) == 1 and pre[g.leaves[0]].cls not in counted_out[id(g)]
+    imaged_out = {id(g): _images_out(ctx, g, camera, top) if len(g.chains) == 1 else frozenset()
+                  for g in found.groups}  # by the images declared on a lone chain
+    ruled_out = {i: counted_out[i] | imaged_out[i] for i in counted_out}
+    lone_frames = [g for g in found.groups if len(g.chains) == 1 and pre[g.leaves[0]].cls not in ruled_out[id(g)]
                    and vocab.is_a(pre[g.leaves[0]].cls, camera) and is_optical(tree, g.leaves[0])]
     unfit = _frames_first(ctx, found, lone_frames, camera, imaging, classified=True)  # one image's kind
     for g in found.groups:
         if len(g.chains) > 1:
             by_start.setdefault(_shared_class(ctx, {pre[leaf].cls for leaf in imaging[id(g)]}, top), []).append(g)
-        elif (cls := pre[g.leaves[0]].cls) in counted_out[id(g)] | unfit.get(id(g), frozenset()):
-            if cls in counted_out[id(g)] - imaged_out.get(id(g), frozenset()):
+        elif (cls := pre[g.leaves[0]].cls) in ruled_out[id(g)] | unfit.get(id(g), frozenset()):
+            if cls in counted_out[id(g)]:
                 ctx.log(f"post:{g.leaves[0]}: its frames see from {views[id(g)]} place(s), so it is no {cls}")
+            if cls in imaged_out[id(g)]:
+                ctx.log(f"post:{g.leaves[0]}: the images declared on it fit no {cls}")
             by_start.setdefault(vocab.parents(cls)[0], []).append(g)
     for start, members in by_start.items():
         unfit |= _frames_first(ctx, found, [g for g in members if len(g.chains) > 1], start, imaging)
         results = descend(ctx.oracle, vocab, start, [
             Subject(f"post:{g.leaves[0]}", "The frames below form one {concept} device.",
                     "Frames: " + "; ".join(f"{leaf} ({vocab.label(pre[leaf].cls)})" for leaf in g.leaves),
-                    _declared_first(ctx, g, start, counted_out[id(g)], unfit.get(id(g), frozenset())))
+                    _declared_first(ctx, g, start, ruled_out[id(g)], unfit.get(id(g), frozenset())))
             for g in members
         ], "post-classification", ctx.progress)
         typed.update({id(g): t for g, t in zip(members, results)})
