@@ -54,6 +54,7 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("toffee_link", None),
     ("vectorNav", "VectorNav VN-100"),  # a product name written in camel case is one word too
     ("base/us_2_frame", "ultrasonic sensor"),  # the generic abbreviation
+    ("rov/ping360_sonar", "Blue Robotics Ping360"),
     ("usb_cam_link", None),       # "us" followed by letters
     ("bus_bar_link", None),       # "us" inside a word
     ("left_sdh_palm", "Schunk SDH"),
@@ -153,6 +154,27 @@ def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_may_stay_a_sensor(
     assert "satellite navigation (GNSS) receiver" in chain_subject(ctx, tree, found.chains[0], "Sensor").evidence
     assert seen["pre:navsat_link@Sensor"][-1] == "other sensor" and found.pre["navsat_link"].cls == "Sensor"
     assert "other sensor" not in seen["pre:plate@Sensor"] and found.pre["plate"].cls != "Sensor"
+
+
+def test_a_declared_type_rules_out_no_class_of_the_product_the_links_name():
+    """A simulator stands a type it has in for a product it has none for (an underwater vehicle's scanning sonar
+    swept as a GPU ray scan, SDF's lidar): the declaration rules the catalogue product's class in again (a
+    sonar beside lidar), and still rules out the classes it disagrees with for a link that names no product."""
+    w = Writer(random.Random(7))
+    hull = w.link('<box size="0.45 0.34 0.25"/>')
+    named, bare = "rov/ping360_sonar", "rov/scanner"
+    for leaf, y in ((named, 0.1), (bare, -0.1)):
+        w.links.append(f'<link name="{leaf}"><visual><geometry><cylinder radius="0.04" length="0.08"/></geometry>'
+                       '</visual></link>')
+        w.joint("fixed", hull, leaf, (0.15, y, 0.12))
+    gazebo = "".join(f'<gazebo reference="{leaf}"><sensor name="s{i}" type="gpu_ray"><ray><scan><horizontal>'
+                     '<samples>400</samples><min_angle>-3.14</min_angle><max_angle>3.14</max_angle></horizontal>'
+                     '</scan></ray></sensor></gazebo>' for i, leaf in enumerate((named, bare)))
+    tree = load_urdf(w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>"))
+    ctx = Abstractor(Oracle(ScriptedBackend(lambda q: q.options[0])), TAX).context(tree, kind="sensor")
+    sonar, scanner = (chain_subject(ctx, tree, sub_chain(tree, leaf, hull), "RangingSensor") for leaf in (named, bare))
+    assert "Sonar" not in sonar.exclude and "Sonar" in scanner.exclude
+    assert "Lidar" not in sonar.exclude  # the declared class stays offered: the model weighs the two
 
 
 def test_the_sensor_check_shows_the_product_a_leaf_names_as_identification_did():

@@ -37,11 +37,11 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     plugin towards depth camera for RGB-D and monocular cameras, ray counts towards lidar for sonars),
     while identification gains from them."""
     key = f"pre:{chain.leaf}"
-    ruled_out = _ruled_out(ctx, tree, chain.links, cls, key)
+    named_as = named_product(tree, list(reversed(chain.links)))
+    ruled_out = _ruled_out(ctx, tree, chain.links, cls, key, _classes_of(ctx.vocab, named_as))
     with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
     shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
     between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
-    named_as = named_product(tree, list(reversed(chain.links)))
     product = product_text(ctx.vocab, named_as, cls)
     return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out,
                    _staying(ctx.vocab, named_as, cls))
@@ -59,11 +59,14 @@ def _staying(vocab: Vocabulary, product: Product | None, cls: str) -> tuple[str,
 RGBD = "rgbd_camera"  # SDF's sensor type of a camera giving colour and depth
 
 
-def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: str, key: str) -> frozenset[str]:
+def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: str, key: str,
+               named: frozenset[str] = frozenset()) -> frozenset[str]:
     """Classes under `below` that the simulator sensors declared on `links` rule out: by their type (the
     ontology's core:simulatorSensorType alignment; where one link declares a depth sensor and a sensor giving colour,
     one device gives both, and every declaration on the links an RGB-D camera fits is SDF's `rgbd_camera`: the
-    colour, depth and infrared imagers of that device) and by the span a ray sensor sweeps
+    colour, depth and infrared imagers of that device), except the `named` classes of the catalogue product the links
+    name (a simulator has no type for many products and stands one in: an imaging sonar swept as a GPU ray scan),
+    and by the span a ray sensor sweeps
     (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar) and by what a ranging sensor
     emits (core:rangingRadiation values: an infrared beam is no sonar); each narrowing is counted and logged."""
     vocab = ctx.vocab
@@ -73,7 +76,7 @@ def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: s
         rgbd = vocab.declared_classes([RGBD])
         types = {RGBD if any(vocab.is_a(r, c) for r in rgbd for c in vocab.declared_classes([t])) else t for t in types}
     declared = vocab.declared_classes(types)
-    ruled_out = vocab.disagreeing(declared, below)
+    ruled_out = vocab.disagreeing(declared, below) - named
     spans = [s.fov for s in sensors if s.fov is not None and s.ranging]  # ray sensors' sweeps
     narrow = vocab.too_narrow(max(spans), below) - ruled_out if spans else frozenset()
     radiations = {s.radiation for s in sensors if s.radiation is not None}
@@ -207,7 +210,7 @@ def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str],
     reading of each frame) give way to the declarations (the file's statement of the device: a camera giving colour
     and a depth sensor make an RGB-D camera whose frames the model called depth only)."""
     key = f"post:{g.leaves[0]}"
-    declared = _ruled_out(ctx, ctx.tree, g.members, start, key)
+    declared = _ruled_out(ctx, ctx.tree, g.members, start, key, _named_classes(ctx, g))
     ruled_out = declared | counted
     offered = set(ctx.vocab.subclasses_below(start)) - ruled_out
     if declared and offered and offered <= unfit:
@@ -251,10 +254,14 @@ def _named_classes(ctx: Context, g: Group) -> frozenset[str]:
     """The class of the catalogue product the device's links name, and the classes above it: a part they need that
     no frame was typed as does not rule them out (the small model calls a product's monochrome stereo pair
     colour); a frame typed as a part they exclude still does (a depth frame, no stereo camera)."""
-    product = device_product(ctx.tree, g.chains)
-    if product is None or product.cls not in ctx.vocab:
+    return _classes_of(ctx.vocab, device_product(ctx.tree, g.chains))
+
+
+def _classes_of(vocab: Vocabulary, product: Product | None) -> frozenset[str]:
+    """A catalogue product's class and the classes above it; none for no product or a class the core lacks."""
+    if product is None or product.cls not in vocab:
         return frozenset()
-    return frozenset({product.cls, *ctx.vocab.ancestors(product.cls)})
+    return frozenset({product.cls, *vocab.ancestors(product.cls)})
 
 
 def _imaging(ctx: Context, found: Findings, g: Group) -> list[str]:
