@@ -681,3 +681,49 @@ def test_a_neck_branching_into_a_camera_unit_and_a_sensor_ring_is_one_head_and_a
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, components)
     assert sorted((p.cls, p.joints) for p in parts) == sorted([
         ("Head", (*neck_joints, unit_joint, ring_joint)), ("Leg", (hip_joint,)), ("Leg", legs[0]), ("Leg", legs[1])])
+
+
+def _resting(seed: int, wheels: list[tuple[float, float]], arm: bool) -> tuple[object, str, list[str]]:
+    """A drawn base at the root carrying `wheels` (x, y) drawn as fixed cylinders of radius 0.1 resting on the
+    ground (their centres 0.1 m up), a lidar on top and, with `arm`, a two-joint arm on a riser."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.6 0.4 0.2"/>', mass=30.0)
+    fixed = []
+    for x, y in wheels:
+        wheel = w.link('<cylinder radius="0.1" length="0.04"/>', mass=0.5)
+        w.joint("fixed", base, wheel, xyz=(x, y, 0.1), rpy=(1.5708, 0.0, 0.0))
+        fixed.append(wheel)
+    lidar = w.link('<cylinder radius="0.04" length="0.05"/>')
+    w.joint("fixed", base, lidar, xyz=(0.2, 0.0, 0.25))
+    if arm:
+        riser, upper, fore = w.link('<box size="0.1 0.1 0.3"/>'), w.link('<box size="0.3 0.05 0.05"/>'), \
+            w.link('<box size="0.3 0.05 0.05"/>')
+        w.joint("fixed", base, riser, xyz=(0.0, 0.0, 0.35))
+        w.joint("revolute", riser, upper, xyz=(0.0, 0.0, 0.2), axis=(0.0, 1.0, 0.0))
+        w.joint("revolute", upper, fore, xyz=(0.3, 0.0, 0.0), axis=(0.0, 1.0, 0.0))
+    return load_urdf(w.urdf()), lidar, fixed
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_main_body_resting_on_wheels_the_file_fixed_is_a_mobile_base_whatever_the_model_says(seed):
+    """An omnidirectional base whose file writes its wheels as fixed links has no joint of its own and was given
+    no part: resting on two or more cylinders of one radius on either side, it is a mobile base holding them, the
+    model's share for mobile base its confidence (the model, asked, says none); the lidar on it is located there.
+    Cylinders on one line (a snake's segments lying on the ground) are no wheels, and no question is asked."""
+    asked = []
+
+    def rule(question):
+        asked.append(question.key)
+        if question.key.startswith("body:") and "none" in question.options and len(question.options) == 2:
+            return "none"
+        return "arm" if question.key.startswith("body:") else question.options[0]
+    tree, lidar, wheels = _resting(seed, [(0.2, 0.2), (0.2, -0.2), (-0.25, 0.0)], arm=seed % 2 == 0)
+    sensor = Component(f"sensor_{lidar}", SENSOR, "Lidar", 0.9, tree.parent(lidar), (SubComponent(lidar, "SensingElement", 0.9),))
+    parts, located = body_pass(Oracle(ScriptedBackend(rule)), tree, [sensor])
+    bases = [p for p in parts if p.cls == "MobileBase"]
+    assert len(bases) == 1 and bases[0].joints == () and set(bases[0].links) == {tree.root, *wheels}
+    assert bases[0].confidence == 0.0 and located[0].located_on == bases[0].name
+    assert any(p.cls == "Arm" for p in parts) == (seed % 2 == 0)
+    tree, _, _ = _resting(seed, [(0.3, 0.0), (0.0, 0.0), (-0.3, 0.0)], arm=False)
+    asked.clear()
+    assert body_pass(Oracle(ScriptedBackend(rule)), tree, [])[0] == [] and asked == []

@@ -63,6 +63,7 @@ BODY_PASS = Pass(BODY, (
     body.candidates,
     body.body_classification,
     body.body_assembly,
+    body.jointless_base,
     body.sides,
     body.location,
     body.placement,

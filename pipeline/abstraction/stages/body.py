@@ -33,7 +33,7 @@ from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import is_frame, mirrored, placing_joints
 from urdfkb.pipeline.abstraction import structure
-from urdfkb.pipeline.abstraction.hands import feet, wheel_body
+from urdfkb.pipeline.abstraction.hands import feet, palm, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 from urdfkb.pipeline.abstraction.vectors import dot, unit
@@ -42,6 +42,8 @@ SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 PARALLEL = 0.99  # |cosine| above which two joint axes are parallel
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
+LEG = "Leg"
+ROOT = "nothing: it is the robot's root"
 Log = Callable[[str], None]
 
 
@@ -289,6 +291,8 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
     """Each candidate's class: structure first (the ontology's sufficient conditions, by `reasoner`: HermiT
     by default), the model for the rest; `reasoned` receives the reasoner's wall time. `known` is what an
     earlier reasoner run inferred for candidates' facts, taken where the facts are still these."""
+    if not found:
+        return
     seen = findings(tree, found, components)
     devices, carries, grounded = seen.devices, seen.carries, seen.grounded
     if known is not None and known[0] == seen.facts:
@@ -358,8 +362,7 @@ def _join(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Chai
 
 def _either_side(tree: KinematicTree, chains: list[Chain]) -> bool:
     """Two of `chains` lie on either side of the root's x-z plane (their joints' child links, at the zero pose)."""
-    y = [_mean_position(tree, [e.child for e in c.joints])[1] for c in chains]
-    return max(y) > SIDE_EPS and min(y) < -SIDE_EPS
+    return _either_side_of([_mean_position(tree, [e.child for e in c.joints])[1] for c in chains])
 
 
 def assemble(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[BodyPart]:
@@ -385,6 +388,72 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
     confidence = min([c.confidence for c in base_chains] or [1.0])
     mobile_base = BodyPart(f"mobile_base_{chassis}", base, round(confidence, 4), root, joints, links)
     return [mobile_base] + [replace(p, parent=mobile_base.name) if p.cls == wheel else p for p in parts]
+
+
+def main_body(tree: KinematicTree, components: list[Component]) -> str | None:
+    """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
+    below the root through lone fixed joints (frames.is_frame), owned by no device, no movable joint's parent (a
+    drone's airframe, a base whose wheels the file fixes). None elsewhere: an arm's base carries its first joint."""
+    link = tree.root
+    while is_frame(tree, link):
+        below = tree.children(link)
+        if len(below) != 1 or tree.edge_to(below[0]).movable:
+            return None
+        link = below[0]
+    if link in {owned for c in components for owned in c.links} \
+            or any(tree.edge_to(child).movable for child in tree.children(link)):
+        return None
+    return link
+
+
+def resting_wheels(tree: KinematicTree, body: str, owned: set[str]) -> list[str]:
+    """The wheels a file fixed to `body`: drawn cylinders fixed below it, owned by no device, whose rims reach the
+    robot's lowest frame, at least two of one radius on either side of the root's x-z plane (an omnidirectional
+    base whose wheels the file writes as fixed links; a snake's segments lying on the ground lie on one line)."""
+    lowest = min(_height(tree, link) for link in tree.links)
+    by_radius: dict[float, list[str]] = {}
+    for link in palm(tree, body):
+        facts = tree.evidence.get(link)
+        cylinder = facts.cylinder if facts is not None else None
+        if link != body and link not in owned and cylinder is not None \
+                and _height(tree, link) - cylinder[0] <= lowest + GROUND_EPS:
+            by_radius.setdefault(round(cylinder[0], 3), []).append(link)
+    return next((links for links in by_radius.values()
+                 if len(links) > 1 and _either_side_of([tree.position_in(w, tree.root)[1] for w in links])), [])
+
+
+def _either_side_of(y: list[float]) -> bool:
+    """Lateral positions (y in the root frame) on either side of the root's x-z plane."""
+    return max(y) > SIDE_EPS and min(y) < -SIDE_EPS
+
+
+def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: list[BodyPart],
+                   components: list[Component], progress: Progress | None, log: Log) -> list[BodyPart]:
+    """Where no part moves the robot about (no mobile base, wheel or leg), a main body (`main_body`) resting on
+    wheels the file fixed (`resting_wheels`) is a mobile base with no joint of its own, which the ontology's
+    MobileBase allows; its wheels stay its links. The body-part question, shown the body, what it carries and the
+    wheels, offered mobile base or none, gives the part its confidence: the model's share for mobile base."""
+    body = main_body(tree, components)
+    moving = {tax.mobile_base, tax.wheel, LEG}
+    owned = {link for c in components for link in c.links}
+    wheels = resting_wheels(tree, body, owned) if body is not None and not any(p.cls in moving for p in parts) else []
+    if body is None or not wheels:
+        return parts
+    rigid = set(palm(tree, body))  # the body and what is fixed below it
+    devices = [tax.label(c.cls) for c in components if c.root in rigid]
+    hanging = [p for p in parts if p.root in rigid]
+    carried = devices + ([f"{len(hanging)} moving chain{'s' if len(hanging) > 1 else ''}"] if hanging else [])
+    shown = ["Joints: none (no joint moves it)", f"Links: {named(tree.evidence, body)}",
+             f"Hangs from: {tree.parent(body) or ROOT}", "Carries: " + ("; ".join(carried) if carried else "nothing"),
+             f"Reaches the ground: at {', '.join(wheels)}, fixed cylinders resting on it"]
+    asked = body_choice(tax, "\n".join(shown), f"body:{body}")
+    offered = {a: c for a, c in asked.meaning.items() if c in (tax.mobile_base, NONE)}
+    (verdict,) = ask(oracle, [replace(asked.question, options=tuple(offered))], "body classification", progress)
+    share = next((verdict.distribution.get(a, 0.0) for a, c in offered.items() if c == tax.mobile_base), 0.0)
+    log(f"body:{body}: a main body resting on wheels the file fixed ({', '.join(wheels)}): a mobile base, "
+        f"the model's share {share:.2f}")
+    return [BodyPart(f"mobile_base_{body}", tax.mobile_base, round(share, 4), tree.parent(body), (), (body, *wheels)),
+            *parts]
 
 
 def sides(oracle: Oracle, tree: KinematicTree, parts: list[BodyPart], progress: Progress | None,

@@ -23,9 +23,10 @@ def device_joints(ctx: Context, found: Findings) -> None:
 
 @step("candidates", needs=("components",), makes=("candidates", "done"))
 def candidates(ctx: Context, found: Findings) -> None:
-    """The chains of movable joints no device owns; the pass is done when there are none."""
+    """The chains of movable joints no device owns; the pass is done when there are none and no main body
+    without joints may be a mobile base (stages.body.main_body)."""
     found.candidates = body_stage.candidates(ctx.robot, found.components)
-    found.done = not found.candidates
+    found.done = not found.candidates and body_stage.main_body(ctx.robot, found.components) is None
 
 
 @step("body classification", needs=("candidates", "components", "body_reasoned"), makes=("candidates",))
@@ -43,6 +44,13 @@ def body_assembly(ctx: Context, found: Findings) -> None:
     """The classified candidates as body parts (stages.body.assemble joins a chain's lone follower of its class
     into it, among the candidates themselves)."""
     found.body = body_stage.assemble(ctx.vocab, ctx.robot, found.candidates)
+
+
+@step("jointless base", needs=("body", "components"), makes=("body",))
+def jointless_base(ctx: Context, found: Findings) -> None:
+    """Where no part moves the robot about, whether its main body is a mobile base with no joints of its own."""
+    found.body = body_stage.jointless_base(ctx.oracle, ctx.vocab, ctx.robot, found.body, found.components,
+                                           ctx.progress, ctx.log)
 
 
 @step("sides", needs=("body",), makes=("body",))
