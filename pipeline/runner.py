@@ -12,14 +12,14 @@ from typing import Any, Callable, Mapping, TextIO
 from urdfkb.pipeline import cache
 from urdfkb.pipeline.abstraction.abstractor import Abstractor
 from urdfkb.pipeline.abstraction.catalogue import catalogue
-from urdfkb.pipeline.abstraction.components import Abstraction
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, Abstraction
 from urdfkb.pipeline.errors import BackendError, SettingsError, URDFError
 from urdfkb.pipeline.llm.base import Backend
 from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle, check_voting
 from urdfkb.pipeline.knowledge.population import stamp
 from urdfkb.pipeline.knowledge.reasoning import Placer, Reasoner, classify_together, placements
-from urdfkb.pipeline.knowledge.screen import hold_unsure, screen
+from urdfkb.pipeline.knowledge.screen import hold_bodiless, hold_unsure, screen
 from urdfkb.pipeline.abstraction.stages.asking import Progress
 from urdfkb.pipeline.timings import Timings
 from urdfkb.pipeline.reading.tree import KinematicTree
@@ -185,7 +185,9 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         if owned:
             backend.close()
     record = _trace_writer(trace) if trace else None
-    result = screen(tree, hold_unsure(Abstraction(tuple(components), provenance, tuple(body)), record), record)
+    kept = hold_unsure(Abstraction(tuple(components), provenance, tuple(body)), record)
+    kept = hold_bodiless(tree, kept, vocabulary().kinds[END_EFFECTOR].cls, record)
+    result = screen(tree, kept, record)
     if settings.use_cache:
         cache.store(digest, result)
     return result.with_provenance(stamp(tree))

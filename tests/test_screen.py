@@ -13,13 +13,13 @@ from tests.kb_fixtures import client, make_app
 from tests.placement_robot import LABELS, TAX, build, model
 from tests.sample_bot import sample_abstraction, sample_tree
 from tests.scripted_reasoner import scripted_placements, scripted_reasoner
-from urdfkb.pipeline.abstraction.components import Abstraction, BodyPart, Held
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, Abstraction, BodyPart, Component, Held, SubComponent
 from urdfkb.pipeline.knowledge.export import robot_graph
 from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.runner import Settings, run
-from urdfkb.pipeline.knowledge.screen import SENSOR_FLOOR, hold_unsure, screen
+from urdfkb.pipeline.knowledge.screen import SENSOR_FLOOR, hold_bodiless, hold_unsure, screen
 from urdfkb.pipeline.knowledge.shacl import validate
 
 HTML = {"Accept": "text/html"}
@@ -125,6 +125,39 @@ def test_a_sensor_under_the_floor_is_held_and_a_tool_never():
     assert [(r["why"], r["name"]) for r in records] == [("floor", "head camera")]
     at_floor = Abstraction((replace(camera, confidence=SENSOR_FLOOR), gripper))
     assert hold_unsure(at_floor) == at_floor
+
+
+def _arm_end(bracket: bool) -> tuple:
+    """An arm's last link, moved by its wrist joint, with two bare frames (a flange, then a tool frame) on it, or on
+    a drawn bracket fixed below it."""
+    mount = '<link name="bracket"><visual><geometry><box size="0.05 0.05 0.1"/></geometry></visual></link>' \
+        '<joint name="jb" type="fixed"><parent link="wrist"/><child link="bracket"/></joint>' if bracket else ""
+    on = "bracket" if bracket else "wrist"
+    urdf = ('<robot name="arm"><link name="base"><visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual></link>'
+            '<link name="wrist"><visual><geometry><cylinder radius="0.04" length="0.1"/></geometry></visual></link>'
+            '<joint name="jw" type="revolute"><parent link="base"/><child link="wrist"/><axis xyz="0 0 1"/>'
+            '<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>' + mount +
+            f'<link name="flange"/><joint name="jf" type="fixed"><parent link="{on}"/><child link="flange"/></joint>'
+            '<link name="tool0"/><joint name="jt" type="fixed"><parent link="flange"/><child link="tool0"/>'
+            '<origin xyz="0 0 0.02"/></joint></robot>')
+    tool = Component("tool", END_EFFECTOR, "EndEffector", 0.3, on,
+                     (SubComponent("flange", "ToolHousing", 0.3), SubComponent("tool0", "ToolCenterPoint", 0.3)))
+    return load_urdf(urdf.encode()), tool
+
+
+def test_a_tool_of_no_kind_made_of_bare_frames_on_the_arms_last_moving_link_is_held():
+    """An arm carrying no tool ends in bare frames (a flange, tool0) the model takes for a tool it can give no kind:
+    nothing of a tool is drawn, so it is held with its reason; the same frames below a drawn bracket fixed on the
+    arm (a spindle's tip), or typed a kind of gripper, are written."""
+    tree, tool = _arm_end(bracket=False)
+    records: list[dict] = []
+    held = hold_bodiless(tree, Abstraction((tool,)), "EndEffector", records.append)
+    assert held.components == () and [h.name for h in held.held] == ["tool"]
+    assert held.held[0].violations[0].startswith("BodilessTool: tool:") and records[0]["why"] == "bodiless"
+    gripper = Abstraction((replace(tool, cls="ParallelGripper"),))
+    assert hold_bodiless(tree, gripper, "EndEffector") == gripper
+    tree, on_bracket = _arm_end(bracket=True)
+    assert hold_bodiless(tree, Abstraction((on_bracket,)), "EndEffector") == Abstraction((on_bracket,))
 
 
 def test_a_frame_the_model_hardly_takes_for_a_sensor_is_held_by_the_run():

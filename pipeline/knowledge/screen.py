@@ -1,5 +1,6 @@
-"""Two gates before population, each holding back for review what must not be written silently: a sensor the
-model hardly believes in (`hold_unsure`), and a component or body part that breaks ontologies/shapes.ttl (`screen`).
+"""Gates before population, each holding back for review what must not be written silently: a sensor the
+model hardly believes in (`hold_unsure`), a tool with no body of its own (`hold_bodiless`), and a component or body
+part that breaks ontologies/shapes.ttl (`screen`).
 
 A sensor whose confidence (its class's share of the votes times its kind's, steps.assembly) is under
 SENSOR_FLOOR is held with one line saying so: below that, over the truth robots and the probe robots of
@@ -25,7 +26,8 @@ import rdflib
 
 from urdfkb import local_name
 from urdfkb.pipeline.knowledge import rdf
-from urdfkb.pipeline.abstraction.components import SENSOR, Abstraction, Held
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Abstraction, Held
+from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.knowledge.export import robot_graph
 from urdfkb.pipeline.knowledge.namespaces import escape, owner
 from urdfkb.pipeline.knowledge.population import build_robot
@@ -46,11 +48,36 @@ def hold_unsure(abstraction: Abstraction, record: Record | None = None) -> Abstr
                       (f"SensorFloor: {c.name}: confidence {c.confidence:.2f} is under {SENSOR_FLOOR}, the least a "
                        "sensor is written with",))
                  for c in abstraction.components if c.kind == SENSOR and c.confidence < SENSOR_FLOOR)
+    return _held(abstraction, held, "floor", record)
+
+
+def hold_bodiless(tree: KinematicTree, abstraction: Abstraction, tool: str, record: Record | None = None) -> Abstraction:
+    """`abstraction` less its end-effectors of no kind below `tool` (the model found no gripper, hand or suction
+    cup) whose links are all bare frames (frames.is_frame) hung through fixed joints from the link a movable
+    joint moves: nothing of a tool is drawn between the arm's last moving link and them, so they are the tool
+    frames of an arm that carries none (a flange and tool0), held in `held` with one line. A tool whose frames hang
+    from a drawn bracket fixed below the arm (a spindle's tip) keeps its frames."""
+    held = tuple(Held(c.name, c.kind, c.cls, c.links,
+                      (f"BodilessTool: {c.name}: an end-effector of no kind whose links ({', '.join(c.links)}) are bare "
+                       f"frames on {c.root}, which a joint moves: an arm's tool frame, no device",))
+                 for c in abstraction.components
+                 if c.kind == END_EFFECTOR and c.cls == tool and _frames_on_moving_link(tree, c.links, c.root))
+    return _held(abstraction, held, "bodiless", record)
+
+
+def _frames_on_moving_link(tree: KinematicTree, links: tuple[str, ...], root: str) -> bool:
+    """Every link is a bare frame, and `root` (their mount) is moved by a movable joint of its own."""
+    edge = tree.parent_edge(root)
+    return bool(links) and all(is_frame(tree, link) for link in links) and edge is not None and edge.movable
+
+
+def _held(abstraction: Abstraction, held: tuple[Held, ...], why: str, record: Record | None) -> Abstraction:
+    """`abstraction` with the `held` components taken out into its `held`, one record each."""
     if not held:
         return abstraction
     if record is not None:
         for h in held:
-            record({"key": "held", "why": "floor", "name": h.name, "kind": h.kind, "class": h.cls,
+            record({"key": "held", "why": why, "name": h.name, "kind": h.kind, "class": h.cls,
                     "violations": list(h.violations)})
     names = {h.name for h in held}
     return replace(abstraction, held=abstraction.held + held,
