@@ -683,11 +683,17 @@ def test_a_neck_branching_into_a_camera_unit_and_a_sensor_ring_is_one_head_and_a
         ("Head", (*neck_joints, unit_joint, ring_joint)), ("Leg", (hip_joint,)), ("Leg", legs[0]), ("Leg", legs[1])])
 
 
-def _resting(seed: int, wheels: list[tuple[float, float]], arm: bool) -> tuple[object, str, list[str]]:
-    """A drawn base at the root carrying `wheels` (x, y) drawn as fixed cylinders of radius 0.1 resting on the
-    ground (their centres 0.1 m up), a lidar on top and, with `arm`, a two-joint arm on a riser."""
+def _resting(seed: int, wheels: list[tuple[float, float]], arm: bool, panels: bool = False) -> tuple:
+    """A drawn base carrying `wheels` (x, y) drawn as fixed cylinders of radius 0.1 resting on the ground (their
+    centres 0.1 m up), a lidar on top and, with `arm`, a two-joint arm on a riser; the base is the root, or with
+    `panels` hangs from a bare root frame beside two light drawn panels."""
     w = Writer(random.Random(seed))
-    base = w.link('<box size="0.6 0.4 0.2"/>', mass=30.0)
+    root = w.link() if panels else None
+    base = w.link('<box size="0.6 0.4 0.2"/>', centre=(0.0, 0.0, 0.0), mass=30.0)
+    if root is not None:
+        w.joint("fixed", root, base, xyz=(0.0, 0.0, 0.1))
+        for y in (0.25, -0.25):
+            w.joint("fixed", root, w.link('<box size="0.5 0.02 0.1"/>', centre=(0.0, 0.0, 0.0), mass=0.5), xyz=(0.0, y, 0.1))
     fixed = []
     for x, y in wheels:
         wheel = w.link('<cylinder radius="0.1" length="0.04"/>', mass=0.5)
@@ -724,6 +730,25 @@ def test_a_main_body_resting_on_wheels_the_file_fixed_is_a_mobile_base_whatever_
     assert len(bases) == 1 and bases[0].joints == () and set(bases[0].links) == {tree.root, *wheels}
     assert bases[0].confidence == 0.0 and located[0].located_on == bases[0].name
     assert any(p.cls == "Arm" for p in parts) == (seed % 2 == 0)
-    tree, _, _ = _resting(seed, [(0.3, 0.0), (0.0, 0.0), (-0.3, 0.0)], arm=False)
+    tree, _, _ = _resting(seed, [(0.3, 0.0), (0.0, 0.0), (-0.3, 0.0)], arm=True)
     asked.clear()
-    assert body_pass(Oracle(ScriptedBackend(rule)), tree, [])[0] == [] and asked == []
+    assert [p.cls for p in body_pass(Oracle(ScriptedBackend(rule)), tree, [])[0]] == ["Arm"]
+    assert f"body:{tree.root}" not in asked
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_main_body_of_a_robot_with_no_joint_carrying_devices_is_a_mobile_base(seed):
+    """A drone's airframe or a boat's hull carrying sensors, in a file with no movable joint (a frame above it
+    carrying it beside lighter pieces): a mobile base standing for that body, whatever the model says; with no
+    device on it, nothing is asked and no part made."""
+    tree, lidar, _ = _resting(seed, [], arm=False, panels=True)
+    hull = tree.parent(lidar)
+    sensor = Component("lidar", SENSOR, "Lidar", 0.9, hull, (SubComponent(lidar, "SensingElement", 0.9),))
+    asked = []
+
+    def none(question):
+        asked.append(question.key)
+        return "none"
+    parts, _ = body_pass(Oracle(ScriptedBackend(none)), tree, [sensor])
+    assert [(p.cls, p.joints, p.links) for p in parts] == [("MobileBase", (), (hull,))] and len(asked) == 1
+    assert body_pass(Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected"))), tree, [])[0] == []

@@ -392,14 +392,17 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
 
 def main_body(tree: KinematicTree, components: list[Component]) -> str | None:
     """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
-    below the root through lone fixed joints (frames.is_frame), owned by no device, no movable joint's parent (a
+    below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
+    heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
     drone's airframe, a base whose wheels the file fixes). None elsewhere: an arm's base carries its first joint."""
     link = tree.root
     while is_frame(tree, link):
         below = tree.children(link)
-        if len(below) != 1 or tree.edge_to(below[0]).movable:
+        weighed = [(facts.mass, child) for child in below if not is_frame(tree, child)
+                   and (facts := tree.evidence.get(child)) is not None and facts.mass is not None]
+        if not below or any(tree.edge_to(child).movable for child in below) or (len(below) > 1 and not weighed):
             return None
-        link = below[0]
+        link = below[0] if len(below) == 1 else max(weighed)[1]
     if link in {owned for c in components for owned in c.links} \
             or any(tree.edge_to(child).movable for child in tree.children(link)):
         return None
@@ -429,29 +432,33 @@ def _either_side_of(y: list[float]) -> bool:
 
 def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: list[BodyPart],
                    components: list[Component], progress: Progress | None, log: Log) -> list[BodyPart]:
-    """Where no part moves the robot about (no mobile base, wheel or leg), a main body (`main_body`) resting on
-    wheels the file fixed (`resting_wheels`) is a mobile base with no joint of its own, which the ontology's
-    MobileBase allows; its wheels stay its links. The body-part question, shown the body, what it carries and the
-    wheels, offered mobile base or none, gives the part its confidence: the model's share for mobile base."""
+    """Where no part moves the robot about (no mobile base, wheel or leg), a main body (`main_body`) that rests on
+    wheels the file fixed (`resting_wheels`), or that carries devices in a file with no movable joint at all (a
+    drone's airframe, a boat's hull, a car whose wheels the file leaves out), is a mobile base with no joint of its
+    own, which the ontology's MobileBase allows; fixed wheels stay its links. The body-part question, shown the
+    body, what it carries and how it stands, offered mobile base or none, gives the part its confidence: the
+    model's share for mobile base."""
     body = main_body(tree, components)
-    moving = {tax.mobile_base, tax.wheel, LEG}
-    owned = {link for c in components for link in c.links}
-    wheels = resting_wheels(tree, body, owned) if body is not None and not any(p.cls in moving for p in parts) else []
-    if body is None or not wheels:
+    if body is None or any(p.cls in (tax.mobile_base, tax.wheel, LEG) for p in parts):
         return parts
     rigid = set(palm(tree, body))  # the body and what is fixed below it
     devices = [tax.label(c.cls) for c in components if c.root in rigid]
+    wheels = resting_wheels(tree, body, {link for c in components for link in c.links})
+    still = devices and not any(e.movable for e in tree.edges)
+    if not wheels and not still:
+        return parts
     hanging = [p for p in parts if p.root in rigid]
     carried = devices + ([f"{len(hanging)} moving chain{'s' if len(hanging) > 1 else ''}"] if hanging else [])
-    shown = ["Joints: none (no joint moves it)", f"Links: {named(tree.evidence, body)}",
-             f"Hangs from: {tree.parent(body) or ROOT}", "Carries: " + ("; ".join(carried) if carried else "nothing"),
-             f"Reaches the ground: at {', '.join(wheels)}, fixed cylinders resting on it"]
+    shown = [f"Joints: none ({'no joint moves it' if wheels else 'the robot has no movable joint'})",
+             f"Links: {named(tree.evidence, body)}", f"Hangs from: {tree.parent(body) or ROOT}",
+             "Carries: " + ("; ".join(carried) if carried else "nothing")]
+    shown += [f"Reaches the ground: at {', '.join(wheels)}, fixed cylinders resting on it"] if wheels else []
     asked = body_choice(tax, "\n".join(shown), f"body:{body}")
     offered = {a: c for a, c in asked.meaning.items() if c in (tax.mobile_base, NONE)}
     (verdict,) = ask(oracle, [replace(asked.question, options=tuple(offered))], "body classification", progress)
     share = next((verdict.distribution.get(a, 0.0) for a, c in offered.items() if c == tax.mobile_base), 0.0)
-    log(f"body:{body}: a main body resting on wheels the file fixed ({', '.join(wheels)}): a mobile base, "
-        f"the model's share {share:.2f}")
+    log(f"body:{body}: a main body {'resting on wheels the file fixed' if wheels else 'of a robot with no joint'}"
+        f" ({', '.join(wheels or devices)}): a mobile base, the model's share {share:.2f}")
     return [BodyPart(f"mobile_base_{body}", tax.mobile_base, round(share, 4), tree.parent(body), (), (body, *wheels)),
             *parts]
 
