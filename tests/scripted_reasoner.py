@@ -53,10 +53,14 @@ def _symmetric(relation: dict[str, tuple[str, ...]]) -> dict[str, set[str]]:
 def _parts(parts: list[PartFacts]) -> list[str | None]:
     wheels = [_is_wheel(f) for f in parts]
     tooled = [_tools(f) > 0 for f in parts]
-    first = [_part(f, wheels, tooled) for f in parts]
-    # a part off the ground carrying an arm and a head (classes the first round settled): a torso
-    return [("Torso" if cls is None and not f.reaches_ground and {"Arm", "Head"} <= {first[k] for k in f.carries}
-             else cls) for f, cls in zip(parts, first)]
+    first = [f.known or _part(f, wheels, tooled) for f in parts]
+
+    def torso(f: PartFacts) -> bool:
+        """Off the ground, carrying an arm and a head, or an arm on either side (classes settled or asserted)."""
+        carried = {(first[k], parts[k].side) for k in f.carries}
+        return not f.reaches_ground and ({"Arm", "Head"} <= {cls for cls, _ in carried}
+                                         or {("Arm", "left"), ("Arm", "right")} <= carried)
+    return [("Torso" if cls is None and torso(f) else cls) for f, cls in zip(parts, first)]
 
 
 def _is_wheel(f: PartFacts) -> bool:

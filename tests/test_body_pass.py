@@ -752,3 +752,37 @@ def test_the_main_body_of_a_robot_with_no_joint_carrying_devices_is_a_mobile_bas
     parts, _ = body_pass(Oracle(ScriptedBackend(none)), tree, [sensor])
     assert [(p.cls, p.joints, p.links) for p in parts] == [("MobileBase", (), (hull,))] and len(asked) == 1
     assert body_pass(Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected"))), tree, [])[0] == []
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_waist_carrying_an_arm_on_either_side_is_a_torso_whatever_the_model_says(seed):
+    """A social robot's waist bends its upper body: two toolless two-joint arms on either side and a fixed head
+    with a camera. The model, seeing the camera, calls the waist a head; the reasoner, once the arms are known,
+    settles it a torso by what it carries (the model's share for torso its confidence). With both arms on one
+    side, nothing settles it and the model's head stands."""
+    def build(y_right: float):
+        w = Writer(random.Random(seed))
+        base, upper = w.link('<box size="0.5 0.5 0.3"/>'), w.link('<box size="0.3 0.3 0.5"/>')
+        w.joint("revolute", base, upper, xyz=(0.0, 0.0, 0.6), axis=(0.0, 1.0, 0.0))
+        head = w.link('<sphere radius="0.1"/>')
+        w.joint("fixed", upper, head, xyz=(0.0, 0.0, 0.4))
+        camera = _camera(w, "camera", head)
+        shoulders = []
+        for y in (0.2, y_right):
+            shoulder, upper_arm, forearm = w.link(), w.link('<box size="0.05 0.05 0.25"/>'), \
+                w.link('<box size="0.05 0.05 0.25"/>')
+            w.joint("revolute", upper, shoulder, xyz=(0.0, y, 0.2), axis=(0.0, 1.0, 0.0))
+            w.joint("revolute", shoulder, upper_arm, axis=(1.0, 0.0, 0.0))
+            w.joint("fixed", upper_arm, forearm, xyz=(0.0, 0.0, -0.25))
+            shoulders.append(shoulder)
+        return load_urdf(w.urdf()), camera
+
+    def rule(question):
+        if question.key.startswith("side:"):
+            return question.options[0]
+        carries = "Carries: " in question.user and "camera" in question.user.split("Carries: ")[1]
+        return "head" if carries else "arm"
+    for y_right, waist in ((-0.2, "Torso"), (0.3, "Head")):
+        tree, camera = build(y_right)
+        parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+        assert sorted(p.cls for p in parts) == sorted(["Arm", "Arm", waist]), y_right

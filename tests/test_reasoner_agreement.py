@@ -62,6 +62,18 @@ def boundaries() -> Call:
                   for carries in ((2,), (2, 3), (1, 2)) for ground in (True, False))]
 
 
+def carried() -> Call:
+    """A second round's candidates: parts of asserted classes (arms on either side, on no side, a head, a leg) and
+    candidates carrying them on the ground or off it."""
+    two = ("revolute", "revolute")
+    known = [PartFacts(two, (), (), False, "left", "Arm"), PartFacts(two, (), (), False, "right", "Arm"),
+             PartFacts(("revolute",), (), (), False, None, "Head"), PartFacts(two, (), (), True, "left", "Leg"),
+             PartFacts(two, (), (), False, None, "Arm")]
+    carriers = [PartFacts(("revolute",), (), carries, ground)
+                for carries in ((0, 1), (0,), (0, 2), (3, 1), (0, 4)) for ground in (True, False)]
+    return [], known + carriers
+
+
 def merged(calls: list[Call]) -> Call:
     """The calls as one: each part's followers and same-run tools renumbered."""
     tools: list[ToolStructure] = []
@@ -92,6 +104,7 @@ CASES = {
     "hands": (hands, {"ParallelGripper", "MultiFingerGripper", "AnthropomorphicHand", "EndEffector"}, set()),
     "bodies": (bodies, {"ParallelGripper"}, {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
     "boundaries": (boundaries, set(), {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
+    "carried": (carried, set(), {"Arm", "Head", "Leg", "Torso", None}),
 }
 
 

@@ -128,13 +128,15 @@ def _inference(individual, chains: dict) -> Inference:
 @dataclass(frozen=True)
 class PartFacts:
     """What the code asserts of one candidate body part (pipeline.abstraction.stages.body): the URDF types of its
-    joints, the classes of the devices on its links, the candidates hanging from them (by index),
-    and whether it reaches the ground."""
+    joints, the classes of the devices on its links, the candidates hanging from them (by index), whether it
+    reaches the ground, the side it lies on, and its class where already settled."""
 
     joint_types: tuple[str, ...]
     devices: tuple[str, ...]
     carries: tuple[int, ...]
     reaches_ground: bool
+    side: str | None = None   # "left"/"right": the side of the root's x-z plane its joints lie on (None: across it)
+    known: str | None = None  # its class where already settled (the model's, in a second round): asserted
 
 
 # classify_together's contract: HermiT by default; Abstractor and runner.run take another, as tests inject a
@@ -165,6 +167,10 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
                               for j, cls in enumerate(facts.devices)]
         part.carriesPart = [individuals[k] for k in facts.carries]
         part.reachesGround = facts.reaches_ground
+        if facts.side is not None:
+            part.side = facts.side
+        if facts.known is not None:
+            part.is_a.append(core[facts.known])
         # what the conditions count is asserted as counts: no closure, no cardinality reasoning
         part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
         part.deviceCount, part.endEffectorCount = len(facts.devices), tools_on[i]

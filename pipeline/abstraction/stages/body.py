@@ -279,7 +279,7 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
     grounded = [_reaches_ground(tree, chain, lowest, tools, standing) for chain in found]
     facts = [reasoning.PartFacts(tuple(_motion(tree, e) for e in chain.joints), tuple(c.cls for c in held),
-                                 tuple(follow), ground)
+                                 tuple(follow), ground, _side_of(tree, chain))
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     return Findings(devices, carries, grounded, facts)
 
@@ -308,10 +308,38 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
             found[i].cls, found[i].confidence = cls, 1.0
     questions = [body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]], len(carries[i]),
                                            grounded[i]), f"body:{found[i].joints[0].joint}") for i in open_]
-    for i, question, verdict in zip(open_, questions, ask(oracle, [q.question for q in questions],
-                                                          "body classification", progress)):
+    verdicts = ask(oracle, [q.question for q in questions], "body classification", progress)
+    for i, question, verdict in zip(open_, questions, verdicts):
         found[i].cls = question.meant(verdict.answer, NONE)
         found[i].confidence = verdict.confidence
+    shares = {i: {question.meaning[a]: share for a, share in verdict.distribution.items() if a in question.meaning}
+              for i, question, verdict in zip(open_, questions, verdicts)}
+    reasoned(_carriers_again(found, seen.facts, shares, log, reasoner))
+
+
+def _carriers_again(found: list[Chain], facts: list[reasoning.PartFacts], shares: dict[int, dict[str, float]],
+                    log: Log, reasoner: reasoning.Reasoner | None) -> float:
+    """The candidates the model classified that carry others, once more through the reasoner with the classes of
+    all the others asserted (the ontology's conditions on what a part carries: an arm on either side makes a
+    torso); where it settles a class the model did not give, that class, with the model's share for it as the
+    confidence. The reasoner's wall time (0 where no such candidate carries a settled one)."""
+    again = [i for i in shares if facts[i].carries and any(found[k].cls != NONE for k in facts[i].carries)]
+    if not again:
+        return 0.0
+    known = [replace(f, known=None if i in again or found[i].cls == NONE else found[i].cls)
+             for i, f in enumerate(facts)]
+    inferred, seconds = reasoning.classify_parts(known, reasoner)
+    for i in again:
+        if (cls := inferred[i]) is not None and cls != found[i].cls:
+            log(f"body:{found[i].joints[0].joint}: {cls} by what it carries, not {found[i].cls}")
+            found[i].cls, found[i].confidence = cls, shares[i].get(cls, 0.0)
+    return seconds
+
+
+def _side_of(tree: KinematicTree, chain: Chain) -> str | None:
+    """The side of the root's x-z plane a candidate's joints lie on (their child links at the zero pose)."""
+    y = _mean_position(tree, [e.child for e in chain.joints])[1]
+    return "left" if y > SIDE_EPS else "right" if y < -SIDE_EPS else None
 
 
 def _reaches_ground(tree: KinematicTree, chain: Chain, lowest: float, tools: set[str],
