@@ -737,3 +737,27 @@ def test_a_camera_body_declaring_one_plain_image_is_no_rgbd_camera(seed):
     post_classification(Abstractor(Oracle(ScriptedBackend(_answer(prefer))), TAX).context(tree, kind="sensor"), state)
     assert [t.cls for t in state.post] == ["MonocularCamera", "RGBDCamera", "RGBDCamera", "RGBDCamera", "RGBDCamera"]
     assert tree.evidence[cloud].sensors[0].sdf_type == "rgbd_camera"
+
+
+@pytest.mark.parametrize("bracket_mesh, devices", [("sensors/xtion_pro_stack", 1), ("sensors/d435_bracket", 2)])
+def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(bracket_mesh, devices):
+    """A camera's frames and body hang from a bare frame on the base; its mounting bracket, a lone drawn leaf whose
+    mesh names the same product (an Xtion's stack mount), is fixed beside it. Asked apart, each keeps its own
+    name; naming one product, the bracket is a piece of that camera. A bracket naming another product stays apart."""
+    w = Writer(random.Random(3))
+    base = w.link('<box size="0.4 0.4 0.1"/>')
+    frame = w.link()
+    w.joint("fixed", base, frame, xyz=(-0.09, 0.02, 0.3))
+    body = w.link('<mesh filename="package://d/meshes/sensors/xtion_pro_camera.dae"/>')
+    w.joint("fixed", frame, body, xyz=(0.0, -0.02, 0.0))
+    optical, depth = w.link(), w.link()
+    w.joint("fixed", frame, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+    w.joint("fixed", frame, depth, xyz=(0.0, -0.025, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+    bracket = w.link(f'<mesh filename="package://d/meshes/{bracket_mesh}.dae"/>')
+    w.joint("fixed", base, bracket, xyz=(-0.1, 0.0, 0.28))
+    tree = load_urdf(w.urdf())
+    leaves = [body, optical, depth, bracket]
+    chains = [sub_chain(tree, leaf, base) for leaf in leaves]
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                   dict.fromkeys(leaves, "VisionSensor"))
+    assert len(groups) == devices and any(set(g.leaves) >= {body, optical, depth} for g in groups)

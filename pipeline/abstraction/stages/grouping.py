@@ -35,6 +35,8 @@ plugin; a sensor head's time-of-flight cameras, each with its own depth image).
 One place, one device: a bare frame fixed where a link of a near sub-chain of its category is, turned as it is, on the
 same parent (and of no other sub-chain), is another name for that link (_aliases: a driver's `velodyne` frame beside
 the lidar's own base).
+One product, one device: two near sub-chains of one category whose links name one catalogue product, one of them a
+lone drawn leaf declaring nothing (a camera's bracket drawn with the product's mesh), are one device (_one_product).
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
 publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
@@ -54,6 +56,7 @@ from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
 from urdfkb.pipeline.abstraction.frames import SAME_PLACE, body_of, is_frame, is_optical, viewpoints
+from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
 from urdfkb.pipeline.abstraction.vectors import dot, sub
@@ -184,6 +187,18 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
+def _one_product(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """Two near sub-chains whose links name one catalogue product, one of them a lone drawn leaf declaring no
+    sensor (a piece: the bracket a camera is mounted with, drawn with the product's mesh), are one device."""
+    def piece(x: SubChain) -> bool:
+        facts = tree.evidence.get(x.leaf)
+        return len(x.links) == 1 and not is_frame(tree, x.leaf) and not (facts is not None and facts.sensors)
+    if not (piece(a) or piece(b)):
+        return False
+    product = named_product(tree, list(reversed(a.links)))
+    return product is not None and product == named_product(tree, list(reversed(b.links)))
+
+
 def _aliases(tree: KinematicTree, chains: list[SubChain]) -> set[tuple[int, int]]:
     """The pairs of sub-chains (both ways) where the leaf of one is a bare frame fixed where a link of the other, and
     of no third, is fixed on the same parent, turned as it is: another name for that link (a driver's frame written
@@ -292,7 +307,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         aliases = _aliases(tree, chains)
-        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or (i, j) in aliases)
+        bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or (i, j) in aliases
+                                   or _one_product(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
