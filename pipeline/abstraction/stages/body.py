@@ -13,7 +13,10 @@ the ground) and the reasoner applies the ontology's sufficient conditions for th
 (a part carrying an end-effector off the ground is an arm, ...). The model classifies the
 candidates those leave open among the BodyPart classes (or none: a device's mechanism), shown: its
 joints with their type and the direction of their axis in the robot's frame, the links it moves,
-what it hangs from, what it carries (devices, further chains) and whether it reaches the ground.
+what it hangs from, what it carries (devices, further chains) and whether it reaches the ground; those
+that carry others then go through the reasoner again, the others' classes asserted (an arm on either side
+makes a torso). Where no part moves the robot about, a main body resting on wheels the file fixed, or
+carrying devices in a file with no movable joint, is a mobile base with no joints (jointless_base).
 Adjacent chains given the same class join (a shoulder joint split off by a head hung on the same
 link); chains of the mobile base join it, around the chassis its wheels and base joints hang from.
 `side` comes from geometry (REP 103: +y of the root frame is left, at the zero pose), checked once
