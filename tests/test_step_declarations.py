@@ -105,6 +105,18 @@ def mimic_flag() -> tuple[bytes, Rule]:
     return w.urdf(), identifying({flag: "sensor"}, "")
 
 
+def joined_head() -> tuple[bytes, Rule]:
+    """A neck carrying a tilting unit and a turning ring, each called a head: one head, joined at assembly."""
+    w = Writer(random.Random(2))
+    base = w.link('<box size="0.4 0.4 0.2"/>')
+    neck, unit, ring = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<box size="0.1 0.2 0.05"/>'), \
+        w.link('<cylinder radius="0.1" length="0.02"/>')
+    w.joint("revolute", base, neck, (0, 0, 0.3), (0, 0, 1))
+    w.joint("revolute", neck, unit, (0, 0, 0.1), (0, 1, 0))
+    w.joint("revolute", neck, ring, (0, 0, 0.05), (0, 0, 1))
+    return w.urdf(), lambda q: "head" if q.key.startswith("body:") else "none" if "none" in q.options else q.options[0]
+
+
 def robots() -> list[tuple[str, bytes | Any, Rule]]:
     """Generated robots, each with a model that takes its pass through every kind of step."""
     found: list[tuple[str, bytes | Any, Rule]] = [("toy", TOY, perfect)]
@@ -132,6 +144,7 @@ def robots() -> list[tuple[str, bytes | Any, Rule]]:
                   lambda q: "sensor" if q.key.startswith("check:") else q.options[0] if q.key.startswith("pre:echo")
                   else rover(q)))
     found.append(("mimic flag", *mimic_flag()))
+    found.append(("joined head", *joined_head()))
     return found
 
 
