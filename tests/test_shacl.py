@@ -196,7 +196,8 @@ def test_shared_urdfs_conform_structure_only(shared):
 @pytest.mark.slow
 def test_shared_truth_robots_populated_conform_with_nothing_held(shared):
     """Every truth robot through the pipeline, a model answering by a hash of each question (another robot
-    each time, as the transcript benchmark's): nothing breaks the shapes, so nothing is held back."""
+    each time, as the transcript benchmark's): nothing breaks the shapes, so nothing is held back by them (the
+    gates before them, a sensor under the floor or a tool with no body, hold what they hold)."""
     def hashed(q):
         return q.options[int(hashlib.sha256((q.system + q.user).encode()).hexdigest(), 16) % len(q.options)]
     paths = sorted((shared / "eval" / "truth").glob("*.yaml"))
@@ -205,7 +206,7 @@ def test_shared_truth_robots_populated_conform_with_nothing_held(shared):
         tree = load_urdf(shared / load_truth(path).urdf)
         abstraction = run(tree, Settings(use_cache=False), backend=ScriptedBackend(hashed), reasoner=scripted_reasoner,
                           placer=scripted_placements)
-        broke = [h for h in abstraction.held if not h.violations[0].startswith("SensorFloor")]
+        broke = [h for h in abstraction.held if not h.violations[0].startswith(("SensorFloor", "BodilessTool"))]
         assert broke == [], f"{path.stem}: {broke}"
         conforms, report = validate(robot_graph(build_robot(owlready2.World(), tree, tree.robot_name, abstraction)))
         assert conforms, f"{path.stem}: {report}"
