@@ -365,3 +365,38 @@ def test_a_finger_curling_beside_a_finger_the_thumb_closes_on_is_a_finger_too():
     fingers = {f.name: f for f in structure.fingers}
     assert set(fingers) == {thumb, index, ring} and structure.mechanisms == ()
     assert fingers[ring].opposes == () and fingers[ring].moves_with == (index,)
+
+
+@pytest.mark.reasoner
+@pytest.mark.parametrize("seed", [51, 52])
+def test_fingers_of_one_link_following_another_by_mimic_curl_beside_it_where_their_mass_is(seed):
+    """A hand of five fingers: a thumb closes on an index and a middle finger, each with a tip frame beyond it; a ring and a
+    little finger are one link each, their frames on their hinges and their centres of mass 0.03 m out along them,
+    following the middle finger's joint by <mimic> (a prosthetic hand's coupled fingers). At their frames nothing
+    moves, so they are read where their mass is: two fingers curling with the others (on the code before: two
+    mechanisms, three fingers and a multi-finger gripper), and the hand an anthropomorphic hand."""
+    w = Writer(random.Random(seed))
+    palm = w.arm(w.link('<box size="0.08 0.03 0.1"/>'))
+    tips, drives = {}, {}
+    for name, x in (("index", 0.03), ("middle", 0.01)):
+        proximal, distal, tip = w.link('<box size="0.01 0.01 0.03"/>'), w.link('<box size="0.01 0.01 0.03"/>'), w.link()
+        drives[name] = w.joint("revolute", palm, proximal, (x, 0.01, 0.05), (1.0, 0.0, 0.0), (0.0, 1.4))
+        w.joint("fixed", proximal, distal, (0.0, 0.0, 0.03))
+        w.joint("fixed", distal, tip, (0.0, 0.0, 0.03))
+        tips[proximal] = tip
+    coupled = []
+    for x in (-0.01, -0.03):
+        finger = w.link('<box size="0.01 0.01 0.06"/>', centre=(0.0, 0.0, 0.03))
+        w.joint("revolute", palm, finger, (x, 0.01, 0.05), (1.0, 0.0, 0.0), (0.0, 1.4), mimic=drives["middle"])
+        tips[finger] = finger
+        coupled.append(finger)
+    thumb, thumb_tip = w.link('<box size="0.01 0.01 0.06"/>'), w.link()
+    w.joint("revolute", palm, thumb, (0.02, -0.03, 0.03), (-1.0, 0.0, 0.0), (0.0, 1.1))
+    w.joint("fixed", thumb, thumb_tip, (0.0, 0.0, 0.06))
+    tips[thumb] = thumb_tip
+    structure = tool_structure(load_urdf(w.urdf()), list(tips.values()))
+    fingers = {f.name: f for f in structure.fingers}
+    assert set(fingers) == set(tips) and structure.mechanisms == ()
+    assert all(set(fingers[f].moves_with) == set(tips) - {f, thumb} for f in coupled)
+    inferred, _ = classify([structure])
+    assert inferred[0].cls == "AnthropomorphicHand" and inferred[0].thumbs == (thumb,)

@@ -25,9 +25,10 @@
   less far (_linkages: a four-bar's crank beside the finger it moves) is that finger's linkage. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
   floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
-  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger. Where
-  nothing closes so, jaws written as one link each (their frames on their hinges, where nothing moves) are looked
-  at again where their mass is.
+  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger. A tip
+  whose frame lies on its drive's axis is read where its mass is (a one-link finger hung on its hinge: a rotor's
+  mass lies on its axis too), unless it turns with a finger jointed beyond its drive (a four-bar's bar); where
+  nothing closes so, jaws written as one link each are looked at again where their mass is.
 - Two chains *move together* when their tips' closing motions are within 60 degrees
   (fingers side by side); a thumb, in the ontology, closes against fingers that move together.
 - A chain *mimics* another when its drive follows (`<mimic>`) a joint of that other chain.
@@ -190,9 +191,16 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
     where it moves by another, and none of `linkages` (other chains' linkages) closing at all; `closing_sense`:
     each joint moving the way its range reaches further wherever it stands (_closes_backwards), so fingers
     written with mirrored signs close alike away from zero too; `at_mass`: chains whose tip is taken at its centre
-    of mass (a jaw written as one link has its frame on its hinge, where it does not move)."""
-    motions = {a: _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, a in at_mass)
-               if (a in bodies or not bodies) and a not in linkages else []
+    of mass (a jaw written as one link has its frame on its hinge, where it does not move); a tip that does not move
+    at its frame is taken there too (a finger of one link following another's joint, its frame on its own hinge),
+    unless its chain turns with a finger jointed beyond its drive (_turns_with_jointed: a four-bar's bar)."""
+    def moving(a: str, drive: Edge, tip: str) -> list[Motion]:
+        found = _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, a in at_mass)
+        if found or _turns_with_jointed(tree, fork, chains, a):
+            return found
+        return _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, True)
+
+    motions = {a: moving(a, drive, tip) if (a in bodies or not bodies) and a not in linkages else []
                for a, (_, drive, tip) in chains.items()}  # a chain of bare frames beside bodies closes on nothing
     closing = {a: _closing(motions[a], [m for b in chains if b != a for m in motions[b]]) for a in chains}
     opposes = {a: tuple(b for b in chains if b != a and _opposed(closing[a], closing[b])) for a in chains}
@@ -223,6 +231,23 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
     )
     return ToolStructure(fork, mount_of(tree, fork), fingers, tuple(a for a in chains if a not in finger_names),
                          tuple(a for a in chains if a in linkages))
+
+
+def _turns_with_jointed(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
+                        a: str) -> bool:
+    """Chain `a`'s drive turns by the same joint as another chain's drive (one follows the other by <mimic>, or both
+    follow a third), about a parallel axis, and that other chain is jointed beyond its drive: `a` may be the bar of
+    a four-bar beside the finger it curls (a Robotiq 2F's inner knuckle), which a URDF writes as a chain of its own."""
+    drive = chains[a][1]
+    axis = unit(_in_frame(tree, a, fork, drive.axis, {}, True))
+    for b, (links, other, _) in chains.items():
+        if b == a or (drive.mimic or drive.joint) != (other.mimic or other.joint):
+            continue
+        other_axis = unit(_in_frame(tree, b, fork, other.axis, {}, True))
+        if axis and other_axis and abs(dot(axis, other_axis)) > _PARALLEL and \
+                any(tree.edge_to(link).movable for link in links[1:]):
+            return True
+    return False
 
 
 def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]]) -> set[str]:
