@@ -41,6 +41,8 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
 
 @pytest.mark.parametrize("name, label", [
     ("D435i_camera_link", "Intel RealSense D435"),
+    ("pelvis_realsense_d430_link", "Intel RealSense Depth Module D410 / D420 / D430 / D450"),  # not the family's
+    ("d430_depth_frame", "Intel RealSense Depth Module D410 / D420 / D430 / D450"),
     ("base_laser_velodyne_vlp16", "Velodyne lidar"),
     ("mid360_link", "Livox Mid-360"),
     ("sensors/lds", "ROBOTIS LDS"),

@@ -761,3 +761,51 @@ def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(
     groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
                    dict.fromkeys(leaves, "VisionSensor"))
     assert len(groups) == devices and any(set(g.leaves) >= {body, optical, depth} for g in groups)
+
+
+def _depth_device(w: Writer, mount: str, prefix: str, y: float, colour: bool) -> tuple[list[str], str]:
+    """A RealSense as its ROS description package writes it: a body link on `mount`, each imager's frame below it
+    with its optical frame, and on the body the simulator sensors its Gazebo macro declares for every model (a
+    colour camera, two infrared cameras, a depth camera); a colour imager only where `colour`. Its optical frames
+    and the <gazebo> block."""
+    w.links.append(f'<link name="{prefix}_link"><visual><geometry><box size="0.025 0.09 0.025"/></geometry></visual>'
+                   '</link>')
+    w.joint("fixed", mount, f"{prefix}_link", xyz=(0.2, y, 0.3))
+    optical = []
+    for k, imager in enumerate(["depth", "left_ir", "right_ir"] + ["color"] * colour):
+        frame, lens = f"{prefix}_{imager}_frame", f"{prefix}_{imager}_optical_frame"
+        w.links += [f'<link name="{frame}"/>', f'<link name="{lens}"/>']
+        w.joint("fixed", f"{prefix}_link", frame, xyz=(0.0, 0.05 - 0.015 * k, 0.0))
+        w.joint("fixed", frame, lens, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        optical.append(lens)
+    images = [("color", "camera", "RGB_INT8"), ("ired1", "camera", "L_INT8"), ("ired2", "camera", "L_INT8"),
+              ("depth", "depth", "")]
+    return optical, f'<gazebo reference="{prefix}_link">' + "".join(
+        f'<sensor name="{prefix}{name}" type="{kind}"><camera><image><width>640</width><height>480</height>'
+        + (f"<format>{fmt}</format>" if fmt else "") + "</image></camera></sensor>"
+        for name, kind, fmt in images) + "</gazebo>"
+
+
+def test_a_depth_module_the_links_name_is_a_depth_camera_whatever_its_simulator_macro_declares():
+    """The model calls cameras RGB-D where it may, and reads each frame's modality right. Two RealSense devices in
+    the layout of their description package, whose simulator macro declares a colour camera for every model: a D435
+    (colour, depth and two infrared imagers) is an RGB-D camera; a D430 depth module (no colour imager, the
+    catalogue's depth camera) is a depth camera, the links' product outweighing the macro's colour camera."""
+    w = Writer(random.Random(5))
+    base = w.link('<box size="0.5 0.4 0.3"/>')
+    d435, front = _depth_device(w, base, "front_realsense_d435", 0.1, colour=True)
+    d430, rear = _depth_device(w, base, "rear_realsense_d430", -0.1, colour=False)
+    tree = load_urdf(w.urdf().replace(b"</robot>", (front + rear).encode() + b"</robot>"))
+    modality = {"depth": "DepthFrame", "left": "InfraredFrame", "right": "InfraredFrame", "color": "RgbFrame"}
+
+    def rule(q):
+        if q.key.startswith("part:"):
+            leaf = q.key.split(":", 1)[1].split("@")[0]
+            kind = next(v for k, v in modality.items() if f"_{k}_" in leaf)
+            return TAX.answer(kind)
+        return next((o for o in (TAX.answer("RGBDCamera"),) if o in q.options), q.options[0])
+    groups = [Group([sub_chain(tree, f, base) for f in frames]) for frames in (d435, d430)]
+    state = Findings(groups=groups)
+    state.pre = {f: Typed("RGBDCamera", 0.9) for f in d435 + d430}
+    post_classification(Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor"), state)
+    assert [t.cls for t in state.post] == ["RGBDCamera", "DepthCamera"]

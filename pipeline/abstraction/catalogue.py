@@ -44,7 +44,8 @@ class Catalogue:
         self.products = tuple(products)
         # what the catalogue says, for the result cache's key: an edited products file misses old results
         self.fingerprint = hashlib.sha256(repr(self.products).encode()).hexdigest()[:16]
-        # longest fragment first: "d435" before "realsense" never matters, "robotiq_140" before "robotiq" would
+        # longest fragment first: "d435" before "realsense" never matters, "robotiq_140" before "robotiq" and
+        # "realsense_d430" (a depth module, no colour imager) before "realsense" do
         self._patterns = sorted(((len(f), re.compile(_pattern(f)), p) for p in self.products for f in p.fragments),
                                 key=lambda t: -t[0])
 
