@@ -196,7 +196,7 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
     unless its chain turns with a finger jointed beyond its drive (_turns_with_jointed: a four-bar's bar)."""
     def moving(a: str, drive: Edge, tip: str) -> list[Motion]:
         found = _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, a in at_mass)
-        if found or _turns_with_jointed(tree, fork, chains, a):
+        if found or a in at_mass or _turns_with_jointed(tree, fork, chains, a):
             return found
         return _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, True)
 
