@@ -158,20 +158,22 @@ def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
                   key=lambda link: (len(tree.chain_to_root(link)), norm(tree.position_in(link, fork))))
         chains[child] = (links, tree.edge_to(child), tip)
     bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
-    linkages = _linkages(tree, fork, chains)
+    pivots = _pivots(tree, fork, chains)
+    linkages = _linkages(pivots)
     held = {tree.edge_to(link).joint for link in [*bars, *(link for a in linkages for link in chains[a][0])]}
     pose = _configuration(tree, held)
-    structure = _structure_at(tree, fork, chains, bodies, linkages, pose)
+    bars_beside = _four_bar_bars(pivots)
+    structure = _structure_at(tree, fork, chains, bodies, linkages, bars_beside, pose)
     if len(fingered := bodies - linkages) >= 2 and _closing_on_others(structure) < len(fingered):
         spreads = {joint for a in fingered for joint in _spreads(tree, chains[a][0])}
-        again = _structure_at(tree, fork, chains, bodies, linkages, _half_closed(tree, chains, fingered, pose, spreads),
-                              spreads, closing_sense=True)
+        half_closed = _half_closed(tree, chains, fingered, pose, spreads)
+        again = _structure_at(tree, fork, chains, bodies, linkages, bars_beside, half_closed, spreads, closing_sense=True)
         if _closing_on_others(again) > _closing_on_others(structure):
             return again
     jaws = {a for a in bodies - linkages if chains[a][0] == (a,) and (f := tree.evidence.get(a)) and f.centre}
     if not structure.fingers and jaws and len(bodies - linkages) >= 2:  # a jaw or thumb written as one link, its
         # frame on its hinge, closing on another jaw or on fingers
-        again = _structure_at(tree, fork, chains, bodies, linkages, pose, at_mass=frozenset(jaws))
+        again = _structure_at(tree, fork, chains, bodies, linkages, bars_beside, pose, at_mass=frozenset(jaws))
         if again.fingers:
             return again
     return structure
@@ -183,7 +185,7 @@ def _closing_on_others(structure: ToolStructure) -> int:
 
 
 def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
-                  bodies: set[str], linkages: AbstractSet[str], pose: dict[str, float],
+                  bodies: set[str], linkages: AbstractSet[str], bars_beside: AbstractSet[str], pose: dict[str, float],
                   spreads: AbstractSet[str] = frozenset(), closing_sense: bool = False,
                   at_mass: AbstractSet[str] = frozenset()) -> ToolStructure:
     """The tool's fingers and mechanisms as its chains move from `pose` (a finger opposes another, or curls beside
@@ -193,10 +195,10 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
     written with mirrored signs close alike away from zero too; `at_mass`: chains whose tip is taken at its centre
     of mass (a jaw written as one link has its frame on its hinge, where it does not move); a tip that does not move
     at its frame is taken there too (a finger of one link following another's joint, its frame on its own hinge),
-    unless its chain turns with a finger jointed beyond its drive (_turns_with_jointed: a four-bar's bar)."""
+    unless its chain is in `bars_beside` (it turns with a finger jointed beyond its drive: a four-bar's bar)."""
     def moving(a: str, drive: Edge, tip: str) -> list[Motion]:
         found = _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, a in at_mass)
-        if found or a in at_mass or _turns_with_jointed(tree, fork, chains, a):
+        if found or a in at_mass or a in bars_beside:
             return found
         return _joint_motions(tree, fork, drive, tip, pose, spreads, closing_sense, True)
 
@@ -233,24 +235,57 @@ def _structure_at(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[
                          tuple(a for a in chains if a in linkages))
 
 
-def _turns_with_jointed(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
-                        a: str) -> bool:
-    """Chain `a`'s drive turns by the same joint as another chain's drive (one follows the other by <mimic>, or both
-    follow a third), about a parallel axis, and that other chain is jointed beyond its drive: `a` may be the bar of
-    a four-bar beside the finger it curls (a Robotiq 2F's inner knuckle), which a URDF writes as a chain of its own."""
-    drive = chains[a][1]
-    axis = unit(_in_frame(tree, a, fork, drive.axis, {}, True))
-    for b, (links, other, _) in chains.items():
-        if b == a or (drive.mimic or drive.joint) != (other.mimic or other.joint):
-            continue
-        other_axis = unit(_in_frame(tree, b, fork, other.axis, {}, True))
-        if axis and other_axis and abs(dot(axis, other_axis)) > _PARALLEL and \
-                any(tree.edge_to(link).movable for link in links[1:]):
-            return True
-    return False
+@dataclass(frozen=True)
+class _Pivot:
+    """A chain turning about its drive (revolute or continuous), in the fork's frame: where and about which axis it
+    pivots, how far its links reach from there, whether it is jointed beyond its drive, and the axis it turns
+    about as its source joint moves positively (a <mimic> with a negative multiplier turns it backwards)."""
+    at: Vector
+    axis: Vector
+    reach: float
+    jointed: bool
+    drive: Edge
+    turning: Vector
 
 
-def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]]) -> set[str]:
+def _pivots(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]]) -> dict[str, _Pivot]:
+    """The chains of `chains` that pivot, by name."""
+    pivots = {}
+    for a, (links, drive, _) in chains.items():
+        if drive.joint_type in ("revolute", "continuous") and (axis := unit(_in_frame(tree, a, fork, drive.axis, {}, True))):
+            at = tree.position_in(a, fork)
+            pivots[a] = _Pivot(
+                at=at,
+                axis=axis,
+                reach=max(norm(sub(tree.position_in(link, fork), at)) for link in links),
+                jointed=any(tree.edge_to(link).movable for link in links[1:]),
+                drive=drive,
+                turning=axis if drive.mimic is None or drive.mimic_multiplier >= 0 else (-axis[0], -axis[1], -axis[2]),
+            )
+    return pivots
+
+
+def _beside_jointed(pivots: dict[str, _Pivot], a: str) -> list[_Pivot]:
+    """The other pivoting chains jointed beyond their drive (fingers a linkage may curl) whose axis is parallel to
+    chain `a`'s."""
+    return [other for b, other in pivots.items()
+            if b != a and other.jointed and abs(dot(pivots[a].axis, other.axis)) > _PARALLEL]
+
+
+def _one_source(drive: Edge, other: Edge) -> bool:
+    """Both drives turn by one joint: one follows the other by <mimic>, or both follow a third."""
+    return (drive.mimic or drive.joint) == (other.mimic or other.joint)
+
+
+def _four_bar_bars(pivots: dict[str, _Pivot]) -> set[str]:
+    """Chains whose drive turns by the same joint as a parallel chain jointed beyond its drive: each may be the bar
+    of a four-bar beside the finger it curls (a Robotiq 2F's inner knuckle), which a URDF writes as a chain of its
+    own."""
+    return {a for a, pivot in pivots.items() if any(_one_source(pivot.drive, other.drive)
+                                                    for other in _beside_jointed(pivots, a))}
+
+
+def _linkages(pivots: dict[str, _Pivot]) -> set[str]:
     """Chains that are another chain's linkage: a chain whose drive pivots about an axis parallel to another chain's
     drive, that other chain jointed beyond its drive (a finger that the linkage curls), and whose link origins lie
     less than _LINKAGE as far from its pivot at the written pose, where the two pivots lie on one pin (_on_pin: a
@@ -260,24 +295,15 @@ def _linkages(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str,
     from one of them). A URDF tree cannot close a loop, so such a linkage is written as a chain of its own. Which way
     a crank turns is arbitrary where it follows no <mimic>, so whether it closes on its finger says nothing; two jaws
     sharing one pin, each one rigid link, stay fingers."""
-    pivots = []
-    for a, (links, drive, _) in chains.items():
-        if drive.joint_type in ("revolute", "continuous") and (axis := unit(_in_frame(tree, a, fork, drive.axis, {}, True))):
-            at = tree.position_in(a, fork)
-            reach = max(norm(sub(tree.position_in(link, fork), at)) for link in links)
-            jointed = any(tree.edge_to(link).movable for link in links[1:])
-            turning = axis if drive.mimic is None or drive.mimic_multiplier >= 0 else (-axis[0], -axis[1], -axis[2])
-            pivots.append((a, at, axis, reach, jointed, drive, turning))
     found = set()
-    for a, at, axis, reach, _, drive, turning in pivots:
-        for b, other_at, other_axis, other_reach, other_jointed, other_drive, other_turning in pivots:
-            if b == a or not other_jointed or abs(dot(axis, other_axis)) <= _PARALLEL or reach >= _LINKAGE * other_reach:
+    for a, pivot in pivots.items():
+        for other in _beside_jointed(pivots, a):
+            if pivot.reach >= _LINKAGE * other.reach:
                 continue
-            offset = sub(at, other_at)
-            if _on_pin(offset, axis, drive) or (
-                    (drive.mimic or drive.joint) == (other_drive.mimic or other_drive.joint)
-                    and dot(turning, other_turning) > _PARALLEL and norm(offset) < reach
-                    and abs(dot(offset, axis)) < _SQUARE * norm(offset)):
+            offset = sub(pivot.at, other.at)
+            if _on_pin(offset, pivot.axis, pivot.drive) or (
+                    _one_source(pivot.drive, other.drive) and dot(pivot.turning, other.turning) > _PARALLEL
+                    and norm(offset) < pivot.reach and abs(dot(offset, pivot.axis)) < _SQUARE * norm(offset)):
                 found.add(a)
     return found
 
