@@ -16,6 +16,7 @@ from urdfkb.pipeline.abstraction.prompts import kind_choice, level_options, prod
 from urdfkb.pipeline.abstraction.abstractor import Abstractor
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.abstraction.steps.classify import chain_subject, pre_classification
 from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
@@ -177,6 +178,28 @@ def test_a_declared_type_rules_out_no_class_of_the_product_the_links_name():
     sonar, scanner = (chain_subject(ctx, tree, sub_chain(tree, leaf, hull), "RangingSensor") for leaf in (named, bare))
     assert "Sonar" not in sonar.exclude and "Sonar" in scanner.exclude
     assert "Lidar" not in sonar.exclude  # the declared class stays offered: the model weighs the two
+
+
+def test_a_sensor_declaration_named_for_a_product_its_type_rules_out_names_no_product():
+    """A scan declared on a bare frame (a ray sensor) but named for a depth camera (a scan taken from one, or a name
+    reused) names no product, so the declaration rules the cameras out; a depth sensor so named still names it, as
+    a link named for a product does whatever its declaration."""
+    w = Writer(random.Random(11))
+    body = w.link('<box size="0.5 0.3 0.15"/>')
+    scan, depth = w.name(), w.name()
+    for leaf, y in ((scan, 0.05), (depth, -0.05)):
+        w.links.append(f'<link name="{leaf}"/>')
+        w.joint("fixed", body, leaf, (0.2, y, 0.1))
+    gazebo = (f'<gazebo reference="{scan}"><sensor name="realsense" type="ray"><ray><scan><horizontal>'
+              '<samples>180</samples><min_angle>-1.57</min_angle><max_angle>1.57</max_angle></horizontal></scan>'
+              '</ray></sensor></gazebo>'
+              f'<gazebo reference="{depth}"><sensor name="realsense" type="depth"/></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>"))
+    assert named_product(tree, [scan]) is None
+    assert named_product(tree, [depth]) == catalogue().match(["realsense"])
+    ctx = Abstractor(Oracle(ScriptedBackend(lambda q: q.options[0])), TAX).context(tree, kind="sensor")
+    subject = chain_subject(ctx, tree, sub_chain(tree, scan, body), "Sensor")
+    assert "VisionSensor" in subject.exclude and "\nProduct: " not in subject.evidence
 
 
 def test_the_sensor_check_shows_the_product_a_leaf_names_as_identification_did():

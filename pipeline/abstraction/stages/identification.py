@@ -15,9 +15,10 @@ from typing import Callable
 from urdfkb.pipeline.abstraction.catalogue import Product, catalogue
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.oracle import Oracle, Verdict
-from urdfkb.pipeline.knowledge.ontology import Vocabulary
+from urdfkb.pipeline.knowledge.ontology import Vocabulary, vocabulary
 from urdfkb.pipeline.abstraction.prompts import NONE, Choice, kind_choice
 from urdfkb.pipeline.abstraction.alike import alike_sets
+from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain
@@ -30,7 +31,8 @@ def _moves(tree: KinematicTree, link: str) -> bool:
 
 def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
     """The catalogue product the first of `links` names (its name, then its meshes, the plugins naming it and the
-    names of the simulator sensors declared on it), or failing that the link the last of them is fixed to (a frame
+    names of the simulator sensors declared on it, each where its own type admits what it names: _admitted), or
+    failing that the link the last of them is fixed to (a frame
     of a camera body whose mesh names the camera), that link's plugins only for a frame (a plugin naming an arm's
     flange names no body bolted beside it), and never its sensors (a lidar declared on a base names no frame on it).
     The plugins of a link that something moves on name none of the frames fixed to it (a GNSS receiver's plugin on a
@@ -41,10 +43,23 @@ def named_product(tree: KinematicTree, links: list[str]) -> Product | None:
         facts = tree.evidence.get(link)
         own = link in links
         plugins = facts.plugins if facts and (own or is_frame(tree, links[-1])) and not _moves(tree, link) else ()
-        sensors = [s.name for s in facts.sensors if s.name] if facts and own else []
+        sensors = [s.name for s in facts.sensors if s.name and _admitted(s)] if facts and own else []
         if product := catalogue().match([link, *(facts.meshes if facts else ()), *plugins, *sensors]):
             return product
     return None
+
+
+def _admitted(sensor: SimSensor) -> bool:
+    """The product a simulator sensor's name names, if any, is of a class its declared type admits (the ontology's
+    core:simulatorSensorType alignment): a ray scan named for a depth camera (a scan taken from one, or a name
+    reused) names no camera. The links' own names and meshes stay evidence against a declared type (a simulator
+    stands a type it has in for a product it has none for); a name inside the declaration speaks for that
+    declaration."""
+    product = catalogue().match([sensor.name])
+    vocab = vocabulary()
+    if product is None or product.cls not in vocab or (kind := vocab.kind_of(product.cls)) is None:
+        return True
+    return product.cls not in vocab.disagreeing(vocab.declared_classes([sensor.sdf_type]), vocab.kinds[kind].cls)
 
 
 def device_product(tree: KinematicTree, chains: Iterable[SubChain]) -> Product | None:
