@@ -113,6 +113,32 @@ def test_a_wheel_written_revolute_without_range_is_split_off_the_leg_it_ends():
     assert told[("spin",)] == ("continuous",) and set(told[tuple(leg)]) == {"revolute"}  # the reasoner's Wheel axiom applies
 
 
+def test_a_bar_written_continuous_following_a_bounded_joint_turns_as_that_joint_does_not_as_a_wheel():
+    """A parallel arm's linkage bar is written as a chain of its own, a continuous joint with no range following
+    the shoulder by <mimic>: it turns through the shoulder's arc, so the reasoner is told revolute and its Wheel
+    axiom does not apply; a wheel following another wheel by <mimic> (a skid-steer side) still spins."""
+    w = Writer(random.Random(9))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    upper, fore = w.link('<box size="0.03 0.03 0.2"/>'), w.link('<box size="0.03 0.03 0.2"/>')
+    shoulder = w.joint("revolute", base, upper, (0.0, 0.0, 0.1), (0, 1, 0), limits=(-0.3, 1.4))
+    w.joint("revolute", upper, fore, (0.0, 0.0, 0.2), (0, 1, 0), limits=(-1.0, 1.0))
+    bar = w.link('<box size="0.02 0.02 0.15"/>')
+    w.joints.append(f'<joint name="bar_joint" type="continuous"><parent link="{base}"/><child link="{bar}"/>'
+                    '<origin xyz="-0.03 0 0.12"/><axis xyz="0 1 0"/>'
+                    f'<mimic joint="{shoulder}" multiplier="1"/></joint>')
+    wheels = [w.link('<cylinder radius="0.05" length="0.03"/>') for _ in range(2)]
+    w.joints.append(f'<joint name="front_spin" type="continuous"><parent link="{base}"/><child link="{wheels[0]}"/>'
+                    '<origin xyz="0.15 0.17 -0.05" rpy="1.5708 0 0"/><axis xyz="0 0 1"/></joint>')
+    w.joints.append(f'<joint name="rear_spin" type="continuous"><parent link="{base}"/><child link="{wheels[1]}"/>'
+                    '<origin xyz="-0.15 0.17 -0.05" rpy="1.5708 0 0"/><axis xyz="0 0 1"/>'
+                    '<mimic joint="front_spin" multiplier="1"/></joint>')
+    tree = load_urdf(w.urdf())
+    found = body.chains(tree, set(), set())
+    told = {tuple(e.joint for e in c.joints): f.joint_types for c, f in zip(found, body.findings(tree, found, []).facts)}
+    assert told[("bar_joint",)] == ("revolute",)
+    assert told[("rear_spin",)] == ("continuous",) and told[("front_spin",)] == ("continuous",)
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_a_sensor_mount_whose_limits_leave_it_no_range_is_no_body_joint(seed):
     """Simulator files mount sensors on revolute joints limited to 0..0 (so the simulator keeps their links apart):

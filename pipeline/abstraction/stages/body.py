@@ -189,11 +189,22 @@ def _motion(tree: KinematicTree, edge: Edge) -> str:
     """The joint type the reasoner is told: what the joint does, so a joint that spins (Edge.spins) is continuous
     whatever the file wrote where it spins a wheel's body (wheel_body) or carries joints on, and revolute where it
     swings a body out from its axis with nothing moving below (a neck or a limb whose file leaves its limits out:
-    no wheel rolls so); a continuous one its file bounds (Edge.bounded) is revolute."""
+    no wheel rolls so); a continuous one its file bounds (Edge.bounded), or that follows by <mimic> a joint whose
+    range it turns through less than half a turn of (_follows_bounded: a linkage's bar following an arm's joint), is
+    revolute."""
     if edge.spins:
         carries_on = any(tree.edge_to(x).movable for x in tree.descendants(edge.child))
         return "continuous" if carries_on or wheel_body(tree, edge.child) else "revolute"
-    return "revolute" if edge.bounded else edge.joint_type
+    return "revolute" if edge.bounded or _follows_bounded(tree, edge) else edge.joint_type
+
+
+def _follows_bounded(tree: KinematicTree, edge: Edge) -> bool:
+    """A turning joint follows by <mimic> a turning joint with a range, over less than half a turn of its own: it
+    moves within that arc as its source does, as no wheel does."""
+    source, rate = structure.followed(tree, edge)[-1]
+    turning = ("revolute", "continuous")
+    return source is not edge and edge.joint_type in turning and source.joint_type in turning \
+        and source.limits is not None and 0.0 < (source.limits[1] - source.limits[0]) * abs(rate) < math.pi
 
 
 def _split_wheel(tree: KinematicTree, run: list[Edge], below: dict, owned_links: set[str]) -> list[Chain]:
