@@ -32,6 +32,7 @@ from urdfkb.pipeline.knowledge.shacl import validate
 from urdfkb.pipeline.abstraction.stages.grouping import Group
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.tools import settle
+from urdfkb.pipeline.abstraction.hands import rolling
 from urdfkb.pipeline.abstraction.structure import mount_of, tool_structure
 
 RACK = Path(__file__).parent / "data" / "tool_rack.urdf"
@@ -400,3 +401,43 @@ def test_fingers_of_one_link_following_another_by_mimic_curl_beside_it_where_the
     assert all(set(fingers[f].moves_with) == set(tips) - {f, thumb} for f in coupled)
     inferred, _ = classify([structure])
     assert inferred[0].cls == "AnthropomorphicHand" and inferred[0].thumbs == (thumb,)
+
+
+def _parallel_arm_with_open_loop_jaws(seed: int) -> tuple[bytes, str, list[str]]:
+    """A small parallel arm on a base: a shoulder motor and a linkage motor beside it, the elbow and the bracket
+    following them by <mimic> (their own joints off the arm's path), a bar on the bracket following the linkage
+    motor; a gripper on the bracket whose two jaws are each a planar linkage written open (four continuous joints
+    with no range about parallel axes, following nothing, as a file leaves a loop's joints to a solver). The
+    bracket, and the two jaws' tips."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.3 0.2 0.1"/>')
+    upper, fore, bracket = (w.link('<box size="0.02 0.02 0.12"/>') for _ in range(3))
+    shoulder = w.joint("revolute", base, upper, (0.0, 0.0, 0.1), (0, 1, 0), limits=(-0.3, 1.4))
+    motor = w.link('<box size="0.02 0.02 0.05"/>')
+    linkage = w.joint("revolute", base, motor, (0.0, 0.03, 0.1), (0, 1, 0), limits=(-0.8, 1.7))
+    w.joint("continuous", upper, fore, (0.0, 0.0, 0.12), (0, 1, 0), mimic=shoulder, multiplier=-1.0)
+    w.joint("continuous", fore, bracket, (0.12, 0.0, 0.0), (0, 1, 0), mimic=linkage, multiplier=-1.0)
+    w.joint("continuous", bracket, w.link('<box size="0.01 0.01 0.05"/>'), (0.0, -0.03, 0.02), (0, 1, 0),
+            mimic=linkage)
+    tips = []
+    for side in (1.0, -1.0):
+        link = bracket
+        for k in range(4):
+            child = w.link('<box size="0.015 0.005 0.02"/>')
+            w.joint("continuous", link, child, (0.03, side * 0.015, 0.0) if k == 0 else (0.015, side * 0.01, 0.0))
+            link = child
+        tips.append(link)
+    return w.urdf(), bracket, tips
+
+
+def test_jaws_written_as_open_linkages_at_a_parallel_arms_end_make_a_tool_there():
+    """A gripper whose jaws are planar linkages written open (every joint continuous, with no range, following
+    nothing) at the end of a parallel arm whose elbow and bracket follow motors beside the arm: the jaws' tips end
+    free linkages, not wheels that roll (hands.rolling), and the bracket is moved by three joints moving on their own
+    (the shoulder and the two its joints follow), so the tool is settled there, not refused as off an arm's end."""
+    urdf, bracket, tips = _parallel_arm_with_open_loop_jaws(3)
+    tree = load_urdf(urdf)
+    assert not any(rolling(tree, tip) for tip in tips)
+    notes: list[str] = []
+    settled = settle(tree, [Group([sub_chain(tree, tip, bracket) for tip in tips])], lambda leaf: False, notes.append)
+    assert [group_root_of(g) for g, _ in settled] == [bracket] and set(tips) <= set(settled[0][0].leaves), notes

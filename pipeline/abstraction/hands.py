@@ -33,6 +33,8 @@ ON_AXIS = 0.001  # m: a centre of mass this near a joint's axis lies on it (ever
 # the parts library and the probe files lies 10 mm or more off its axis, or at its joint's origin)
 FULL_TURN = 0.99 * 2 * math.pi  # rad: a joint's range at which it turns a wheel (files write -3.14..3.14)
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
+OPEN_LOOP = 3  # free pivots about parallel axes in series, ending at a leaf, that are a closed linkage written open
+PARALLEL = 0.99  # |cosine| between two joints' axes above which they are parallel
 SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
 # sensor tilting on its own joint hangs from a trunk or a lift: fewer)
 LAST_SEGMENT = 0.15  # share of its limb's length at which a limb end's centre of mass lies out from its own joint's
@@ -347,9 +349,9 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
     about an axis through the leaf's own centre of mass (_about_itself), whatever its range: a limb end so moved is
     a flange that rolls or a wheel, not a jaw or a finger, which close over a bounded arc (under 2.5 rad in the
     hands, grippers and arms of the truth robots and the parts library) about a hinge across the line they hang
-    out along, their mass swinging off it."""
+    out along, their mass swinging off it. A leaf ending a free linkage (_free_linkage) does not spin for that."""
     edge = tree.edge_to(leaf)
-    if edge.spins:
+    if edge.spins and not _free_linkage(tree, leaf):
         return True
     if edge.joint_type not in ("revolute", "continuous"):
         return False
@@ -357,6 +359,23 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
         return True
     out, axis = edge.origin.xyz, unit(rotate_rpy(edge.origin.rpy, edge.axis))
     return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
+
+
+def _free_linkage(tree: KinematicTree, leaf: str) -> bool:
+    """The leaf ends OPEN_LOOP joints or more in series that spin (Edge.spins) about parallel axes: the bars of a
+    closed linkage (a gripper's finger loop, its joints left free for the loop to hold), which a URDF tree writes
+    open; no wheel turns on a hub that spins about the wheel's own axis."""
+    path = tree.chain_to_root(leaf)
+    if len(path) <= OPEN_LOOP:
+        return False
+    above = path[OPEN_LOOP]
+    axes = []
+    for link in path[:OPEN_LOOP]:
+        edge = tree.edge_to(link)
+        if not edge.spins or (axis := unit(tree.direction_in(link, above, edge.axis))) is None:
+            return False
+        axes.append(axis)
+    return all(abs(dot(axes[0], axis)) > PARALLEL for axis in axes[1:])
 
 
 def _about_itself(tree: KinematicTree, leaf: str) -> bool:

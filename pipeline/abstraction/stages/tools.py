@@ -2,7 +2,7 @@
 
 The model's mount choices only group a tool's leaves; the tool itself is then settled from the tree:
 - a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent
-  moving joints (a caster on a base), or whose mount carries an arm beside the tool (a cover half-way
+  moving joints (a caster on a base; a joint following another by <mimic> counts the one it follows), or whose mount carries an arm beside the tool (a cover half-way
   up an arm), is no tool; unless nothing moving carries it and its fingers close against each
   other, or every leaf of the robot was identified as its own: a gripper, hand or suction cup described on its own;
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
@@ -30,7 +30,7 @@ from typing import Callable
 
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.hands import limb_length, limb_top
-from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, tool_structure
+from urdfkb.pipeline.abstraction.structure import ToolStructure, followed, nothing_moves, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.grouping import Group
@@ -114,9 +114,11 @@ def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
 
 
 def _joints_above(tree: KinematicTree, link: str) -> int:
-    """Independent moving joints (no <mimic>) between the tree's root and `link`, its own included."""
+    """The joints moving on their own that move `link`: between the tree's root and `link`, its own included, each
+    moving joint counts the joint at the root of its <mimic> chain (itself where it follows none), once (a parallel
+    arm's elbow and wrist follow the motors of its linkage beside them)."""
     edges = (tree.edge_to(x) for x in tree.chain_to_root(link)[:-1])
-    return sum(e.independent for e in edges)
+    return len({followed(tree, e)[-1][0].joint for e in edges if e.movable})
 
 
 def _carries_arm(tree: KinematicTree, top: str) -> bool:
