@@ -658,10 +658,10 @@ def test_a_bare_frame_where_two_devices_links_are_names_neither():
     assert [alias] in [g.leaves for g in groups]
 
 
-@pytest.mark.parametrize("pitch", [0.5, 1.05])
+@pytest.mark.parametrize("pitch", [0.25, 0.5, 1.05])
 def test_cameras_on_one_face_that_look_apart_are_two_devices(pitch):
     """A legged robot's face: a bare body (its mass alone) carrying a shell and two cameras, each its own frame and
-    an optical frame below it, one looking ahead and one pitched down by `pitch` (30 or 60 degrees): their lines of
+    an optical frame below it, one looking ahead and one pitched down by `pitch` (14, 30 or 60 degrees): their lines of
     sight part, so they are two devices whatever the model names them (on the code before: one device, the face
     their body)."""
     w = Writer(random.Random(5))
@@ -809,3 +809,22 @@ def test_a_depth_module_the_links_name_is_a_depth_camera_whatever_its_simulator_
     state.pre = {f: Typed("RGBDCamera", 0.9) for f in d435 + d430}
     post_classification(Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor"), state)
     assert [t.cls for t in state.post] == ["RGBDCamera", "DepthCamera"]
+
+
+def test_the_imagers_of_one_camera_tilted_a_few_degrees_apart_stay_one_device():
+    """A time-of-flight RGB-D camera's depth imager is tilted up to 8 degrees from its colour imager (a Femto Bolt's,
+    an Azure Kinect's 6): the two optical frames below the camera's bare body are still one device's."""
+    w = Writer(random.Random(8))
+    trunk, body = w.link('<box size="0.6 0.3 0.15"/>'), w.link()
+    w.joint("fixed", trunk, body, (0.3, 0.0, 0.1))
+    frames = []
+    for y, tilt in ((0.016, 0.0), (-0.016, math.radians(8))):
+        own, optical = w.link(), w.link()
+        w.joint("fixed", body, own, (0.0, y, 0.0), rpy=(0.0, tilt, 0.0))
+        w.joint("fixed", own, optical, rpy=OPTICAL)
+        frames.append(optical)
+    tree = load_urdf(w.urdf())
+    chains = one_mount(tree, [sub_chain(tree, leaf, body) for leaf in frames])
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
+                   dict.fromkeys(frames, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == [sorted(frames)]

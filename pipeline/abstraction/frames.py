@@ -20,8 +20,9 @@ BUILT_IN = 0.02  # m: a camera's built-in sensors' frames lie this close to its 
 MIRROR_EPS = 0.02  # m: two parts (limbs, their attachment points, a pair's eyes) this near each other's mirror
 # image across a plane of the root pair across it
 OPTICAL_AXIS = math.cos(math.radians(15))  # an optical frame's z axis lies along its parent's x axis (REP 103)
-LINE_OF_SIGHT = math.cos(math.radians(25))  # the imagers of one camera look the same way, within this (a Femto
-# Bolt's depth imager is tilted 8 degrees from its colour imager; a legged robot's face cameras 14 to 60 apart)
+LINE_OF_SIGHT = math.cos(math.radians(11))  # the imagers of one camera look the same way, within this: halfway
+# between the most one camera's imagers part (a Femto Bolt's depth imager, 8 degrees from its colour imager) and the
+# least two cameras on one face do (a legged robot's face cameras, 14 to 60 degrees apart)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
 ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick (poles, standoffs, antennas: 5 to 17)
 ROD_THICKNESS = 0.02  # m: and at most this thick (they are 8 to 12 mm; a stereo camera drawn as a cylinder, 3 cm)
