@@ -14,7 +14,10 @@ from urdfkb.pipeline.reading.ingest import load_urdf
 from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.grouping import Group
-from urdfkb.pipeline.abstraction.stages.subparts import _structural_parts
+from urdfkb.pipeline.abstraction.oracle import Oracle
+from urdfkb.pipeline.abstraction.stages.classification import Typed
+from urdfkb.pipeline.abstraction.stages.subparts import _structural_parts, type_subparts
+from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.abstraction.structure import tool_structure
 
 TAX = vocabulary()
@@ -115,3 +118,24 @@ def test_a_spinning_spindle_of_a_fingerless_tool_is_no_jaw():
     assert tool_structure(tree, [bit, tcp]).mount == flange
     offered = allowed(tree, [bit, tcp], flange)
     assert "Finger" not in offered[spindle] and "ToolHousing" in offered[spindle]
+
+
+def test_a_drawn_link_of_a_tool_is_no_tool_frame_whatever_the_model_says():
+    """The small model calls a gripper's drawn body (its palm) and a bar of its linkage "tool frame" (a class the
+    ontology marks core:frameOnly): a drawn link is asked without it and gets the model's next answer; the bare
+    frame at the tool's point still gets it."""
+    tree, flange, stator, jaw, leaves = one_jaw(3, tcp=True)
+    tcp = leaves[1]
+    group = Group([sub_chain(tree, leaf, flange) for leaf in leaves])
+    offered: dict[str, list[str]] = {}
+
+    def tool_frame_first(q):
+        offered[q.key] = q.options
+        return {o: (0.6 if o == TAX.answer("ToolCenterPoint") else 0.4 / len(q.options)) for o in q.options}
+    parts = type_subparts(Oracle(ScriptedBackend(tool_frame_first)), TAX, tree, TOOLS, [group],
+                          [Typed("ParallelGripper", 0.9)], [tool_structure(tree, leaves)])
+    assert parts[tcp].cls == "ToolCenterPoint"
+    asked_stator = [options for key, options in offered.items() if key.startswith(f"part:{stator}@")]
+    assert parts[stator].cls != "ToolCenterPoint" and asked_stator
+    assert not any(TAX.answer("ToolCenterPoint") in options for options in asked_stator)
+    assert parts[jaw].cls != "ToolCenterPoint"

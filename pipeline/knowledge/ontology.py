@@ -115,6 +115,7 @@ class Vocabulary:
         self._roles: dict[str, str] = {}  # class → its core:fingerChainRole
         self._units: set[str] = set()  # classes marked core:numberedUnits
         self._built_in: set[str] = set()  # classes marked core:builtIn
+        self._frame_only: set[str] = set()  # classes marked core:frameOnly
         self._part_question: dict[str, str] = {}  # required part class → core:partQuestion
         self._views: dict[str, tuple[float, float]] = {}  # camera class → the viewpoint counts it allows
         self._elements: dict[str, tuple[float, float]] = {}  # sensor class → the sensing-frame counts it allows
@@ -168,6 +169,8 @@ class Vocabulary:
                 self._units.add(name)
             if str(graph.value(node, CORE.builtIn)).strip().lower() in ("true", "1"):
                 self._built_in.add(name)
+            if str(graph.value(node, CORE.frameOnly)).strip().lower() in ("true", "1"):
+                self._frame_only.add(name)
         for kids in self._children.values():
             kids.sort(key=self._order.__getitem__)
         self.kinds = self._read_kinds()
@@ -349,6 +352,10 @@ class Vocabulary:
     def built_in(self, name: str) -> bool:
         """Devices of other kinds often carry a `name` inside (core:builtIn on it or an ancestor: an IMU)."""
         return any(c in self._built_in for c in (self._check(name), *self.ancestors(name)))
+
+    def frame_only(self) -> frozenset[str]:
+        """Classes marked core:frameOnly, with their subclasses: bare frames only, no drawn link."""
+        return frozenset(c for c in self._order if any(self.is_a(c, f) for f in self._frame_only))
 
     def finger_chain_role(self, role: str) -> frozenset[str]:
         """Classes carrying core:fingerChainRole `role`, with their subclasses."""

@@ -4,14 +4,16 @@ A device whose class ontologies/shapes.ttl requires a part of (a camera: an opti
 forming no images: a sensing element) has one at each of its sub-chains' leaves: a sensor chain runs
 from its mount to the frame its measurements are expressed in, and nothing hangs below that frame.
 Those leaves are refined below the required part (core:partQuestion asks which kind, where it has
-kinds); the device's other links are typed with that part's branch ruled out, and a tool's links
-with what its finger chains rule out (core:fingerChainRole). Alike links asked the same are asked once.
+kinds); the device's other links are typed with that part's branch ruled out, a tool's links
+with what its finger chains rule out (core:fingerChainRole), and a drawn link with the classes of bare frames
+(core:frameOnly: a tool centre point) ruled out. Alike links asked the same are asked once.
 A device of several sub-chains has its required parts typed first (required_parts_first), before its own
 class, which they then narrow (the frames say the camera, not the camera the frames); those answers are
 kept here where the class the device got still allows them.
 """
 from __future__ import annotations
 
+from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.reading.evidence import SimSensor, named
 from urdfkb.pipeline.knowledge.ontology import Kind, Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
@@ -36,10 +38,12 @@ def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Ki
     required = {link: cls for link, cls in needed.items() if link not in kept}
     framing = "What role does the link below play in its %s device? Choose the {concept}." % kind.noun
     structural = _structural_parts(tax, tree, kind, groups, structures, frozen_tips)
+    drawn = tax.frame_only()  # what a drawn link is not
     rest = [
         (link, Subject(f"part:{link}", framing,
                        f"Link: {named(tree.evidence, link)}\nDevice: {tax.label(t.cls)}",
-                       tax.excluded_parts(t.cls) | _required_branch(tax, t.cls) | structural.get(link, frozenset())))
+                       tax.excluded_parts(t.cls) | _required_branch(tax, t.cls) | structural.get(link, frozenset())
+                       | (frozenset() if is_frame(tree, link) else drawn)))
         for g, t in zip(groups, classes) for link in g.members if link not in needed
     ]
     frames: dict[str, list[tuple[str, Subject]]] = {}  # required part → its links' subjects
