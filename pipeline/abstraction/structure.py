@@ -375,7 +375,7 @@ def _half_closed(tree: KinematicTree, chains: dict[str, tuple[tuple[str, ...], E
             e = tree.edge_to(link)
             if e.joint in spreads or not e.movable:
                 continue
-            source = _source(tree, e)  # the joint it follows, or itself: a synergy joint outside the fingers too
+            source = source_joint(tree, e)  # the joint it follows, or itself: a synergy joint outside the fingers too
             if source.limits is not None and source.joint_type in ("revolute", "prismatic"):
                 lower, upper = source.limits
                 moved[source.joint] = (lower + upper) / 2
@@ -467,7 +467,7 @@ def _tip_motion(tree: KinematicTree, fork: str, drive: Edge, tip: str, pose: dic
     point = _in_frame(tree, tip, fork, centre, pose)
     path = tree.chain_to_root(tip)
     velocity = (0.0, 0.0, 0.0)
-    source = _source(tree, drive)
+    source = source_joint(tree, drive)
     for link in path[:path.index(drive.child) + 1]:
         edge = tree.edge_to(link)
         if (rate := _rate(tree, source, edge)) and (axis := unit(_in_frame(tree, link, fork, edge.axis, pose, True))):
@@ -538,7 +538,7 @@ def followed(tree: KinematicTree, edge: Edge) -> list[tuple[Edge, float]]:
     return chain
 
 
-def _source(tree: KinematicTree, drive: Edge) -> Edge:
+def source_joint(tree: KinematicTree, drive: Edge) -> Edge:
     """The joint that moves on its own at the root of the drive's <mimic> chain (the drive itself where it follows
     none): an underactuated hand's synergy joint that every finger joint follows, directly or through another."""
     return followed(tree, drive)[-1][0]

@@ -36,14 +36,13 @@ from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import is_frame, mirrored, placing_joints
 from urdfkb.pipeline.abstraction import structure
-from urdfkb.pipeline.abstraction.hands import feet, palm, wheel_body
+from urdfkb.pipeline.abstraction.hands import PARALLEL, feet, palm, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
 from urdfkb.pipeline.abstraction.vectors import dot, unit
 
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
-PARALLEL = 0.99  # |cosine| above which two joint axes are parallel
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
 LEG = "Leg"
 ROOT = "nothing: it is the robot's root"

@@ -30,7 +30,7 @@ from typing import Callable
 
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.abstraction.hands import limb_length, limb_top
-from urdfkb.pipeline.abstraction.structure import ToolStructure, followed, nothing_moves, tool_structure
+from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, source_joint, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.grouping import Group
@@ -118,7 +118,7 @@ def _joints_above(tree: KinematicTree, link: str) -> int:
     moving joint counts the joint at the root of its <mimic> chain (itself where it follows none), once (a parallel
     arm's elbow and wrist follow the motors of its linkage beside them)."""
     edges = (tree.edge_to(x) for x in tree.chain_to_root(link)[:-1])
-    return len({followed(tree, e)[-1][0].joint for e in edges if e.movable})
+    return len({source_joint(tree, e).joint for e in edges if e.movable})
 
 
 def _carries_arm(tree: KinematicTree, top: str) -> bool:
