@@ -78,6 +78,36 @@ def test_a_one_jaw_gripper_is_mounted_above_its_fixed_jaw_and_its_jaw_is_a_finge
     assert not tcp or not {"Finger", "Palm"} & offered[leaves[-1]]
 
 
+def fixed_jaw_gripper(seed: int, prismatic: bool):
+    """An arm's last link carrying, as a hobby servo gripper does, a moving jaw and a fixed jaw drawn with the same
+    mesh (the fixed one turned about), and a bare tool frame on a revolute joint of its own (a virtual wrist roll)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    link = w.link()
+    for _ in range(rng.randint(3, 5)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0))
+        link = child
+    finger = '<mesh filename="package://hobby_gripper/meshes/%s.stl"/>' % rng.choice(["jaw", "finger", "claw_half"])
+    moving, fixed, frame = w.link(finger), w.link(finger), w.link()
+    w.joint("prismatic" if prismatic else "revolute", link, moving, (0.0, 0.0, 0.07), (0.0, 1.0, 0.0), (0.002, 0.03))
+    w.joint("fixed", link, fixed, (0.0, -0.016, 0.07), rpy=(3.14159, 0.0, 0.0))
+    w.joint("revolute", link, frame, (0.0, 0.0, 0.11), (1.0, 0.0, 0.0), (-3.14, 3.14))
+    return load_urdf(w.urdf()), link, moving, fixed, frame
+
+
+@pytest.mark.parametrize("prismatic", [False, True])
+@pytest.mark.parametrize("seed", range(10))
+def test_a_fixed_jaw_shaped_as_the_moving_one_is_a_finger_and_a_bare_frame_no_jaw(seed, prismatic):
+    """The fixed jaw is offered a finger's classes as the moving jaw is; the bare frame turning on its own joint
+    has nothing to close with: no finger, and no palm (a leaf)."""
+    tree, last, moving, fixed, frame = fixed_jaw_gripper(seed, prismatic)
+    leaves = [moving, fixed, frame]
+    offered = allowed(tree, leaves, tool_structure(tree, leaves).mount)
+    assert offered[moving] == offered[fixed] == {"Finger", "ContactSurface"}
+    assert not {"Finger", "Palm"} & offered[frame] and "ToolCenterPoint" in offered[frame]
+
+
 def test_a_lone_tip_takes_its_body_into_the_tool_and_no_leaf_is_a_palm():
     """A rigid tool (a ball with a tip frame, no finger) is mounted where the ball is bolted; its body may be
     a palm, its leaf may not (nothing extends from it)."""

@@ -151,8 +151,9 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
     a finger chain is a finger or its contact surface, and only the latter where it is a leaf fixed to the
     finger (a pad or tip frame: a finger is jointed); so is a link moved by a joint that does not spin in a
     tool with no finger chain (the jaw of a one-jaw gripper, closing against the fixed body; a spindle or
-    rotor spins: Edge.spins); a link of a finger written fixed (from a frozen tip up to the body its fingers part
-    from) is a finger or its contact surface; any other link is no finger,
+    rotor spins: Edge.spins; a bare frame has nothing to close with), a link nothing moves that is shaped as such
+    a finger or jaw (_fixed_jaws: the fixed jaw of a one-jaw gripper), and a link of a finger written fixed (from a
+    frozen tip up to the body its fingers part from) is a finger or its contact surface; any other link is no finger,
     nor a palm if it is a leaf (nothing extends from it) or the tool has fingers and none hangs from it.
     (Nothing for sensors.)"""
     if structures is None:
@@ -164,10 +165,11 @@ def _structural_parts(tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: 
         frozen = {link for tip in frozen_tips if tip in group.members for link in _frozen_finger(tree, tip)}
         fingers = {link for f in structure.fingers for link in f.links} | frozen
         jaws = set() if fingers else {link for link in group.members if _jaw(tree, link, structure.mount)}
+        fixed_jaws = _fixed_jaws(tree, group.members, fingers | jaws, structure.mount)
         carriers = {link for f in structure.fingers for link in tree.chain_to_root(f.name)[1:]}
         for link in group.members:
-            if link in fingers or link in jaws:
-                fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable and link not in frozen
+            if link in fingers or link in jaws or link in fixed_jaws:
+                fixed_tip = tree.is_leaf(link) and not tree.edge_to(link).movable and link not in frozen | fixed_jaws
                 excluded[link] = on_finger | (finger if fixed_tip else frozenset())
             elif (fingers and link not in carriers) or tree.is_leaf(link):
                 excluded[link] = finger | carrier
@@ -185,6 +187,22 @@ def _frozen_finger(tree: KinematicTree, tip: str) -> list[str]:
 
 
 def _jaw(tree: KinematicTree, link: str, mount: str) -> bool:
-    """A movable joint that does not spin lies between `mount` and `link`."""
+    """A movable joint that does not spin lies between `mount` and `link`, and the link or something below it has a
+    body to close with (a bare frame turning on its own joint is a reference, not a jaw)."""
     path = tree.chain_to_root(link)
-    return mount in path and any((e := tree.edge_to(x)).movable and not e.spins for x in path[:path.index(mount)])
+    return mount in path and any((e := tree.edge_to(x)).movable and not e.spins for x in path[:path.index(mount)]) \
+        and not all(is_frame(tree, x) for x in (link, *tree.descendants(link)))
+
+
+def _fixed_jaws(tree: KinematicTree, members: list[str], moving: set[str], mount: str) -> set[str]:
+    """The drawn members no joint of the tool moves that are shaped as one of its moving fingers or jaws is (the
+    same meshes, or the same primitive where neither has a mesh): the fixed jaw a moving one closes against."""
+    def shape(link: str) -> tuple[tuple[str, ...], str] | None:
+        facts = tree.evidence.get(link)
+        return None if facts is None or is_frame(tree, link) else (facts.meshes, "" if facts.meshes else facts.shape)
+
+    def fixed(link: str) -> bool:
+        path = tree.chain_to_root(link)
+        return mount in path and not any(tree.edge_to(x).movable for x in path[:path.index(mount)])
+    shapes = {s for link in moving if (s := shape(link)) is not None}
+    return {link for link in members if fixed(link) and (s := shape(link)) is not None and s in shapes}
