@@ -468,6 +468,55 @@ def test_servo_legs_ending_in_their_shanks_are_legs_not_a_hand(seed, pairs):
     _each_a_leg_whatever_the_model_says(tree, legs, "arm")
 
 
+@pytest.mark.parametrize("seed,pairs", [(9, 2), (10, 3)])
+def test_servo_legs_written_with_a_full_turn_each_are_legs_not_a_hand(seed, pairs):
+    """Sprawled legs whose file gives every servo a full turn (-3.14..3.14), ending in their shanks: a shank's full
+    turn says nothing of a wheel where every joint of its limb is so written, so the tips are feet and each limb a
+    leg (on the code before, a real hexapod so written became one hand of six fingers, its head among them)."""
+    urdf, legs = _sprawled(seed, pairs, limits=(-3.14, 3.14), feet=False)
+    tree = load_urdf(urdf)
+    assert len(hands.feet(tree)) == 2 * pairs and not hands.hands(tree)
+    _each_a_leg_whatever_the_model_says(tree, legs, "arm")
+
+
+def test_steered_wheels_written_with_a_full_turn_are_still_wheel_modules():
+    """Four mirrored steered wheels whose steering and drive joints are both written revolute with a full turn: two
+    joints a limb, too few to say a servo robot's file, so the drive joint's full turn rolls a wheel: no feet."""
+    w = Writer(random.Random(11))
+    trunk = w.link('<box size="0.8 0.4 0.1"/>')
+    for x in (0.3, -0.3):
+        for y in (0.2, -0.2):
+            fork, wheel = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<box size="0.05 0.16 0.16"/>')
+            w.joint("revolute", trunk, fork, (x, y, 0.0), (0.0, 0.0, 1.0), (-3.14, 3.14))
+            w.joint("revolute", fork, wheel, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-3.14, 3.14))
+    assert hands.feet(load_urdf(w.urdf())) == frozenset()
+
+
+@pytest.mark.parametrize("seed", [14, 15])
+def test_a_biped_whose_root_origin_lies_on_the_floor_stands_on_its_feet(seed):
+    """An exported biped whose pelvis link has its origin on the floor and its hips 0.55 m above it, each leg of six
+    joints ending in its ankle link (the foot's body, no foot frame below it): the legs leave the pelvis high above
+    the ankles, so the ankles are feet and the limbs legs, whatever the model says (on the code before: the pelvis
+    lay lower than the ankles, no feet; the legs became arms and the ankles grippers)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    pelvis = w.link('<box size="0.2 0.3 0.15"/>')
+    legs, ankles = [], []
+    for y in (0.08, -0.08):
+        parent, joints = pelvis, []
+        for i, (xyz, axis) in enumerate((((0.0, y, 0.55), (1, 0, 0)), ((0.0, 0.0, -0.04), (0, 0, 1)),
+                                         ((0.0, 0.0, -0.04), (0, 1, 0)), ((0.0, 0.0, -0.2), (0, 1, 0)),
+                                         ((0.0, 0.0, -0.18), (0, 1, 0)), ((0.0, 0.0, -0.02), (1, 0, 0)))):
+            child = w.link('<box size="0.04 0.04 0.2"/>' if i < 5 else '<box size="0.2 0.08 0.03"/>')
+            joints.append(w.joint("revolute", parent, child, xyz, axis, (-1.5, 1.5)))
+            parent = child
+        legs.append(joints)
+        ankles.append(parent)
+    tree = load_urdf(w.urdf())
+    assert hands.feet(tree) == frozenset(ankles)
+    _each_a_leg_whatever_the_model_says(tree, legs, "arm")
+
+
 def test_a_spinning_wheel_on_a_steering_joint_is_still_a_wheel_module():
     """Four mirrored steered wheels spread front to back, level with the trunk: the drive joint spins a body whose
     frames all lie on its axis (hands.wheel_body), so the limbs are wheel modules, not sprawled legs."""
@@ -812,3 +861,4 @@ def test_a_waist_carrying_an_arm_on_either_side_is_a_torso_whatever_the_model_sa
         tree, camera = build(y_right)
         parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
         assert sorted(p.cls for p in parts) == sorted(["Arm", "Arm", waist]), y_right
+

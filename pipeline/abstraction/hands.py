@@ -33,6 +33,8 @@ ON_AXIS = 0.001  # m: a centre of mass this near a joint's axis lies on it (ever
 # the parts library and the probe files lies 10 mm or more off its axis, or at its joint's origin)
 FULL_TURN = 0.99 * 2 * math.pi  # rad: a joint's range at which it turns a wheel (files write -3.14..3.14)
 ROLL_ALONG = 0.95  # |cosine| between that joint's axis and the line out to it above which it runs along it
+SERVO_LIMB = 3  # bounded joints in one limb, each written with a full turn, that say the file gives its servos that
+# range, not that the limb's last one rolls a wheel (a steered wheel has two joints)
 OPEN_LOOP = 3  # free pivots about parallel axes in series, ending at a leaf, that are a closed linkage written open
 PARALLEL = 0.99  # |cosine| between two joints' axes above which they are parallel
 SWING_JOINTS = 2  # joints turning or sliding the link a leaf swings from beside the joint carrying its chain on (a
@@ -434,18 +436,19 @@ def on_trunk(tree: KinematicTree, link: str, placing: frozenset[str]) -> bool:
 
 def feet(tree: KinematicTree) -> frozenset[str]:
     """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
-    of the robot's lowest link origin at the zero pose, reached from the trunk by legs (_from_trunk_by_legs) that
+    of the robot's lowest link origin at the zero pose (the trunk and the frames above it aside), reached from the trunk by legs (_from_trunk_by_legs) that
     part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
     underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
     arm, parts a few centimetres above its fingertips), on a robot whose trunk (_trunk) lies STANCE above that
-    point and that has two such tips at least. Where a limb ends there is a foot, not a tool; a wheel (_rolls: a
+    point (where its limbs leave it: _leaving_height) and that has two such tips at least. Where a limb ends there is a foot, not a tool; a wheel (_rolls: a
     caster's wheel on its swivel) rolls and is none. A robot whose zero pose holds its legs out
     level with its trunk stands on none that way: its feet are those of its sprawled legs (_sprawled_feet)."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
-    lowest = min(height.values())
     placing = placing_joints(tree)
     top = _trunk(tree, placing)
-    if height[top] - lowest < STANCE:
+    run = set(tree.chain_to_root(top))  # the trunk and the frames above it: a file may put its root on the floor
+    lowest = min((z for link, z in height.items() if link not in run), default=height[top])
+    if _leaving_height(tree, top, height) - lowest < STANCE:
         return _sprawled_feet(tree, top, placing)
     low = [leaf for leaf in tree.leaves() if height[leaf] <= lowest + FOOT_BAND and _movable_above(tree, leaf) >= 2
            and not _rolls(tree, leaf)]
@@ -453,10 +456,16 @@ def feet(tree: KinematicTree) -> frozenset[str]:
     if len(limbs) < 2:
         return frozenset()
     meet = fork_of(tree, limbs)  # legs part there, STANCE above the feet, each with two joints or more of its own
-    if height[meet] - lowest < STANCE:
+    if _leaving_height(tree, meet, height) - lowest < STANCE:
         return frozenset()
     legs = [leaf for leaf in limbs if _movable_between(tree, leaf, meet) >= 2]
     return frozenset(legs) if len(legs) >= 2 else frozenset()
+
+
+def _leaving_height(tree: KinematicTree, link: str, height: dict[str, float]) -> float:
+    """How high the limbs leave `link`: the highest of its origin and its moving children's joints (an exported
+    file may put a pelvis's origin on the floor, its hips where they are)."""
+    return max([height[link], *(height[c] for c in tree.children(link) if tree.edge_to(c).movable)])
 
 
 def _trunk(tree: KinematicTree, placing: frozenset[str]) -> str:
@@ -481,7 +490,8 @@ def _rolls(tree: KinematicTree, leaf: str) -> bool:
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
     """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), no higher than the trunk
     (FOOT_BAND, or LEVEL_RISE of the limb's length: actuators stacked at its hips lift it), each carrying no wheel
-    (wheel_body, or a leaf turning a full turn: `_turns_fully`), as many joints in each, that leave it
+    (wheel_body, or a leaf turning a full turn: `_turns_fully`, unless SERVO_LIMB joints or more of the limb, every one
+    bounded, are all written with a full turn: a servo robot's file gives each servo that range), as many joints in each, that leave it
     in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane, REP 103's left and right,
     lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the longest one's length or more (a
     limb's length is the sum of its joints' offsets: a leg written folded is as long as stretched out): a quadruped's
@@ -497,7 +507,9 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
         if len(moving) < 2 or not _from_trunk_by_legs(tree, tip, set(tips), placing):
             continue
         first = moving[-1]
-        if any(wheel_body(tree, x) or tree.is_leaf(x) and _turns_fully(tree.edge_to(x))
+        servos = len(moving) >= SERVO_LIMB and all(_turns_fully(tree.edge_to(x)) and not tree.edge_to(x).spins
+                                                  for x in moving)
+        if any(wheel_body(tree, x) or tree.is_leaf(x) and _turns_fully(tree.edge_to(x)) and not servos
                for x in (first, *tree.descendants(first))):
             continue  # a wheel anywhere on it: a wheel module
         length = limb_length(tree, tip, first)
