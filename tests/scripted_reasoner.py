@@ -15,6 +15,7 @@ from urdfkb.pipeline.knowledge.reasoning import TOOL_REF, Inference, PartFacts
 from urdfkb.pipeline.abstraction.structure import ToolStructure
 
 TOOL = "EndEffector"
+HEAD_SPAN = 0.5  # m: a head's cameras lie within this of its first joint (core:deviceSpanMetres in its definition)
 PLACEMENTS = {"Bumper": ("MobileBase", "Leg")}  # class → the body parts it may be located on
 
 
@@ -86,7 +87,7 @@ def _part(f: PartFacts, wheels: list[bool], tooled: list[bool]) -> str | None:
         "Leg": ground and joints >= 2 and not tools,
         "Arm": not ground and (tools > 0 or (joints >= 5 and not f.carries)),
         "Head": (not ground and any(tax.is_a(d, "Camera") for d in devices) and not tools and not f.carries
-                 and joints <= 3),
+                 and joints <= 3 and round(f.span, 3) <= HEAD_SPAN),
         "MobileBase": joints == 1 and any(wheels[k] for k in f.carries) and not tools,
         "Torso": not ground and not tools and sum(tooled[k] for k in f.carries) >= 2,
     }

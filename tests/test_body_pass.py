@@ -862,3 +862,24 @@ def test_a_waist_carrying_an_arm_on_either_side_is_a_torso_whatever_the_model_sa
         parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
         assert sorted(p.cls for p in parts) == sorted(["Arm", "Arm", waist]), y_right
 
+
+@pytest.mark.parametrize("length", [0.08, 1.0])
+def test_cameras_at_the_end_of_long_links_do_not_make_a_head(length):
+    """A two-joint chain on a post carrying a camera at its end: with links 0.08 m long it is a neck, a head by the
+    ontology whatever the model says; with links a metre long (a tutorial's two-link arm carrying its camera and
+    laser) its camera lies too far out for a head's, so the ontology settles nothing and the model's answer (here
+    "arm") stands (on the code before: a head, settled at 1.0)."""
+    w = Writer(random.Random(22))
+    post = w.link('<box size="0.1 0.1 2.0"/>')
+    first, second = w.link(f'<box size="0.05 0.05 {length}"/>'), w.link(f'<box size="0.05 0.05 {length}"/>')
+    joints = [w.joint("continuous", post, first, (0.0, 0.1, 1.0), (0.0, 1.0, 0.0)),
+              w.joint("continuous", first, second, (0.0, 0.1, length - 0.05), (0.0, 1.0, 0.0))]
+    tip = w.link('<box size="0.05 0.05 0.05"/>')
+    w.joint("fixed", second, tip, (0.0, 0.0, length - 0.05))
+    camera = _camera(w, "camera", tip)
+    tree = load_urdf(w.urdf())
+
+    def rule(q):
+        return q.options[0] if q.key.startswith("side:") else "arm"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+    assert [(p.cls, list(p.joints)) for p in parts] == [("Head" if length < 0.5 else "Arm", joints)]

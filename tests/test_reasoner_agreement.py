@@ -49,7 +49,7 @@ def generated_body(built, tools_in_run: bool) -> Call:
 def boundaries() -> Call:
     """Candidates on both sides of each body-part condition: one to five joints (one continuous), a camera,
     a tool, another sensor, both or nothing, carrying a wheel, another part, one or two parts with tools or none,
-    on the ground or off it."""
+    on the ground or off it, a camera near the first joint or far out."""
     wheel, other = PartFacts(("continuous",), (), (), True), PartFacts(("revolute", "revolute"), (), (), False)
     arm = PartFacts(("revolute",) * 6, ("ParallelGripper",), (), False)
     joints = [("continuous",), ("revolute",), ("revolute", "continuous"), ("revolute", "revolute", "prismatic"),
@@ -59,7 +59,9 @@ def boundaries() -> Call:
                 *(PartFacts(j, d, carries, ground) for j in joints for d in devices
                   for carries in ((), (0,), (1,)) for ground in (True, False)),
                 *(PartFacts(("prismatic",), d, carries, ground) for d in devices
-                  for carries in ((2,), (2, 3), (1, 2)) for ground in (True, False))]
+                  for carries in ((2,), (2, 3), (1, 2)) for ground in (True, False)),
+                *(PartFacts(j, ("MonocularCamera",), (), False, span=span) for j in joints[:4]
+                  for span in (0.3, 0.5, 0.5004, 0.501, 1.95))]
 
 
 def carried() -> Call:

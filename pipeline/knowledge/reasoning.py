@@ -129,7 +129,7 @@ def _inference(individual, chains: dict) -> Inference:
 class PartFacts:
     """What the code asserts of one candidate body part (pipeline.abstraction.stages.body): the URDF types of its
     joints, the classes of the devices on its links, the candidates hanging from them (by index), whether it
-    reaches the ground, the side it lies on, and its class where already settled."""
+    reaches the ground, the side it lies on, its class where already settled, and how far out the devices on it lie."""
 
     joint_types: tuple[str, ...]
     devices: tuple[str, ...]
@@ -137,6 +137,7 @@ class PartFacts:
     reaches_ground: bool
     side: str | None = None   # "left"/"right": the side of the root's x-z plane its joints lie on (None: across it)
     known: str | None = None  # its class where already settled (the model's, in a second round): asserted
+    span: float = 0.0         # m: from its first joint to the farthest link of the devices on it, at the zero pose
 
 
 # classify_together's contract: HermiT by default; Abstractor and runner.run take another, as tests inject a
@@ -175,6 +176,7 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
         part.jointCount, part.partCount = len(facts.joint_types), len(facts.carries)
         part.deviceCount, part.endEffectorCount = len(facts.devices), tools_on[i]
         part.toolPartCount = sum(tools_on[k] > 0 for k in facts.carries)
+        part.deviceSpanMetres = round(facts.span, 3)
     return individuals
 
 

@@ -39,7 +39,7 @@ from urdfkb.pipeline.abstraction import structure
 from urdfkb.pipeline.abstraction.hands import PARALLEL, feet, palm, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of
-from urdfkb.pipeline.abstraction.vectors import dot, unit
+from urdfkb.pipeline.abstraction.vectors import dot, norm, unit
 
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
@@ -292,9 +292,15 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
     grounded = [_reaches_ground(tree, chain, lowest, tools, standing) for chain in found]
     facts = [reasoning.PartFacts(tuple(_motion(tree, e) for e in chain.joints), tuple(c.cls for c in held),
-                                 tuple(follow), ground, _side_of(tree, chain))
+                                 tuple(follow), ground, _side_of(tree, chain), span=_span(tree, chain, held))
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     return Findings(devices, carries, grounded, facts)
+
+
+def _span(tree: KinematicTree, chain: Chain, held: list[Component]) -> float:
+    """How far the farthest link of the devices `held` on a candidate lies from its first joint, at the zero pose."""
+    first = chain.joints[0].child
+    return max((norm(tree.position_in(link, first)) for c in held for link in c.links), default=0.0)
 
 
 def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[Chain],
