@@ -828,3 +828,34 @@ def test_the_imagers_of_one_camera_tilted_a_few_degrees_apart_stay_one_device():
     groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor",
                    dict.fromkeys(frames, "VisionSensor"))
     assert sorted(sorted(g.leaves) for g in groups) == [sorted(frames)]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_depth_frame_beside_its_optical_twin_on_a_tilt_link_is_the_cameras(seed):
+    """A pan-tilt head's drawn tilt link carrying, straight on it at one point, a colour and a depth optical frame
+    and the depth imager's x-forward frame (as a hexapod's head writes its RGB-D camera), the model naming that
+    x-forward frame a device of its own: it looks along the optical frames' line of sight from their point, so it is
+    their imager's frame and the three are one device; a frame at that point looking aside stays apart (on the code
+    before: an RGB-D camera and a depth camera)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base, pan, tilt = w.link('<box size="0.3 0.3 0.1"/>'), w.link('<box size="0.05 0.05 0.05"/>'), \
+        w.link('<box size="0.04 0.1 0.04"/>')
+    w.joint("revolute", base, pan, (0.1, 0.0, 0.1))
+    w.joint("revolute", pan, tilt, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0))
+    at = (rng.uniform(0.0, 0.03), rng.uniform(-0.02, 0.02), rng.uniform(0.0, 0.03))
+    colour, depth, body, aside = w.link(), w.link(), w.link(), w.link()
+    w.joint("fixed", tilt, colour, at, rpy=OPTICAL)
+    w.joint("fixed", tilt, depth, at, rpy=OPTICAL)
+    w.joint("fixed", tilt, body, at)
+    w.joint("fixed", tilt, aside, at, rpy=(0.0, 0.0, math.pi / 2))
+    tree = load_urdf(w.urdf())
+    leaves = [colour, depth, body, aside]
+    names = {colour: "camera", depth: "camera", body: "camera_depth", aside: "aside"}
+
+    def rule(q):
+        leaf = q.key.split(":", 1)[1]
+        return names[leaf] if names[leaf] in q.options else q.options[-1]
+    groups = merge(Oracle(ScriptedBackend(rule)), tree, [sub_chain(tree, leaf, tilt) for leaf in leaves], "sensor",
+                   dict.fromkeys(leaves, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([colour, depth, body]), [aside]])

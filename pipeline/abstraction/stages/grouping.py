@@ -55,7 +55,7 @@ from urdfkb.pipeline.abstraction.prompts import device_name_question
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
-from urdfkb.pipeline.abstraction.frames import SAME_PLACE, body_of, is_frame, is_optical, viewpoints
+from urdfkb.pipeline.abstraction.frames import SAME_PLACE, body_of, is_frame, is_optical, optical_twins, viewpoints
 from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
@@ -308,7 +308,7 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                  for i, a in enumerate(chains)]
         aliases = _aliases(tree, chains)
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or (i, j) in aliases
-                                   or _one_product(tree, a, b))
+                                   or _one_product(tree, a, b) or optical_twins(tree, a.leaf, b.leaf))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
