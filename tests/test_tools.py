@@ -441,3 +441,46 @@ def test_jaws_written_as_open_linkages_at_a_parallel_arms_end_make_a_tool_there(
     notes: list[str] = []
     settled = settle(tree, [Group([sub_chain(tree, tip, bracket) for tip in tips])], lambda leaf: False, notes.append)
     assert [group_root_of(g) for g, _ in settled] == [bracket] and set(tips) <= set(settled[0][0].leaves), notes
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_hand_whose_palm_is_a_chain_of_bolted_pieces_with_a_cover_is_one_hand(seed):
+    """A hand on a wrist joint whose palm is written as pieces bolted in series (each finger's base its own link, as
+    an open-source hand's CAD export writes it), a thumb and four fingers forking from them, and a drawn cover fixed
+    on the palm that the model calls a body part: the cover blocks neither the hand's mount nor its extent, so all
+    five fingers and the cover are one hand (on the code before: the index finger one tool, the rest another)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    forearm, wrist = w.link('<box size="0.06 0.06 0.2"/>'), w.link('<box size="0.05 0.05 0.03"/>')
+    w.joint("revolute", forearm, wrist, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0), (-1.0, 1.0))
+    pieces = [w.link('<box size="0.02 0.03 0.08"/>') for _ in range(4)]
+    w.joint("revolute", wrist, pieces[0], (0.0, 0.0, 0.03), (1.0, 0.0, 0.0), (-0.5, 0.5))
+    for a, b in zip(pieces, pieces[1:]):
+        w.joint("fixed", a, b, (0.0, -0.022, 0.0))
+    tips = []
+    for k, piece in enumerate(pieces):
+        link = piece
+        for i in range(3):
+            child = w.link('<box size="0.015 0.015 0.03"/>')
+            w.joint("revolute", link, child, (0.0, 0.0, 0.08) if i == 0 else (0.0, 0.0, 0.03), (0.0, 1.0, 0.0),
+                    (0.0, 1.5))
+            link = child
+        tips.append(link)
+    link = pieces[1]
+    for i, (xyz, axis) in enumerate((((0.03, 0.0, 0.02), (0.0, 0.0, 1.0)), ((0.02, 0.0, 0.0), (0.0, 1.0, 0.0)),
+                                     ((0.0, 0.0, 0.03), (0.0, 1.0, 0.0)))):
+        child = w.link('<box size="0.015 0.015 0.03"/>')
+        w.joint("revolute", link, child, xyz, axis, (-1.5, 0.0) if i else (0.0, 1.5))
+        link = child
+    tips.append(link)
+    cover = w.link('<box size="0.04 0.09 0.01"/>')
+    w.joint("fixed", pieces[1], cover, (0.015, -0.01, 0.04))
+    tree = load_urdf(w.urdf())
+
+    def answer(q: Question):
+        if q.key == f"identify:{cover}":
+            return "body part"
+        return q.options[0]
+    tools = [c for c in Abstractor(Oracle(ScriptedBackend(answer)), TAX, reasoner=scripted_reasoner).run(tree).components
+             if c.kind == "end_effector"]
+    assert len(tools) == 1 and set(tips) | {cover} <= set(tools[0].links), [(c.cls, c.links) for c in tools]

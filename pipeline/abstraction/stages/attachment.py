@@ -69,10 +69,12 @@ def _own_body(tree: KinematicTree, link: str, leaf: str) -> bool:
 
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: Kind,
                  blocked: Callable[[str], bool], progress: Progress | None = None, rigid: bool = False,
-                 settled: Mapping[str, str] | None = None) -> list[SubChain]:
+                 settled: Mapping[str, str] | None = None,
+                 settled_blocked: Callable[[str], bool] | None = None) -> list[SubChain]:
     """One sub-chain per leaf; `blocked(link)` says a link cannot lie inside this kind of device;
     `rigid`: devices of this kind are fixed to their mount (sensors); `settled`: leaf → the mount its tree
-    shape gives it (a hand's leaves: hands.hand_mounts), taken unasked where it is among the candidates.
+    shape gives it (a hand's leaves: hands.hand_mounts), taken unasked where it is among the candidates that
+    `settled_blocked` (by default `blocked`) leaves.
 
     Fewer questions than leaves: alike leaves (alike.alike_leaves: a left and a right forearm camera) with
     as many candidates are asked once, each mounted as high up its own chain as the first is on its chain; and
@@ -82,7 +84,8 @@ def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: K
     candidates = {leaf: mount_candidates(tree, leaf, blocked, rigid) for leaf in leaves}
     chains = {leaf: sub_chain(tree, leaf, c[0]) for leaf, c in candidates.items() if len(c) == 1}
     chains.update({leaf: sub_chain(tree, leaf, mount) for leaf, mount in (settled or {}).items()
-                   if leaf in candidates and leaf not in chains and mount in candidates[leaf]})
+                   if leaf in candidates and leaf not in chains
+                   and mount in mount_candidates(tree, leaf, settled_blocked or blocked, rigid)})
     bodies = frames_of_one_body(tree, [leaf for leaf in leaves if leaf not in chains])
     _ask_mounts(oracle, tree, kind, [frames[0] for frames in bodies], candidates, chains, progress)
     rest = []

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Callable
 
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
@@ -38,14 +39,16 @@ def _attach(ctx: Context, found: Findings, settled: dict[str, str], rigid: bool)
         found.done = True
         return
     found.chains = detect_roots(ctx.oracle, ctx.tree, selected, kind, _blocked(ctx.tree, found.claims, kind.cls),
-                                ctx.progress, rigid=rigid, settled=settled)
+                                ctx.progress, rigid=rigid, settled=settled,
+                                settled_blocked=_blocked(ctx.tree, found.claims, kind.cls, ctx.vocab.body_part))
 
 
-def _blocked(tree: KinematicTree, claims: dict[str, str], cls: str) -> Callable[[str], bool]:
-    """A link a device of class `cls` cannot contain: a leaf identified as another kind of component.
-    (The mount of a device abstracted earlier may lie inside: a sensor on a gripper's palm.)"""
+def _blocked(tree: KinematicTree, claims: dict[str, str], cls: str, passing: str = NONE) -> Callable[[str], bool]:
+    """A link a device of class `cls` cannot contain: a leaf identified as another kind of component, but
+    `passing` (for a hand its shape settles, a body part: a cover fixed on the palm its fingers fork from is the
+    hand's). (The mount of a device abstracted earlier may lie inside: a sensor on a gripper's palm.)"""
     def blocked(link: str) -> bool:
-        return tree.is_leaf(link) and claims.get(link, NONE) not in (cls, NONE)
+        return tree.is_leaf(link) and claims.get(link, NONE) not in (cls, NONE, passing)
     return blocked
 
 
@@ -87,18 +90,21 @@ def category(ctx: Context, cls: str, top: str) -> str:
 @step("verification", needs=("groups", "claims", "components"), makes=("groups",))
 def verification(ctx: Context, found: Findings) -> None:
     """Groups that own every link below them (stages.verification.verify)."""
+    passing = ctx.vocab.body_part if ctx.device_kind.name == END_EFFECTOR else NONE
     found.groups = verify(ctx.tree, found.groups, _unclaimed(ctx.tree, found.claims, found.groups,
-                                                             {c.root for c in found.components}), ctx.log)
+                                                             {c.root for c in found.components}, passing), ctx.log)
 
 
 def _unclaimed(tree: KinematicTree, claims: dict[str, str], groups: list[Group],
-               mounts: set[str]) -> Callable[[str], bool]:
+               mounts: set[str], passing: str = NONE) -> Callable[[str], bool]:
+    """A link no component holds: not grouped, no device's mount, and no leaf but one identified as none (or as
+    `passing`: for a tool, a body part, as attachment lets it lie inside: _blocked)."""
     grouped = {m for g in groups for m in g.members}
 
     def unclaimed(link: str) -> bool:
         if link in mounts or link in grouped:
             return False
-        return not tree.is_leaf(link) or claims.get(link) == NONE
+        return not tree.is_leaf(link) or claims.get(link) in (NONE, passing)
     return unclaimed
 
 
