@@ -859,3 +859,40 @@ def test_a_depth_frame_beside_its_optical_twin_on_a_tilt_link_is_the_cameras(see
     groups = merge(Oracle(ScriptedBackend(rule)), tree, [sub_chain(tree, leaf, tilt) for leaf in leaves], "sensor",
                    dict.fromkeys(leaves, "VisionSensor"))
     assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted([colour, depth, body]), [aside]])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_cameras_on_one_rack_facing_apart_are_devices_of_their_own_whatever_the_names_say(seed):
+    """A drawn sensor rack carrying camera bodies a metre apart, each turned its own way with its optical frame, and
+    a stereo bar of two lens bodies side by side: mounted on the link the rack is fixed to and all named "camera" by
+    the model, the cameras facing apart stay apart (their own bodies, below the rack they share, lie apart), and the
+    two lenses side by side stay one device (on the code before: the rack joined every camera to the next)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base, rack = w.link('<box size="2.0 1.0 0.5"/>'), w.link('<box size="1.8 0.2 0.05"/>')
+    w.joint("fixed", base, rack, (0.0, 0.0, 0.5))
+    singles = []
+    for k, yaw in enumerate((0.0, math.pi / 2, math.pi, -math.pi / 2)):
+        body, optical = w.link('<box size="0.05 0.05 0.05"/>'), w.link()
+        w.joint("fixed", rack, body, (math.cos(yaw) * 0.8, math.sin(yaw) * 0.8, 0.05 + 0.01 * rng.random()),
+                rpy=(0.0, 0.0, yaw + rng.uniform(-0.1, 0.1)))
+        w.joint("fixed", body, optical, rpy=OPTICAL)
+        singles.append(optical)
+    bar = w.link('<box size="0.03 0.2 0.03"/>')
+    w.joint("fixed", rack, bar, (0.3, 0.0, 0.1))
+    pair = []
+    for y in (0.06, -0.06):
+        lens, optical = w.link('<cylinder radius="0.01" length="0.02"/>'), w.link()
+        w.joint("fixed", bar, lens, (0.02, y, 0.0))
+        w.joint("fixed", lens, optical, rpy=OPTICAL)
+        pair.append(optical)
+    urdf = w.urdf()
+    for leaf in singles + pair:  # every optical frame's name begins "camera_"
+        urdf = urdf.replace(f'"{leaf}"'.encode(), f'"camera_{leaf}"'.encode())
+    singles, pair = [f"camera_{leaf}" for leaf in singles], [f"camera_{leaf}" for leaf in pair]
+    tree = load_urdf(urdf)
+    leaves = singles + pair
+    oracle = Oracle(ScriptedBackend(lambda q: "camera" if "camera" in q.options else q.options[0]))
+    groups = merge(oracle, tree, [sub_chain(tree, leaf, base) for leaf in leaves], "sensor",
+                   dict.fromkeys(leaves, "VisionSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([[s] for s in singles] + [sorted(pair)])
