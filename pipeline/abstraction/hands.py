@@ -436,13 +436,14 @@ def on_trunk(tree: KinematicTree, link: str, placing: frozenset[str]) -> bool:
 
 def feet(tree: KinematicTree) -> frozenset[str]:
     """The leaves a robot stands on: tips of limbs (two movable joints or more above them) within FOOT_BAND
-    of the robot's lowest link origin at the zero pose (the trunk and the frames above it aside), reached from the trunk by legs (_from_trunk_by_legs) that
-    part where they all meet, STANCE or more above them, with two movable joints or more each (the jaws of an
-    underwater vehicle's gripper, hanging lowest, part with one each; a free flyer's gripper, hanging lowest on its
-    arm, parts a few centimetres above its fingertips), on a robot whose trunk (_trunk) lies STANCE above that
-    point (where its limbs leave it: _leaving_height) and that has two such tips at least. Where a limb ends there is a foot, not a tool; a wheel (_rolls: a
-    caster's wheel on its swivel) rolls and is none. A robot whose zero pose holds its legs out
-    level with its trunk stands on none that way: its feet are those of its sprawled legs (_sprawled_feet)."""
+    of the robot's lowest link origin at the zero pose (the trunk and the frames above it aside), reached from the
+    trunk by legs (_from_trunk_by_legs) that part where they all meet, STANCE or more above them, with two movable
+    joints or more each (the jaws of an underwater vehicle's gripper, hanging lowest, part with one each; a free
+    flyer's gripper, hanging lowest on its arm, parts a few centimetres above its fingertips), on a robot whose trunk
+    (_trunk) lies STANCE above that point where its limbs leave it (_leaving_height) and that has two such tips at
+    least. Where a limb ends there is a foot, not a tool; a wheel (_rolls: a caster's wheel on its swivel) rolls and
+    is none. A robot whose zero pose holds its legs out level with its trunk stands on none that way: its feet are
+    those of its sprawled legs (_sprawled_feet)."""
     height = {link: tree.position_in(link, tree.root)[2] for link in tree.links}
     placing = placing_joints(tree)
     top = _trunk(tree, placing)
@@ -490,13 +491,13 @@ def _rolls(tree: KinematicTree, leaf: str) -> bool:
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
     """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), no higher than the trunk
     (FOOT_BAND, or LEVEL_RISE of the limb's length: actuators stacked at its hips lift it), each carrying no wheel
-    (wheel_body, or a leaf turning a full turn: `_turns_fully`, unless SERVO_LIMB joints or more of the limb, every one
-    bounded, are all written with a full turn: a servo robot's file gives each servo that range), as many joints in each, that leave it
-    in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane, REP 103's left and right,
-    lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the longest one's length or more (a
-    limb's length is the sum of its joints' offsets: a leg written folded is as long as stretched out): a quadruped's
-    or hexapod's legs, whatever its zero pose or size. A hand's fingers leave its palm in a row, its thumb
-    unpaired."""
+    (wheel_body, or a leaf turning a full turn: `_turns_fully`, unless SERVO_LIMB joints or more of the limb, every
+    one bounded, are all written with a full turn: a servo robot's file gives each servo that range), as many joints
+    in each, that leave it in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane,
+    REP 103's left and right, lies within MIRROR_EPS of another's) spread from front to back TRUNK_TO_LEG of the
+    longest one's length or more (a limb's length is the sum of its joints' offsets: a leg written folded is as long
+    as stretched out): a quadruped's or hexapod's legs, whatever its zero pose or size. A hand's fingers leave its
+    palm in a row, its thumb unpaired."""
     top = tree.position_in(trunk, tree.root)[2]
     tips = [leaf for leaf in tree.leaves() if trunk in tree.chain_to_root(leaf)[1:]  # a leg comes down, or out level
             and tree.position_in(leaf, tree.root)[2] - top <= max(FOOT_BAND, LEVEL_RISE * limb_length(tree, leaf, trunk))]

@@ -107,11 +107,9 @@ def device_names(chain: SubChain) -> tuple[str, ...]:
 def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     """The two sub-chains could be one device's: they share a link or a mount, and where each has a body of its own
     (below where they part: two cameras on one rack) those bodies lie side by side (_side_by_side)."""
-    own_a, own_b = _own_body(tree, a, b.leaf), _own_body(tree, b, a.leaf)
-    apart = own_a is not None and own_b is not None \
-        and not _side_by_side(tree, fork_of(tree, [a.leaf, b.leaf]), own_a, own_b)
     if set(a.links) & set(b.links) or a.root in b.links or b.root in a.links:
-        return not apart
+        own_a, own_b = _own_body(tree, a, b.leaf), _own_body(tree, b, a.leaf)
+        return own_a is None or own_b is None or _side_by_side(tree, fork_of(tree, [a.leaf, b.leaf]), own_a, own_b)
     if a.root != b.root:
         return False
     housing_a, housing_b = _housing(tree, a), _housing(tree, b)
