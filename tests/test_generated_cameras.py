@@ -872,7 +872,7 @@ def test_cameras_on_one_rack_facing_apart_are_devices_of_their_own_whatever_the_
     base, rack = w.link('<box size="2.0 1.0 0.5"/>'), w.link('<box size="1.8 0.2 0.05"/>')
     w.joint("fixed", base, rack, (0.0, 0.0, 0.5))
     singles = []
-    for k, yaw in enumerate((0.0, math.pi / 2, math.pi, -math.pi / 2)):
+    for yaw in (0.0, math.pi / 2, math.pi, -math.pi / 2):
         body, optical = w.link('<box size="0.05 0.05 0.05"/>'), w.link()
         w.joint("fixed", rack, body, (math.cos(yaw) * 0.8, math.sin(yaw) * 0.8, 0.05 + 0.01 * rng.random()),
                 rpy=(0.0, 0.0, yaw + rng.uniform(-0.1, 0.1)))

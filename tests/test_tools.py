@@ -458,7 +458,7 @@ def test_a_hand_whose_palm_is_a_chain_of_bolted_pieces_with_a_cover_is_one_hand(
     for a, b in zip(pieces, pieces[1:]):
         w.joint("fixed", a, b, (0.0, -0.022, 0.0))
     tips = []
-    for k, piece in enumerate(pieces):
+    for piece in pieces:
         link = piece
         for i in range(3):
             child = w.link('<box size="0.015 0.015 0.03"/>')
