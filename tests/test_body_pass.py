@@ -492,6 +492,21 @@ def test_steered_wheels_written_with_a_full_turn_are_still_wheel_modules():
     assert hands.feet(load_urdf(w.urdf())) == frozenset()
 
 
+def test_steered_wheels_whose_drive_joints_are_held_at_zero_are_no_legs():
+    """Four mirrored steering joints with a range, each carrying a wheel on a revolute joint written 0..0 (an export
+    that gave the steering its range and the drive none): a joint whose limits leave it no range moves nothing where
+    the file ranges others (KinematicTree.moving), so each limb has one moving joint and no feet are found (on the code
+    before: four sprawled legs, settled at 1.0)."""
+    w = Writer(random.Random(12))
+    trunk = w.link('<box size="0.8 0.5 0.2"/>')
+    for x in (0.3, -0.3):
+        for y in (0.22, -0.22):
+            fork, wheel = w.link('<box size="0.05 0.05 0.15"/>'), w.link('<box size="0.05 0.14 0.14"/>')
+            w.joint("revolute", trunk, fork, (x, y, 0.0), (0.0, 0.0, 1.0), (-2.97, 2.97))
+            w.joint("revolute", fork, wheel, (0.0, 0.0, -0.14), (0.0, 1.0, 0.0), (0.0, 0.0))
+    assert hands.feet(load_urdf(w.urdf())) == frozenset()
+
+
 @pytest.mark.parametrize("seed", [14, 15])
 def test_a_biped_whose_root_origin_lies_on_the_floor_stands_on_its_feet(seed):
     """An exported biped whose pelvis link has its origin on the floor and its hips 0.55 m above it, each leg of six

@@ -490,7 +490,9 @@ def _rolls(tree: KinematicTree, leaf: str) -> bool:
 
 def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> frozenset[str]:
     """The tips of four limbs or more leaving the trunk as legs do (_from_trunk_by_legs), no higher than the trunk
-    (FOOT_BAND, or LEVEL_RISE of the limb's length: actuators stacked at its hips lift it), each carrying no wheel
+    (FOOT_BAND, or LEVEL_RISE of the limb's length: actuators stacked at its hips lift it), with two joints or more
+    that move (KinematicTree.moving: a wheel's joint written 0..0 where the file ranges others moves nothing), each
+    carrying no wheel
     (wheel_body, or a leaf turning a full turn: `_turns_fully`, unless SERVO_LIMB joints or more of the limb, every
     one bounded, are all written with a full turn: a servo robot's file gives each servo that range), as many joints
     in each, that leave it in mirrored pairs (each one's attachment point mirrored across the trunk's x-z plane,
@@ -504,7 +506,7 @@ def _sprawled_feet(tree: KinematicTree, trunk: str, placing: frozenset[str]) -> 
     limbs: dict[str, tuple[str, float]] = {}  # the limb's first moving link -> its tip, its length
     for tip in tips:
         path = tree.chain_to_root(tip)
-        moving = [x for x in path[:path.index(trunk)] if tree.edge_to(x).movable]
+        moving = [x for x in path[:path.index(trunk)] if tree.moving(tree.edge_to(x))]
         if len(moving) < 2 or not _from_trunk_by_legs(tree, tip, set(tips), placing):
             continue
         first = moving[-1]
