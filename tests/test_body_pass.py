@@ -479,17 +479,23 @@ def test_servo_legs_written_with_a_full_turn_each_are_legs_not_a_hand(seed, pair
     _each_a_leg_whatever_the_model_says(tree, legs, "arm")
 
 
+def _steered_wheels(seed: int, steering: tuple[float, float], drive: tuple[float, float], drop: float) -> bytes:
+    """A trunk on four mirrored steered wheels, each a steering joint within `steering` and a drive joint, `drop`
+    below it, within `drive`, both written revolute."""
+    w = Writer(random.Random(seed))
+    trunk = w.link('<box size="0.8 0.5 0.2"/>')
+    for x in (0.3, -0.3):
+        for y in (0.22, -0.22):
+            fork, wheel = w.link('<box size="0.05 0.05 0.15"/>'), w.link('<box size="0.05 0.14 0.14"/>')
+            w.joint("revolute", trunk, fork, (x, y, 0.0), (0.0, 0.0, 1.0), steering)
+            w.joint("revolute", fork, wheel, (0.0, 0.0, -drop), (0.0, 1.0, 0.0), drive)
+    return w.urdf()
+
+
 def test_steered_wheels_written_with_a_full_turn_are_still_wheel_modules():
     """Four mirrored steered wheels whose steering and drive joints are both written revolute with a full turn: two
     joints a limb, too few to say a servo robot's file, so the drive joint's full turn rolls a wheel: no feet."""
-    w = Writer(random.Random(11))
-    trunk = w.link('<box size="0.8 0.4 0.1"/>')
-    for x in (0.3, -0.3):
-        for y in (0.2, -0.2):
-            fork, wheel = w.link('<box size="0.05 0.05 0.1"/>'), w.link('<box size="0.05 0.16 0.16"/>')
-            w.joint("revolute", trunk, fork, (x, y, 0.0), (0.0, 0.0, 1.0), (-3.14, 3.14))
-            w.joint("revolute", fork, wheel, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-3.14, 3.14))
-    assert hands.feet(load_urdf(w.urdf())) == frozenset()
+    assert hands.feet(load_urdf(_steered_wheels(11, (-3.14, 3.14), (-3.14, 3.14), 0.0))) == frozenset()
 
 
 def test_steered_wheels_whose_drive_joints_are_held_at_zero_are_no_legs():
@@ -497,14 +503,7 @@ def test_steered_wheels_whose_drive_joints_are_held_at_zero_are_no_legs():
     that gave the steering its range and the drive none): a joint whose limits leave it no range moves nothing where
     the file ranges others (KinematicTree.moving), so each limb has one moving joint and no feet are found (on the code
     before: four sprawled legs, settled at 1.0)."""
-    w = Writer(random.Random(12))
-    trunk = w.link('<box size="0.8 0.5 0.2"/>')
-    for x in (0.3, -0.3):
-        for y in (0.22, -0.22):
-            fork, wheel = w.link('<box size="0.05 0.05 0.15"/>'), w.link('<box size="0.05 0.14 0.14"/>')
-            w.joint("revolute", trunk, fork, (x, y, 0.0), (0.0, 0.0, 1.0), (-2.97, 2.97))
-            w.joint("revolute", fork, wheel, (0.0, 0.0, -0.14), (0.0, 1.0, 0.0), (0.0, 0.0))
-    assert hands.feet(load_urdf(w.urdf())) == frozenset()
+    assert hands.feet(load_urdf(_steered_wheels(12, (-2.97, 2.97), (0.0, 0.0), 0.14))) == frozenset()
 
 
 @pytest.mark.parametrize("seed", [14, 15])

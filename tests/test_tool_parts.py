@@ -44,16 +44,22 @@ def test_a_leaf_fixed_to_a_finger_is_its_contact_surface(seed):
                 (built.description, link)
 
 
+def _arm_end(w: Writer, rng: random.Random, most: int) -> str:
+    """The last link of an arm of three to `most` pitching joints up from a bare base frame."""
+    link = w.link()
+    for _ in range(rng.randint(3, most)):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0))
+        link = child
+    return link
+
+
 def one_jaw(seed: int, tcp: bool):
     """An arm whose flange carries a fixed jaw (a box) and, on a revolute joint, a moving jaw; `tcp`: with a
     tool frame fixed on the fixed jaw too (else the moving jaw is the tool's lone leaf)."""
     rng = random.Random(seed)
     w = Writer(rng)
-    link = w.link()
-    for _ in range(rng.randint(3, 6)):
-        child = w.link('<box size="0.05 0.05 0.2"/>')
-        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0))
-        link = child
+    link = _arm_end(w, rng, 6)
     stator = w.link('<box size="0.04 0.06 0.1"/>')
     w.joint("fixed", link, stator, (0.0, 0.0, 0.05))
     jaw = w.link('<box size="0.01 0.02 0.08"/>')
@@ -83,11 +89,7 @@ def fixed_jaw_gripper(seed: int, prismatic: bool):
     mesh (the fixed one turned about), and a bare tool frame on a revolute joint of its own (a virtual wrist roll)."""
     rng = random.Random(seed)
     w = Writer(rng)
-    link = w.link()
-    for _ in range(rng.randint(3, 5)):
-        child = w.link('<box size="0.05 0.05 0.2"/>')
-        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0))
-        link = child
+    link = _arm_end(w, rng, 5)
     finger = '<mesh filename="package://hobby_gripper/meshes/%s.stl"/>' % rng.choice(["jaw", "finger", "claw_half"])
     moving, fixed, frame = w.link(finger), w.link(finger), w.link()
     w.joint("prismatic" if prismatic else "revolute", link, moving, (0.0, 0.0, 0.07), (0.0, 1.0, 0.0), (0.002, 0.03))

@@ -173,11 +173,13 @@ def optical_twins(tree: KinematicTree, a: str, b: str) -> bool:
     VIEWPOINT), looks along its line of sight with its x axis (within LINE_OF_SIGHT): one imager's body frame and
     optical frame written side by side (a `camera_depth_frame` beside its `camera_depth_optical_frame`)."""
     parent = tree.parent(a)
-    if parent is None or tree.parent(b) != parent or is_optical(tree, a) == is_optical(tree, b) \
-            or any(tree.edge_to(x).movable for x in (a, b)) \
+    if parent is None or tree.parent(b) != parent or any(tree.edge_to(x).movable for x in (a, b)) \
             or math.dist(tree.position_in(a, parent), tree.position_in(b, parent)) > VIEWPOINT:
         return False
-    optical, body = (a, b) if is_optical(tree, a) else (b, a)
+    a_optical = is_optical(tree, a)
+    if a_optical == is_optical(tree, b):
+        return False
+    optical, body = (a, b) if a_optical else (b, a)
     sight = tree.direction_in(optical, parent, (0.0, 0.0, 1.0))
     return dot(sight, tree.direction_in(body, parent, (1.0, 0.0, 0.0))) >= LINE_OF_SIGHT
 

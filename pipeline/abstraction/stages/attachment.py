@@ -85,7 +85,8 @@ def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: K
     chains = {leaf: sub_chain(tree, leaf, c[0]) for leaf, c in candidates.items() if len(c) == 1}
     chains.update({leaf: sub_chain(tree, leaf, mount) for leaf, mount in (settled or {}).items()
                    if leaf in candidates and leaf not in chains
-                   and mount in mount_candidates(tree, leaf, settled_blocked or blocked, rigid)})
+                   and mount in (candidates[leaf] if settled_blocked is None
+                                 else mount_candidates(tree, leaf, settled_blocked, rigid))})
     bodies = frames_of_one_body(tree, [leaf for leaf in leaves if leaf not in chains])
     _ask_mounts(oracle, tree, kind, [frames[0] for frames in bodies], candidates, chains, progress)
     rest = []

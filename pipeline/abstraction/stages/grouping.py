@@ -108,19 +108,23 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     """The two sub-chains could be one device's: they share a link or a mount, and where each has a body of its own
     (below where they part: two cameras on one rack) those bodies lie side by side (_side_by_side)."""
     if set(a.links) & set(b.links) or a.root in b.links or b.root in a.links:
-        own_a, own_b = _own_body(tree, a, b.leaf), _own_body(tree, b, a.leaf)
-        return own_a is None or own_b is None or _side_by_side(tree, fork_of(tree, [a.leaf, b.leaf]), own_a, own_b)
+        fork = fork_of(tree, [a.leaf, b.leaf])
+        own_a, own_b = _own_body(tree, a, fork), _own_body(tree, b, fork)
+        return own_a is None or own_b is None or _side_by_side(tree, fork, own_a, own_b)
     if a.root != b.root:
         return False
     housing_a, housing_b = _housing(tree, a), _housing(tree, b)
     return housing_a is None or housing_b is None or _side_by_side(tree, a.root, housing_a, housing_b)
 
 
-def _own_body(tree: KinematicTree, chain: SubChain, other: str) -> str | None:
-    """The first link with geometry on `chain` below where it parts from the way to the leaf `other`."""
-    fork = fork_of(tree, [chain.leaf, other])
-    below = chain.links[chain.links.index(fork) + 1:] if fork in chain.links else chain.links
-    return next((link for link in below if link in tree.evidence and not is_frame(tree, link)), None)
+def _own_body(tree: KinematicTree, chain: SubChain, fork: str) -> str | None:
+    """The first link with geometry on `chain` below `fork`, where it parts from another sub-chain."""
+    return _first_drawn(tree, chain.links[chain.links.index(fork) + 1:] if fork in chain.links else chain.links)
+
+
+def _first_drawn(tree: KinematicTree, links: tuple[str, ...]) -> str | None:
+    """The first of `links` with geometry (a body, not a frame)."""
+    return next((link for link in links if link in tree.evidence and not is_frame(tree, link)), None)
 
 
 def _bare_cameras_apart(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
@@ -133,7 +137,7 @@ def _bare_cameras_apart(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 def _housing(tree: KinematicTree, chain: SubChain) -> str | None:
     """The sub-chain's first link with geometry: its body, where it has one; else its first link below the mount
     when that is not the leaf: the device's own bare frame, which its other frames hang from."""
-    body = next((link for link in chain.links if link in tree.evidence and not is_frame(tree, link)), None)
+    body = _first_drawn(tree, chain.links)
     own = chain.links[0] if len(chain.links) > 1 else None  # links run from the mount's child down to the leaf
     return body or own
 

@@ -22,7 +22,7 @@ from urdfkb.pipeline.abstraction.stages.classification import Subject, Typed, de
 from urdfkb.pipeline.abstraction.stages.grouping import DEPTH_IMAGES, Group
 from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.abstraction.structure import ToolStructure
-from urdfkb.pipeline.reading.tree import KinematicTree
+from urdfkb.pipeline.reading.tree import Edge, KinematicTree
 
 
 def type_subparts(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, kind: Kind, groups: list[Group],
@@ -186,11 +186,17 @@ def _frozen_finger(tree: KinematicTree, tip: str) -> list[str]:
     return links
 
 
+def _joints_from(tree: KinematicTree, mount: str, link: str) -> list[Edge] | None:
+    """The joints between `mount` and `link` (None where `mount` is not above it)."""
+    path = tree.chain_to_root(link)
+    return [tree.edge_to(x) for x in path[:path.index(mount)]] if mount in path else None
+
+
 def _jaw(tree: KinematicTree, link: str, mount: str) -> bool:
     """A movable joint that does not spin lies between `mount` and `link`, and the link or something below it has a
     body to close with (a bare frame turning on its own joint is a reference, not a jaw)."""
-    path = tree.chain_to_root(link)
-    return mount in path and any((e := tree.edge_to(x)).movable and not e.spins for x in path[:path.index(mount)]) \
+    joints = _joints_from(tree, mount, link)
+    return joints is not None and any(e.movable and not e.spins for e in joints) \
         and not all(is_frame(tree, x) for x in (link, *tree.descendants(link)))
 
 
@@ -202,7 +208,7 @@ def _fixed_jaws(tree: KinematicTree, members: list[str], moving: set[str], mount
         return None if facts is None or is_frame(tree, link) else (facts.meshes, "" if facts.meshes else facts.shape)
 
     def fixed(link: str) -> bool:
-        path = tree.chain_to_root(link)
-        return mount in path and not any(tree.edge_to(x).movable for x in path[:path.index(mount)])
+        joints = _joints_from(tree, mount, link)
+        return joints is not None and not any(e.movable for e in joints)
     shapes = {s for link in moving if (s := shape(link)) is not None}
     return {link for link in members if fixed(link) and (s := shape(link)) is not None and s in shapes}
