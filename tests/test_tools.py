@@ -7,6 +7,7 @@ motor joint, and a hand of four digits and an opposing digit hung straight on it
 """
 from __future__ import annotations
 
+import math
 import random
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from urdfkb.pipeline.abstraction.stages.grouping import Group
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.tools import settle
 from urdfkb.pipeline.abstraction.hands import rolling
+from urdfkb.pipeline.abstraction.frames import loop_closures
 from urdfkb.pipeline.abstraction.structure import mount_of, tool_structure
 
 RACK = Path(__file__).parent / "data" / "tool_rack.urdf"
@@ -484,3 +486,67 @@ def test_a_hand_whose_palm_is_a_chain_of_bolted_pieces_with_a_cover_is_one_hand(
     tools = [c for c in Abstractor(Oracle(ScriptedBackend(answer)), TAX, reasoner=scripted_reasoner).run(tree).components
              if c.kind == "end_effector"]
     assert len(tools) == 1 and set(tips) | {cover} <= set(tools[0].links), [(c.cls, c.links) for c in tools]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_gripper_written_closed_keeps_its_fixed_jaws_tip_and_is_mounted_above_its_jaw(seed):
+    """An arm's last link carrying a fixed jaw (a bare tip frame on it) and a moving jaw on one joint, written closed:
+    the two tip frames meet at the zero pose. One joint between them closes no kinematic loop (it would hold the jaw
+    still), so neither is a loop's cut; the model calls the fixed tip no component and mounts the moving tip on the
+    arm's last link, verification absorbs the fixed tip into the tool, and the tool is mounted there with its jaw
+    and both tips (on the code before: the tips were no component at all, then a tool on the jaw alone)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    link = w.link('<cylinder radius="0.05" length="0.05"/>')
+    for _ in range(rng.randint(4, 5)):
+        child = w.link('<box size="0.03 0.03 0.06"/>')
+        w.joint(rng.choice(["revolute", "continuous"]), link, child, (0.0, 0.0, 0.06), (0.0, 1.0, 0.0), (-2.5, 2.5))
+        link = child
+    fixed_tip, jaw, moving_tip = w.link(), w.link('<box size="0.01 0.02 0.05"/>'), w.link()
+    reach = rng.uniform(0.08, 0.12)
+    w.joint("fixed", link, fixed_tip, (0.0, 0.0, reach))
+    hinge = rng.uniform(0.04, 0.06)
+    w.joint(rng.choice(["revolute", "continuous"]), link, jaw, (0.02, 0.0, hinge), (0.0, 1.0, 0.0), (-1.0, 0.0))
+    w.joint("fixed", jaw, moving_tip, (-0.02, 0.0, reach - hinge))
+    tree = load_urdf(w.urdf())
+    assert not loop_closures(tree)
+
+    def answer(q: Question):
+        if q.key == f"identify:{fixed_tip}":
+            return NONE
+        if q.key == f"identify:{moving_tip}":
+            return "end effector"
+        if q.key == f"root:{moving_tip}":
+            return link
+        return q.options[0]
+    tools = [c for c in Abstractor(Oracle(ScriptedBackend(answer)), TAX, reasoner=scripted_reasoner).run(tree).components
+             if c.kind == "end_effector"]
+    assert [(t.root, set(t.links) >= {fixed_tip, jaw, moving_tip}) for t in tools] == [(link, True)], \
+        [(t.cls, t.root, t.links) for t in tools]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_vehicles_lone_propeller_is_no_tool(seed):
+    """A hull carrying one propeller on a joint that spins freely and four fins the erring model calls sensors
+    (an underwater vehicle): the model calls the propeller an end effector, and it is every leaf left once the
+    sensors are out, but all that moves in it spins: no tool (it became a parallel gripper). (A gripper or hand
+    described on its own is still one: tests.hand_robots builds them.)"""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    hull = w.link('<cylinder radius="0.1" length="1.4"/>', mass=18.0)
+    propeller = w.link('<box size="0.02 0.1 0.1"/>', mass=0.001)
+    w.joint("continuous", hull, propeller, (-0.55, 0.0, 0.0), (1.0, 0.0, 0.0))
+    fins = [w.link('<box size="0.06 0.002 0.04"/>', mass=0.0001) for _ in range(4)]
+    for k, fin in enumerate(fins):
+        angle = k * math.pi / 2
+        w.joint("revolute", hull, fin, (-0.4, 0.04 * math.sin(angle), 0.04 * math.cos(angle)), (0.0, 0.0, 1.0),
+                (-1.57, 1.57))
+    tree = load_urdf(w.urdf())
+
+    def answer(q: Question):
+        leaf = q.key.split(":", 1)[1].split("@")[0]
+        if q.key.startswith("identify:"):
+            return "end effector" if leaf == propeller else "sensor"
+        return q.options[0]
+    found = Abstractor(Oracle(ScriptedBackend(answer)), TAX, reasoner=scripted_reasoner).run(tree).components
+    assert not [c for c in found if c.kind == "end_effector"]

@@ -185,13 +185,16 @@ def optical_twins(tree: KinematicTree, a: str, b: str) -> bool:
 
 
 LOOP_GAP = 0.001  # m: the two frames a closed kinematic loop is cut at coincide within this at the zero pose
+LOOP_JOINTS = 2  # a loop that moves passes through this many joints besides its cut at least (a four-bar: three)
 
 
 def loop_closures(tree: KinematicTree) -> frozenset[str]:
     """Leaf frames where a closed kinematic loop is cut to make a tree (a Stewart platform's rods, a linkage's
-    bars): bare frames fixed to their links that coincide with another such frame at the zero pose, across a
-    joint that moves (the path between them passes through one). They mark a constraint for a solver, not a
-    device; a camera's frame and its optical twin on one link coincide with nothing between them."""
+    bars): bare frames fixed to their links that coincide with another such frame at the zero pose, across
+    LOOP_JOINTS joints that move or more (on the path between them). They mark a constraint for a solver, not a
+    device; a camera's frame and its optical twin on one link coincide with nothing between them, and a jaw's tip
+    and the fixed jaw's tip of a gripper written closed with one joint between them (a loop closed through one
+    joint would hold it still)."""
     frames = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None
               and not tree.edge_to(leaf).movable and is_frame(tree, leaf)]
     cells: dict[tuple[int, int, int], list[tuple[str, Vector]]] = {}
@@ -204,9 +207,22 @@ def loop_closures(tree: KinematicTree) -> frozenset[str]:
                 for m in cells.get((i + di, j + dj, k + dk), ())]
         for a, pa in members:
             for b, pb in near:
-                if a != b and math.dist(pa, pb) <= LOOP_GAP and _moves_between(tree, a, b):
+                if a != b and math.dist(pa, pb) <= LOOP_GAP and _moving_between(tree, a, b) >= LOOP_JOINTS:
                     found.update((a, b))
     return frozenset(found)
+
+
+def meeting_tips(tree: KinematicTree, leaf: str) -> list[str]:
+    """The bare leaf frames fixed to their links that meet `leaf`, itself such a frame, at the zero pose (within
+    LOOP_GAP) across fewer than LOOP_JOINTS joints that move, one at least: the tips of two jaws of a gripper written
+    closed, the joint that opens it between them."""
+    if tree.parent(leaf) is None or tree.edge_to(leaf).movable or not is_frame(tree, leaf):
+        return []
+    point = tree.position_in(leaf, tree.root)
+    return [other for other in tree.leaves() if other != leaf and tree.parent(other) is not None
+            and not tree.edge_to(other).movable and is_frame(tree, other)
+            and math.dist(tree.position_in(other, tree.root), point) <= LOOP_GAP
+            and 0 < _moving_between(tree, leaf, other) < LOOP_JOINTS]
 
 
 def collision_volumes(tree: KinematicTree) -> frozenset[str]:
@@ -220,10 +236,10 @@ def collision_volumes(tree: KinematicTree) -> frozenset[str]:
         and (facts := tree.evidence.get(leaf)) is not None and facts.collision_only and not is_frame(tree, edge.parent))
 
 
-def _moves_between(tree: KinematicTree, a: str, b: str) -> bool:
-    """A joint that moves lies on the tree's path between links `a` and `b`."""
+def _moving_between(tree: KinematicTree, a: str, b: str) -> int:
+    """How many joints that move lie on the tree's path between links `a` and `b`."""
     meet = fork_of(tree, [a, b])
-    return any(tree.edge_to(link).movable for leaf in (a, b)
+    return sum(tree.edge_to(link).movable for leaf in (a, b)
                for path in [tree.chain_to_root(leaf)] for link in path[:path.index(meet)])
 
 

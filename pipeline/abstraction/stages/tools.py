@@ -4,7 +4,8 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
 - a tool sits at the end of an arm: a group whose mount is carried by fewer than two independent
   moving joints (a caster on a base; a joint following another by <mimic> counts the one it follows), or whose mount carries an arm beside the tool (a cover half-way
   up an arm), is no tool; unless nothing moving carries it and its fingers close against each
-  other, or every leaf of the robot was identified as its own: a gripper, hand or suction cup described on its own;
+  other, or every leaf of the robot was identified as its own and not all that moves in it spins freely (a
+  vehicle's lone propeller): a gripper, hand or suction cup described on its own;
 - a group whose leaves fork above an arm (a child of the fork carries a serial chain of at least
   ARM_JOINTS independent moving joints reaching at least ARM_REACH of the fork's distance from the
   root, and at least ARM_MIN_REACH from its own first joint: an arm, not a finger of four joints) is
@@ -28,7 +29,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.abstraction.frames import is_frame, meeting_tips
 from urdfkb.pipeline.abstraction.hands import limb_length, limb_top
 from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, source_joint, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
@@ -45,7 +46,7 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
            log: Log) -> list[tuple[Group, ToolStructure]]:
     """Split, re-mount and complete verified tool groups; `part_of_tool(leaf)`: the leaf was identified
     as part of an end-effector."""
-    pending: list[list[str]] = [part.leaves for g in groups for part in _split_arms(tree, g, log)]
+    pending: list[list[str]] = [part for g in groups for part in _split_arms(tree, _tool_leaves(tree, g), log)]
     done: list[tuple[list[str], ToolStructure, set[str]]] = []
     while pending:
         leaves = pending.pop(0)
@@ -61,7 +62,8 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
     settled = []
     for leaves, structure, links in done:
         mount = structure.mount
-        alone = _joints_above(tree, mount) == 0 and (structure.grasps() or set(tree.leaves()) <= set(leaves))
+        alone = _joints_above(tree, mount) == 0 and (structure.grasps() or set(tree.leaves()) <= set(leaves)
+                                                     and not _only_spins(tree, links))
         if (_joints_above(tree, mount) < 2 and not alone) or any(
                 _carries_arm(tree, child) for child in tree.children(mount) if child not in links):
             log(f"no tool: {leaves} mounted on {mount}, which is not the end of an arm")
@@ -77,6 +79,13 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
             + (f"; joined by structure: {added}" if added else ""))
         settled.append((group, structure))
     return sorted(settled, key=lambda gs: tree.links.index(gs[0].chains[0].leaf))
+
+
+def _only_spins(tree: KinematicTree, links: set[str]) -> bool:
+    """Every joint that moves in the tool spins freely (Edge.spins), one at least: a rotor, a propeller or a wheel
+    turning on a body that nothing moves, not a tool described on its own."""
+    moving = [tree.edge_to(link) for link in links if tree.edge_to(link).movable]
+    return bool(moving) and all(edge.spins for edge in moving)
 
 
 TOGETHER = 0.005  # m: links hung this close together on one body begin one tool (frames.body_of's 5 mm)
@@ -98,19 +107,26 @@ def _hung_together(tree: KinematicTree, a: tuple[str, set[str]], b: tuple[str, s
     return False
 
 
-def _split_arms(tree: KinematicTree, group: Group, log: Log) -> list[Group]:
-    """The group, or its leaves split by the fork's children when one of them carries an arm."""
-    if len(group.leaves) < 2:
-        return [group]
-    fork = fork_of(tree, group.leaves)
+def _tool_leaves(tree: KinematicTree, group: Group) -> list[str]:
+    """The group's leaves and the tips they meet across the one joint that opens them (frames.meeting_tips: a fixed
+    jaw's tip frame where the moving jaw's closes on it). A sensor is out of the tree by now, so those are the tool's,
+    and tell where its fingers part."""
+    return list(dict.fromkeys(group.leaves + [tip for leaf in group.leaves for tip in meeting_tips(tree, leaf)]))
+
+
+def _split_arms(tree: KinematicTree, leaves: list[str], log: Log) -> list[list[str]]:
+    """The leaves, or the leaves split by the fork's children when one of them carries an arm."""
+    if len(leaves) < 2:
+        return [leaves]
+    fork = fork_of(tree, leaves)
     if not any(_carries_arm(tree, child) for child in tree.children(fork)):
-        return [group]
+        return [leaves]
     parts: dict[str, list[str]] = {}
-    for leaf in group.leaves:
+    for leaf in leaves:
         path = tree.chain_to_root(leaf)
         parts.setdefault(path[path.index(fork) - 1] if leaf != fork else leaf, []).append(leaf)
-    log(f"split {group.leaves} at {fork}: an arm hangs below it")
-    return [p for leaves in parts.values() for p in _split_arms(tree, Group([sub_chain(tree, x, fork) for x in leaves]), log)]
+    log(f"split {leaves} at {fork}: an arm hangs below it")
+    return [p for part in parts.values() for p in _split_arms(tree, part, log)]
 
 
 def _joints_above(tree: KinematicTree, link: str) -> int:
