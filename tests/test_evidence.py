@@ -73,7 +73,7 @@ def test_old_gazebo_sensor_form_is_read_as_the_same_type_with_angles_in_degrees(
 
 def test_a_declaration_also_reaches_the_frame_its_plugin_publishes_in(bot):
     camera = SimSensor("camera", ("gazebo_ros_camera",), "mast_eye_body", "mast_eye_optical", image=(1280, 720),
-                       name="eye")
+                       name="eye", places=((0.0, 0.0, 0.0),))
     assert bot.evidence["mast_eye_body"].sensors == (camera,)
     assert bot.evidence["mast_eye_optical"].sensors == (camera,)
 
@@ -139,6 +139,25 @@ def test_evidence_stored_before_the_numbers_were_kept_still_loads(bot):
     assert LinkEvidence.from_dict(json.loads(json.dumps(dataclasses.asdict(named)))) == named
     again = LinkEvidence.from_dict(json.loads(json.dumps(bot.to_dict()["evidence"]["mast_eye_optical"])))
     assert again == bot.evidence["mast_eye_optical"]
+
+
+def test_each_declared_camera_sees_from_its_pose_after_the_sensors():
+    """SDF places a camera by its own <pose> after its sensor's: a sensor turned a quarter turn about z carrying a
+    camera 0.1 m along its x sees from 0.1 m along the link's y; a multicamera gives one place per camera; a sensor
+    declared on a joint, or in the old form, gives none; places survive storing."""
+    w = Writer(random.Random(1))
+    body = w.link('<box size="0.05 0.2 0.05"/>')
+    urdf = w.urdf().replace(b"</robot>", (
+        f'<gazebo reference="{body}"><sensor name="a" type="camera"><pose>0.01 0 0.02 0 0 1.5707963</pose><camera>'
+        '<pose>0.1 0 0 0 0 0</pose></camera></sensor>'
+        '<sensor name="b" type="multicamera"><camera name="l"><pose>0 0.06 0 0 0 0</pose></camera>'
+        '<camera name="r"><pose>0 -0.06 0 0 0 0</pose></camera></sensor></gazebo></robot>').encode())
+    tree = load_urdf(urdf)
+    one, two = tree.evidence[body].sensors
+    assert [round(v, 6) for v in one.places[0]] == [0.01, 0.1, 0.02] and len(one.places) == 1
+    assert two.places == ((0.0, 0.06, 0.0), (0.0, -0.06, 0.0))
+    stored = LinkEvidence.from_dict(json.loads(json.dumps(dataclasses.asdict(tree.evidence[body]))))
+    assert stored == tree.evidence[body]
 
 
 def test_evidence_survives_condensing_and_a_change_of_evidence_misses_the_cache(bot, tmp_path, monkeypatch):

@@ -739,6 +739,47 @@ def test_a_camera_body_declaring_one_plain_image_is_no_rgbd_camera(seed):
     assert tree.evidence[cloud].sensors[0].sdf_type == "rgbd_camera"
 
 
+def _posed_camera_block(link: str, name: str, pose: tuple[float, ...], on_sensor: bool) -> str:
+    """A plain simulator colour camera on `link` seeing from `pose` (x y z roll pitch yaw), written on the
+    <sensor> or on its <camera>, as SDF allows either."""
+    text = " ".join(f"{v:.4f}" for v in pose)
+    return (f'<gazebo reference="{link}"><sensor name="{name}" type="camera">'
+            + (f"<pose>{text}</pose>" if on_sensor else "") + "<camera>"
+            + ("" if on_sensor else f"<pose>{text}</pose>")
+            + '<image><width>1024</width><height>768</height><format>R8G8B8</format></image></camera>'
+            f'<plugin name="{name}_p" filename="libgazebo_ros_camera.so"><frameName>{link}</frameName></plugin>'
+            '</sensor></gazebo>')
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_camera_body_declaring_two_cameras_apart_is_a_stereo_camera(seed):
+    """The model calls a camera written as one body monocular. Where the file declares on that body two simulator
+    cameras seeing from two places a baseline apart (a stereo pair declared on its one link, as a rover's mast camera
+    is), it sees from two places and is no monocular camera (core:viewpointCount); two declared at one place (a
+    colour and a depth image of one imager) leave the model's word."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.6 0.4 0.3"/>')
+    pair, one_place = w.link('<box size="0.04 0.16 0.04"/>'), w.link('<box size="0.04 0.16 0.04"/>')
+    w.joint("fixed", base, pair, (0.25, 0.1, rng.uniform(0.2, 0.5)), rpy=(0.0, rng.uniform(0.0, 0.6), 0.0))
+    w.joint("fixed", base, one_place, (0.25, -0.1, 0.3))
+    half = rng.uniform(0.03, 0.1)
+    on_sensor = rng.random() < 0.5
+    at = (rng.uniform(-0.01, 0.01), 0.0, 0.0)
+    blocks = [_posed_camera_block(pair, f"eye{k}", (at[0], y, 0.0, 0.0, 0.0, 0.0), on_sensor)
+              for k, y in enumerate((half, -half))]
+    blocks += [_posed_camera_block(one_place, f"img{k}", (0.01, 0.02, 0.0, 0.0, 0.0, 0.0), on_sensor)
+               for k in range(2)]
+    tree = load_urdf(w.urdf().replace(b"</robot>", "".join(blocks).encode() + b"</robot>"))
+    assert viewpoints(tree, [pair]) == 2 and viewpoints(tree, [one_place]) is None
+    groups = [Group([sub_chain(tree, link, base)]) for link in (pair, one_place)]
+    state = Findings(groups=groups)
+    state.pre = {link: Typed("MonocularCamera", 0.9) for link in (pair, one_place)}
+    prefer = [TAX.answer("MonocularCamera"), TAX.answer("StereoCamera")]
+    post_classification(Abstractor(Oracle(ScriptedBackend(_answer(prefer))), TAX).context(tree, kind="sensor"), state)
+    assert [t.cls for t in state.post] == ["StereoCamera", "MonocularCamera"]
+
+
 @pytest.mark.parametrize("bracket_mesh, devices", [("sensors/xtion_pro_stack", 1), ("sensors/d435_bracket", 2)])
 def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(bracket_mesh, devices):
     """A camera's frames and body hang from a bare frame on the base; its mounting bracket, a lone drawn leaf whose

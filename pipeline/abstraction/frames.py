@@ -116,16 +116,31 @@ def viewpoints(tree: KinematicTree, leaves: list[str], cameras: Iterable[str] = 
     and two of them see from one place when they lie within VIEWPOINT across their line of sight.
     A lone link that is no optical frame stands for a camera written as one body, which shows no imager: one
     place where it is an eye of a pair (one of `cameras`, the cameras' links, is its twin: eye_pair, which no link
-    is of itself), else None (unknown)."""
+    is of itself), as many as the cameras the file declares on it see from where they see from two or more (a
+    stereo pair declared as two cameras on one body), else None (unknown)."""
     optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
     if not optical and len(leaves) == 1:
-        return 1 if any(eye_pair(tree, leaves[0], other) for other in cameras) else None
+        if any(eye_pair(tree, leaves[0], other) for other in cameras):
+            return 1
+        declared = _declared_places(tree, leaves[0])
+        return declared if declared > 1 else None
     places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
     for leaf in optical or leaves:
         point = tree.position_in(leaf, tree.root)
         sight = unit(sub(tree.position_in(leaf, tree.root, (0.0, 0.0, 1.0)), point)) if optical else None
         if all(_apart(point, p, axis) > VIEWPOINT for p, axis in places):
             places.append((point, sight))
+    return len(places)
+
+
+def _declared_places(tree: KinematicTree, link: str) -> int:
+    """How many places the cameras declared on `link` see from (evidence.SimSensor.places), those within VIEWPOINT
+    of each other counted once."""
+    facts = tree.evidence.get(link)
+    places: list[Vector] = []
+    for point in (p for s in (facts.sensors if facts else ()) if s.reference == link for p in s.places):
+        if all(math.dist(point, p) > VIEWPOINT for p in places):
+            places.append(point)
     return len(places)
 
 

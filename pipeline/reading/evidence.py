@@ -25,6 +25,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, fields
 from typing import Any, Iterable, Iterator, Mapping
 
+from urdfkb.pipeline.reading.rotation import rotate_rpy
+
 MAX_MESHES = 2  # mesh stems shown per link (visual first)
 _PLUGIN_STEM = re.compile(r"^(?:lib)?(.+?)(?:\.so|\.dll|\.dylib)?$")
 
@@ -50,6 +52,7 @@ class SimSensor:
     pixels: str | None = None         # the pixel format its images are written in (SDF's <format>, as written)
     radiation: str | None = None      # what a one-beam ranger emits, as its ROS range plugin states it (_RADIATIONS)
     name: str = ""                    # the name the file gives the declaration (`<sensor name="...">`)
+    places: tuple[tuple[float, float, float], ...] = ()  # where each of its cameras sees from, in its link's frame
 
     @property
     def ranging(self) -> bool:
@@ -129,6 +132,7 @@ def _sensor(data: dict[str, Any]) -> SimSensor:
     """A SimSensor from its asdict form; a tree stored before the numbers were kept has a detail string instead."""
     known = {f.name for f in fields(SimSensor)}
     values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items() if k in known}
+    values["places"] = tuple(tuple(p) for p in values.get("places", ()))
     return SimSensor(**values)
 
 
@@ -264,7 +268,8 @@ def _declared_sensors(robot: ET.Element, known: set[str]) -> dict[str, list[SimS
                                **_numbers(element, sensor_type), colour=_gives_colour(element, sensor_type),
                                depth=_gives_depth(element),
                                pixels=_child_text(element, "camera/image/format") or None,
-                               name=(element.get("name") or "").strip())
+                               name=(element.get("name") or "").strip(),
+                               places=_camera_places(element) if named_link in known else ())
             for link in dict.fromkeys([reference, *frames]):
                 found.setdefault(link, []).append(sensor)
     return found
@@ -291,6 +296,23 @@ def _at_joint(robot: ET.Element, joint: ET.Element, sensor: ET.Element, free: se
             if xyz is not None and math.dist(xyz, pose[:3]) <= AT_POSE:
                 at.append(link.get("link"))
     return at[0] if len(at) == 1 else None
+
+
+def _camera_places(sensor: ET.Element) -> tuple[tuple[float, float, float], ...]:
+    """Where each `<camera>` of an SDF sensor sees from in the frame of the link it is declared on: the camera's
+    <pose> after the sensor's (SDF's default for either: none, the link's origin); () for another form, a sensor
+    with no camera, or a pose not written as six finite numbers."""
+    if _local(sensor.tag) != ("", "sensor"):
+        return ()
+    own = _floats(sensor.findtext("pose") or "0 0 0 0 0 0", 6)
+    places = []
+    for camera in (c for c in sensor.iter() if _local(c.tag)[1] == "camera"):
+        pose = _floats(camera.findtext("pose") or "0 0 0 0 0 0", 6)
+        if own is None or pose is None:
+            return ()
+        turned = rotate_rpy((own[3], own[4], own[5]), (pose[0], pose[1], pose[2]))
+        places.append((own[0] + turned[0], own[1] + turned[1], own[2] + turned[2]))
+    return tuple(places)
 
 
 def _floats(text: str | None, n: int) -> tuple[float, ...] | None:

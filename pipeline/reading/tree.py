@@ -3,10 +3,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
-from math import cos, pi, sin
+from math import pi
 
 from urdfkb.pipeline.errors import URDFError
 from urdfkb.pipeline.reading.evidence import LinkEvidence
+from urdfkb.pipeline.reading.rotation import rotate_rpy
 
 JOINT_TYPES = ("fixed", "revolute", "continuous", "prismatic", "floating", "planar")
 
@@ -91,16 +92,6 @@ def _to_parent(origin: Origin, point: Vector) -> Vector:
     """Express a point given in a joint's child frame in its parent frame."""
     x, y, z = rotate_rpy(origin.rpy, point)
     return (x + origin.xyz[0], y + origin.xyz[1], z + origin.xyz[2])
-
-
-def rotate_rpy(rpy: Vector, v: Vector) -> Vector:
-    """Apply R = Rz(yaw) Ry(pitch) Rx(roll) to v."""
-    roll, pitch, yaw = rpy
-    x, y, z = v
-    y, z = cos(roll) * y - sin(roll) * z, sin(roll) * y + cos(roll) * z
-    x, z = cos(pitch) * x + sin(pitch) * z, -sin(pitch) * x + cos(pitch) * z
-    x, y = cos(yaw) * x - sin(yaw) * y, sin(yaw) * x + cos(yaw) * y
-    return (x, y, z)
 
 
 def _tupled(value):
