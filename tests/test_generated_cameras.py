@@ -521,6 +521,44 @@ def test_frames_on_a_tilting_cameras_own_frame_are_one_device():
     assert [sorted(g.leaves) for g in groups] == [sorted(leaves)]
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_frames_on_a_tilting_camera_housing_that_declares_the_camera_are_one_device(seed):
+    """A camera's drawn housing on its tilt motor, on which the file declares the camera's simulator sensors (a depth
+    and a colour camera), carrying bare frames alone: its depth, colour and inertial frames (two at one point, one a
+    few centimetres aside), each named a device of its own by the model, are one device mounted on the housing
+    (a humanoid's tilting RGB-D camera became two). A drawn head on a neck carrying the same frames, on which
+    nothing is declared, leaves them to the names."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.3 0.3 0.4"/>')
+    housings = []
+    for declared in (True, False):
+        neck = w.link('<box size="0.03 0.03 0.03"/>')
+        w.joint("revolute", base, neck, (0.0, 0.3 if declared else -0.3, 0.25), limits=(-1.0, 1.0))
+        housing = w.link('<box size="0.025 0.09 0.025"/>')
+        w.joint("revolute", neck, housing, (0.06, 0.0, 0.07), (0.0, 1.0, 0.0), limits=(-0.5, 0.5))
+        housings.append(housing)
+    frames = {}
+    for housing in housings:
+        side = rng.uniform(0.015, 0.025)
+        frames[housing] = [w.link() for _ in range(3)]
+        for frame, y in zip(frames[housing], (side, side, -side)):
+            w.joint("fixed", housing, frame, (0.0075, y, 0.0))
+    camera = housings[0]
+    block = (f'<gazebo reference="{camera}"><sensor name="d" type="depth"><pose>0.0075 -0.0115 0 0 0 0</pose>'
+             '<camera><image><width>640</width><height>480</height></image></camera></sensor>'
+             '<sensor name="c" type="camera"><camera><image><width>640</width><height>480</height></image></camera>'
+             '</sensor></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    for housing, one in zip(housings, (True, False)):
+        leaves = frames[housing]
+        categories = dict(zip(leaves, ("VisionSensor", "InertialSensor", "VisionSensor")))
+        chains = one_mount(tree, [sub_chain(tree, leaf, housing) for leaf in leaves])
+        groups = merge(Oracle(ScriptedBackend(lambda q: q.options[-1])), tree, chains, "sensor", categories)
+        assert (len(groups) == 1) == one, [g.leaves for g in groups]
+        assert {c.root for g in groups for c in g.chains} == {housing}
+
+
 def test_two_stereo_cameras_each_with_an_eye_below_the_other_stay_two_on_one_bar():
     """Two stereo cameras on one bare bar, each written as its left eye's frame carrying its optical frame and the
     right eye's frame a baseline below it: an eye hung below another's frame lies a baseline away, no built-in

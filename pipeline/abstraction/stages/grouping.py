@@ -28,7 +28,8 @@ link beside an optical frame (a camera's model frame) is bound with them. A bran
 imagers is a camera of its own (a stereo head's wide and narrow pairs on one bar), so it binds nothing there;
 its own frames bind below it (frames.body_of). The body may also be the bare frame the sub-chains are all mounted on
 where a joint moves it and it is a camera's own (its optical frames see from one place, beside one housing at
-most: a camera on its tilt motor): the mount cannot be raised above the motion.
+most: a camera on its tilt motor), or such a housing that the file declares a camera on, carrying bare frames
+alone: the mount cannot be raised above the motion.
 One ranger, one device: two sub-chains each declaring a ray sensor or a depth camera of its own (no declaration in
 common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
 plugin; a sensor head's time-of-flight cameras, each with its own depth image).
@@ -70,6 +71,7 @@ DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide
 SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are turned alike
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
+IMAGES = ("camera", MULTI_CAMERA, *DEPTH_IMAGES)  # the types of those that give images
 
 
 @dataclass
@@ -180,14 +182,23 @@ def _one_body(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 
 def _tilting_camera(tree: KinematicTree, frame: str) -> bool:
     """`frame` is a camera's own frame moved by a joint (a tilt motor): bare, with every optical frame below it
-    seeing from one place (frames.viewpoints) and at most one body with geometry hung from it, the housing. A bare
+    seeing from one place (frames.viewpoints) and at most one body with geometry hung from it, the housing; or the
+    housing itself, a body on which the file declares a camera (_declares_camera), carrying bare frames alone. A bare
     pan-tilt or head frame carrying two cameras, or eyes and an inertial unit, sees from more places."""
-    if tree.parent(frame) is None or not tree.edge_to(frame).movable or not is_frame(tree, frame):
+    if tree.parent(frame) is None or not tree.edge_to(frame).movable:
         return False
     leaves = [leaf for leaf in tree.descendants(frame) if tree.is_leaf(leaf)]
+    if not is_frame(tree, frame):
+        return _declares_camera(tree, frame) and all(is_frame(tree, leaf) for leaf in leaves)
     optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
     return bool(optical) and viewpoints(tree, optical) == 1 and sum(not is_frame(tree, leaf) for leaf in leaves) <= 1 \
         and all(leaf in optical or not is_frame(tree, leaf) for leaf in leaves)
+
+
+def _declares_camera(tree: KinematicTree, link: str) -> bool:
+    """The file declares on `link` itself a simulator sensor that gives images (a camera, a depth camera)."""
+    facts = tree.evidence.get(link)
+    return facts is not None and any(s.reference == link and (s.places or s.type in IMAGES) for s in facts.sensors)
 
 
 def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
