@@ -544,6 +544,56 @@ def test_a_joint_sensor_placed_nowhere_a_frame_is_belongs_to_no_link(tmp_path):
         assert not any(facts.sensors for facts in load_urdf(tmp_path / "legs.urdf").evidence.values())
 
 
+@pytest.mark.parametrize("pose", [None, "0 0 0 3.14159 0 -1.5708"])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_joint_sensor_at_its_joint_is_the_frame_written_where_that_joint_is(seed, pose, tmp_path):
+    """An arm whose force-torque sensor is declared on the fixed joint between two of its bodies, at the joint (no
+    pose, or a zero one), with its measurement frame written beside it: a bare frame fixed on the joint's parent at
+    the joint's origin (as a humanoid's files write each of theirs). That frame declares the sensor, and the model
+    that calls every leaf none still gets a force-torque sensor there; a frame elsewhere on that parent does not."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.2 0.2 0.2"/>')
+    shoulder, upper, forearm = (w.link('<box size="0.05 0.05 0.2"/>') for _ in range(3))
+    w.joint("revolute", base, shoulder, (0, 0, 0.1), (0, 0, 1))
+    at = (round(random.Random(seed).uniform(-0.01, 0.01), 4), 0.0, -0.05)
+    joint = w.joint("fixed", shoulder, upper, at)
+    w.joint("revolute", upper, forearm, (0, 0, -0.2), (0, 1, 0))
+    frame, elsewhere = w.link(), w.link()
+    w.joint("fixed", shoulder, frame, at, rpy=(3.14159, 0.0, -1.5708))
+    w.joint("fixed", shoulder, elsewhere, (0.03, 0.0, 0.0))
+    stated = f"<pose>{pose}</pose>" if pose is not None else ""
+    block = f'<gazebo reference="{joint}"><sensor name="ft" type="force_torque">{stated}</sensor></gazebo>'
+    (tmp_path / "arm.urdf").write_bytes(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    tree = load_urdf(tmp_path / "arm.urdf")
+    assert [link for link, facts in tree.evidence.items() if facts.sensors] == [frame]
+    found = run(tree, Settings(use_cache=False), backend=ScriptedBackend(
+        lambda q: NONE if q.key.startswith("identify:") else q.options[0])).components
+    assert [(c.cls, c.links) for c in found if c.kind == "sensor"] == [("ForceTorqueSensor", (frame,))]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_two_force_torque_sensors_each_declared_on_one_foot_are_two_devices(seed, tmp_path):
+    """A foot carrying a front and a rear force-torque frame, each declaring its own sensor, named alike: the model
+    names both the foot's one device; each declaration is one transducer, so they are two sensors."""
+    w = Writer(random.Random(seed))
+    pelvis = w.link('<box size="0.2 0.3 0.1"/>')
+    link = pelvis
+    for _ in range(3):
+        child = w.link('<box size="0.05 0.05 0.3"/>')
+        w.joint("revolute", link, child, (0, 0, -0.3), (0, 1, 0))
+        link = child
+    frames = ["l_foot_front_ft", "l_foot_rear_ft"]
+    w.links += [f'<link name="{f}"/>' for f in frames]
+    for f, x in zip(frames, (0.1, -0.03)):
+        w.joint("fixed", link, f, (x, 0, -0.05))
+    block = "".join(f'<gazebo reference="{f}"><sensor name="{f}" type="force_torque"/></gazebo>' for f in frames)
+    (tmp_path / "leg.urdf").write_bytes(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    found = run(load_urdf(tmp_path / "leg.urdf"), Settings(use_cache=False), backend=ScriptedBackend(
+        lambda q: NONE if q.key.startswith("identify:") else q.options[0])).components
+    assert sorted((c.cls, c.links) for c in found if c.kind == "sensor") == [
+        ("ForceTorqueSensor", (frames[0],)), ("ForceTorqueSensor", (frames[1],))]
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_a_frame_is_offered_only_the_images_its_declared_camera_gives(seed):
     """A tracking camera's two fisheye optical frames, each declaring SDF's wide-angle camera, 6 cm apart under one

@@ -280,20 +280,25 @@ AT_POSE = 0.001  # m: a frame this close to a joint sensor's <pose> is where the
 
 def _at_joint(robot: ET.Element, joint: ET.Element, sensor: ET.Element, free: set[str]) -> str | None:
     """The link a sensor declared on `joint` is: the one frame among `free` (links declaring no sensor of their own)
-    fixed on the joint's child at the sensor's <pose> (SDF gives a joint sensor's pose in the joint's frame, URDF's
-    child frame). None where it states no pose, a pose at the joint itself, or no one such frame sits there: the
-    joint alone places it between two bodies, no link of its own."""
-    child = joint.find("child")
-    pose = _floats(sensor.findtext("pose"), 6)
-    if child is None or pose is None or math.dist(pose[:3], (0.0, 0.0, 0.0)) <= AT_POSE:
+    fixed at the sensor's <pose> (SDF gives a joint sensor's pose in the joint's frame, URDF's child frame): on the
+    joint's child there, or, for a pose at the joint itself (none written: SDF's default), on the joint's parent where
+    the joint is (the measurement frame written beside the joint, as a humanoid's force-torque sensors are). None
+    where no one such frame sits there: the joint alone places it between two bodies, no link of its own."""
+    child, parent = joint.find("child"), joint.find("parent")
+    pose = _floats(sensor.findtext("pose") or "0 0 0 0 0 0", 6)
+    if child is None or parent is None or pose is None:
         return None
+    at_joint = math.dist(pose[:3], (0.0, 0.0, 0.0)) <= AT_POSE
+    places = {child.get("link"): pose[:3]}
+    if at_joint and (origin := _origin_xyz(joint)) is not None:
+        places[parent.get("link")] = origin
     at = []
     for frame in robot.findall("joint"):
-        parent, link = frame.find("parent"), frame.find("child")
-        if (frame.get("type") == "fixed" and parent is not None and parent.get("link") == child.get("link")
+        on, link = frame.find("parent"), frame.find("child")
+        if (frame is not joint and frame.get("type") == "fixed" and on is not None and on.get("link") in places
                 and link is not None and link.get("link") in free):
             xyz = _origin_xyz(frame)
-            if xyz is not None and math.dist(xyz, pose[:3]) <= AT_POSE:
+            if xyz is not None and math.dist(xyz, places[on.get("link")]) <= AT_POSE:
                 at.append(link.get("link"))
     return at[0] if len(at) == 1 else None
 

@@ -30,9 +30,10 @@ its own frames bind below it (frames.body_of). The body may also be the bare fra
 where a joint moves it and it is a camera's own (its optical frames see from one place, beside one housing at
 most: a camera on its tilt motor), or such a housing that the file declares a camera on, carrying bare frames
 alone: the mount cannot be raised above the motion.
-One ranger, one device: two sub-chains each declaring a ray sensor or a depth camera of its own (no declaration in
-common) are two devices whatever their names or their body (a robot's infrared floor sensors, each with its own range
-plugin; a sensor head's time-of-flight cameras, each with its own depth image).
+One declaration, one device, for rangers and transducers: two sub-chains each declaring a ray sensor, a depth camera
+or a force-torque sensor of its own (no declaration in common) are two devices whatever their names or their body (a
+robot's infrared floor sensors, each with its own range plugin; a sensor head's time-of-flight cameras, each with its
+own depth image; a foot's front and rear force-torque sensors).
 One place, one device: a bare frame fixed where a link of a near sub-chain of its category is, turned as it is, on the
 same parent (and of no other sub-chain), is another name for that link (_aliases: a driver's `velodyne` frame beside
 the lidar's own base).
@@ -72,6 +73,7 @@ SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are tur
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
 IMAGES = ("camera", MULTI_CAMERA, *DEPTH_IMAGES)  # the types of those that give images
+ONE_EACH = (*DEPTH_IMAGES, "force_torque")  # besides ray sensors, types each declaration of which is one device
 
 
 @dataclass
@@ -249,19 +251,20 @@ def _coincident(tree: KinematicTree, a: str, b: str) -> bool:
                                                                                 for u, v in axes)
 
 
-def _two_rangers(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """Each of the two sub-chains declares a ray or depth sensor of its own (_rangers), none in common."""
+def _two_declared(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """Each of the two sub-chains declares a sensor that is a device of its own (_declared_devices), none in common."""
     shared = set(a.links) & set(b.links)  # one chain may hang below the other's sensor
-    own_a, own_b = _rangers(tree, a, shared), _rangers(tree, b, shared)
+    own_a, own_b = _declared_devices(tree, a, shared), _declared_devices(tree, b, shared)
     return bool(own_a and own_b and own_a.isdisjoint(own_b))
 
 
-def _rangers(tree: KinematicTree, chain: SubChain, shared: set[str]) -> frozenset[SimSensor]:
-    """The ray and depth sensors declared on the sub-chain's links below its mount, but those `shared` with another
-    sub-chain: each is one device (one scan, range reading or depth image), so two sub-chains each declaring its own
-    are two devices, even where one hangs below the other (a camera's frames written as a chain of calibrations)."""
+def _declared_devices(tree: KinematicTree, chain: SubChain, shared: set[str]) -> frozenset[SimSensor]:
+    """The ray, depth and force-torque sensors declared on the sub-chain's links below its mount, but those `shared`
+    with another sub-chain: each is one device (one scan, range reading, depth image, or one six-axis transducer),
+    so two sub-chains each declaring its own are two devices, even where one hangs below the other (a camera's frames
+    written as a chain of calibrations)."""
     return frozenset(s for link in chain.links if link in tree.evidence and link not in shared
-                     for s in tree.evidence[link].sensors if s.ranging or s.type in DEPTH_IMAGES)
+                     for s in tree.evidence[link].sensors if s.ranging or s.type in ONE_EACH)
 
 
 def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[str, str], apart: frozenset[str]) -> bool:
@@ -318,16 +321,16 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
           progress: Progress | None = None, apart: frozenset[str] = frozenset()) -> list[Group]:
     """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category; `apart`:
     leaves declared as sensors of their own that no camera carries (never a camera's built-in frame)."""
-    rangers = [[kind != END_EFFECTOR and i != j and _two_rangers(tree, a, b) for j, b in enumerate(chains)]
-               for i, a in enumerate(chains)]
+    declared = [[kind != END_EFFECTOR and i != j and _two_declared(tree, a, b) for j, b in enumerate(chains)]
+                for i, a in enumerate(chains)]
 
-    def two_rangers(i: int, j: int) -> bool:
-        return rangers[i][j]
+    def two_declared(i: int, j: int) -> bool:
+        return declared[i][j]
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
-                  and not two_rangers(i, j) and _near(tree, a, b)
+                  and not two_declared(i, j) and _near(tree, a, b)
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
@@ -338,11 +341,11 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
         device = _device_names(oracle, chains, joinable,
-                               partition(range(len(chains)), lambda i, j: bound[i][j], two_rangers), progress)
+                               partition(range(len(chains)), lambda i, j: bound[i][j], two_declared), progress)
         same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
                 for i in range(len(chains))]
     groups = [Group([chains[i] for i in members])
-              for members in partition(range(len(chains)), lambda i, j: same[i][j], two_rangers)]
+              for members in partition(range(len(chains)), lambda i, j: same[i][j], two_declared)]
     if kind == END_EFFECTOR:
         for group in groups:
             group.chains = _one_mount(tree, group.chains)
