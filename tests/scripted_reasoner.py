@@ -65,10 +65,10 @@ def _parts(parts: list[PartFacts]) -> list[str | None]:
 
 
 def _is_wheel(f: PartFacts) -> bool:
-    """One joint, continuous, carrying no part and no device."""
+    """One joint, continuous, not turning about the vertical, carrying no part and no device."""
     tax = vocabulary()
     return (len(f.joint_types) == 1 and tax.is_a(tax.joint_class(f.joint_types[0]), "ContinuousJoint")
-            and not f.carries and not f.devices)
+            and not f.vertical and not f.carries and not f.devices)
 
 
 def _tools(f: PartFacts) -> int:

@@ -843,6 +843,58 @@ def test_the_main_body_of_a_robot_with_no_joint_carrying_devices_is_a_mobile_bas
     assert body_pass(Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected"))), tree, [])[0] == []
 
 
+def _rotorcraft(seed: int, level: bool) -> tuple:
+    """A bare root frame carrying a drawn airframe, a camera under it and four rotors drawn as thin discs spinning
+    on continuous joints at the arms' tips, about the vertical, or (`level`) about a level axis near the ground, as
+    wheels do. (tree, camera component, airframe, rotors)"""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    root = w.link()
+    frame = w.link('<box size="0.2 0.2 0.06"/>', centre=(0.0, 0.0, 0.0), mass=1.5)
+    w.joint("fixed", root, frame)
+    arm = rng.uniform(0.08, 0.2)
+    rotors = []
+    for x, y in ((arm, -arm), (-arm, arm), (arm, arm), (-arm, -arm)):
+        rotor = w.link('<cylinder radius="0.06" length="0.005"/>', centre=(0.0, 0.0, 0.0), mass=0.01)
+        if level:
+            w.joint("continuous", root, rotor, xyz=(x, y, -0.1), axis=(0.0, 0.0, 1.0), rpy=(1.5708, 0.0, 0.0))
+        else:
+            w.joint("continuous", root, rotor, xyz=(x, y, 0.03), axis=(0.0, 0.0, 1.0))
+        rotors.append(rotor)
+    camera = w.link('<box size="0.02 0.02 0.02"/>', mass=0.01)
+    w.joint("fixed", root, camera, xyz=(0.05, 0.0, -0.04))
+    tree = load_urdf(w.urdf())
+    sensor = Component("camera", SENSOR, "MonocularCamera", 0.9, root, (SubComponent(camera, "RgbFrame", 0.9),))
+    return tree, sensor, frame, rotors
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rotors_spinning_about_the_vertical_are_no_wheels_and_leave_the_airframe_a_base(seed):
+    """A drone's four rotors spin on continuous joints about the vertical: the ontology's Wheel turns about a level
+    axis (core:turnsAboutVertical false), so no rotor is settled a wheel or offered one, and the model that calls
+    anything a wheel where it may, none elsewhere, calls them none (they were four wheels at 1.0). Moving no body
+    part, they leave the airframe carrying the camera the robot's main body, asked as a mobile base. The same discs spinning about a
+    level axis near the ground are wheels by the ontology, whatever the model says."""
+    tree, camera, frame, rotors = _rotorcraft(seed, level=False)
+    offered: dict[str, tuple] = {}
+
+    def wheel_or_base(question):
+        offered[question.key] = question.options
+        if question.key.startswith("side:"):
+            return question.options[0]
+        if question.key == f"body:{frame}":
+            return "mobile base"
+        return "wheel" if "wheel" in question.options else "none"
+    parts, _ = body_pass(Oracle(ScriptedBackend(wheel_or_base)), tree, [camera])
+    assert [(p.cls, p.joints, p.links) for p in parts] == [("MobileBase", (), (frame,))]
+    rotor_questions = [options for key, options in offered.items() if key.startswith("body:") and key != f"body:{frame}"]
+    assert len(rotor_questions) == 4 and not any("wheel" in options for options in rotor_questions)
+    tree, camera, frame, rotors = _rotorcraft(seed, level=True)
+    parts, _ = body_pass(Oracle(ScriptedBackend(lambda q: q.options[0] if q.key.startswith("side:") else "none")),
+                         tree, [camera])
+    assert sorted(p.cls for p in parts if p.cls == "Wheel") == ["Wheel"] * 4
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_a_waist_carrying_an_arm_on_either_side_is_a_torso_whatever_the_model_says(seed):
     """A social robot's waist bends its upper body: two toolless two-joint arms on either side and a fixed head

@@ -121,6 +121,7 @@ class Vocabulary:
         self._elements: dict[str, tuple[float, float]] = {}  # sensor class → the sensing-frame counts it allows
         self._fields: dict[str, tuple[float, float]] = {}  # ray sensor class → the declared spans (rad) it allows
         self._radiation: dict[str, str] = {}  # ranging sensor class → what it emits (core:rangingRadiation value)
+        self._vertical: dict[str, str] = {}  # body-part class → its core:turnsAboutVertical value, where stated
         self._rank: dict[str, float] = {}  # class → core:optionRank
         self._other: dict[str, tuple[str, str]] = {}  # class → (core:otherAnswer, core:otherComment)
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
@@ -145,6 +146,8 @@ class Vocabulary:
                 self._fields[name] = field
             if (radiation := stated_value(graph, node, CORE.rangingRadiation)) is not None:
                 self._radiation[name] = radiation
+            if (vertical := stated_value(graph, node, CORE.turnsAboutVertical)) is not None:
+                self._vertical[name] = vertical.strip().lower()
             if (placement := placement_of(graph, node)) is not None:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
@@ -408,6 +411,15 @@ class Vocabulary:
         values stated on them or on a class above them: a sonar emits ultrasound, a lidar infrared light)."""
         return frozenset(c for c in self.subclasses_below(below)
                          if any(self._radiation.get(a, radiation) != radiation for a in (c, *self.ancestors(c))))
+
+    def turning_otherwise(self, vertical: bool, among: Iterable[str]) -> frozenset[str]:
+        """Those of the body-part classes `among` that a candidate whose joints do (or do not) all turn about the
+        vertical cannot be (core:turnsAboutVertical values stated on them or on a class above them: a wheel rolls
+        about a level axis)."""
+        said = "true" if vertical else "false"
+        return frozenset(c for c in among
+                         if any(self._vertical.get(a, said) not in (said, "1" if vertical else "0")
+                                for a in (c, *self.ancestors(c))))
 
     def _outside(self, ranges: dict[str, tuple[float, float]], count: float, below: str) -> frozenset[str]:
         def allows(name: str) -> bool:

@@ -129,7 +129,8 @@ def _inference(individual, chains: dict) -> Inference:
 class PartFacts:
     """What the code asserts of one candidate body part (pipeline.abstraction.stages.body): the URDF types of its
     joints, the classes of the devices on its links, the candidates hanging from them (by index), whether it
-    reaches the ground, the side it lies on, its class where already settled, and how far out the devices on it lie."""
+    reaches the ground, the side it lies on, its class where already settled, how far out the devices on it lie, and
+    whether all its joints turn about the vertical."""
 
     joint_types: tuple[str, ...]
     devices: tuple[str, ...]
@@ -138,6 +139,7 @@ class PartFacts:
     side: str | None = None   # "left"/"right": the side of the root's x-z plane its joints lie on (None: across it)
     known: str | None = None  # its class where already settled (the model's, in a second round): asserted
     span: float = 0.0         # m: from its first joint to the farthest link of the devices on it, at the zero pose
+    vertical: bool = False    # every joint of it turns about an axis within 30 degrees of the vertical, at rest
 
 
 # classify_together's contract: HermiT by default; Abstractor and runner.run take another, as tests inject a
@@ -177,6 +179,7 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
         part.deviceCount, part.endEffectorCount = len(facts.devices), tools_on[i]
         part.toolPartCount = sum(tools_on[k] > 0 for k in facts.carries)
         part.deviceSpanMetres = round(facts.span, 3)
+        part.turnsAboutVertical = facts.vertical
     return individuals
 
 

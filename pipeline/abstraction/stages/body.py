@@ -33,7 +33,7 @@ from urdfkb.pipeline.abstraction.components import END_EFFECTOR, BodyPart, Compo
 from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
-from urdfkb.pipeline.abstraction.prompts import NONE, body_choice, side_question
+from urdfkb.pipeline.abstraction.prompts import NONE, Choice, body_choice, side_question
 from urdfkb.pipeline.abstraction.frames import is_frame, mirrored, placing_joints
 from urdfkb.pipeline.abstraction import structure
 from urdfkb.pipeline.abstraction.hands import PARALLEL, feet, palm, wheel_body
@@ -292,9 +292,24 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     tools = {link for c in components if c.kind == END_EFFECTOR for link in c.links}
     grounded = [_reaches_ground(tree, chain, lowest, tools, standing) for chain in found]
     facts = [reasoning.PartFacts(tuple(_motion(tree, e) for e in chain.joints), tuple(c.cls for c in held),
-                                 tuple(follow), ground, _side_of(tree, chain), span=_span(tree, chain, held))
+                                 tuple(follow), ground, _side_of(tree, chain), span=_span(tree, chain, held),
+                                 vertical=all(_turns_about_vertical(tree, e) for e in chain.joints))
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     return Findings(devices, carries, grounded, facts)
+
+
+VERTICAL = math.cos(math.radians(30))  # a joint's axis this close to the root's z turns about the vertical
+
+
+def _turns_about_vertical(tree: KinematicTree, edge: Edge) -> bool:
+    """The joint turns (revolute or continuous) about an axis within 30 degrees of the vertical (the root's z,
+    REP 103) at the zero pose, and what it turns is no ball (drawn as a sphere, which rolls about any axis whatever
+    the one written: a ball caster's three joints)."""
+    facts = tree.evidence.get(edge.child)
+    if edge.joint_type not in ("revolute", "continuous") or (facts is not None and facts.shape.startswith("sphere")):
+        return False
+    axis = unit(tree.direction_in(edge.child, tree.root, edge.axis))
+    return axis is not None and abs(axis[2]) >= VERTICAL
 
 
 def _span(tree: KinematicTree, chain: Chain, held: list[Component]) -> float:
@@ -325,8 +340,9 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
     for i, cls in enumerate(inferred):
         if cls is not None:
             found[i].cls, found[i].confidence = cls, 1.0
-    questions = [body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]], len(carries[i]),
-                                           grounded[i]), f"body:{found[i].joints[0].joint}") for i in open_]
+    questions = [_offering(body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]],
+                                                     len(carries[i]), grounded[i]), f"body:{found[i].joints[0].joint}"),
+                           tax.turning_otherwise(seen.facts[i].vertical, tax.body_classes)) for i in open_]
     verdicts = ask(oracle, [q.question for q in questions], "body classification", progress)
     for i, question, verdict in zip(open_, questions, verdicts):
         found[i].cls = question.meant(verdict.answer, NONE)
@@ -334,6 +350,13 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
     shares = {i: {question.meaning[a]: share for a, share in verdict.distribution.items() if a in question.meaning}
               for i, question, verdict in zip(open_, questions, verdicts)}
     reasoned(_carriers_again(found, seen.facts, shares, log, reasoner))
+
+
+def _offering(choice: Choice, ruled_out: frozenset[str]) -> Choice:
+    """The question without the classes the candidate's facts rule out by the ontology (a wheel turns about a level
+    axis): its text unchanged, so the prompt's cached prefix still serves it."""
+    kept = {answer: meant for answer, meant in choice.meaning.items() if meant not in ruled_out}
+    return Choice(replace(choice.question, options=tuple(kept)), kept)
 
 
 def _carriers_again(found: list[Chain], facts: list[reasoning.PartFacts], shares: dict[int, dict[str, float]],
@@ -437,21 +460,25 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
     return [mobile_base] + [replace(p, parent=mobile_base.name) if p.cls == wheel else p for p in parts]
 
 
-def main_body(tree: KinematicTree, components: list[Component]) -> str | None:
+def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[str] = frozenset()) -> str | None:
     """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
     below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
     heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
-    drone's airframe, a base whose wheels the file fixes). None elsewhere: an arm's base carries its first joint."""
+    drone's airframe, a base whose wheels the file fixes), but of `idle` joints, which move no body part (a drone's
+    rotors). None elsewhere: an arm's base carries its first joint."""
+    def moves(child: str) -> bool:
+        edge = tree.edge_to(child)
+        return edge.movable and edge.joint not in idle
     link = tree.root
     while is_frame(tree, link):
         below = tree.children(link)
-        weighed = [(facts.mass, child) for child in below if not is_frame(tree, child)
+        held = [child for child in below if not (tree.edge_to(child).joint in idle and tree.is_leaf(child))]
+        weighed = [(facts.mass, child) for child in held if not is_frame(tree, child)
                    and (facts := tree.evidence.get(child)) is not None and facts.mass is not None]
-        if not below or any(tree.edge_to(child).movable for child in below) or (len(below) > 1 and not weighed):
+        if not held or any(moves(child) for child in below) or (len(held) > 1 and not weighed):
             return None
-        link = below[0] if len(below) == 1 else max(weighed)[1]
-    if link in {owned for c in components for owned in c.links} \
-            or any(tree.edge_to(child).movable for child in tree.children(link)):
+        link = held[0] if len(held) == 1 else max(weighed)[1]
+    if link in {owned for c in components for owned in c.links} or any(moves(child) for child in tree.children(link)):
         return None
     return link
 
@@ -478,25 +505,28 @@ def _either_side_of(y: list[float]) -> bool:
 
 
 def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: list[BodyPart],
-                   components: list[Component], progress: Progress | None, log: Log) -> list[BodyPart]:
+                   components: list[Component], progress: Progress | None, log: Log,
+                   idle: frozenset[str] = frozenset()) -> list[BodyPart]:
     """Where no part moves the robot about (no mobile base, wheel or leg), a main body (`main_body`) that rests on
-    wheels the file fixed (`resting_wheels`), or that carries devices in a file with no movable joint at all (a
-    drone's airframe, a boat's hull, a car whose wheels the file leaves out), is a mobile base with no joint of its
+    wheels the file fixed (`resting_wheels`), or that carries devices in a file where no joint moves a body part
+    (none movable, or only `idle` ones, the joints of candidates that are no body part: a drone's airframe with its
+    rotors, a boat's hull, a car whose wheels the file leaves out), is a mobile base with no joint of its
     own, which the ontology's MobileBase allows; fixed wheels stay its links. The body-part question, shown the
     body, what it carries and how it stands, offered mobile base or none, gives the part its confidence: the
     model's share for mobile base."""
-    body = main_body(tree, components)
+    body = main_body(tree, components, idle)
     if body is None or any(p.cls in (tax.mobile_base, tax.wheel, LEG) for p in parts):
         return parts
-    rigid = set(palm(tree, body))  # the body and what is fixed below it
+    rigid = set(palm(tree, tree.root))  # the body and what is fixed to it: main_body reaches it by fixed joints
     devices = [tax.label(c.cls) for c in components if c.root in rigid]
     wheels = resting_wheels(tree, body, {link for c in components for link in c.links})
-    still = devices and not any(e.movable for e in tree.edges)
+    still = devices and not any(e.movable and e.joint not in idle for e in tree.edges)
     if not wheels and not still:
         return parts
     hanging = [p for p in parts if p.root in rigid]
     carried = devices + ([f"{len(hanging)} moving chain{'s' if len(hanging) > 1 else ''}"] if hanging else [])
-    shown = [f"Joints: none ({'no joint moves it' if wheels else 'the robot has no movable joint'})",
+    moving = any(e.movable for e in tree.edges)
+    shown = [f"Joints: none ({'no joint moves it' if wheels or moving else 'the robot has no movable joint'})",
              f"Links: {named(tree.evidence, body)}", f"Hangs from: {tree.parent(body) or ROOT}",
              "Carries: " + ("; ".join(carried) if carried else "nothing")]
     shown += [f"Reaches the ground: at {', '.join(wheels)}, fixed cylinders resting on it"] if wheels else []

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from urdfkb.pipeline.abstraction.components import Component
+from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.stages import body as body_stage
@@ -46,11 +47,13 @@ def body_assembly(ctx: Context, found: Findings) -> None:
     found.body = body_stage.assemble(ctx.vocab, ctx.robot, found.candidates)
 
 
-@step("jointless base", needs=("body", "components"), makes=("body",))
+@step("jointless base", needs=("body", "components", "candidates"), makes=("body",))
 def jointless_base(ctx: Context, found: Findings) -> None:
-    """Where no part moves the robot about, whether its main body is a mobile base with no joints of its own."""
+    """Where no part moves the robot about, whether its main body is a mobile base with no joints of its own (the
+    joints of candidates classified as no body part move none)."""
+    idle = frozenset(e.joint for c in found.candidates if c.cls == NONE for e in c.joints)
     found.body = body_stage.jointless_base(ctx.oracle, ctx.vocab, ctx.robot, found.body, found.components,
-                                           ctx.progress, ctx.log)
+                                           ctx.progress, ctx.log, idle)
 
 
 @step("sides", needs=("body",), makes=("body",))
