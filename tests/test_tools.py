@@ -550,3 +550,39 @@ def test_a_vehicles_lone_propeller_is_no_tool(seed):
         return q.options[0]
     found = Abstractor(Oracle(ScriptedBackend(answer)), TAX, reasoner=scripted_reasoner).run(tree).components
     assert not [c for c in found if c.kind == "end_effector"]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_hand_whose_fingertips_carry_only_declared_tactile_sensors_is_still_a_hand(seed):
+    """A three-finger gripper on an arm whose every leaf is a tactile pad the file declares a contact sensor on (each
+    fingertip carrying its pads, the palm its own): the sensor pass takes every leaf, and the hand kept none, so it
+    was lost and its fingers went to the body pass (typed heads). The fingertips those pads end now end the hand's
+    fingers: one tool of all three fingers, its sensors apart."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    link = w.link('<cylinder radius="0.06" length="0.1"/>')
+    for _ in range(5):
+        child = w.link('<box size="0.05 0.05 0.2"/>')
+        w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0), (-2.0, 2.0))
+        link = child
+    palm = w.link('<box size="0.08 0.08 0.03"/>')
+    w.joint("fixed", link, palm, (0.0, 0.0, 0.05))
+    pads = [w.link('<box size="0.04 0.04 0.005"/>')]
+    w.joint("fixed", palm, pads[0], (0.0, 0.0, 0.02))
+    tips = []
+    for k, angle in enumerate((0.0, 2.1, 4.2)):
+        x, y = 0.03 * math.cos(angle), 0.03 * math.sin(angle)
+        proximal, distal = w.link('<box size="0.015 0.015 0.05"/>'), w.link('<box size="0.015 0.015 0.04"/>')
+        w.joint("revolute", palm, proximal, (x, y, 0.02), (-y / 0.03, x / 0.03, 0.0), (0.0, 1.5))
+        w.joint("revolute", proximal, distal, (0.0, 0.0, 0.05), (-y / 0.03, x / 0.03, 0.0), (0.0, 1.0))
+        for z in (0.01, 0.03)[:rng.randint(1, 2)]:
+            pad = w.link('<box size="0.01 0.01 0.002"/>')
+            w.joint("fixed", distal, pad, (-x / 3, -y / 3, z))
+            pads.append(pad)
+        tips.append(distal)
+    block = "".join(f'<gazebo reference="{p}"><sensor name="{p}_contact" type="contact"/></gazebo>' for p in pads)
+    tree = load_urdf(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    found = Abstractor(Oracle(ScriptedBackend(lambda q: q.options[0])), TAX, reasoner=scripted_reasoner).run(tree)
+    tools = [c for c in found.components if c.kind == "end_effector"]
+    assert len(tools) == 1 and set(tips) <= set(tools[0].links), [(c.kind, c.cls, c.links) for c in found.components]
+    assert {p for c in found.components if c.kind == "sensor" for p in c.links} == set(pads)

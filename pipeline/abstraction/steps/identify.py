@@ -17,11 +17,12 @@ from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
                                "collision_volumes", "palms", "declared_sensors"),
       makes=("leaves", "claims", "shares"))
 def identification(ctx: Context, found: Findings) -> None:
-    """The pass's leaves (not where an earlier pass condensed a device) and each one's kind: from shape and
-    the file's declarations where they settle it, else asked (stages.identification)."""
+    """The pass's leaves (not where an earlier pass condensed a device, but a hand's fingertip whose sensors it
+    condensed) and each one's kind: from shape and the file's declarations where they settle it, else asked
+    (stages.identification)."""
     vocab, claims, shares = ctx.vocab, found.claims, found.shares
     mounts = {c.root for c in found.components}  # where earlier passes condensed their devices
-    found.leaves = [leaf for leaf in ctx.tree.leaves() if leaf not in mounts]
+    found.leaves = [leaf for leaf in ctx.tree.leaves() if leaf not in mounts or leaf in found.hand_mounts]
     tools = vocab.kinds[END_EFFECTOR].cls if END_EFFECTOR in vocab.kinds else None
     sensors = vocab.kinds[SENSOR].cls if SENSOR in vocab.kinds else None
     body = vocab.body_part  # what identification calls a leaf of the body

@@ -39,7 +39,8 @@ def shape(ctx: Context, found: Findings) -> None:
     robot = ctx.robot
     declared = {link for link, facts in robot.evidence.items() if facts.sensors}
     seen = hands(robot)
-    found.hand_mounts = {leaf: mount for leaf, mount in hand_mounts(robot, seen).items() if leaf not in declared}
+    mounts = hand_mounts(robot, seen)
+    found.hand_mounts = _sensing_fingers(robot, mounts, declared)
     found.feet = feet(robot)
     found.body_feet = frozenset(f for f in found.feet if f not in declared
                                 and (robot.edge_to(f).movable or _body(robot, f)))
@@ -87,3 +88,16 @@ def _measuring(ctx: Context, tree: KinematicTree) -> frozenset[str]:
         bumper = rolls and on_trunk(tree, leaf, placing)
         return any(vocab.is_a(c, top) and (bumper or not any(vocab.is_a(c, k) for k in contact)) for c in declared)
     return frozenset(leaf for leaf in tree.leaves() if measures(leaf))
+
+
+def _sensing_fingers(robot: KinematicTree, mounts: dict[str, str], declared: set[str]) -> dict[str, str]:
+    """A hand's leaves (`mounts`: leaf → the hand's mount) but those the file declares sensors on, and the links
+    whose children are all such declared leaves of one hand: a fingertip whose pads and tactile cells are all declared
+    sensors ends its finger once the sensor pass has taken them, so the hand keeps a leaf there."""
+    found = {leaf: mount for leaf, mount in mounts.items() if leaf not in declared}
+    for leaf, mount in mounts.items():
+        parent = robot.parent(leaf)
+        if leaf in declared and parent is not None and parent not in found \
+                and all(child in declared and mounts.get(child) == mount for child in robot.children(parent)):
+            found[parent] = mount
+    return found
