@@ -570,7 +570,7 @@ def test_a_hand_whose_fingertips_carry_only_declared_tactile_sensors_is_still_a_
     pads = [w.link('<box size="0.04 0.04 0.005"/>')]
     w.joint("fixed", palm, pads[0], (0.0, 0.0, 0.02))
     tips = []
-    for k, angle in enumerate((0.0, 2.1, 4.2)):
+    for angle in (0.0, 2.1, 4.2):
         x, y = 0.03 * math.cos(angle), 0.03 * math.sin(angle)
         proximal, distal = w.link('<box size="0.015 0.015 0.05"/>'), w.link('<box size="0.015 0.015 0.04"/>')
         w.joint("revolute", palm, proximal, (x, y, 0.02), (-y / 0.03, x / 0.03, 0.0), (0.0, 1.5))
