@@ -22,7 +22,8 @@ from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import detect_roots
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.alike import alike_leaves
-from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, last_segments,
+from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_leaves, hand_mounts, hands, jaw_pairs,
+                                              last_segments,
                                               limb_ends, off_limb_ends, rolling, spinning_low, spinning_on_trunk,
                                               swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods
@@ -1130,3 +1131,38 @@ def test_a_grippers_tool_point_on_the_flange_beside_its_coupling_is_mounted_with
     tree = load_urdf(w.urdf())
     mounts = hand_mounts(tree, hands(tree))
     assert mounts == {jaws[0]: flange, jaws[1]: flange, point: flange}
+
+
+@pytest.mark.parametrize("prismatic", [False, True])
+@pytest.mark.parametrize("seed", range(4))
+def test_two_jaws_moving_as_mirror_images_with_no_inertial_are_no_sensors(seed, prismatic):
+    """A short arm (a lift and an elbow) ending in two jaws drawn with one mesh, each on its own bounded joint, hung
+    and moving as mirror images, the file stating no <inertial> (so nothing says which way they close): the erring
+    model calls them sensors at 0.6 (a service robot's jaws became force-torque sensors); they get its next answer.
+    Two frames fixed mirrored on a body, and two drawn leaves moving the same way, are left to the model."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base, lift, forearm = w.link('<box size="0.4 0.4 0.3"/>'), w.link('<box size="0.05 0.05 0.1"/>'), \
+        w.link('<box size="0.3 0.04 0.04"/>')
+    w.joint("prismatic", base, lift, (0.1, 0.0, 0.4), (0.0, 0.0, 1.0), (0.0, 0.7))
+    w.joint("revolute", lift, forearm, (0.0, 0.0, -0.08), (0.0, 1.0, 0.0), (0.0, 1.57))
+    mesh = '<mesh filename="package://bot/meshes/finger.dae"/>'
+    jaws = [f"jaw_{k}" for k in range(2)]
+    w.links += [f'<link name="{j}"><visual><geometry>{mesh}</geometry></visual></link>' for j in jaws]
+    gap = rng.uniform(0.012, 0.03)
+    for jaw, side in zip(jaws, (1.0, -1.0)):
+        axis = (0.0, side, 0.0) if prismatic else (0.0, 0.0, side)
+        w.joint("prismatic" if prismatic else "revolute", forearm, jaw, (0.32, side * gap, 0.0), axis,
+                (0.0, 0.02) if prismatic else (0.0, 1.0))
+    holder, frames = w.link('<box size="0.1 0.1 0.1"/>'), [w.link(), w.link()]
+    w.joint("fixed", base, holder, (-0.1, 0.0, 0.3))
+    for frame, side in zip(frames, (1.0, -1.0)):
+        w.joint("fixed", holder, frame, (0.0, side * 0.04, 0.05))
+    urdf = w.urdf()
+    assert jaw_pairs(load_urdf(urdf)) == set(jaws)
+    options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.4}
+    claims = _identified(urdf, lambda q: options if _leaf(q) in jaws + frames else NONE)
+    assert [claims[j] for j in jaws] == [TOOL_CLS, TOOL_CLS] and [claims[f] for f in frames] == [SENSOR_CLS] * 2
+    same_way = urdf.replace(b'<axis xyz="0 0 -1"/>', b'<axis xyz="0 0 1"/>').replace(b'<axis xyz="0 -1 0"/>',
+                                                                                        b'<axis xyz="0 1 0"/>')
+    assert not jaw_pairs(load_urdf(same_way))

@@ -27,6 +27,7 @@ LOW_SHARE = 1 / 3  # of a robot's height: wheels spin this low (0.23 at most in 
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
 TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their length long from its front legs to its
 # rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
+MIRRORED_AXIS = 0.1  # two unit axes mirror each other where each component agrees (or opposes) within this
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
 ON_AXIS = 0.001  # m: a centre of mass this near a joint's axis lies on it (every other limb end of the truth robots,
@@ -280,6 +281,40 @@ def swinging_leaves(tree: KinematicTree) -> frozenset[str]:
         if moved >= SWING_JOINTS and any(goes_on(c) for c in tree.children(edge.parent) if c != leaf):
             swinging.append(leaf)
     return frozenset(swinging)
+
+
+def jaw_pairs(tree: KinematicTree) -> frozenset[str]:
+    """Two leaves, the only children of a link that a joint or more moves, each moved on a bounded joint of its own
+    (one that neither spins nor is held at zero), drawn alike and hung as mirror images of each other across one of
+    that link's planes, their joints' axes mirrored with them: they move as mirror images, as a gripper's two jaws do
+    (written with no <inertial>, nothing tells which way they close). Jaws, never sensors, which are fixed to what
+    they measure from."""
+    found: set[str] = set()
+    for body in tree.links:
+        pair = tree.children(body)
+        if len(pair) != 2 or not all(tree.is_leaf(x) for x in pair) or _movable_above(tree, body) == 0:
+            continue
+        a, b = pair
+        edges = [tree.edge_to(x) for x in pair]
+        if not all(tree.moving(e) and not e.spins and e.joint_type in ("revolute", "prismatic") for e in edges) \
+                or edges[0].joint_type != edges[1].joint_type or not _drawn_alike(tree, a, b):
+            continue
+        pa, pb = tree.position_in(a, body), tree.position_in(b, body)
+        ua, ub = (unit(tree.direction_in(x, body, e.axis)) for x, e in zip(pair, edges))
+        if ua is None or ub is None:
+            continue
+        polar = edges[0].joint_type == "prismatic"  # a slide's axis mirrors as a point does, a hinge's as its normal
+        for axis in range(3):
+            if abs(pa[axis] - pb[axis]) > MIRROR_EPS and mirrored(pa, pb, axis) \
+                    and all(abs(ua[k] + ub[k] if (k == axis) == polar else ua[k] - ub[k]) <= MIRRORED_AXIS for k in range(3)):
+                found.update(pair)
+    return frozenset(found)
+
+
+def _drawn_alike(tree: KinematicTree, a: str, b: str) -> bool:
+    """Both links are drawn (a body, not a frame) with the same meshes or the same primitive."""
+    fa, fb = tree.evidence.get(a), tree.evidence.get(b)
+    return fa is not None and fb is not None and not fa.is_pure_frame and (fa.meshes, fa.shape) == (fb.meshes, fb.shape)
 
 
 def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:

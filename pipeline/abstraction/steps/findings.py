@@ -42,6 +42,7 @@ class Findings:
     off_ends: frozenset[str] = _lasting(frozenset())  # leaves at no limb's end: never tools
     limb_ends: frozenset[str] = _lasting(frozenset())  # limbs' own last links, moving on their own joint: never sensors
     swinging: frozenset[str] = _lasting(frozenset())  # bars swinging beside the joint carrying a chain on: no sensors
+    jaws: frozenset[str] = _lasting(frozenset())  # two leaves moving as mirror images on one link: never sensors
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
     rods: frozenset[str] = _lasting(frozenset())  # leaves whose body is a thin rod: never sensors
     rolling_ends: frozenset[str] = _lasting(frozenset())  # those of both that roll, and spinners on the trunk: never tools

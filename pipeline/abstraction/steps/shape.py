@@ -6,8 +6,8 @@ from urdfkb.pipeline.reading.evidence import LinkEvidence
 from urdfkb.pipeline.abstraction.passes import step
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
-from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, last_segments, limb_ends,
-                                              off_limb_ends, on_feet, on_trunk, palm, rolling, spinning_low,
+from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, jaw_pairs, last_segments,
+                                              limb_ends, off_limb_ends, on_feet, on_trunk, palm, rolling, spinning_low,
                                               spinning_on_trunk, swinging_leaves)
 from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, placing_joints, rods
 from urdfkb.pipeline.reading.tree import KinematicTree
@@ -15,7 +15,7 @@ from urdfkb.pipeline.reading.tree import KinematicTree
 _NO_FACTS = LinkEvidence()
 
 
-@step("shape", makes=("hand_mounts", "feet", "body_feet", "off_ends", "limb_ends", "swinging", "rolling_ends",
+@step("shape", makes=("hand_mounts", "feet", "body_feet", "off_ends", "limb_ends", "swinging", "jaws", "rolling_ends",
                       "last_segments", "frozen_tips", "rods", "loop_frames", "collision_volumes", "palms",
                       "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
@@ -47,6 +47,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.off_ends = off_limb_ends(robot, seen) | on_feet(robot, found.feet)
     found.limb_ends = limb_ends(robot) - declared
     found.swinging = swinging_leaves(robot) - declared
+    found.jaws = jaw_pairs(robot) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rods = rods(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
@@ -59,7 +60,7 @@ def shape(ctx: Context, found: Findings) -> None:
     ctx.trace({"key": "shape", "hands": sorted(found.hand_mounts), "feet": sorted(found.feet),
                "body_feet": sorted(found.body_feet),
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
-               "swinging": sorted(found.swinging),
+               "swinging": sorted(found.swinging), "jaws": sorted(found.jaws),
                "rolling_ends": sorted(found.rolling_ends), "last_segments": sorted(found.last_segments),
                "frozen_tips": sorted(found.frozen_tips), "rods": sorted(found.rods),
                "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
