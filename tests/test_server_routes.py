@@ -216,6 +216,7 @@ def test_a_reader_sees_the_old_robot_or_the_new_one_never_a_mix(serve, shared, m
     def read():
         while not stop.is_set() and time.monotonic() < end:
             seen.append(look())
+            time.sleep(0.005)  # a client's pace: back-to-back queries with no pause can starve the writer here
 
     reader = threading.Thread(target=read)
     reader.start()
