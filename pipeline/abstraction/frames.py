@@ -210,8 +210,7 @@ def loop_closures(tree: KinematicTree) -> frozenset[str]:
     device; a camera's frame and its optical twin on one link coincide with nothing between them, and a jaw's tip
     and the fixed jaw's tip of a gripper written closed with one joint between them (a loop closed through one
     joint would hold it still)."""
-    frames = [leaf for leaf in tree.leaves() if tree.parent(leaf) is not None
-              and not tree.edge_to(leaf).movable and is_frame(tree, leaf)]
+    frames = [leaf for leaf in tree.leaves() if _fixed_frame(tree, leaf)]
     cells: dict[tuple[int, int, int], list[tuple[str, Vector]]] = {}
     for leaf in frames:
         point = tree.position_in(leaf, tree.root)
@@ -231,13 +230,17 @@ def meeting_tips(tree: KinematicTree, leaf: str) -> list[str]:
     """The bare leaf frames fixed to their links that meet `leaf`, itself such a frame, at the zero pose (within
     LOOP_GAP) across fewer than LOOP_JOINTS joints that move, one at least: the tips of two jaws of a gripper written
     closed, the joint that opens it between them."""
-    if tree.parent(leaf) is None or tree.edge_to(leaf).movable or not is_frame(tree, leaf):
+    if not _fixed_frame(tree, leaf):
         return []
     point = tree.position_in(leaf, tree.root)
-    return [other for other in tree.leaves() if other != leaf and tree.parent(other) is not None
-            and not tree.edge_to(other).movable and is_frame(tree, other)
+    return [other for other in tree.leaves() if other != leaf and _fixed_frame(tree, other)
             and math.dist(tree.position_in(other, tree.root), point) <= LOOP_GAP
             and 0 < _moving_between(tree, leaf, other) < LOOP_JOINTS]
+
+
+def _fixed_frame(tree: KinematicTree, link: str) -> bool:
+    """A bare frame (is_frame) fixed to a parent: where a loop is cut, or a jaw's tip."""
+    return tree.parent(link) is not None and not tree.edge_to(link).movable and is_frame(tree, link)
 
 
 def collision_volumes(tree: KinematicTree) -> frozenset[str]:
