@@ -134,10 +134,10 @@ def test_a_simulator_sensors_name_names_its_product(seed):
     assert named_product(tree, [frame]) is None  # a lidar declared on the base names no bare frame fixed to it
 
 
-def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_may_stay_a_sensor():
+def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_stays_a_sensor():
     """A GNSS receiver is a sensor of none of the kinds the core names below Sensor (a satellite navigation
-    receiver's link was typed a camera, an IMU, a touch sensor): where a chain names it, its pre-classification is
-    offered staying at Sensor beside the kinds, and the answer stays there; an alike leaf beside it that names
+    receiver's link was typed a camera, an IMU, a touch sensor): where a chain names it, its pre-classification
+    stays at Sensor unasked, every kind below the product's class ruled out; an alike leaf beside it that names
     nothing is asked on its own (not answered with it) and offered only the kinds."""
     w = Writer(random.Random(5))
     base = w.link('<box size="0.5 0.4 0.2"/>')
@@ -155,8 +155,32 @@ def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_may_stay_a_sensor(
     found = Findings(chains=[sub_chain(tree, leaf, base) for leaf in ("navsat_link", "plate")])
     pre_classification(ctx, found)
     assert "satellite navigation (GNSS) receiver" in chain_subject(ctx, tree, found.chains[0], "Sensor").evidence
-    assert seen["pre:navsat_link@Sensor"][-1] == "other sensor" and found.pre["navsat_link"].cls == "Sensor"
+    assert "pre:navsat_link@Sensor" not in seen and found.pre["navsat_link"].cls == "Sensor"
     assert "other sensor" not in seen["pre:plate@Sensor"] and found.pre["plate"].cls != "Sensor"
+
+
+@pytest.mark.parametrize("leaf", ["front_tfmini_link", "ir_reflectance_sensor_2"])
+def test_a_ranging_sensor_the_catalogue_places_at_ranging_sensor_is_no_lidar_and_no_sonar(leaf):
+    """The catalogue names a product's most specific class: a single-beam time-of-flight ranger or an infrared
+    reflectance sensor is a ranging sensor of neither kind below it, so its pre-classification stays there unasked
+    whatever the model would say (on the code before: asked, and an e-puck's eight infrared proximity sensors were
+    typed sonars); a bare leaf beside it is still asked."""
+    w = Writer(random.Random(9))
+    base = w.link('<box size="0.5 0.4 0.2"/>')
+    for name in (leaf, "plate"):
+        w.links.append(f'<link name="{name}"><visual><geometry><box size="0.01 0.01 0.01"/></geometry></visual></link>')
+        w.joint("fixed", base, name, (0.2, 0.0 if name == leaf else 0.1, 0.05))
+    tree = load_urdf(w.urdf())
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        return "ranging sensor" if "ranging sensor" in q.options else "sonar" if "sonar" in q.options else q.options[0]
+    ctx = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor")
+    found = Findings(chains=[sub_chain(tree, name, base) for name in (leaf, "plate")])
+    pre_classification(ctx, found)
+    assert found.pre[leaf].cls == "RangingSensor" and f"pre:{leaf}@RangingSensor" not in seen
+    assert found.pre["plate"].cls == "Sonar"
 
 
 def test_a_declared_type_rules_out_no_class_of_the_product_the_links_name():

@@ -38,13 +38,20 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     while identification gains from them."""
     key = f"pre:{chain.leaf}"
     named_as = named_product(tree, list(reversed(chain.links)))
-    ruled_out = _ruled_out(ctx, tree, chain.links, cls, key, _classes_of(ctx.vocab, named_as))
+    ruled_out = _ruled_out(ctx, tree, chain.links, cls, key, _classes_of(ctx.vocab, named_as)) | _below(ctx.vocab, named_as)
     with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
     shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
     between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
     product = product_text(ctx.vocab, named_as, cls)
     return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out,
                    _staying(ctx.vocab, named_as, cls))
+
+
+def _below(vocab: Vocabulary, product: Product | None) -> frozenset[str]:
+    """The classes under a catalogue product's own: the catalogue names a product's most specific class, so one it
+    places at a class with kinds below (a single-beam time-of-flight ranger, an infrared reflectance sensor: ranging
+    sensors) is none of those kinds (no lidar, no sonar)."""
+    return frozenset(vocab.subclasses_below(product.cls)) if product is not None and product.cls in vocab else frozenset()
 
 
 def _staying(vocab: Vocabulary, product: Product | None, cls: str) -> tuple[str, str] | None:
