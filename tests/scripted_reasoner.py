@@ -55,6 +55,7 @@ def _parts(parts: list[PartFacts]) -> list[str | None]:
     wheels = [_is_wheel(f) for f in parts]
     tooled = [_tools(f) > 0 for f in parts]
     first = [f.known or _part(f, wheels, tooled) for f in parts]
+    first = ["MobileBase" if cls is None and _steering_below(f, parts, first) else cls for f, cls in zip(parts, first)]
 
     def torso(f: PartFacts) -> bool:
         """Off the ground, carrying an arm and a head, or an arm on either side (classes settled or asserted)."""
@@ -62,6 +63,13 @@ def _parts(parts: list[PartFacts]) -> list[str | None]:
         return not f.reaches_ground and ({"Arm", "Head"} <= {cls for cls, _ in carried}
                                          or {("Arm", "left"), ("Arm", "right")} <= carried)
     return [("Torso" if cls is None and torso(f) else cls) for f, cls in zip(parts, first)]
+
+
+def _steering_below(f: PartFacts, parts: list[PartFacts], classes: list[str | None]) -> bool:
+    """One joint, no end-effector, carrying a joint of the mobile base that carries a wheel (a suspension carrying a
+    steering knuckle)."""
+    return len(f.joint_types) == 1 and not _tools(f) and any(
+        classes[k] == "MobileBase" and any(classes[m] == "Wheel" for m in parts[k].carries) for k in f.carries)
 
 
 def _is_wheel(f: PartFacts) -> bool:

@@ -547,6 +547,58 @@ def test_a_spinning_wheel_on_a_steering_joint_is_still_a_wheel_module():
     assert all(hands.wheel_body(tree, wheel) for wheel in wheels) and hands.feet(tree) == frozenset()
 
 
+@pytest.mark.parametrize("seed", [18, 19])
+def test_a_suspension_carrying_a_steered_wheel_is_a_joint_of_the_mobile_base(seed):
+    """A car: each wheel on a suspension (a sliding joint), the front ones steered between them: the ontology makes a
+    one-joint part carrying a joint of the mobile base one too, so each suspension joins the base unasked (on the
+    code before: the front suspensions, carrying a steering joint rather than a wheel, were asked, and the model
+    called one an arm)."""
+    w = Writer(random.Random(seed))
+    chassis, base_joints, wheels = w.link('<box size="0.9 0.4 0.15"/>'), [], []
+    for x in (0.35, -0.25):
+        for y in (0.2, -0.2):
+            carrier, tyre = w.link(), w.link('<cylinder radius="0.1" length="0.06"/>')
+            base_joints.append(w.joint("prismatic", chassis, carrier, (x, y, -0.07), (0.0, 0.0, -1.0), (-0.05, 0.05)))
+            if x > 0:
+                knuckle, carrier = carrier, w.link()
+                base_joints.append(w.joint("revolute", knuckle, carrier, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), (-0.37, 0.37)))
+            wheels.append(w.joint("continuous", carrier, tyre, (0.0, 0.0, 0.0), (0.0, 0.0, -1.0), rpy=(1.5708, 0.0, 0.0)))
+    tree = load_urdf(w.urdf())
+
+    def model(question):
+        assert question.key.startswith("side:"), f"unexpected question {question.key}"
+        return question.options[0]
+    parts, _ = body_pass(Oracle(ScriptedBackend(model)), tree, [])
+    [base] = [p for p in parts if p.cls == "MobileBase"]
+    assert sorted(p.cls for p in parts) == ["MobileBase"] + ["Wheel"] * 4 and set(base.joints) == set(base_joints)
+
+
+@pytest.mark.parametrize("seed", [16, 17])
+def test_a_shank_drawn_out_from_its_unbounded_knee_is_no_wheel(seed):
+    """Four limbs, each a motor spinning on a continuous joint and a shank on a knee written revolute with no limits
+    (a simulator's file), the shank a box drawn centred 0.1 m out from the knee's axis: a body swung about its joint,
+    no wheel (hands.wheel_body), so no knee is split off and settled a wheel, nor its motor a joint of a mobile base
+    (on the code before: four wheels, each carried by a base joint). A wheel drawn round its axis stays a wheel."""
+    w = Writer(random.Random(seed))
+    trunk, limbs, shanks = w.link('<box size="0.4 0.2 0.08"/>'), [], []
+    for x in (0.2, -0.2):
+        for y in (0.12, -0.12):
+            motor, thigh = w.link('<cylinder radius="0.04" length="0.03"/>'), w.link('<box size="0.01 0.01 0.11"/>')
+            shank = w.link('<box size="0.01 0.01 0.2"/>', at=(0.0, 0.0, -0.1))
+            hip = w.joint("continuous", trunk, motor, (x, y, 0.0), (0.0, 1.0, 0.0))
+            w.joint("fixed", motor, thigh, (0.0, 0.0, -0.055))
+            knee = w.joint("revolute", thigh, shank, (0.0, 0.0, -0.055), (0.0, 1.0, 0.0), unlimited=True)
+            limbs.append([hip, knee])
+            shanks.append(shank)
+    wheel = w.link('<cylinder radius="0.05" length="0.02"/>', at=(0.0, 0.01, 0.0))
+    w.joint("continuous", trunk, wheel, (0.0, 0.15, -0.1), (0.0, 1.0, 0.0))
+    tree = load_urdf(w.urdf())
+    assert not any(hands.wheel_body(tree, shank) for shank in shanks) and hands.wheel_body(tree, wheel)
+    parts, _ = body_pass(Oracle(ScriptedBackend(lambda q: q.options[0] if q.key.startswith("side:") else "leg")), tree, [])
+    assert sorted(list(p.joints) for p in parts if p.cls == "Leg") == sorted(limbs)
+    assert sorted(p.cls for p in parts if p.cls != "Leg") == ["MobileBase", "Wheel"]  # the wheel on the trunk
+
+
 @pytest.mark.parametrize("seed", [12, 13])
 def test_a_second_motor_that_follows_a_joint_joins_that_joints_part(seed):
     """A six-joint arm whose shoulder and elbow each have a second motor written as a joint that follows them by

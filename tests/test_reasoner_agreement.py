@@ -78,6 +78,19 @@ def carried() -> Call:
     return [], known + carriers
 
 
+def suspended() -> Call:
+    """Chains of one-joint candidates down to a wheel (a suspension carrying a steering knuckle carrying a wheel, and
+    a part carrying that suspension), one of them with a tool, a two-joint part carrying a knuckle, and one-joint
+    parts carrying a part asserted a mobile base that carries no wheel, and one that does."""
+    wheel, knuckle = PartFacts(("continuous",), (), (), True), PartFacts(("revolute",), (), (0,), True)
+    return [], [wheel, knuckle, PartFacts(("prismatic",), (), (1,), True), PartFacts(("prismatic",), (), (2,), False),
+                PartFacts(("prismatic",), ("ParallelGripper",), (1,), False),
+                PartFacts(("prismatic", "revolute"), (), (1,), False),
+                PartFacts(("revolute", "revolute"), (), (), False, known="MobileBase"),
+                PartFacts(("prismatic",), (), (6,), False),
+                PartFacts(("revolute",), (), (0,), False, known="MobileBase"), PartFacts(("prismatic",), (), (8,), False)]
+
+
 def merged(calls: list[Call]) -> Call:
     """The calls as one: each part's followers and same-run tools renumbered."""
     tools: list[ToolStructure] = []
@@ -109,6 +122,7 @@ CASES = {
     "bodies": (bodies, {"ParallelGripper"}, {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
     "boundaries": (boundaries, set(), {"Wheel", "MobileBase", "Leg", "Arm", "Head", "Torso", None}),
     "carried": (carried, set(), {"Arm", "Head", "Leg", "Torso", None}),
+    "suspended": (suspended, set(), {"Wheel", "MobileBase", "Arm", None}),
 }
 
 

@@ -37,11 +37,12 @@ class Writer:
             link = child
         return link
 
-    def link(self, geometry: str = "", collision: str = "", centre=None, mass: float = 0.1) -> str:
-        """A new link; `geometry` (a URDF geometry element) gives it a visual, `collision` a collision shape, `centre`
-        an <inertial> of `mass` with its centre of mass there."""
+    def link(self, geometry: str = "", collision: str = "", centre=None, mass: float = 0.1, at=None) -> str:
+        """A new link; `geometry` (a URDF geometry element) gives it a visual (drawn at `at`, else at its origin),
+        `collision` a collision shape, `centre` an <inertial> of `mass` with its centre of mass there."""
         name = self.name()
-        visual = f"<visual><geometry>{geometry}</geometry></visual>" if geometry else ""
+        origin = f'<origin xyz="{_vector(at)}"/>' if at is not None else ""
+        visual = f"<visual>{origin}<geometry>{geometry}</geometry></visual>" if geometry else ""
         shape = f"<collision><geometry>{collision}</geometry></collision>" if collision else ""
         inertial = (f'<inertial><origin xyz="{_vector(centre)}"/><mass value="{_number(mass)}"/>'
                     '<inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>'
@@ -51,10 +52,13 @@ class Writer:
 
     def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
               limits: tuple[float, float] | None = None, mimic: str | None = None, multiplier: float = 1.0,
-              rpy=(0.0, 0.0, 0.0)) -> str:
+              rpy=(0.0, 0.0, 0.0), unlimited: bool = False) -> str:
+        """A new joint; `unlimited` writes a <limit> with no range (a simulator's revolute joint that turns freely)."""
         name = self.name()
         limit = ""
-        if kind in ("revolute", "prismatic") or (kind == "continuous" and limits):  # files bound linkage bars so
+        if unlimited:
+            limit = '<limit effort="10" velocity="1"/>'
+        elif kind in ("revolute", "prismatic") or (kind == "continuous" and limits):  # files bound linkage bars so
             lo, hi = limits or (-1.0, 1.0)
             limit = f'<limit lower="{_number(lo)}" upper="{_number(hi)}" effort="10" velocity="1"/>'
         mimic_tag = f'<mimic joint="{mimic}" multiplier="{multiplier}" offset="0"/>' if mimic else ""

@@ -571,14 +571,27 @@ def wheel_body(tree: KinematicTree, link: str) -> bool:
     (its fixed descendants' origins) within ROLL_OFFSET of that joint's axis, or of the rim of a cylinder of the body
     drawn around the axis, beside it along the axis (_tread): a wheel, a roller or a rotor, a contact frame on its
     tyre. A leg's last segment written continuous (servo legs' files leave the limits out) carries its foot's
-    frame, or the screws of a shank drawn as a mesh, out from the knee; its upper joints carry joints on. A shank
-    with no frame below it says nothing, and stays a wheel."""
+    frame, or the screws of a shank drawn as a mesh, out from the knee, or is drawn as a primitive shape centred
+    out from it (_drawn_off_axis); its upper joints carry joints on. A shank drawn as a mesh with no frame below it
+    says nothing, and stays a wheel."""
     edge, below = tree.edge_to(link), tree.descendants(link)
     axis = unit(edge.axis)
     if not edge.spins or axis is None or any(tree.edge_to(x).movable for x in below):
         return False
+    if any(_drawn_off_axis(tree, link, x, axis) for x in (link, *below)):
+        return False
     treads = [tread for x in (link, *below) if (tread := _tread(tree, link, x, axis)) is not None]
     return all(_on_wheel(tree.position_in(x, link), axis, treads) for x in below)
+
+
+def _drawn_off_axis(tree: KinematicTree, link: str, x: str, axis: Vector) -> bool:
+    """`x` of the rigid body of spinning `link` is drawn as a primitive shape alone (no mesh), centred farther than
+    ROLL_OFFSET from the axis: a body swung about its joint, as a limb's segment is; a wheel, a roller or a rotor is
+    drawn round its axis."""
+    facts = tree.evidence.get(x)
+    if facts is None or facts.meshes or facts.drawn_at is None:
+        return False
+    return off_axis(tree.position_in(x, link, facts.drawn_at), axis) > ROLL_OFFSET
 
 
 def _tread(tree: KinematicTree, link: str, x: str, axis: Vector) -> tuple[float, float, float] | None:

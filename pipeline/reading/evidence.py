@@ -81,15 +81,17 @@ class LinkEvidence:
     collision_only: bool = False  # it has <collision> geometry and no <visual>
     plugins: tuple[str, ...] = ()
     centre: tuple[float, float, float] | None = None  # centre of mass in the link's frame; None without <inertial>
+    drawn_at: tuple[float, float, float] | None = None  # where its primitive shape is centred, in the link's frame
 
     @classmethod
     def from_dict(cls, data: dict) -> LinkEvidence:
-        """Inverse of dataclasses.asdict (a tree stored before `collision_only`, `plugins` or `centre` was kept reads
-        them empty)."""
-        centre = data.get("centre")
+        """Inverse of dataclasses.asdict (a tree stored before `collision_only`, `plugins`, `centre` or `drawn_at` was
+        kept reads them empty)."""
+        centre, drawn_at = data.get("centre"), data.get("drawn_at")
         return cls(tuple(data["meshes"]), data["shape"], data["mass"], tuple(map(_sensor, data["sensors"])),
                    bool(data.get("collision_only", False)), tuple(data.get("plugins", ())),
-                   None if centre is None else (float(centre[0]), float(centre[1]), float(centre[2])))
+                   None if centre is None else (float(centre[0]), float(centre[1]), float(centre[2])),
+                   None if drawn_at is None else (float(drawn_at[0]), float(drawn_at[1]), float(drawn_at[2])))
 
     @property
     def is_pure_frame(self) -> bool:
@@ -147,8 +149,9 @@ def extract(robot: ET.Element, links: Iterable[str]) -> dict[str, LinkEvidence]:
         if name in known:
             declared = tuple(dict.fromkeys(sensors.get(name, ())))  # one sensor may name a link twice
             collision_only = link.find("collision/geometry") is not None and link.find("visual/geometry") is None
-            found[name] = LinkEvidence(_meshes(link), _shape(link), _mass(link), declared, collision_only,
-                                       tuple(plugins.get(name, ())), _centre(link))
+            shape, drawn_at = _shape(link)
+            found[name] = LinkEvidence(_meshes(link), shape, _mass(link), declared, collision_only,
+                                       tuple(plugins.get(name, ())), _centre(link), drawn_at)
     return found
 
 
@@ -188,16 +191,18 @@ def mesh_stem(filename: str) -> str:
     return "/".join(parts[-2:])
 
 
-def _shape(link: ET.Element) -> str:
+def _shape(link: ET.Element) -> tuple[str, tuple[float, float, float] | None]:
+    """The first visual's primitive shape (else the first collision's) in words, and the origin it is drawn at."""
     for part in ("visual", "collision"):
-        geometry = link.find(f"{part}/geometry")
-        if geometry is None:
+        element = next((e for e in link.findall(part) if e.find("geometry") is not None), None)
+        geometry = element.find("geometry") if element is not None else None
+        if element is None or geometry is None:
             continue
         for shape in geometry:
             text = _shape_text(shape)
             if text:
-                return text
-    return ""
+                return text, _origin_xyz(element)
+    return "", None
 
 
 def _shape_text(shape: ET.Element) -> str:
