@@ -547,6 +547,25 @@ def test_a_spinning_wheel_on_a_steering_joint_is_still_a_wheel_module():
     assert all(hands.wheel_body(tree, wheel) for wheel in wheels) and hands.feet(tree) == frozenset()
 
 
+@pytest.mark.parametrize("seed", [20, 21])
+def test_the_eyes_a_head_turns_on_either_side_join_the_head(seed):
+    """A neck (pan, tilt) carrying two eyes, each turning on its own joint on either side of the robot: the model
+    calls all three heads, and they are one head, its eyes and all (on the code before: the eyes, lying on either
+    side as two limbs do, were two more heads). Two arms below a chain called an arm stay apart."""
+    w = Writer(random.Random(seed))
+    trunk = w.link('<box size="0.3 0.4 0.6"/>')
+    pan, tilt = w.link('<cylinder radius="0.04" length="0.05"/>'), w.link('<box size="0.15 0.2 0.15"/>')
+    neck = [w.joint("revolute", trunk, pan, (0.0, 0.0, 0.35), (0.0, 0.0, 1.0)),
+            w.joint("revolute", pan, tilt, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0))]
+    eyes = []
+    for y in (0.05, -0.05):
+        eye = w.link('<sphere radius="0.02"/>')
+        eyes.append(w.joint("revolute", tilt, eye, (0.07, y, 0.03), (0.0, 0.0, 1.0)))
+    tree = load_urdf(w.urdf())
+    parts, _ = body_pass(Oracle(ScriptedBackend(lambda q: q.options[0] if q.key.startswith("side:") else "head")), tree, [])
+    assert [(p.cls, sorted(p.joints)) for p in parts] == [("Head", sorted(neck + eyes))]
+
+
 @pytest.mark.parametrize("seed", [18, 19])
 def test_a_suspension_carrying_a_steered_wheel_is_a_joint_of_the_mobile_base(seed):
     """A car: each wheel on a suspension (a sliding joint), the front ones steered between them: the ontology makes a

@@ -818,6 +818,32 @@ def test_a_camera_body_declaring_two_cameras_apart_is_a_stereo_camera(seed):
     assert [t.cls for t in state.post] == ["StereoCamera", "MonocularCamera"]
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_a_camera_declared_on_one_frame_writing_its_images_in_another_is_one_imager(seed):
+    """A camera declared on a small frame whose plugin writes its images in a second frame hung beside it (an eye
+    that turns both: the declared frame a few centimetres behind the eye's origin, the image frame at it, turned to
+    the optical convention's axes): the two are one imager, seeing from one place, so no stereo camera (on the code
+    before: two places, a stereo camera settled at 1.0); the model's monocular stands."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.6 0.4 0.3"/>')
+    eye = w.link('<sphere radius="0.03"/>')
+    w.joint("revolute", base, eye, (0.2, rng.choice((0.05, -0.05)), 0.8), (0.0, 0.0, 1.0), (-1.0, 1.0))
+    declared, image = w.link('<box size="0.001 0.001 0.001"/>'), w.link('<box size="0.001 0.001 0.001"/>')
+    w.joint("fixed", eye, declared, (-rng.uniform(0.02, 0.04), 0.0, 0.0), rpy=(0.0, math.pi, 0.0))
+    w.joint("fixed", eye, image, rpy=(math.pi / 2, 0.0, -math.pi / 2))
+    block = (f'<gazebo reference="{declared}"><sensor name="eye" type="camera"><camera><image><width>640</width>'
+             '<height>480</height><format>R8G8B8</format></image></camera><plugin name="eye_p" '
+             f'filename="libgazebo_ros_camera.so"><frameName>{image}</frameName></plugin></sensor></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    assert viewpoints(tree, [declared, image]) == 1 and viewpoints(tree, [declared]) is None
+    state = Findings(groups=[Group([sub_chain(tree, declared, eye), sub_chain(tree, image, eye)])])
+    state.pre = {link: Typed("MonocularCamera", 0.9) for link in (declared, image)}
+    prefer = [TAX.answer("MonocularCamera"), TAX.answer("StereoCamera")]
+    post_classification(Abstractor(Oracle(ScriptedBackend(_answer(prefer))), TAX).context(tree, kind="sensor"), state)
+    assert [t.cls for t in state.post] == ["MonocularCamera"]
+
+
 @pytest.mark.parametrize("bracket_mesh, devices", [("sensors/xtion_pro_stack", 1), ("sensors/d435_bracket", 2)])
 def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(bracket_mesh, devices):
     """A camera's frames and body hang from a bare frame on the base; its mounting bracket, a lone drawn leaf whose

@@ -117,7 +117,9 @@ def viewpoints(tree: KinematicTree, leaves: list[str], cameras: Iterable[str] = 
     A lone link that is no optical frame stands for a camera written as one body, which shows no imager: one
     place where it is an eye of a pair (one of `cameras`, the cameras' links, is its twin: eye_pair, which no link
     is of itself), as many as the cameras the file declares on it see from where they see from two or more (a
-    stereo pair declared as two cameras on one body), else None (unknown)."""
+    stereo pair declared as two cameras on one body), else None (unknown). A link a camera is declared on whose
+    plugin writes its images in another of the frames (SimSensor.frame) is one imager with that frame, which stands
+    for both (counted once, where that frame is)."""
     optical = [leaf for leaf in leaves if is_optical(tree, leaf)]
     if not optical and len(leaves) == 1:
         if any(eye_pair(tree, leaves[0], other) for other in cameras):
@@ -125,12 +127,19 @@ def viewpoints(tree: KinematicTree, leaves: list[str], cameras: Iterable[str] = 
         declared = _declared_places(tree, leaves[0])
         return declared if declared > 1 else None
     places: list[tuple[Vector, Vector | None]] = []  # a point, and the line of sight through it where known
-    for leaf in optical or leaves:
+    for leaf in [leaf for leaf in optical or leaves if not _written_elsewhere(tree, leaf, leaves)]:
         point = tree.position_in(leaf, tree.root)
         sight = unit(sub(tree.position_in(leaf, tree.root, (0.0, 0.0, 1.0)), point)) if optical else None
         if all(_apart(point, p, axis) > VIEWPOINT for p, axis in places):
             places.append((point, sight))
     return len(places)
+
+
+def _written_elsewhere(tree: KinematicTree, link: str, frames: list[str]) -> bool:
+    """Every camera declared on `link` writes its images in another of `frames`, one at least."""
+    facts = tree.evidence.get(link)
+    cameras = [s for s in (facts.sensors if facts else ()) if s.reference == link and s.places]
+    return bool(cameras) and all(s.frame in frames and s.frame != link for s in cameras)
 
 
 def _declared_places(tree: KinematicTree, link: str) -> int:

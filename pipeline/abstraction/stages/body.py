@@ -45,6 +45,7 @@ SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
 LEG = "Leg"
+HEAD = "Head"
 ROOT = "nothing: it is the robot's root"
 Log = Callable[[str], None]
 
@@ -412,14 +413,15 @@ def _join(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Chai
     """A chain of a joining class (every body class but the base, whose chains join around its chassis,
     and the wheel) is one part with the followers of that class hanging from its links (a neck with the pan-tilt
     unit and the turning sensor ring it carries), unless two of them lie on either side of the robot (two
-    limbs: two arms below a chain the model also called an arm)."""
+    limbs: two arms below a chain the model also called an arm); a head's do all the same (its eyes, each turning
+    its camera)."""
     joining = set(tax.body_classes) - {tax.mobile_base, tax.wheel}
     joined = True
     while joined:
         joined = False
         for parent in found:
             followers = [c for c in found if c is not parent and c.mount in parent.links and c.cls == parent.cls]
-            if parent.cls in joining and followers and not _either_side(tree, followers):
+            if parent.cls in joining and followers and (parent.cls == HEAD or not _either_side(tree, followers)):
                 for child in followers:
                     parent.joints += child.joints
                     parent.links += child.links
