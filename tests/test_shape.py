@@ -26,7 +26,7 @@ from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_lea
                                               last_segments,
                                               limb_ends, off_limb_ends, rolling, spinning_low, spinning_on_trunk,
                                               swinging_leaves)
-from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods
+from urdfkb.pipeline.abstraction.frames import collision_volumes, loop_closures, rods, struts
 
 TAX = vocabulary()
 SEEDS = range(300)
@@ -255,6 +255,33 @@ def test_a_legs_own_bars_and_a_trunks_arm_leave_its_feet_feet(rod):
     soles = _biped(w, trunk, rod) + _biped(w, trunk, rod)
     _serial(w, trunk, 5)
     assert feet(load_urdf(w.urdf())) == set(soles)
+
+
+@pytest.mark.parametrize("seed", [31, 32])
+def test_a_standoff_whose_mirror_twin_holds_a_plate_is_no_sensor(seed):
+    """Two short posts drawn alike on a beam, mirror images across the robot's x-z plane, one holding up a sensor
+    plate (with its sonar), the other a bare leaf: the erring model calls the bare one a sensor (0.89), but it is the
+    plate's second standoff (frames.struts), a piece of structure (on the code before: a lidar, 0.85). The sonar on the
+    plate, and a lone drawn leaf with no twin, stay the model's."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.6 0.5 0.2"/>')
+    beam = w.link('<box size="0.03 0.3 0.03"/>')
+    w.joint("fixed", base, beam, (0.25, 0.0, 0.3))
+    post = '<cylinder radius="0.0064" length="0.0127"/>'
+    holding, bare = w.link(post), w.link(post)
+    y = rng.uniform(0.05, 0.12)
+    w.joint("fixed", beam, holding, (0.0, y, 0.02))
+    w.joint("fixed", beam, bare, (0.0, -y, 0.02))
+    plate, sonar, lone = w.link('<box size="0.1 0.3 0.003"/>'), w.link('<box size="0.012 0.044 0.023"/>'), w.link(post)
+    w.joint("fixed", holding, plate, (0.0, -y, 0.01))
+    w.joint("fixed", plate, sonar, (0.05, 0.0, 0.01))
+    w.joint("fixed", base, lone, (-0.2, 0.1, 0.15))
+    tree = load_urdf(w.urdf())
+    assert struts(tree) == {bare}
+    erring = {TAX.answer(SENSOR_CLS): 0.89, TAX.answer(TOOL_CLS): 0.03, NONE: 0.08}
+    claims = _identified(w.urdf(), lambda q: erring)
+    assert claims.get(bare, NONE) == NONE and claims[sonar] == SENSOR_CLS and claims[lone] == SENSOR_CLS
 
 
 def test_a_lone_spinner_is_left_to_the_model():

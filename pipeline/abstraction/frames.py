@@ -270,6 +270,18 @@ def _moving_between(tree: KinematicTree, a: str, b: str) -> int:
                for path in [tree.chain_to_root(leaf)] for link in path[:path.index(meet)])
 
 
+def struts(tree: KinematicTree) -> frozenset[str]:
+    """Leaves drawn alike (one primitive shape, the same meshes) a link lying at their mirror image across the root's
+    x-z plane (REP 103's left and right, within MIRROR_EPS) that holds a drawn body up: one of a pair of standoffs
+    or posts, the other carrying a plate or a deck, both pieces of structure."""
+    drawn = {link: (facts.shape, facts.meshes) for link in tree.links
+             if (facts := tree.evidence.get(link)) is not None and not facts.is_pure_frame}
+    at = {link: tree.position_in(link, tree.root) for link in drawn}
+    holding = [link for link in drawn if any(child in drawn for child in tree.children(link))]
+    return frozenset(leaf for leaf in tree.leaves() if leaf in drawn and abs(at[leaf][1]) > MIRROR_EPS
+                     and any(drawn[other] == drawn[leaf] and mirrored(at[leaf], at[other], 1) for other in holding))
+
+
 def rods(tree: KinematicTree) -> frozenset[str]:
     """Leaves whose body is a thin rod: a cylinder at least ROD_LENGTH times as long as it is thick and at most
     ROD_THICKNESS thick (a standoff, a pole, an antenna, a linkage's bar). A sensor's body holds its sensing element

@@ -45,6 +45,7 @@ class Findings:
     jaws: frozenset[str] = _lasting(frozenset())  # two leaves moving as mirror images on one link: never sensors
     frozen_tips: frozenset[str] = _lasting(frozenset())  # tips of fingers written fixed: never sensors, a hand's
     rods: frozenset[str] = _lasting(frozenset())  # leaves whose body is a thin rod: never sensors
+    struts: frozenset[str] = _lasting(frozenset())  # leaves drawn as their mirror twin holding a body up: no sensors
     rolling_ends: frozenset[str] = _lasting(frozenset())  # those of both that roll, and spinners on the trunk: never tools
     last_segments: frozenset[str] = _lasting(frozenset())  # limb ends that are the limb's last segment: never tools
     loop_frames: frozenset[str] = _lasting(frozenset())  # frames a closed kinematic loop is cut at: no component

@@ -13,7 +13,7 @@ from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 
 
 @step("identification", needs=("components", "hand_mounts", "feet", "body_feet", "off_ends", "limb_ends",
-                               "swinging", "jaws", "rolling_ends", "last_segments", "frozen_tips", "rods", "loop_frames",
+                               "swinging", "jaws", "rolling_ends", "last_segments", "frozen_tips", "rods", "struts", "loop_frames",
                                "collision_volumes", "palms", "declared_sensors"),
       makes=("leaves", "claims", "shares"))
 def identification(ctx: Context, found: Findings) -> None:
@@ -49,7 +49,7 @@ def identification(ctx: Context, found: Findings) -> None:
     named_tools = {leaf for leaf in no_tool.intersection(unasked) if tools and (product := named_product(ctx.tree, [leaf]))
                    and product.cls in vocab and vocab.is_a(product.cls, tools)}
     rules = ((tools, no_tool - named_tools),
-             (sensors, found.limb_ends | found.swinging | found.jaws | found.frozen_tips | found.rods))
+             (sensors, found.limb_ends | found.swinging | found.jaws | found.frozen_tips | found.rods | found.struts))
     ruled = {leaf: out for leaf in unasked if (out := frozenset(k for k, where in rules if k and leaf in where))}
     for leaf, (kind, share) in identify(ctx.oracle, vocab, ctx.tree, unasked, ctx.progress, ctx.log, ruled).items():
         if kind == tools and leaf in found.feet:  # the tip of a leg: part of the body, as the body pass will find

@@ -9,14 +9,14 @@ from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.abstraction.hands import (feet, frozen_fingertips, hand_mounts, hands, jaw_pairs, last_segments,
                                               limb_ends, off_limb_ends, on_feet, on_trunk, palm, rolling, spinning_low,
                                               spinning_on_trunk, swinging_leaves)
-from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, placing_joints, rods
+from urdfkb.pipeline.abstraction.frames import collision_volumes, is_frame, loop_closures, placing_joints, rods, struts
 from urdfkb.pipeline.reading.tree import KinematicTree
 
 _NO_FACTS = LinkEvidence()
 
 
 @step("shape", makes=("hand_mounts", "feet", "body_feet", "off_ends", "limb_ends", "swinging", "jaws", "rolling_ends",
-                      "last_segments", "frozen_tips", "rods", "loop_frames", "collision_volumes", "palms",
+                      "last_segments", "frozen_tips", "rods", "struts", "loop_frames", "collision_volumes", "palms",
                       "declared_sensors"))
 def shape(ctx: Context, found: Findings) -> None:
     """The leaves of hands and grippers (their fingers, a hand's drive, tool centre points) belong to the
@@ -28,7 +28,8 @@ def shape(ctx: Context, found: Findings) -> None:
     sole's). A limb's own last link moving on its joint, or the tip of
     a finger written fixed, or a bar swinging on its own joint beside the joint that carries a moving chain on,
     is never a sensor (hands.limb_ends, hands.swinging_leaves, hands.frozen_fingertips), nor is a body shaped as a thin
-    rod (frames.rods: a standoff, a pole, an antenna), and the first two never a
+    rod (frames.rods: a standoff, a pole, an antenna) or drawn as its mirror twin that holds a body up (frames.struts:
+    one of a pair of standoffs, the other carrying a plate), and the first two never a
     tool where the joint rolls (hands.rolling: turning through more than half a turn, or about the line out to the
     leaf: a bare arm's flange link, a wheel, a bar hinged on its own pin) or where the limb's own last link carries
     its mass far out for a jaw (hands.last_segments: a forearm on the elbow of an arm that ends in no tool), nor is a
@@ -50,6 +51,7 @@ def shape(ctx: Context, found: Findings) -> None:
     found.jaws = jaw_pairs(robot) - declared
     found.frozen_tips = frozen_fingertips(robot) - declared
     found.rods = rods(robot) - declared
+    found.struts = struts(robot) - declared
     found.rolling_ends = frozenset(leaf for leaf in found.limb_ends | found.swinging if rolling(robot, leaf)) \
         | spinning_on_trunk(robot) - declared | spinning_low(robot) - declared - set(found.hand_mounts)
     found.last_segments = last_segments(robot, found.limb_ends)
@@ -62,7 +64,7 @@ def shape(ctx: Context, found: Findings) -> None:
                "off_ends": sorted(found.off_ends), "limb_ends": sorted(found.limb_ends),
                "swinging": sorted(found.swinging), "jaws": sorted(found.jaws),
                "rolling_ends": sorted(found.rolling_ends), "last_segments": sorted(found.last_segments),
-               "frozen_tips": sorted(found.frozen_tips), "rods": sorted(found.rods),
+               "frozen_tips": sorted(found.frozen_tips), "rods": sorted(found.rods), "struts": sorted(found.struts),
                "loop_frames": sorted(found.loop_frames), "collision_volumes": sorted(found.collision_volumes)})
 
 
