@@ -57,7 +57,12 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("toffee_link", None),
     ("vectorNav", "VectorNav VN-100"),  # a product name written in camel case is one word too
     ("base/us_2_frame", "ultrasonic sensor"),  # the generic abbreviation
-    ("rov/ping360_sonar", "Blue Robotics Ping360"),
+    ("rov/ping360_sonar", "Blue Robotics Ping360"),  # the longer fragment
+    ("ping_sensor_array", "Parallax PING))) ultrasonic sensor"),
+    ("pinger_link", None),        # "ping" followed by letters: an acoustic pinger emits
+    ("scanse_sweep", "Scanse Sweep"),
+    ("neato_laser", "Neato XV-11 laser distance sensor"),
+    ("floor_reflectance_3", "infrared reflectance sensor"),
     ("usb_cam_link", None),       # "us" followed by letters
     ("bus_bar_link", None),       # "us" inside a word
     ("left_sdh_palm", "Schunk SDH"),
