@@ -63,6 +63,7 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("scanse_sweep", "Scanse Sweep"),
     ("neato_laser", "Neato XV-11 laser distance sensor"),
     ("floor_reflectance_3", "infrared reflectance sensor"),
+    ("base_scan_front_multilayer", "multi-layer laser scanner"),
     ("usb_cam_link", None),       # "us" followed by letters
     ("bus_bar_link", None),       # "us" inside a word
     ("left_sdh_palm", "Schunk SDH"),
