@@ -417,6 +417,30 @@ def test_bare_frames_straight_on_a_mount_are_one_device_only_where_they_look_the
                                                                [optical_aside]])
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_scanners_at_either_end_of_a_vehicle_named_alike_are_two(seed):
+    """A vehicle's front and rear scanners, each a drawn body with a bare frame written beside it on the chassis, all
+    four named alike (the model gives them one device name): a bare frame is near only what lies within BARE_SPAN of
+    it, so the front pair and the rear pair are two devices (on the code before: one lidar of four frames, the bare
+    frames near everything on their mount)."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    chassis = w.link('<box size="2.4 1.2 0.5"/>')
+    stem = "scan_" + w.name()
+    leaves = []
+    for x, z in ((rng.uniform(0.8, 1.2), rng.uniform(0.3, 1.6)), (-rng.uniform(0.8, 1.2), 0.25)):
+        for drawn in (True, False):
+            name = f"{stem}_{w.name()}"
+            shape = '<visual><geometry><cylinder radius="0.04" length="0.07"/></geometry></visual>' if drawn else ""
+            w.links.append(f'<link name="{name}">{shape}</link>')
+            w.joint("fixed", chassis, name, (x, 0.0, z))
+            leaves.append(name)
+    tree = load_urdf(w.urdf())
+    chains = [sub_chain(tree, leaf, chassis) for leaf in leaves]
+    groups = merge(Oracle(ScriptedBackend(lambda q: stem)), tree, chains, "sensor", dict.fromkeys(leaves, "RangingSensor"))
+    assert sorted(sorted(g.leaves) for g in groups) == sorted([sorted(leaves[:2]), sorted(leaves[2:])])
+
+
 def _roll(a: float) -> list[list[float]]:
     return [[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]]
 

@@ -10,7 +10,8 @@ sensor category (the taxonomy level under Sensor: RGB and depth frames are both 
 an accelerometer on one palm are not) form one device. Two sub-chains that share only their mount,
 each with a body of its own (its first link with geometry, the housing, or failing one the device's own bare
 frame that its frames hang from), are near only if the two housings face the same way and lie within DEVICE_SPAN of each other: housings pointing apart or far apart are separate devices
-whatever their names share, while a stereo pair's two housings look the same way side by side. Two camera frames fixed
+whatever their names share, while a stereo pair's two housings look the same way side by side; a bare frame on the
+mount is near another sub-chain only within BARE_SPAN of its leaf. Two camera frames fixed
 bare and straight on the mount join only if they look the same way (_looking_alike: a camera looking ahead and one
 looking down are two). A sub-chain with no such neighbour is a device of its own whatever its name, so it is not asked.
 End-effectors: sub-chains whose leaves meet (their lowest common ancestor) inside one of them, or
@@ -69,6 +70,7 @@ VISION = "VisionSensor"  # the ontology's category of cameras, whose bodies carr
 AUDIO = "AudioSensor"  # a microphone hears the room, not the camera: never a camera's built-in frame
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
+BARE_SPAN = 2 * DEVICE_SPAN  # m: the farthest a device's bare frame on its mount lies from its other frames
 SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are turned alike
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
@@ -110,7 +112,9 @@ def device_names(chain: SubChain) -> tuple[str, ...]:
 
 def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     """The two sub-chains could be one device's: they share a link or a mount, and where each has a body of its own
-    (below where they part: two cameras on one rack) those bodies lie side by side (_side_by_side)."""
+    (below where they part: two cameras on one rack) those bodies lie side by side (_side_by_side); on one mount,
+    where one is a bare frame, their leaves lie within BARE_SPAN (a vehicle's front and rear scanners, each a drawn
+    body with a bare frame beside it, are two)."""
     if set(a.links) & set(b.links) or a.root in b.links or b.root in a.links:
         fork = fork_of(tree, [a.leaf, b.leaf])
         own_a, own_b = _own_body(tree, a, fork), _own_body(tree, b, fork)
@@ -118,7 +122,9 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     if a.root != b.root:
         return False
     housing_a, housing_b = _housing(tree, a), _housing(tree, b)
-    return housing_a is None or housing_b is None or _side_by_side(tree, a.root, housing_a, housing_b)
+    if housing_a is None or housing_b is None:  # a bare frame: near where it lies within a device of the other
+        return math.dist(tree.position_in(a.leaf, a.root), tree.position_in(b.leaf, b.root)) <= BARE_SPAN
+    return _side_by_side(tree, a.root, housing_a, housing_b)
 
 
 def _own_body(tree: KinematicTree, chain: SubChain, fork: str) -> str | None:
