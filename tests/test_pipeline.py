@@ -225,6 +225,7 @@ def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_categ
     monkeypatch.setattr(grouping, "_one_body", lambda *args: False)  # names alone: these leaves are no links of a tree
     monkeypatch.setattr(grouping, "_bare_cameras_apart", lambda *args: False)  # nor do they look anywhere
     monkeypatch.setattr(grouping, "_aliases", lambda *args: set())  # nor lie anywhere
+    monkeypatch.setattr(grouping, "_bare_apart", lambda *args: False)
     monkeypatch.setattr(grouping, "optical_twins", lambda *args: False)
     chains = [SubChain("cam_a_rgb", "mount", ("cam_a_rgb",)), SubChain("cam_a_depth", "mount", ("cam_a_depth",)),
               SubChain("cam_b_rgb", "mount", ("cam_b_rgb",)), SubChain("cam_a_far", "elsewhere", ("cam_a_far",)),

@@ -123,8 +123,13 @@ def _near(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
         return False
     housing_a, housing_b = _housing(tree, a), _housing(tree, b)
     if housing_a is None or housing_b is None:  # a bare frame: near where it lies within a device of the other
-        return math.dist(tree.position_in(a.leaf, a.root), tree.position_in(b.leaf, b.root)) <= BARE_SPAN
+        return not _bare_apart(tree, a, b)
     return _side_by_side(tree, a.root, housing_a, housing_b)
+
+
+def _bare_apart(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """The two sub-chains' leaves, on one mount, lie farther apart than BARE_SPAN."""
+    return math.dist(tree.position_in(a.leaf, a.root), tree.position_in(b.leaf, b.root)) > BARE_SPAN
 
 
 def _own_body(tree: KinematicTree, chain: SubChain, fork: str) -> str | None:
