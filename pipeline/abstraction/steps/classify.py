@@ -43,8 +43,7 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
     between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
     product = product_text(ctx.vocab, named_as, cls)
-    return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out,
-                   _staying(ctx.vocab, named_as, cls))
+    return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
 
 def _below(vocab: Vocabulary, product: Product | None) -> frozenset[str]:
@@ -52,15 +51,6 @@ def _below(vocab: Vocabulary, product: Product | None) -> frozenset[str]:
     places at a class with kinds below (a single-beam time-of-flight ranger, an infrared reflectance sensor: ranging
     sensors) is none of those kinds (no lidar, no sonar)."""
     return frozenset(vocab.subclasses_below(product.cls)) if product is not None and product.cls in vocab else frozenset()
-
-
-def _staying(vocab: Vocabulary, product: Product | None, cls: str) -> tuple[str, str] | None:
-    """Where the catalogue product a chain names is of the descent's start class itself, of none of the kinds below
-    it (a GNSS receiver, a sensor the core names no kind of), the answer that stays there, and its definition."""
-    if product is None or product.cls != cls:
-        return None
-    label = vocab.label(cls)
-    return f"other {label}", f"A {label} of none of the kinds above, such as a {product.label}."
 
 
 RGBD = "rgbd_camera"  # SDF's sensor type of a camera giving colour and depth
@@ -103,8 +93,7 @@ def pre_classification(ctx: Context, found: Findings) -> None:
     rule out the same classes, offered the same answers, are asked once, the first standing for all."""
     kind = ctx.device_kind
     subjects = {c.leaf: chain_subject(ctx, ctx.tree, c, kind.cls) for c in found.chains}
-    sets = alike_sets(ctx.tree, list(subjects), lambda a, b: (subjects[a].exclude, subjects[a].stay)
-                      == (subjects[b].exclude, subjects[b].stay))
+    sets = alike_sets(ctx.tree, list(subjects), lambda a, b: subjects[a].exclude == subjects[b].exclude)
     typed = descend(ctx.oracle, ctx.vocab, kind.cls, [subjects[leaves[0]] for leaves in sets],
                     "pre-classification", ctx.progress)
     by_leaf = {leaf: t for leaves, t in zip(sets, typed) for leaf in leaves}
