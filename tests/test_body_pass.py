@@ -547,6 +547,37 @@ def test_a_spinning_wheel_on_a_steering_joint_is_still_a_wheel_module():
     assert all(hands.wheel_body(tree, wheel) for wheel in wheels) and hands.feet(tree) == frozenset()
 
 
+@pytest.mark.parametrize("tool_share, camera_share", [(0.14, 0.6), (0.9, 0.35)])
+def test_a_part_the_ontology_settles_by_its_devices_is_as_sure_as_they_are(tool_share, camera_share):
+    """A neck of two joints carrying a tool the model only half believed in is an arm by the ontology, and a head
+    carrying a camera a head: each takes the confidence of the device its class rests on (on the code before: 1.0,
+    so a humanoid's neck carrying its spinning laser, taken for a gripper at 0.14, was an arm no reviewer was shown);
+    an arm of six joints with its gripper is an arm by its joints alone, 1.0."""
+    w = Writer(random.Random(33))
+    trunk = w.link('<box size="0.4 0.4 0.6"/>')
+    neck, head = w.link('<box size="0.05 0.05 0.05"/>'), w.link('<box size="0.15 0.15 0.15"/>')
+    tool_neck = [w.joint("revolute", trunk, neck, (0.1, 0.0, 0.35), limits=(-1.0, 1.0)),
+                 w.joint("revolute", neck, head, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0), (-0.5, 0.5))]
+    spinner = w.link('<cylinder radius="0.03" length="0.06"/>')
+    w.joint("fixed", head, spinner, (0.0, 0.0, 0.1))
+    pan, skull = w.link('<box size="0.05 0.05 0.05"/>'), w.link('<box size="0.1 0.1 0.1"/>')
+    camera_neck = [w.joint("revolute", trunk, pan, (-0.1, 0.0, 0.35), limits=(-1.0, 1.0))]
+    camera_neck.append(w.joint("revolute", pan, skull, (0.0, 0.0, 0.05), (0.0, 1.0, 0.0), (-0.5, 0.5)))
+    lens = w.link()
+    w.joint("fixed", skull, lens, (0.06, 0.0, 0.0))
+    hand = w.arm(trunk)
+    jaw = w.link('<box size="0.01 0.02 0.05"/>')
+    w.joint("fixed", hand, jaw, (0.0, 0.0, 0.05))
+    tree = load_urdf(w.urdf())
+    devices = [Component("spinner", "end_effector", "EndEffector", tool_share, head, (SubComponent(spinner, "ToolHousing", 1.0),)),
+               Component("camera", "sensor", "MonocularCamera", camera_share, skull, (SubComponent(lens, "RgbFrame", 1.0),)),
+               Component("gripper", "end_effector", "ParallelGripper", 0.3, hand, (SubComponent(jaw, "Finger", 1.0),))]
+    parts, _ = body_pass(Oracle(ScriptedBackend(lambda q: pytest.fail(f"unexpected question {q.key}"))), tree, devices)
+    by_joints = {p.joints[0]: (p.cls, p.confidence) for p in parts}
+    assert by_joints[tool_neck[0]] == ("Arm", tool_share) and by_joints[camera_neck[0]] == ("Head", camera_share)
+    assert [cls_conf for first, cls_conf in by_joints.items() if first not in (tool_neck[0], camera_neck[0])] == [("Arm", 1.0)]
+
+
 @pytest.mark.parametrize("seed", [20, 21])
 def test_the_eyes_a_head_turns_on_either_side_join_the_head(seed):
     """A neck (pan, tilt) carrying two eyes, each turning on its own joint on either side of the robot: the model

@@ -46,6 +46,9 @@ GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest fr
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
 LEG = "Leg"
 HEAD = "Head"
+ARM = "Arm"
+CAMERA = "Camera"
+ARM_ALONE = 5  # joints off the ground carrying no further part: an arm by its joints alone (the ontology's condition)
 ROOT = "nothing: it is the robot's root"
 Log = Callable[[str], None]
 
@@ -340,7 +343,7 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
     open_ = [i for i, cls in enumerate(inferred) if cls is None]
     for i, cls in enumerate(inferred):
         if cls is not None:
-            found[i].cls, found[i].confidence = cls, 1.0
+            found[i].cls, found[i].confidence = cls, _resting_on(tax, cls, devices[i], seen.facts[i])
     questions = [_offering(body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]],
                                                      len(carries[i]), grounded[i]), f"body:{found[i].joints[0].joint}"),
                            tax.turning_otherwise(seen.facts[i].vertical, tax.body_classes)) for i in open_]
@@ -351,6 +354,20 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
     shares = {i: {question.meaning[a]: share for a, share in verdict.distribution.items() if a in question.meaning}
               for i, question, verdict in zip(open_, questions, verdicts)}
     reasoned(_carriers_again(found, seen.facts, shares, log, reasoner))
+
+
+def _resting_on(tax: Vocabulary, cls: str, held: list[Component], facts: reasoning.PartFacts) -> float:
+    """The confidence of a class the ontology settled: that of the devices its condition rests on, the most
+    confident of them (a head's cameras; an arm's end-effectors, where fewer than five joints or a further part leave
+    it resting on them: a neck carrying a tool the model only half believed in is an arm no more surely), else 1.0 (what
+    the joints and the ground settle)."""
+    if cls == HEAD:
+        rest = [c for c in held if tax.is_a(c.cls, CAMERA)]
+    elif cls == ARM and (len(facts.joint_types) < ARM_ALONE or facts.carries):
+        rest = [c for c in held if c.kind == END_EFFECTOR]
+    else:
+        return 1.0
+    return max((c.confidence for c in rest), default=1.0)
 
 
 def _offering(choice: Choice, ruled_out: frozenset[str]) -> Choice:
