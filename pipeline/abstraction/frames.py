@@ -274,12 +274,17 @@ def struts(tree: KinematicTree) -> frozenset[str]:
     """Leaves drawn alike (one primitive shape, the same meshes) a link lying at their mirror image across the root's
     x-z plane (REP 103's left and right, within MIRROR_EPS) that holds a drawn body up: one of a pair of standoffs
     or posts, the other carrying a plate or a deck, both pieces of structure."""
-    drawn = {link: (facts.shape, facts.meshes) for link in tree.links
-             if (facts := tree.evidence.get(link)) is not None and not facts.is_pure_frame}
+    drawn = {link for link in tree.links if (facts := tree.evidence.get(link)) is not None and not facts.is_pure_frame}
     at = {link: tree.position_in(link, tree.root) for link in drawn}
     holding = [link for link in drawn if any(child in drawn for child in tree.children(link))]
     return frozenset(leaf for leaf in tree.leaves() if leaf in drawn and abs(at[leaf][1]) > MIRROR_EPS
-                     and any(drawn[other] == drawn[leaf] and mirrored(at[leaf], at[other], 1) for other in holding))
+                     and any(drawn_alike(tree, leaf, other) and mirrored(at[leaf], at[other], 1) for other in holding))
+
+
+def drawn_alike(tree: KinematicTree, a: str, b: str) -> bool:
+    """Both links are drawn (a body, not a frame) with the same meshes or the same primitive."""
+    fa, fb = tree.evidence.get(a), tree.evidence.get(b)
+    return fa is not None and fb is not None and not fa.is_pure_frame and (fa.meshes, fa.shape) == (fb.meshes, fb.shape)
 
 
 def rods(tree: KinematicTree) -> frozenset[str]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, is_frame, mirrored, placing_joints
+from urdfkb.pipeline.abstraction.frames import MIRROR_EPS, drawn_alike, is_frame, mirrored, placing_joints
 from urdfkb.pipeline.abstraction.structure import (FingerChain, ToolStructure, linkage_bars, moving_children,
                                                    tool_structure)
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
@@ -297,7 +297,7 @@ def jaw_pairs(tree: KinematicTree) -> frozenset[str]:
         a, b = pair
         edges = [tree.edge_to(x) for x in pair]
         if not all(tree.moving(e) and not e.spins and e.joint_type in ("revolute", "prismatic") for e in edges) \
-                or edges[0].joint_type != edges[1].joint_type or not _drawn_alike(tree, a, b):
+                or edges[0].joint_type != edges[1].joint_type or not drawn_alike(tree, a, b):
             continue
         pa, pb = tree.position_in(a, body), tree.position_in(b, body)
         ua, ub = (unit(tree.direction_in(x, body, e.axis)) for x, e in zip(pair, edges))
@@ -309,12 +309,6 @@ def jaw_pairs(tree: KinematicTree) -> frozenset[str]:
                     and all(abs(ua[k] + ub[k] if (k == axis) == polar else ua[k] - ub[k]) <= MIRRORED_AXIS for k in range(3)):
                 found.update(pair)
     return frozenset(found)
-
-
-def _drawn_alike(tree: KinematicTree, a: str, b: str) -> bool:
-    """Both links are drawn (a body, not a frame) with the same meshes or the same primitive."""
-    fa, fb = tree.evidence.get(a), tree.evidence.get(b)
-    return fa is not None and fb is not None and not fa.is_pure_frame and (fa.meshes, fa.shape) == (fb.meshes, fb.shape)
 
 
 def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
