@@ -160,6 +160,37 @@ def test_a_sensor_mount_whose_limits_leave_it_no_range_is_no_body_joint(seed):
     assert found == {(pan,), (fin,), (wheel,)}
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_an_arm_whose_joints_are_all_written_0_0_is_no_sensor_mount(seed):
+    """A hand-written file gives its arms' joints a <limit> of all zeros (as simulator files write sensor mounts)
+    while its lift has a range, and each arm ends in a gripper: a joint carrying a limb's links that have joints of
+    their own, or hanging from such a joint, is no device's mount, so each arm is a candidate of its six joints (on
+    the code before: every joint of both arms a mount, the arms lost in the lift's chain); the camera's 0..0 mount
+    on the chest still is one."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.6 0.5 0.3"/>')
+    chest = w.link('<box size="0.3 0.4 0.5"/>')
+    lift = w.joint("prismatic", base, chest, (0.0, 0.0, 0.4), limits=(0.0, 0.3))
+    arms, jaws, jaw_joints = [], set(), set()
+    for y in (0.2, -0.2):
+        link, joints = chest, []
+        for i in range(6):
+            child = w.link('<box size="0.05 0.05 0.2"/>')
+            joints.append(w.joint("revolute", link, child, (0.0, y if i == 0 else 0.0, 0.2), (0.0, 0.0, 1.0) if i % 2
+                                  else (0.0, 1.0, 0.0), unwritten=True))
+            link = child
+        arms.append(tuple(joints))
+        for side in (0.03, -0.03):
+            jaws.add(jaw := w.link('<box size="0.01 0.02 0.06"/>'))
+            jaw_joints.add(w.joint("revolute", link, jaw, (0.0, side, 0.1), (1.0, 0.0, 0.0), unwritten=True))
+    camera = w.link('<box size="0.03 0.1 0.03"/>')
+    mount = w.joint("revolute", chest, camera, (0.1, 0.0, 0.3), limits=(0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    assert not any(e.moves for e in tree.edges if e.joint in {mount, *(j for arm in arms for j in arm)})
+    found = {tuple(e.joint for e in c.joints) for c in body.chains(tree, jaw_joints, {camera, *jaws})}
+    assert set(arms) <= found and (lift,) in found and not any(mount in chain for chain in found)
+
+
 def test_device_joints_are_the_fingers():
     built = wheeled(3)
     tree = load_urdf(built.urdf)

@@ -52,12 +52,15 @@ class Writer:
 
     def joint(self, kind: str, parent: str, child: str, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
               limits: tuple[float, float] | None = None, mimic: str | None = None, multiplier: float = 1.0,
-              rpy=(0.0, 0.0, 0.0), unlimited: bool = False) -> str:
-        """A new joint; `unlimited` writes a <limit> with no range (a simulator's revolute joint that turns freely)."""
+              rpy=(0.0, 0.0, 0.0), unlimited: bool = False, unwritten: bool = False) -> str:
+        """A new joint; `unlimited` writes a <limit> with no range (a simulator's revolute joint that turns freely),
+        `unwritten` one of all zeros (a hand-written file's placeholder: lower, upper, effort and velocity 0)."""
         name = self.name()
         limit = ""
         if unlimited:
             limit = '<limit effort="10" velocity="1"/>'
+        elif unwritten:
+            limit = '<limit effort="0" lower="0" upper="0" velocity="0"/>'
         elif kind in ("revolute", "prismatic") or (kind == "continuous" and limits):  # files bound linkage bars so
             lo, hi = limits or (-1.0, 1.0)
             limit = f'<limit lower="{_number(lo)}" upper="{_number(hi)}" effort="10" velocity="1"/>'

@@ -148,16 +148,27 @@ def _mounts(tree: KinematicTree, owned_links: set[str]) -> frozenset[str]:
     with the device's housing where the file gives other joints a range. A joint so written that carries a link of
     the body is the robot's (SolidWorks' exporter writes every joint 0..0 unless told: where no joint has a range,
     only one carrying devices' links alone is a mount), and one that spins (Edge.spins: a wheel's, whatever limits
-    its file writes) is never a mount."""
+    its file writes) is never a mount. The housing is one body: a joint whose links beside the devices' have a joint
+    of their own below it is a limb's, and so is one hanging from such a joint (a hand-written arm whose every joint
+    is 0..0, ending in a gripper, in a file whose lift has a range)."""
     ranged = tree.ranged
+
+    def held(edge: Edge | None) -> bool:
+        return edge is not None and edge.movable and not edge.moves and not edge.spins
 
     def mount(edge: Edge) -> bool:
         carried = {edge.child, *tree.descendants(edge.child)}
         if carried <= owned_links:
             return True
         still = not any(tree.edge_to(link).moves for link in carried if link != edge.child)
-        return ranged and still and bool(carried & owned_links)
-    return frozenset(e.joint for e in tree.edges if e.movable and not e.moves and not e.spins and mount(e))
+        rigid = not any(tree.edge_to(link).movable for link in carried - owned_links if link != edge.child)
+        return ranged and still and rigid and bool(carried & owned_links)
+    mounts = {e.joint: e for e in tree.edges if held(e) and mount(e)}
+
+    def limb(edge: Edge) -> bool:  # hangs from a held joint that is no mount
+        above = tree.parent_edge(edge.parent)
+        return above is not None and held(above) and above.joint not in mounts
+    return frozenset(j for j, e in mounts.items() if not limb(e))
 
 
 def _moves_nothing(tree: KinematicTree, edge: Edge, owned_links: set[str]) -> bool:
