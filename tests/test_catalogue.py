@@ -189,6 +189,33 @@ def test_a_ranging_sensor_the_catalogue_places_at_ranging_sensor_is_no_lidar_and
     assert found.pre["plate"].cls == "Sonar"
 
 
+def test_a_product_rules_out_the_kinds_beside_its_own_in_its_branch_and_no_other_branch():
+    """A Doppler velocity log is a sonar: where the model calls its frame a ranging sensor, it is offered sonar or
+    staying a ranging sensor, never lidar (on the code before: offered lidar, and an underwater vehicle's DVL was
+    typed a lidar, 0.43); a frame inside a named camera that the model calls inertial is an inertial sensor still,
+    offered every kind of it (the product rules out nothing outside its own branch)."""
+    w = Writer(random.Random(11))
+    base = w.link('<box size="0.5 0.4 0.2"/>')
+    housing = w.link('<mesh filename="package://kit/meshes/d435.dae"/>')
+    w.joint("fixed", base, housing, (0.2, 0.0, 0.1))
+    for name, parent in (("dvl_link", base), ("cam_imu_frame", housing)):
+        w.links.append(f'<link name="{name}"/>')
+        w.joint("fixed", parent, name, (0.1, 0.05, -0.1))
+    tree = load_urdf(w.urdf())
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        first = {"dvl_link": "ranging sensor", "cam_imu_frame": "inertial sensor"}[q.key.split(":")[1].split("@")[0]]
+        return first if first in q.options else "lidar" if "lidar" in q.options else q.options[0]
+    ctx = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor")
+    found = Findings(chains=[sub_chain(tree, "dvl_link", base), sub_chain(tree, "cam_imu_frame", base)])
+    pre_classification(ctx, found)
+    assert "lidar" not in seen["pre:dvl_link@RangingSensor"] and found.pre["dvl_link"].cls == "Sonar"
+    assert len(seen["pre:cam_imu_frame@InertialSensor"]) == len(TAX.subclasses("InertialSensor"))
+    assert TAX.is_a(found.pre["cam_imu_frame"].cls, "InertialSensor")
+
+
 def test_a_declared_type_rules_out_no_class_of_the_product_the_links_name():
     """A simulator stands a type it has in for a product it has none for (an underwater vehicle's scanning sonar
     swept as a GPU ray scan, SDF's lidar): the declaration rules the catalogue product's class in again (a

@@ -38,7 +38,8 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     while identification gains from them."""
     key = f"pre:{chain.leaf}"
     named_as = named_product(tree, list(reversed(chain.links)))
-    ruled_out = _ruled_out(ctx, tree, chain.links, cls, key, _classes_of(ctx.vocab, named_as)) | _below(ctx.vocab, named_as)
+    ruled_out = (_ruled_out(ctx, tree, chain.links, cls, key, _classes_of(ctx.vocab, named_as))
+                 | _off_product(ctx.vocab, named_as, cls))
     with_facts = [link for link in reversed(chain.links) if tree.evidence.get(link, _NO_FACTS).text()][:MAX_FACTS]
     shown = [named(tree.evidence, link) if link in with_facts else link for link in chain.links]
     between = f"\nBetween it and its mount: {', '.join(shown[:-1])}" if len(shown) > 1 else ""
@@ -46,11 +47,18 @@ def chain_subject(ctx: Context, tree: KinematicTree, chain: SubChain, cls: str) 
     return Subject(key, "The link below belongs to a {concept}.", f"Link: {shown[-1]}{between}{product}", ruled_out)
 
 
-def _below(vocab: Vocabulary, product: Product | None) -> frozenset[str]:
-    """The classes under a catalogue product's own: the catalogue names a product's most specific class, so one it
-    places at a class with kinds below (a single-beam time-of-flight ranger, an infrared reflectance sensor: ranging
-    sensors) is none of those kinds (no lidar, no sonar)."""
-    return frozenset(vocab.subclasses_below(product.cls)) if product is not None and product.cls in vocab else frozenset()
+def _off_product(vocab: Vocabulary, product: Product | None, start: str) -> frozenset[str]:
+    """The classes a catalogue product rules out of a descent from `start`: those under its own class (the
+    catalogue names a product's most specific class: a single-beam time-of-flight ranger is no lidar and no sonar),
+    and, within each branch of `start` its class lies in, those beside it (a Doppler velocity log, a sonar, is no
+    lidar). The branch itself stays the model's to choose (an inertial frame inside a named camera), and so does
+    staying above the product's class."""
+    if product is None or product.cls not in vocab or not vocab.is_a(product.cls, start):
+        return frozenset()
+    cls = product.cls
+    branches = [b for b in vocab.subclasses(start) if vocab.is_a(cls, b)]
+    beside = {c for b in branches for c in vocab.subclasses_below(b) if not vocab.is_a(cls, c) and not vocab.is_a(c, cls)}
+    return frozenset(vocab.subclasses_below(cls)) | beside
 
 
 RGBD = "rgbd_camera"  # SDF's sensor type of a camera giving colour and depth
