@@ -976,10 +976,10 @@ def test_the_main_body_of_a_robot_with_no_joint_carrying_devices_is_a_mobile_bas
     assert body_pass(Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected"))), tree, [])[0] == []
 
 
-def _rotorcraft(seed: int, level: bool) -> tuple:
-    """A bare root frame carrying a drawn airframe, a camera under it and four rotors drawn as thin discs spinning
-    on continuous joints at the arms' tips, about the vertical, or (`level`) about a level axis near the ground, as
-    wheels do. (tree, camera component, airframe, rotors)"""
+def _rotorcraft(seed: int, level: bool, gimbal: bool = False) -> tuple:
+    """A bare root frame carrying a drawn airframe, a camera under it (on a roll and pitch `gimbal`, or fixed) and
+    four rotors drawn as thin discs spinning on continuous joints at the arms' tips, about the vertical, or
+    (`level`) about a level axis near the ground, as wheels do. (tree, camera component, airframe, rotors)"""
     rng = random.Random(seed)
     w = Writer(rng)
     root = w.link()
@@ -995,9 +995,16 @@ def _rotorcraft(seed: int, level: bool) -> tuple:
             w.joint("continuous", root, rotor, xyz=(x, y, 0.03), axis=(0.0, 0.0, 1.0))
         rotors.append(rotor)
     camera = w.link('<box size="0.02 0.02 0.02"/>', mass=0.01)
-    w.joint("fixed", root, camera, xyz=(0.05, 0.0, -0.04))
+    mount = root
+    if gimbal:  # hung from the airframe
+        mount = frame
+        for axis in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)):
+            ring = w.link('<box size="0.04 0.04 0.01"/>', mass=0.02)
+            w.joint("revolute", mount, ring, xyz=(0.05, 0.0, -0.04) if mount == frame else (0.0, 0.0, 0.0), axis=axis)
+            mount = ring
+    w.joint("fixed", mount, camera, xyz=(0.05, 0.0, -0.04) if mount == root else (0.0, 0.0, -0.02))
     tree = load_urdf(w.urdf())
-    sensor = Component("camera", SENSOR, "MonocularCamera", 0.9, root, (SubComponent(camera, "RgbFrame", 0.9),))
+    sensor = Component("camera", SENSOR, "MonocularCamera", 0.9, mount, (SubComponent(camera, "RgbFrame", 0.9),))
     return tree, sensor, frame, rotors
 
 
@@ -1026,6 +1033,26 @@ def test_rotors_spinning_about_the_vertical_are_no_wheels_and_leave_the_airframe
     parts, _ = body_pass(Oracle(ScriptedBackend(lambda q: q.options[0] if q.key.startswith("side:") else "none")),
                          tree, [camera])
     assert sorted(p.cls for p in parts if p.cls == "Wheel") == ["Wheel"] * 4
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_an_airframe_carrying_a_camera_gimbal_is_still_asked_as_a_base(seed):
+    """A drone's camera hangs on a roll and pitch gimbal, a head: a joint that moves a body part, so the airframe was
+    asked nothing and given no part. Four rotors spin on it, moving no body part: it is the vehicle's main body,
+    asked as a mobile base beside the gimbal's head."""
+    tree, camera, frame, _ = _rotorcraft(seed, level=False, gimbal=True)
+
+    def rule(question):
+        if question.key.startswith("side:"):
+            return question.options[0]
+        if question.key == f"body:{frame}":
+            return "mobile base"
+        carries = "Carries: " in question.user and "camera" in question.user.split("Carries: ")[1]
+        return "head" if carries and "head" in question.options else "none"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+    assert sorted((p.cls, len(p.joints), p.links[:1]) for p in parts if p.cls == "MobileBase" or p.cls == "Head") \
+        == [("Head", 2, parts[[p.cls for p in parts].index("Head")].links[:1]), ("MobileBase", 0, (frame,))]
+    assert len(parts) == 2
 
 
 @pytest.mark.parametrize("seed", range(3))

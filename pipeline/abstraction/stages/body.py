@@ -44,6 +44,7 @@ from urdfkb.pipeline.abstraction.vectors import dot, norm, unit
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
+PROPELLERS = 2  # idle joints spinning on a main body that make it a vehicle (one alone may be a spinning lidar)
 LEG = "Leg"
 HEAD = "Head"
 ARM = "Arm"
@@ -495,10 +496,12 @@ def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[
     below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
     heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
     drone's airframe, a base whose wheels the file fixes), but of `idle` joints, which move no body part (a drone's
-    rotors). None elsewhere: an arm's base carries its first joint."""
+    rotors), or, where PROPELLERS of those spin on the root's rigid body (`propellers`), whatever else it carries (a
+    drone's camera gimbal or arm). None elsewhere: an arm's base carries its first joint."""
     def moves(child: str) -> bool:
         edge = tree.edge_to(child)
         return edge.movable and edge.joint not in idle
+    propelled = len(propellers(tree, idle)) >= PROPELLERS
     link = tree.root
     while is_frame(tree, link):
         below = tree.children(link)
@@ -508,9 +511,16 @@ def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[
         if not held or any(moves(child) for child in below) or (len(held) > 1 and not weighed):
             return None
         link = held[0] if len(held) == 1 else max(weighed)[1]
-    if link in {owned for c in components for owned in c.links} or any(moves(child) for child in tree.children(link)):
+    if link in {owned for c in components for owned in c.links} or (
+            not propelled and any(moves(child) for child in tree.children(link))):
         return None
     return link
+
+
+def propellers(tree: KinematicTree, idle: frozenset[str]) -> list[str]:
+    """The links spinning (Edge.spins) on `idle` joints of the root's rigid body: a vehicle's rotors or propellers."""
+    rigid = set(palm(tree, tree.root))
+    return [e.child for e in tree.edges if e.joint in idle and e.spins and e.parent in rigid]
 
 
 def resting_wheels(tree: KinematicTree, body: str, owned: set[str]) -> list[str]:
@@ -538,10 +548,11 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
                    components: list[Component], progress: Progress | None, log: Log,
                    idle: frozenset[str] = frozenset()) -> list[BodyPart]:
     """Where no part moves the robot about (no mobile base, wheel or leg), a main body (`main_body`) that rests on
-    wheels the file fixed (`resting_wheels`), or that carries devices in a file where no joint moves a body part
+    wheels the file fixed (`resting_wheels`), that carries devices in a file where no joint moves a body part
     (none movable, or only `idle` ones, the joints of candidates that are no body part: a drone's airframe with its
-    rotors, a boat's hull, a car whose wheels the file leaves out), is a mobile base with no joint of its
-    own, which the ontology's MobileBase allows; fixed wheels stay its links. The body-part question, shown the
+    rotors, a boat's hull, a car whose wheels the file leaves out), or on which PROPELLERS or more `idle` joints spin
+    (Edge.spins: a drone's rotors, a boat's propellers, whatever else moves on it, a camera gimbal), is a mobile base
+    with no joint of its own, which the ontology's MobileBase allows; fixed wheels stay its links. The body-part question, shown the
     body, what it carries and how it stands, offered mobile base or none, gives the part its confidence: the
     model's share for mobile base."""
     body = main_body(tree, components, idle)
@@ -551,7 +562,9 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     devices = [tax.label(c.cls) for c in components if c.root in rigid]
     wheels = resting_wheels(tree, body, {link for c in components for link in c.links})
     still = devices and not any(e.movable and e.joint not in idle for e in tree.edges)
-    if not wheels and not still:
+    rotors = propellers(tree, idle)
+    propelled = len(rotors) >= PROPELLERS
+    if not wheels and not still and not propelled:
         return parts
     hanging = [p for p in parts if p.root in rigid]
     carried = devices + ([f"{len(hanging)} moving chain{'s' if len(hanging) > 1 else ''}"] if hanging else [])
@@ -564,8 +577,10 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     offered = {a: c for a, c in asked.meaning.items() if c in (tax.mobile_base, NONE)}
     (verdict,) = ask(oracle, [replace(asked.question, options=tuple(offered))], "body classification", progress)
     share = next((verdict.distribution.get(a, 0.0) for a, c in offered.items() if c == tax.mobile_base), 0.0)
-    log(f"body:{body}: a main body {'resting on wheels the file fixed' if wheels else 'of a robot with no joint'}"
-        f" ({', '.join(wheels or devices)}): a mobile base, the model's share {share:.2f}")
+    why = ("resting on wheels the file fixed" if wheels else "of a robot with no joint" if still
+           else "that its spinning rotors carry")
+    log(f"body:{body}: a main body {why} ({', '.join(wheels or (devices if still else rotors))}): a mobile base,"
+        f" the model's share {share:.2f}")
     return [BodyPart(f"mobile_base_{body}", tax.mobile_base, round(share, 4), tree.parent(body), (), (body, *wheels)),
             *parts]
 
