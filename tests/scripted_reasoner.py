@@ -95,7 +95,7 @@ def _part(f: PartFacts, wheels: list[bool], tooled: list[bool]) -> str | None:
         "Leg": ground and joints >= 2 and not tools,
         "Arm": not ground and (tools > 0 or (joints >= 5 and not f.carries)),
         "Head": (not ground and any(tax.is_a(d, "Camera") for d in devices) and not tools and not f.carries
-                 and joints <= 3 and round(f.span, 3) <= HEAD_SPAN),
+                 and joints <= 3 and round(f.span, 3) <= HEAD_SPAN and not f.sliding),
         "MobileBase": joints == 1 and any(wheels[k] for k in f.carries) and not tools,
         "Torso": not ground and not tools and sum(tooled[k] for k in f.carries) >= 2,
     }

@@ -1036,6 +1036,41 @@ def test_rotors_spinning_about_the_vertical_are_no_wheels_and_leave_the_airframe
 
 
 @pytest.mark.parametrize("seed", range(3))
+def test_a_chain_that_only_slides_is_offered_no_head(seed):
+    """A mast lift slides a camera up, and a gantry's three sliding axes carry a wrist: by the ontology a head does
+    not only slide and a wheel rolls (core:slidesOnly false on both), so neither chain is offered head or wheel,
+    and the model that answers head wherever it may (a gantry was typed a head, 0.68) gives its next answer for
+    both, torso; a pan joint carrying a camera is still offered head."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.6 0.5 0.3"/>')
+    mast = w.link('<box size="0.1 0.1 0.6"/>')
+    lift = w.joint("prismatic", base, mast, (0.0, 0.0, 0.3), limits=(0.0, 0.5))
+    camera = _camera(w, "camera", mast)
+    link, gantry = base, []
+    for axis in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
+        child = w.link('<box size="0.1 0.1 0.1"/>')
+        gantry.append(w.joint("prismatic", link, child, (0.2, 0.0, 0.5) if link == base else (0.0, 0.0, 0.0),
+                              axis, limits=(0.0, 0.8)))
+        link = child
+    pan = w.link('<box size="0.05 0.05 0.05"/>')
+    w.joint("revolute", base, pan, (-0.2, 0.0, 0.3))
+    other = _camera(w, "other_camera", pan)
+    tree = load_urdf(w.urdf())
+    offered: dict[str, tuple] = {}
+
+    def rule(question):
+        offered[question.key] = question.options
+        if question.key.startswith("side:"):
+            return question.options[0]
+        return next(a for a in ("head", "torso", "arm") if a in question.options)
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera, other])
+    classes = {p.joints[0]: p.cls for p in parts}
+    assert "head" not in offered[f"body:{lift}"] and "wheel" not in offered[f"body:{gantry[0]}"]
+    assert classes[lift] == "Torso" and classes[gantry[0]] == "Torso" and "head" not in offered[f"body:{gantry[0]}"]
+    assert classes[next(p.joints[0] for p in parts if p.joints[0] not in (lift, *gantry))] == "Head"
+
+
+@pytest.mark.parametrize("seed", range(3))
 def test_an_airframe_carrying_a_camera_gimbal_is_still_asked_as_a_base(seed):
     """A drone's camera hangs on a roll and pitch gimbal, a head: a joint that moves a body part, so the airframe was
     asked nothing and given no part. Four rotors spin on it, moving no body part: it is the vehicle's main body,

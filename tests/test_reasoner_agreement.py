@@ -49,7 +49,8 @@ def generated_body(built, tools_in_run: bool) -> Call:
 def boundaries() -> Call:
     """Candidates on both sides of each body-part condition: one to five joints (one continuous), a camera,
     a tool, another sensor, both or nothing, carrying a wheel, another part, one or two parts with tools or none,
-    on the ground or off it, a camera near the first joint or far out, turning about the vertical or not."""
+    on the ground or off it, a camera near the first joint or far out, turning about the vertical or not, sliding
+    only or not."""
     wheel, other = PartFacts(("continuous",), (), (), True), PartFacts(("revolute", "revolute"), (), (), False)
     arm = PartFacts(("revolute",) * 6, ("ParallelGripper",), (), False)
     joints = [("continuous",), ("revolute",), ("revolute", "continuous"), ("revolute", "revolute", "prismatic"),
@@ -63,6 +64,8 @@ def boundaries() -> Call:
                 *(PartFacts(j, ("MonocularCamera",), (), False, span=span) for j in joints[:4]
                   for span in (0.3, 0.5, 0.5004, 0.501, 1.95)),
                 *(PartFacts(j, d, (), ground, vertical=True) for j in joints[:3] for d in devices[:2]
+                  for ground in (True, False)),
+                *(PartFacts(("prismatic",) * n, d, (), ground, sliding=True) for n in (1, 3) for d in devices[:3]
                   for ground in (True, False))]
 
 

@@ -122,6 +122,7 @@ class Vocabulary:
         self._fields: dict[str, tuple[float, float]] = {}  # ray sensor class → the declared spans (rad) it allows
         self._radiation: dict[str, str] = {}  # ranging sensor class → what it emits (core:rangingRadiation value)
         self._vertical: dict[str, str] = {}  # body-part class → its core:turnsAboutVertical value, where stated
+        self._sliding: dict[str, str] = {}  # body-part class → its core:slidesOnly value, where stated
         self._rank: dict[str, float] = {}  # class → core:optionRank
         self._other: dict[str, tuple[str, str]] = {}  # class → (core:otherAnswer, core:otherComment)
         self._placements: dict[str, str] = {}  # class → where it may sit (its ∀isLocatedOn restriction, as text)
@@ -148,6 +149,8 @@ class Vocabulary:
                 self._radiation[name] = radiation
             if (vertical := stated_value(graph, node, CORE.turnsAboutVertical)) is not None:
                 self._vertical[name] = vertical.strip().lower()
+            if (sliding := stated_value(graph, node, CORE.slidesOnly)) is not None:
+                self._sliding[name] = sliding.strip().lower()
             if (placement := placement_of(graph, node)) is not None:
                 self._placements[name] = f"{name} ⊑ ∀isLocatedOn.{placement}"
             for sim_type in graph.objects(node, CORE.simulatorSensorType):
@@ -416,9 +419,17 @@ class Vocabulary:
         """Those of the body-part classes `among` that a candidate whose joints do (or do not) all turn about the
         vertical cannot be (core:turnsAboutVertical values stated on them or on a class above them: a wheel rolls
         about a level axis)."""
-        said = "true" if vertical else "false"
+        return self._stated_otherwise(self._vertical, vertical, among)
+
+    def sliding_otherwise(self, sliding: bool, among: Iterable[str]) -> frozenset[str]:
+        """Those of the body-part classes `among` that a candidate whose joints do (or do not) all slide cannot be
+        (core:slidesOnly values stated on them or on a class above them: a head pans and tilts, a wheel rolls)."""
+        return self._stated_otherwise(self._sliding, sliding, among)
+
+    def _stated_otherwise(self, stated: dict[str, str], value: bool, among: Iterable[str]) -> frozenset[str]:
+        said = "true" if value else "false"
         return frozenset(c for c in among
-                         if any(self._vertical.get(a, said) not in (said, "1" if vertical else "0")
+                         if any(stated.get(a, said) not in (said, "1" if value else "0")
                                 for a in (c, *self.ancestors(c))))
 
     def _outside(self, ranges: dict[str, tuple[float, float]], count: float, below: str) -> frozenset[str]:

@@ -130,7 +130,7 @@ class PartFacts:
     """What the code asserts of one candidate body part (pipeline.abstraction.stages.body): the URDF types of its
     joints, the classes of the devices on its links, the candidates hanging from them (by index), whether it
     reaches the ground, the side it lies on, its class where already settled, how far out the devices on it lie, and
-    whether all its joints turn about the vertical."""
+    whether all its joints turn about the vertical, or all slide."""
 
     joint_types: tuple[str, ...]
     devices: tuple[str, ...]
@@ -140,6 +140,7 @@ class PartFacts:
     known: str | None = None  # its class where already settled (the model's, in a second round): asserted
     span: float = 0.0         # m: from its first joint to the farthest link of the devices on it, at the zero pose
     vertical: bool = False    # every joint of it turns about an axis within 30 degrees of the vertical, at rest
+    sliding: bool = False     # every joint of it slides (prismatic)
 
 
 # classify_together's contract: HermiT by default; Abstractor and runner.run take another, as tests inject a
@@ -180,6 +181,7 @@ def _assert_parts(core, parts: list[PartFacts], tools: list) -> list:
         part.toolPartCount = sum(tools_on[k] > 0 for k in facts.carries)
         part.deviceSpanMetres = round(facts.span, 3)
         part.turnsAboutVertical = facts.vertical
+        part.slidesOnly = facts.sliding
     return individuals
 
 

@@ -309,7 +309,8 @@ def findings(tree: KinematicTree, found: list[Chain], components: list[Component
     grounded = [_reaches_ground(tree, chain, lowest, tools, standing) for chain in found]
     facts = [reasoning.PartFacts(tuple(_motion(tree, e) for e in chain.joints), tuple(c.cls for c in held),
                                  tuple(follow), ground, _side_of(tree, chain), span=_span(tree, chain, held),
-                                 vertical=all(_turns_about_vertical(tree, e) for e in chain.joints))
+                                 vertical=all(_turns_about_vertical(tree, e) for e in chain.joints),
+                                 sliding=all(e.joint_type == "prismatic" for e in chain.joints))
              for chain, held, follow, ground in zip(found, devices, carries, grounded)]
     return Findings(devices, carries, grounded, facts)
 
@@ -358,7 +359,7 @@ def classify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, found: list[C
             found[i].cls, found[i].confidence = cls, _resting_on(tax, cls, devices[i], seen.facts[i])
     questions = [_offering(body_choice(tax, evidence(tree, found[i], [tax.label(c.cls) for c in devices[i]],
                                                      len(carries[i]), grounded[i]), f"body:{found[i].joints[0].joint}"),
-                           tax.turning_otherwise(seen.facts[i].vertical, tax.body_classes)) for i in open_]
+                           _stated_otherwise(tax, seen.facts[i])) for i in open_]
     verdicts = ask(oracle, [q.question for q in questions], "body classification", progress)
     for i, question, verdict in zip(open_, questions, verdicts):
         found[i].cls = question.meant(verdict.answer, NONE)
@@ -382,9 +383,16 @@ def _resting_on(tax: Vocabulary, cls: str, held: list[Component], facts: reasoni
     return max((c.confidence for c in rest), default=1.0)
 
 
+def _stated_otherwise(tax: Vocabulary, facts: reasoning.PartFacts) -> frozenset[str]:
+    """The body-part classes the values the ontology states on them rule out for a candidate: a wheel turns about a
+    level axis (core:turnsAboutVertical), a head does not only slide (core:slidesOnly)."""
+    return tax.turning_otherwise(facts.vertical, tax.body_classes) | tax.sliding_otherwise(facts.sliding,
+                                                                                          tax.body_classes)
+
+
 def _offering(choice: Choice, ruled_out: frozenset[str]) -> Choice:
     """The question without the classes the candidate's facts rule out by the ontology (a wheel turns about a level
-    axis): its text unchanged, so the prompt's cached prefix still serves it."""
+    axis, a head does not only slide): its text unchanged, so the prompt's cached prefix still serves it."""
     kept = {answer: meant for answer, meant in choice.meaning.items() if meant not in ruled_out}
     return Choice(replace(choice.question, options=tuple(kept)), kept)
 
