@@ -48,6 +48,8 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("mid360_link", "Livox Mid-360"),
     ("os_sensor", "Ouster OS lidar"),  # the sensor frame its ROS driver names
     ("meshes/bendy_sucker.dae", "suction cup"),  # the generic word for the cup
+    ("button_power", "push button"),  # the generic kind
+    ("ChestButton_frame", "push button"),
     ("sensors/lds", "ROBOTIS LDS"),
     ("zed2_left_camera_frame", "Stereolabs ZED"),
     ("oak-d-pro_frame", "Luxonis OAK-D"),  # a hyphen parts words too
