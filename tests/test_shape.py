@@ -609,6 +609,39 @@ def test_a_small_humanoids_arms_are_no_fingers_and_end_in_no_tool():
     assert sorted(leaf for _, leaves in hands(load_urdf(urdf)) for leaf in leaves) == sorted(jaws)
 
 
+@pytest.mark.parametrize("hanging", [False, True])
+def test_a_servo_robots_range_says_nothing_of_the_jaw_ending_its_arm(hanging):
+    """A small humanoid's file gives every servo +-2.09 rad; each leg of six joints ends in a foot, each arm of four in
+    a one-link jaw on a fifth, its mass near its hinge. That range, the same on every joint of the limb, says nothing of what the last one
+    moves: the jaw does not roll, and the model's "end effector" stands (on the code before: the jaw rolled, so no
+    tool, and both grippers were lost). A forearm whose mass hangs out along the arm is a segment of it still."""
+    servo = (-2.09, 2.09)
+    w = Writer(random.Random(17))
+    trunk = w.link('<box size="0.1 0.15 0.12"/>')
+    ends = []
+    for y in (0.08, -0.08):
+        link = trunk
+        for k in range(6):  # a leg it stands on
+            child = w.link('<box size="0.03 0.03 0.04"/>')
+            w.joint("revolute", link, child, (0.0, y / 2, -0.06) if k == 0 else (0.0, 0.0, -0.05),
+                    (0.0, 0.0, 1.0) if k == 0 else (0.0, 1.0, 0.0), limits=servo)
+            link = child
+        link = trunk
+        for k in range(5):
+            last = k == 4
+            centre = (0.0, 0.0, -0.06) if last and hanging else (0.0, 0.0, -0.005) if last else None
+            child = w.link('<box size="0.02 0.02 0.03"/>' if last else '<box size="0.03 0.03 0.07"/>', centre=centre)
+            w.joint("revolute", link, child, (0.0, y, 0.05) if k == 0 else (0.0, 0.0, -0.07),
+                    (0.0, 1.0, 0.0) if k % 2 == 0 else (1.0, 0.0, 0.0), limits=servo)
+            link = child
+        ends.append(link)
+    tree = load_urdf(w.urdf())
+    assert all(rolling(tree, end) == hanging for end in ends)
+    erring = {TAX.answer(TOOL_CLS): 0.5, TAX.answer(SENSOR_CLS): 0.3, NONE: 0.2}
+    claims = _identified(w.urdf(), lambda q: erring if _leaf(q) in ends else NONE)
+    assert [claims[end] for end in ends] == [NONE if hanging else TOOL_CLS] * 2
+
+
 def test_a_jaw_on_a_joint_with_no_range_ends_its_arm_where_no_joint_of_the_file_has_one():
     """SolidWorks' exporter writes every joint 0..0 unless told: an arm of four joints so written, ending in a jaw
     on a fifth. No joint of the file has a range, so the limits say nothing: the jaw ends a limb, and the erring

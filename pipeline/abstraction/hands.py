@@ -380,13 +380,14 @@ def rolling(tree: KinematicTree, leaf: str) -> bool:
     about an axis through the leaf's own centre of mass (_about_itself), whatever its range: a limb end so moved is
     a flange that rolls or a wheel, not a jaw or a finger, which close over a bounded arc (under 2.5 rad in the
     hands, grippers and arms of the truth robots and the parts library) about a hinge across the line they hang
-    out along, their mass swinging off it. A leaf ending a free linkage (_free_linkage) does not spin for that."""
+    out along, their mass swinging off it. A leaf ending a free linkage (_free_linkage) does not spin for that, and
+    a range its file gives every joint of the leaf's limb says nothing of it (_servo_range)."""
     edge = tree.edge_to(leaf)
     if edge.spins and not _free_linkage(tree, leaf):
         return True
     if edge.joint_type not in ("revolute", "continuous"):
         return False
-    if _past_half_turn(edge) or _about_itself(tree, leaf):
+    if (_past_half_turn(edge) and not _servo_range(tree, leaf)) or _about_itself(tree, leaf):
         return True
     out, axis = edge.origin.xyz, unit(rotate_rpy(edge.origin.rpy, edge.axis))
     return axis is not None and norm(out) >= ROLL_OFFSET and abs(dot(axis, out)) > ROLL_ALONG * norm(out)
@@ -423,6 +424,17 @@ def _turns_fully(edge: Edge) -> bool:
     """The joint spins, or its limits give it a full turn or more (FULL_TURN): a wheel the file writes revolute.
     A servo's range, up to 300 degrees on the hobby servos small legged robots are built of, rolls no wheel."""
     return edge.spins or edge.limits is not None and edge.limits[1] - edge.limits[0] >= FULL_TURN
+
+
+def _servo_range(tree: KinematicTree, leaf: str) -> bool:
+    """SERVO_LIMB movable joints or more above the leaf's, and every movable joint from it up to the root, bounded
+    and written with one range: the file gives each servo that range (a small humanoid's, 240 degrees each), which
+    says nothing of what its last one moves, where that is no segment of the limb swinging on it (_off_its_axis: a
+    forearm on its elbow): a jaw closing on the forearm, or a flange."""
+    edges = [tree.edge_to(link) for link in tree.chain_to_root(leaf)[:-1]]
+    movable = [e for e in edges if e.movable]
+    return len(movable) > SERVO_LIMB and all(e.limits == movable[0].limits and not e.spins for e in movable) \
+        and not _off_its_axis(tree, leaf, _limb_path(tree, leaf))
 
 
 def _past_half_turn(edge: Edge) -> bool:
