@@ -499,17 +499,17 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
     return [mobile_base] + [replace(p, parent=mobile_base.name) if p.cls == wheel else p for p in parts]
 
 
-def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[str] = frozenset()) -> str | None:
+def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[str] = frozenset(),
+              propelled: bool = False) -> str | None:
     """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
     below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
     heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
     drone's airframe, a base whose wheels the file fixes), but of `idle` joints, which move no body part (a drone's
-    rotors), or, where PROPELLERS of those spin on the root's rigid body (`propellers`), whatever else it carries (a
-    drone's camera gimbal or arm). None elsewhere: an arm's base carries its first joint."""
+    rotors), or, where those spin PROPELLERS rotors or more on the root's rigid body (`propelled`), whatever else it
+    carries (a drone's camera gimbal or arm). None elsewhere: an arm's base carries its first joint."""
     def moves(child: str) -> bool:
         edge = tree.edge_to(child)
         return edge.movable and edge.joint not in idle
-    propelled = len(propellers(tree, idle)) >= PROPELLERS
     link = tree.root
     while is_frame(tree, link):
         below = tree.children(link)
@@ -523,12 +523,6 @@ def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[
             not propelled and any(moves(child) for child in tree.children(link))):
         return None
     return link
-
-
-def propellers(tree: KinematicTree, idle: frozenset[str]) -> list[str]:
-    """The links spinning (Edge.spins) on `idle` joints of the root's rigid body: a vehicle's rotors or propellers."""
-    rigid = set(palm(tree, tree.root))
-    return [e.child for e in tree.edges if e.joint in idle and e.spins and e.parent in rigid]
 
 
 def resting_wheels(tree: KinematicTree, body: str, owned: set[str]) -> list[str]:
@@ -563,15 +557,15 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     with no joint of its own, which the ontology's MobileBase allows; fixed wheels stay its links. The body-part question, shown the
     body, what it carries and how it stands, offered mobile base or none, gives the part its confidence: the
     model's share for mobile base."""
-    body = main_body(tree, components, idle)
+    rigid = set(palm(tree, tree.root))  # the body and what is fixed to it: main_body reaches it by fixed joints
+    rotors = [e.child for e in tree.edges if e.joint in idle and e.spins and e.parent in rigid]
+    propelled = len(rotors) >= PROPELLERS
+    body = main_body(tree, components, idle, propelled)
     if body is None or any(p.cls in (tax.mobile_base, tax.wheel, LEG) for p in parts):
         return parts
-    rigid = set(palm(tree, tree.root))  # the body and what is fixed to it: main_body reaches it by fixed joints
     devices = [tax.label(c.cls) for c in components if c.root in rigid]
     wheels = resting_wheels(tree, body, {link for c in components for link in c.links})
     still = devices and not any(e.movable and e.joint not in idle for e in tree.edges)
-    rotors = propellers(tree, idle)
-    propelled = len(rotors) >= PROPELLERS
     if not wheels and not still and not propelled:
         return parts
     hanging = [p for p in parts if p.root in rigid]
