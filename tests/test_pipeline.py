@@ -400,3 +400,33 @@ def test_the_link_a_sensor_is_declared_on_is_its_body_not_its_mount(seed):
     assert mount_candidates(tree, optical, never) == [housing, trunk, footprint]  # a tool's links are no sensor's body
     assert mount_candidates(tree, imu, never, rigid=True) == [trunk, footprint]  # a trunk carries other things
     assert mount_candidates(tree, rotor, never, rigid=True) == [lidar]  # a leaf spinning on its body keeps it
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_housing_named_for_a_sensor_product_is_its_body_not_its_mount(seed):
+    """A car's stereo camera written as two housings, each drawn with a camera frame in front declaring one camera:
+    the model mounted each camera on its own housing, which split the pair into two devices on two mounts. A fixed
+    link whose own name names a catalogue product that sees from two places (the ZED, a stereo camera) and carries
+    nothing but one camera's chain is half that device, never offered as its mount; a lidar's base named for its
+    product (the Velodyne, which sees from one place) stays offered, as the truth files take it."""
+    w = Writer(random.Random(seed))
+    chassis = w.link('<box size="0.4 0.2 0.1"/>')
+    housings, cameras = [], []
+    for side in ("left", "right"):
+        housing = f"zed_{side}_housing_{seed}"
+        w.links.append(f'<link name="{housing}"><visual><geometry><box size="0.03 0.03 0.03"/></geometry></visual></link>')
+        camera = w.link('<box size="0.02 0.02 0.02"/>')
+        w.joint("fixed", chassis, housing, xyz=(0.1, 0.03 if side == "left" else -0.03, 0.08))
+        w.joint("fixed", housing, camera, xyz=(0.04, 0.0, 0.04))
+        housings.append(housing)
+        cameras.append(camera)
+    tower, lidar = f"velodyne_base_{seed}", w.link('<cylinder radius="0.04" length="0.05"/>')
+    w.links.append(f'<link name="{tower}"><visual><geometry><box size="0.05 0.05 0.1"/></geometry></visual></link>')
+    w.joint("fixed", chassis, tower, xyz=(-0.1, 0.0, 0.1))
+    w.joint("fixed", tower, lidar, xyz=(0.0, 0.0, 0.09))
+    gazebo = "".join(f'<gazebo reference="{c}"><sensor name="s{k}" type="camera"/></gazebo>' for k, c in enumerate(cameras))
+    gazebo += f'<gazebo reference="{lidar}"><sensor name="l" type="ray"/></gazebo>'
+    tree = load_urdf(w.urdf().replace(b"</robot>", gazebo.encode() + b"</robot>"))
+    never = lambda link: False  # noqa: E731
+    assert [mount_candidates(tree, c, never, rigid=True) for c in cameras] == [[chassis], [chassis]]
+    assert mount_candidates(tree, lidar, never, rigid=True) == [tower, chassis]

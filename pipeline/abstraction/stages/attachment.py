@@ -7,18 +7,20 @@ which verification must reject. (The mount of a device abstracted in an earlier 
 inside: a sensor on a gripper's palm.) A sensor is rigidly fixed to its mount, so for sensors the
 candidates also end below the first joint that moves: the link above that joint moves relative to
 the sensor and cannot be what it is fixed to. (Only a leaf whose own joint moves, which no sensor
-frame should, keeps its parent as the one candidate.) Nor is a sensor's own body offered: a fixed link the file
-declares a simulator sensor on that carries nothing but the chain down to the leaf.
+frame should, keeps its parent as the one candidate.) Nor is a sensor's own body offered: a fixed link that carries
+nothing but the chain down to the leaf, which the file declares a simulator sensor on, or whose name or mesh names a
+catalogue product seeing from more than one place, of which that chain is half (one housing of a stereo camera).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Callable, Mapping
 
-from urdfkb.pipeline.knowledge.ontology import Kind
+from urdfkb.pipeline.knowledge.ontology import Kind, vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import root_question
 from urdfkb.pipeline.abstraction.alike import alike_sets
+from urdfkb.pipeline.abstraction.catalogue import catalogue
 from urdfkb.pipeline.abstraction.frames import body_of, frames_of_one_body
 from urdfkb.pipeline.reading.tree import KinematicTree
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
@@ -58,13 +60,22 @@ def mount_candidates(tree: KinematicTree, leaf: str, blocked: Callable[[str], bo
 
 
 def _own_body(tree: KinematicTree, link: str, leaf: str) -> bool:
-    """`link` is the body of the sensor `leaf` belongs to, not its mount: the file declares a simulator sensor on it
-    (the `<gazebo reference>` of a camera or lidar is the device), it is fixed to a parent, and it carries nothing but
-    the chain down to `leaf` (a body part carries other things)."""
-    facts = tree.evidence.get(link)
+    """`link` is the body of the sensor `leaf` belongs to, not its mount: it is fixed to a parent, carries nothing
+    but a chain of fixed joints down to `leaf`, and either the file declares a simulator sensor on it (the `<gazebo
+    reference>` of a camera or lidar is the device) or its own name or mesh names a catalogue product that by the
+    ontology sees from more than one place (core:viewpointCount: a stereo camera), of which one chain is half (a
+    car's ZED written as two housings, each carrying one camera frame). A body part carries other things."""
     edge = tree.parent_edge(link)
-    return (facts is not None and any(s.reference == link for s in facts.sensors) and edge is not None
-            and not edge.movable and set(tree.descendants(link)) <= set(tree.chain_to_root(leaf)))
+    chain = tree.chain_to_root(leaf)
+    if edge is None or edge.movable or not set(tree.descendants(link)) <= set(chain) \
+            or any(tree.edge_to(held).movable for held in chain[:chain.index(link)]):
+        return False
+    facts = tree.evidence.get(link)
+    if facts is None:
+        return False
+    product = catalogue().match([link, *facts.meshes])
+    return any(s.reference == link for s in facts.sensors) or (
+        product is not None and product.cls in vocabulary().unseen(1, vocabulary().component))
 
 
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: Kind,
