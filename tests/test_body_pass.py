@@ -976,15 +976,19 @@ def test_the_main_body_of_a_robot_with_no_joint_carrying_devices_is_a_mobile_bas
     assert body_pass(Oracle(ScriptedBackend(lambda q: pytest.fail("no question expected"))), tree, [])[0] == []
 
 
-def _rotorcraft(seed: int, level: bool, gimbal: bool = False) -> tuple:
+def _rotorcraft(seed: int, level: bool, gimbal: bool = False, held: int = 0) -> tuple:
     """A bare root frame carrying a drawn airframe, a camera under it (on a roll and pitch `gimbal`, or fixed) and
     four rotors drawn as thin discs spinning on continuous joints at the arms' tips, about the vertical, or
-    (`level`) about a level axis near the ground, as wheels do. (tree, camera component, airframe, rotors)"""
+    (`level`) about a level axis near the ground, as wheels do; and `held` bare frames (an inertial unit's, an
+    odometry plugin's) on the root by revolute joints limited 0..0, as RotorS writes them. (tree, camera component,
+    airframe, rotors)"""
     rng = random.Random(seed)
     w = Writer(rng)
     root = w.link()
     frame = w.link('<box size="0.2 0.2 0.06"/>', centre=(0.0, 0.0, 0.0), mass=1.5)
     w.joint("fixed", root, frame)
+    for _ in range(held):
+        w.joint("revolute", root, w.link(), limits=(0.0, 0.0))
     arm = rng.uniform(0.08, 0.2)
     rotors = []
     for x, y in ((arm, -arm), (-arm, arm), (arm, arm), (-arm, -arm)):
@@ -1033,6 +1037,24 @@ def test_rotors_spinning_about_the_vertical_are_no_wheels_and_leave_the_airframe
     parts, _ = body_pass(Oracle(ScriptedBackend(lambda q: q.options[0] if q.key.startswith("side:") else "none")),
                          tree, [camera])
     assert sorted(p.cls for p in parts if p.cls == "Wheel") == ["Wheel"] * 4
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_sensor_frames_held_at_zero_beside_the_rotors_leave_the_airframe_a_base(seed):
+    """A simulator's drone hangs its inertial and odometry frames, typed sensors, on revolute joints limited 0..0 from
+    the root frame the airframe hangs from: those joints hold their frames still, so they move nothing and the
+    airframe its rotors spin on is still the robot's main body, asked as a mobile base (it was given no part)."""
+    tree, camera, frame, _ = _rotorcraft(seed, level=False, held=2)
+    held = [e.child for e in tree.edges if e.joint_type == "revolute" and e.limits == (0.0, 0.0)]
+    sensors = [Component(f"imu_{k}", SENSOR, "IMU", 0.9, tree.root, (SubComponent(link, "SensingElement", 0.9),))
+               for k, link in enumerate(held)]
+
+    def rule(question):
+        if question.key.startswith("side:"):
+            return question.options[0]
+        return "mobile base" if question.key == f"body:{frame}" else "none"
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera, *sensors])
+    assert len(held) == 2 and [(p.cls, p.joints, p.links) for p in parts] == [("MobileBase", (), (frame,))]
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -1088,6 +1110,46 @@ def test_an_airframe_carrying_a_camera_gimbal_is_still_asked_as_a_base(seed):
     assert sorted((p.cls, len(p.joints), p.links[:1]) for p in parts if p.cls == "MobileBase" or p.cls == "Head") \
         == [("Head", 2, parts[[p.cls for p in parts].index("Head")].links[:1]), ("MobileBase", 0, (frame,))]
     assert len(parts) == 2
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_body_the_file_moves_in_the_plane_by_virtual_joints_is_asked_as_a_base(seed):
+    """A holonomic base written with no wheels: virtual x, y and yaw joints between bare frames place its body, which
+    carries a camera and a five-joint arm. Those joints place the whole robot, so no part holds them, and nothing
+    else moves it about: the body was given no part. Moved in the ground plane, it is asked as a mobile base with no
+    joint of its own. Where the virtual joints also lift it (a vertical slide), they say nothing of the ground, and it
+    is asked nothing."""
+    def build(lift: bool):
+        w = Writer(random.Random(seed))
+        world, x, y = w.link(), w.link(), w.link()
+        w.joint("prismatic", world, x, axis=(1.0, 0.0, 0.0), limits=(-50.0, 50.0))
+        w.joint("prismatic", x, y, axis=(0.0, 0.0, 1.0) if lift else (0.0, 1.0, 0.0), limits=(-50.0, 50.0))
+        base = w.link('<box size="0.8 0.6 0.4"/>', mass=50.0)
+        w.joint("continuous", y, base, axis=(0.0, 0.0, 1.0))
+        camera = _camera(w, "camera", base)
+        link = base
+        for k in range(5):
+            child = w.link('<box size="0.05 0.05 0.2"/>')
+            w.joint("revolute", link, child, (0.2, 0.0, 0.2) if link == base else (0.0, 0.0, 0.2),
+                    (0.0, 1.0, 0.0) if k % 2 else (0.0, 0.0, 1.0))
+            link = child
+        return load_urdf(w.urdf()), camera, base
+
+    asked: list[str] = []
+
+    def rule(question):
+        asked.append(question.key)
+        if question.key.startswith("side:"):
+            return question.options[0]
+        return next(a for a in ("mobile base", "arm", "none") if a in question.options)
+    tree, camera, base = build(lift=False)
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+    assert sorted((p.cls, p.joints, p.links) for p in parts if p.cls != "Arm") == [("MobileBase", (), (base,))]
+    assert [p.cls for p in parts].count("Arm") == 1
+    asked.clear()
+    tree, camera, base = build(lift=True)
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+    assert f"body:{base}" not in asked and not any(p.cls == "MobileBase" for p in parts)
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -44,6 +44,7 @@ from urdfkb.pipeline.abstraction.vectors import dot, norm, unit
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
+LEVEL = math.cos(math.radians(6))  # an axis within 6 degrees of the vertical: a turn in the ground plane
 PROPELLERS = 2  # idle joints spinning on a main body that make it a vehicle (one alone may be a spinning lidar)
 LEG = "Leg"
 HEAD = "Head"
@@ -500,16 +501,18 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
 
 
 def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[str] = frozenset(),
-              propelled: bool = False) -> str | None:
+              vehicle: bool = False) -> str | None:
     """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
     below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
     heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
     drone's airframe, a base whose wheels the file fixes), but of `idle` joints, which move no body part (a drone's
-    rotors), or, where those spin PROPELLERS rotors or more on the root's rigid body (`propelled`), whatever else it
-    carries (a drone's camera gimbal or arm). None elsewhere: an arm's base carries its first joint."""
+    rotors, the virtual joints placing a base), and of joints held still (Edge.moves: RotorS hangs its sensors' frames
+    on revolute joints limited 0..0), or, where the robot is a `vehicle` (PROPELLERS rotors or more spin on
+    the root's rigid body, or the file moves it in the plane), whatever else it carries (a drone's camera gimbal or
+    arm, a mobile manipulator's arm). None elsewhere: an arm's base carries its first joint."""
     def moves(child: str) -> bool:
         edge = tree.edge_to(child)
-        return edge.movable and edge.joint not in idle
+        return edge.moves and edge.joint not in idle  # a joint held at 0..0 (a simulator's sensor mount) moves nothing
     link = tree.root
     while is_frame(tree, link):
         below = tree.children(link)
@@ -520,9 +523,27 @@ def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[
             return None
         link = held[0] if len(held) == 1 else max(weighed)[1]
     if link in {owned for c in components for owned in c.links} or (
-            not propelled and any(moves(child) for child in tree.children(link))):
+            not vehicle and any(moves(child) for child in tree.children(link))):
         return None
     return link
+
+
+def _placed_in_plane(tree: KinematicTree) -> frozenset[str]:
+    """The joints placing the whole robot (frames.placing_joints) where they move it in the ground plane alone (a planar
+    joint, or sliding joints whose axes all lie level, with turns about the vertical): a ground vehicle whose file
+    moves it by virtual x, y and yaw joints rather than by its wheels. Empty where they free it (a floating joint) or
+    lift it."""
+    placing = placing_joints(tree)
+    up = (0.0, 0.0, 1.0)
+    for e in tree.edges:
+        if e.joint not in placing:
+            continue
+        axis = unit(tree.direction_in(e.child, tree.root, e.axis))
+        upright = axis is not None and abs(dot(axis, up)) >= LEVEL  # a planar joint's axis is its plane's normal
+        level = axis is not None and abs(dot(axis, up)) <= math.sqrt(1 - LEVEL ** 2)
+        if not (level if e.joint_type == "prismatic" else upright and e.joint_type != "floating"):
+            return frozenset()
+    return placing
 
 
 def resting_wheels(tree: KinematicTree, body: str, owned: set[str]) -> list[str]:
@@ -553,25 +574,31 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     wheels the file fixed (`resting_wheels`), that carries devices in a file where no joint moves a body part
     (none movable, or only `idle` ones, the joints of candidates that are no body part: a drone's airframe with its
     rotors, a boat's hull, a car whose wheels the file leaves out), or on which PROPELLERS or more `idle` joints spin
-    (Edge.spins: a drone's rotors, a boat's propellers, whatever else moves on it, a camera gimbal), is a mobile base
-    with no joint of its own, which the ontology's MobileBase allows; fixed wheels stay its links. The body-part question, shown the
-    body, what it carries and how it stands, offered mobile base or none, gives the part its confidence: the
-    model's share for mobile base."""
+    (Edge.spins: a drone's rotors, a boat's propellers, whatever else moves on it, a camera gimbal), or that the file
+    moves in the ground plane by the joints placing it (_placed_in_plane: a holonomic base written without its
+    wheels), is a mobile base with no joint of its own, which the ontology's MobileBase allows; fixed wheels stay its
+    links. The body-part question, shown the body, what it carries and how it stands, offered mobile base or none,
+    gives the part its confidence: the model's share for mobile base."""
+    planar = _placed_in_plane(tree)
     rigid = set(palm(tree, tree.root))  # the body and what is fixed to it: main_body reaches it by fixed joints
     rotors = [e.child for e in tree.edges if e.joint in idle and e.spins and e.parent in rigid]
     propelled = len(rotors) >= PROPELLERS
-    body = main_body(tree, components, idle, propelled)
+    body = main_body(tree, components, idle | planar, propelled or bool(planar))
     if body is None or any(p.cls in (tax.mobile_base, tax.wheel, LEG) for p in parts):
         return parts
+    if planar:
+        rigid |= set(palm(tree, body))  # below the placing joints
     devices = [tax.label(c.cls) for c in components if c.root in rigid]
     wheels = resting_wheels(tree, body, {link for c in components for link in c.links})
     still = devices and not any(e.movable and e.joint not in idle for e in tree.edges)
-    if not wheels and not still and not propelled:
+    if not wheels and not still and not propelled and not planar:
         return parts
     hanging = [p for p in parts if p.root in rigid]
     carried = devices + ([f"{len(hanging)} moving chain{'s' if len(hanging) > 1 else ''}"] if hanging else [])
     moving = any(e.movable for e in tree.edges)
-    shown = [f"Joints: none ({'no joint moves it' if wheels or moving else 'the robot has no movable joint'})",
+    moved = f"the file moves the whole robot in the plane by {', '.join(sorted(planar))}" if planar else (
+        "no joint moves it" if wheels or moving else "the robot has no movable joint")
+    shown = [f"Joints: none ({moved})",
              f"Links: {named(tree.evidence, body)}", f"Hangs from: {tree.parent(body) or ROOT}",
              "Carries: " + ("; ".join(carried) if carried else "nothing")]
     shown += [f"Reaches the ground: at {', '.join(wheels)}, fixed cylinders resting on it"] if wheels else []
@@ -579,9 +606,10 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     offered = {a: c for a, c in asked.meaning.items() if c in (tax.mobile_base, NONE)}
     (verdict,) = ask(oracle, [replace(asked.question, options=tuple(offered))], "body classification", progress)
     share = next((verdict.distribution.get(a, 0.0) for a, c in offered.items() if c == tax.mobile_base), 0.0)
-    why = ("resting on wheels the file fixed" if wheels else "of a robot with no joint" if still
-           else "that its spinning rotors carry")
-    log(f"body:{body}: a main body {why} ({', '.join(wheels or (devices if still else rotors))}): a mobile base,"
+    why, evidence = (("resting on wheels the file fixed", wheels) if wheels else ("of a robot with no joint", devices)
+                     if still else ("that its spinning rotors carry", rotors) if propelled
+                     else ("the file moves in the plane", sorted(planar)))
+    log(f"body:{body}: a main body {why} ({', '.join(evidence)}): a mobile base,"
         f" the model's share {share:.2f}")
     return [BodyPart(f"mobile_base_{body}", tax.mobile_base, round(share, 4), tree.parent(body), (), (body, *wheels)),
             *parts]
