@@ -1043,7 +1043,7 @@ def test_rotors_spinning_about_the_vertical_are_no_wheels_and_leave_the_airframe
 def test_sensor_frames_held_at_zero_beside_the_rotors_leave_the_airframe_a_base(seed):
     """A simulator's drone hangs its inertial and odometry frames, typed sensors, on revolute joints limited 0..0 from
     the root frame the airframe hangs from: those joints hold their frames still, so they move nothing and the
-    airframe its rotors spin on is still the robot's main body, asked as a mobile base (it was given no part)."""
+    airframe its rotors spin on is still the robot's main body, asked as a mobile base."""
     tree, camera, frame, _ = _rotorcraft(seed, level=False, held=2)
     held = [e.child for e in tree.edges if e.joint_type == "revolute" and e.limits == (0.0, 0.0)]
     sensors = [Component(f"imu_{k}", SENSOR, "IMU", 0.9, tree.root, (SubComponent(link, "SensingElement", 0.9),))
@@ -1055,6 +1055,28 @@ def test_sensor_frames_held_at_zero_beside_the_rotors_leave_the_airframe_a_base(
         return "mobile base" if question.key == f"body:{frame}" else "none"
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera, *sensors])
     assert len(held) == 2 and [(p.cls, p.joints, p.links) for p in parts] == [("MobileBase", (), (frame,))]
+
+
+def test_an_arm_written_0_0_in_a_file_giving_no_joint_a_range_still_moves_on_its_base():
+    """A CAD export writes every joint 0..0: there the limits say nothing (KinematicTree.moving), so an arm's first
+    joint on the base still moves it and the base is no jointless main body; in a file that gives another joint a
+    range, the same 0..0 joints hold their links still."""
+    def build(ranged: bool):
+        w = Writer(random.Random(4))
+        base = w.link('<box size="0.4 0.4 0.2"/>', mass=5.0)
+        link = base
+        for _ in range(3):
+            child = w.link('<box size="0.05 0.05 0.2"/>')
+            w.joint("revolute", link, child, (0.0, 0.0, 0.2), unwritten=True)
+            link = child
+        if ranged:
+            w.joint("revolute", base, w.link('<box size="0.05 0.05 0.05"/>'), (0.1, 0.0, 0.1))
+        return load_urdf(w.urdf()), base
+    tree, base = build(ranged=False)
+    assert body.main_body(tree, []) is None
+    tree, base = build(ranged=True)
+    assert body.main_body(tree, []) is None  # the ranged joint moves something on it
+    assert body.main_body(tree, [], frozenset(e.joint for e in tree.edges if e.moves)) == base
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -1115,11 +1137,11 @@ def test_an_airframe_carrying_a_camera_gimbal_is_still_asked_as_a_base(seed):
 @pytest.mark.parametrize("seed", range(3))
 def test_a_body_the_file_moves_in_the_plane_by_virtual_joints_is_asked_as_a_base(seed):
     """A holonomic base written with no wheels: virtual x, y and yaw joints between bare frames place its body, which
-    carries a camera and a five-joint arm. Those joints place the whole robot, so no part holds them, and nothing
-    else moves it about: the body was given no part. Moved in the ground plane, it is asked as a mobile base with no
-    joint of its own. Where the virtual joints also lift it (a vertical slide), they say nothing of the ground, and it
-    is asked nothing."""
-    def build(lift: bool):
+    carries a camera and a five-joint arm, or the camera alone (no candidate at all). Those joints place the whole
+    robot, so no part holds them, and nothing else moves it about. Moved in the ground plane, the body is asked as a
+    mobile base with no joint of its own, with or without the arm. Where the virtual joints also lift it (a vertical
+    slide), they say nothing of the ground, and it is asked nothing."""
+    def build(lift: bool, arm: bool = True):
         w = Writer(random.Random(seed))
         world, x, y = w.link(), w.link(), w.link()
         w.joint("prismatic", world, x, axis=(1.0, 0.0, 0.0), limits=(-50.0, 50.0))
@@ -1128,7 +1150,7 @@ def test_a_body_the_file_moves_in_the_plane_by_virtual_joints_is_asked_as_a_base
         w.joint("continuous", y, base, axis=(0.0, 0.0, 1.0))
         camera = _camera(w, "camera", base)
         link = base
-        for k in range(5):
+        for k in range(5 if arm else 0):
             child = w.link('<box size="0.05 0.05 0.2"/>')
             w.joint("revolute", link, child, (0.2, 0.0, 0.2) if link == base else (0.0, 0.0, 0.2),
                     (0.0, 1.0, 0.0) if k % 2 else (0.0, 0.0, 1.0))
@@ -1146,6 +1168,9 @@ def test_a_body_the_file_moves_in_the_plane_by_virtual_joints_is_asked_as_a_base
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
     assert sorted((p.cls, p.joints, p.links) for p in parts if p.cls != "Arm") == [("MobileBase", (), (base,))]
     assert [p.cls for p in parts].count("Arm") == 1
+    tree, camera, base = build(lift=False, arm=False)
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
+    assert [(p.cls, p.joints, p.links) for p in parts] == [("MobileBase", (), (base,))]
     asked.clear()
     tree, camera, base = build(lift=True)
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])

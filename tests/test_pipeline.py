@@ -403,12 +403,12 @@ def test_the_link_a_sensor_is_declared_on_is_its_body_not_its_mount(seed):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_a_housing_named_for_a_sensor_product_is_its_body_not_its_mount(seed):
-    """A car's stereo camera written as two housings, each drawn with a camera frame in front declaring one camera:
-    the model mounted each camera on its own housing, which split the pair into two devices on two mounts. A fixed
-    link whose own name names a catalogue product that sees from two places (the ZED, a stereo camera) and carries
-    nothing but one camera's chain is half that device, never offered as its mount; a lidar's base named for its
-    product (the Velodyne, which sees from one place) stays offered, as the truth files take it."""
+def test_a_housing_named_for_a_stereo_product_is_half_the_device_not_its_mount(seed):
+    """A car's stereo camera written as two housings, each drawn with a camera frame in front declaring one camera.
+    A fixed link whose own name names a catalogue product that sees from two places (the ZED, a stereo camera) and
+    carries nothing but one camera's chain is half that device, never offered as its mount, so both cameras share
+    the chassis as their one candidate; a lidar's base named for its product (the Velodyne, which sees from one
+    place) stays offered, as the truth files take it."""
     w = Writer(random.Random(seed))
     chassis = w.link('<box size="0.4 0.2 0.1"/>')
     housings, cameras = [], []

@@ -15,8 +15,9 @@ candidates those leave open among the BodyPart classes (or none: a device's mech
 joints with their type and the direction of their axis in the robot's frame, the links it moves,
 what it hangs from, what it carries (devices, further chains) and whether it reaches the ground; those
 that carry others then go through the reasoner again, the others' classes asserted (an arm on either side
-makes a torso). Where no part moves the robot about, a main body resting on wheels the file fixed, or
-carrying devices in a file with no movable joint, is a mobile base with no joints (jointless_base).
+makes a torso). Where no part moves the robot about, a main body resting on wheels the file fixed, carrying
+devices in a file with no movable joint, carrying rotors, or moved in the ground plane by the joints placing the robot
+is a mobile base with no joints (jointless_base).
 Adjacent chains given the same class join (a shoulder joint split off by a head hung on the same
 link); chains of the mobile base join it, around the chassis its wheels and base joints hang from.
 `side` comes from geometry (REP 103: +y of the root frame is left, at the zero pose), checked once
@@ -44,7 +45,7 @@ from urdfkb.pipeline.abstraction.vectors import dot, norm, unit
 SIDE_EPS = 0.01   # m: a part nearer the root's x-z plane has no side
 GROUND_EPS = 0.02  # m: a chain whose links come this near the robot's lowest frame reaches the ground
 NAMES_WIN = 0.75  # the model's reading of the names overrules geometry for a class at this share
-LEVEL = math.cos(math.radians(6))  # an axis within 6 degrees of the vertical: a turn in the ground plane
+UPRIGHT = math.cos(math.radians(6))  # an axis within 6 degrees of the vertical: a turn in the ground plane
 PROPELLERS = 2  # idle joints spinning on a main body that make it a vehicle (one alone may be a spinning lidar)
 LEG = "Leg"
 HEAD = "Head"
@@ -501,18 +502,22 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
 
 
 def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[str] = frozenset(),
-              vehicle: bool = False) -> str | None:
+              propelled: bool = False) -> str | None:
     """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
     below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
     heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
     drone's airframe, a base whose wheels the file fixes), but of `idle` joints, which move no body part (a drone's
-    rotors, the virtual joints placing a base), and of joints held still (Edge.moves: RotorS hangs its sensors' frames
-    on revolute joints limited 0..0), or, where the robot is a `vehicle` (PROPELLERS rotors or more spin on
-    the root's rigid body, or the file moves it in the plane), whatever else it carries (a drone's camera gimbal or
-    arm, a mobile manipulator's arm). None elsewhere: an arm's base carries its first joint."""
+    rotors), of joints held still (KinematicTree.moving: RotorS hangs its sensors' frames on revolute joints
+    limited 0..0) and of the joints placing the robot where they move it in the ground plane (placed_in_plane), or,
+    where PROPELLERS rotors or more spin on the root's rigid body (`propelled`) or the file moves the robot in the
+    plane, whatever else it carries (a drone's camera gimbal or arm, a mobile manipulator's arm). None elsewhere: an
+    arm's base carries its first joint."""
+    planar = placed_in_plane(tree)
+    idle, vehicle = idle | planar, propelled or bool(planar)
+
     def moves(child: str) -> bool:
         edge = tree.edge_to(child)
-        return edge.moves and edge.joint not in idle  # a joint held at 0..0 (a simulator's sensor mount) moves nothing
+        return tree.moving(edge) and edge.joint not in idle
     link = tree.root
     while is_frame(tree, link):
         below = tree.children(link)
@@ -528,7 +533,7 @@ def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[
     return link
 
 
-def _placed_in_plane(tree: KinematicTree) -> frozenset[str]:
+def placed_in_plane(tree: KinematicTree) -> frozenset[str]:
     """The joints placing the whole robot (frames.placing_joints) where they move it in the ground plane alone (a planar
     joint, or sliding joints whose axes all lie level, with turns about the vertical): a ground vehicle whose file
     moves it by virtual x, y and yaw joints rather than by its wheels. Empty where they free it (a floating joint) or
@@ -539,8 +544,8 @@ def _placed_in_plane(tree: KinematicTree) -> frozenset[str]:
         if e.joint not in placing:
             continue
         axis = unit(tree.direction_in(e.child, tree.root, e.axis))
-        upright = axis is not None and abs(dot(axis, up)) >= LEVEL  # a planar joint's axis is its plane's normal
-        level = axis is not None and abs(dot(axis, up)) <= math.sqrt(1 - LEVEL ** 2)
+        upright = axis is not None and abs(dot(axis, up)) >= UPRIGHT  # a planar joint's axis is its plane's normal
+        level = axis is not None and abs(dot(axis, up)) <= math.sqrt(1 - UPRIGHT ** 2)  # within 6 degrees of level
         if not (level if e.joint_type == "prismatic" else upright and e.joint_type != "floating"):
             return frozenset()
     return placing
@@ -575,15 +580,15 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     (none movable, or only `idle` ones, the joints of candidates that are no body part: a drone's airframe with its
     rotors, a boat's hull, a car whose wheels the file leaves out), or on which PROPELLERS or more `idle` joints spin
     (Edge.spins: a drone's rotors, a boat's propellers, whatever else moves on it, a camera gimbal), or that the file
-    moves in the ground plane by the joints placing it (_placed_in_plane: a holonomic base written without its
+    moves in the ground plane by the joints placing it (placed_in_plane: a holonomic base written without its
     wheels), is a mobile base with no joint of its own, which the ontology's MobileBase allows; fixed wheels stay its
     links. The body-part question, shown the body, what it carries and how it stands, offered mobile base or none,
     gives the part its confidence: the model's share for mobile base."""
-    planar = _placed_in_plane(tree)
+    planar = placed_in_plane(tree)
     rigid = set(palm(tree, tree.root))  # the body and what is fixed to it: main_body reaches it by fixed joints
     rotors = [e.child for e in tree.edges if e.joint in idle and e.spins and e.parent in rigid]
     propelled = len(rotors) >= PROPELLERS
-    body = main_body(tree, components, idle | planar, propelled or bool(planar))
+    body = main_body(tree, components, idle, propelled)
     if body is None or any(p.cls in (tax.mobile_base, tax.wheel, LEG) for p in parts):
         return parts
     if planar:
@@ -606,9 +611,14 @@ def jointless_base(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, parts: 
     offered = {a: c for a, c in asked.meaning.items() if c in (tax.mobile_base, NONE)}
     (verdict,) = ask(oracle, [replace(asked.question, options=tuple(offered))], "body classification", progress)
     share = next((verdict.distribution.get(a, 0.0) for a, c in offered.items() if c == tax.mobile_base), 0.0)
-    why, evidence = (("resting on wheels the file fixed", wheels) if wheels else ("of a robot with no joint", devices)
-                     if still else ("that its spinning rotors carry", rotors) if propelled
-                     else ("the file moves in the plane", sorted(planar)))
+    if wheels:
+        why, evidence = "resting on wheels the file fixed", wheels
+    elif still:
+        why, evidence = "of a robot with no joint", devices
+    elif propelled:
+        why, evidence = "that its spinning rotors carry", rotors
+    else:
+        why, evidence = "the file moves in the plane", sorted(planar)
     log(f"body:{body}: a main body {why} ({', '.join(evidence)}): a mobile base,"
         f" the model's share {share:.2f}")
     return [BodyPart(f"mobile_base_{body}", tax.mobile_base, round(share, 4), tree.parent(body), (), (body, *wheels)),
