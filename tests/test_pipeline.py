@@ -411,14 +411,13 @@ def test_a_housing_named_for_a_stereo_product_is_half_the_device_not_its_mount(s
     place) stays offered, as the truth files take it."""
     w = Writer(random.Random(seed))
     chassis = w.link('<box size="0.4 0.2 0.1"/>')
-    housings, cameras = [], []
+    cameras = []
     for side in ("left", "right"):
         housing = f"zed_{side}_housing_{seed}"
         w.links.append(f'<link name="{housing}"><visual><geometry><box size="0.03 0.03 0.03"/></geometry></visual></link>')
         camera = w.link('<box size="0.02 0.02 0.02"/>')
         w.joint("fixed", chassis, housing, xyz=(0.1, 0.03 if side == "left" else -0.03, 0.08))
         w.joint("fixed", housing, camera, xyz=(0.04, 0.0, 0.04))
-        housings.append(housing)
         cameras.append(camera)
     tower, lidar = f"velodyne_base_{seed}", w.link('<cylinder radius="0.04" length="0.05"/>')
     w.links.append(f'<link name="{tower}"><visual><geometry><box size="0.05 0.05 0.1"/></geometry></visual></link>')

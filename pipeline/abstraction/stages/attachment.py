@@ -73,9 +73,10 @@ def _own_body(tree: KinematicTree, link: str, leaf: str) -> bool:
     facts = tree.evidence.get(link)
     if facts is None:
         return False
+    if any(s.reference == link for s in facts.sensors):
+        return True
     product = catalogue().match([link, *facts.meshes])
-    return any(s.reference == link for s in facts.sensors) or (
-        product is not None and product.cls in vocabulary().unseen(1, vocabulary().component))
+    return product is not None and product.cls in vocabulary().unseen(1, vocabulary().component)
 
 
 def detect_roots(oracle: Oracle, tree: KinematicTree, leaves: list[str], kind: Kind,
