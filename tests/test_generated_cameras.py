@@ -1025,3 +1025,52 @@ def test_cameras_on_one_rack_facing_apart_are_devices_of_their_own_whatever_the_
     groups = merge(oracle, tree, [sub_chain(tree, leaf, base) for leaf in leaves], "sensor",
                    dict.fromkeys(leaves, "VisionSensor"))
     assert sorted(sorted(g.leaves) for g in groups) == sorted([[s] for s in singles] + [sorted(pair)])
+
+
+@pytest.mark.parametrize("mesh", ["d405", None])
+def test_a_depth_cameras_frames_on_a_hand_split_by_the_model_are_one_kind_where_its_housing_names_it(mesh):
+    """A parallel gripper's palm carries, bolted below a bracket, a depth camera's housing with four imagers (each a
+    body frame and an optical frame below it). The model calls one optical frame part of an end-effector (0.52) and
+    the others sensors (0.6). Where the housing is drawn with a catalogue product's mesh (`d405`, a depth camera), the
+    four are one device's frames and take the product's kind; a plain box names nothing, and a hand's palm carries
+    its tool frames beside its sensors' frames, so the votes stand (on the code before: the named housing too, and
+    the camera came apart, one imager in the gripper)."""
+    w = Writer(random.Random(11))
+    base = w.link('<box size="0.3 0.3 0.1"/>', centre=(0.0, 0.0, 0.0), mass=5.0)
+    palm = w.link('<box size="0.08 0.1 0.04"/>', centre=(0.0, 0.0, 0.0), mass=0.4)
+    w.joint("revolute", w.arm(base), palm, (0.0, 0.0, 0.1), (0.0, 0.0, 1.0), (-3.0, 3.0))
+    tips = []
+    for side in (1.0, -1.0):
+        finger = w.link('<box size="0.01 0.02 0.06"/>', centre=(0.0, 0.0, 0.03), mass=0.05)
+        w.joint("prismatic", palm, finger, (0.0, side * 0.02, 0.04), (0.0, side, 0.0), (0.0, 0.04))
+        tips.append(tip := w.link())
+        w.joint("fixed", finger, tip, (0.0, 0.0, 0.06))
+    bracket = w.link()
+    w.joint("fixed", palm, bracket, (0.03, 0.0, 0.02), rpy=(0.0, -1.4, 0.0))
+    shape = f'<mesh filename="package://gripper_description/meshes/{mesh}.stl"/>' if mesh else '<box size="0.02 0.04 0.04"/>'
+    housing = w.link(shape, centre=(0.0, 0.0, 0.0), mass=0.07)
+    w.joint("fixed", bracket, housing, (0.01, 0.0, 0.02))
+    frames = []
+    for y in (0.0, 0.0, -0.018, 0.0):
+        own, optical = w.link(), w.link()
+        w.joint("fixed", housing, own, (0.0, y, 0.0))
+        w.joint("fixed", own, optical, rpy=OPTICAL)
+        frames.append(optical)
+    tree = load_urdf(w.urdf())
+    sensor, tool = TAX.answer(TAX.kinds["sensor"].cls), TAX.answer(TAX.kinds["end_effector"].cls)
+
+    def rule(q):
+        leaf = q.key.split(":", 1)[1]
+        if leaf in tips or leaf == frames[2]:
+            return {tool: 0.52, sensor: 0.48}
+        return {sensor: 0.6, tool: 0.4}
+    context, state = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor"), Findings()
+    for step in SENSOR_PASS.steps[:2]:
+        step(context, state)
+    assert housing in state.palms and tips[0] in state.hand_mounts
+    kinds = {f: state.claims[f] for f in frames}
+    cls = TAX.kinds["sensor"].cls
+    if mesh:
+        assert kinds == dict.fromkeys(frames, cls)
+    else:
+        assert kinds[frames[2]] == TAX.kinds["end_effector"].cls and kinds[frames[0]] == cls

@@ -62,25 +62,31 @@ def identification(ctx: Context, found: Findings) -> None:
 def _one_kind_per_body(ctx: Context, found: Findings) -> None:
     """Frames of one body are one device (grouping binds them), so they are of one kind: where the model
     split them between the device passes' kinds, the kind with the larger sum of vote shares over them
-    takes them all (a hand's leaf, known from structure, counts one), unless products they name are of one kind
-    only and no frame of another kind is settled by a declaration or the shape: then the products' kind takes them
-    (a vacuum gripper's cup beside the arm's unnamed tool frame). Not on a hand's palm, which carries its tool
-    frames beside its sensors' frames (an IMU)."""
+    takes them all (a hand's leaf, known from structure, counts one), unless products they or their body name are
+    of one kind only and no frame of another kind is settled by a declaration or the shape: then the products'
+    kind takes them (a vacuum gripper's cup beside the arm's unnamed tool frame; a depth camera's frames on a
+    housing drawn with the camera's mesh). Not on a hand's palm, which carries its tool frames beside its sensors'
+    frames (an IMU), unless the body they hang from names a product: a camera housing bolted to the hand."""
     vocab = ctx.vocab
     devices = {vocab.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in vocab.kinds}
     claims = found.claims
     settled = found.declared_sensors | set(found.hand_mounts)
     claimed = [leaf for leaf in found.leaves if claims.get(leaf) in devices]
+
+    def kinds_named(links: list[str]) -> set[str]:
+        return {kind for link in links if (product := named_product(ctx.tree, [link])) and product.cls in vocab
+                for kind in devices if vocab.is_a(product.cls, kind)}
     for frames in frames_of_one_body(ctx.tree, claimed):
-        if len(frames) > 1 and body_of(ctx.tree, frames[0], frames[1]) in found.palms:
-            continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
         totals: dict[str, float] = {}
         for leaf in frames:
             totals[claims[leaf]] = totals.get(claims[leaf], 0.0) + found.shares[leaf]
         if len(totals) < 2:
             continue
-        named = {kind for leaf in frames if (product := named_product(ctx.tree, [leaf])) and product.cls in vocab
-                 for kind in devices if vocab.is_a(product.cls, kind)}
+        body = body_of(ctx.tree, frames[0], frames[1])
+        housing = kinds_named([body]) if body is not None else set()
+        if body in found.palms and not housing:
+            continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
+        named = kinds_named(frames) | housing
         if len(named) == 1 and not any(claims[leaf] not in named for leaf in frames if leaf in settled):
             kind, why = next(iter(named)), "the kind of the product they name"
         else:
