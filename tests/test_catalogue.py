@@ -18,7 +18,8 @@ from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
 from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.abstraction.alike import alike_sets
-from urdfkb.pipeline.abstraction.steps.classify import chain_subject, pre_classification
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.steps.classify import chain_subject, post_classification, pre_classification
 from urdfkb.pipeline.abstraction.stages.sensor_check import not_sensors
 from urdfkb.pipeline.abstraction.steps.findings import Findings
 from urdfkb.pipeline.llm.scripted import ScriptedBackend
@@ -167,6 +168,53 @@ def test_a_sensor_the_catalogue_names_of_no_kind_below_sensor_stays_a_sensor():
     assert "satellite navigation (GNSS) receiver" in chain_subject(ctx, tree, found.chains[0], "Sensor").evidence
     assert "pre:navsat_link@Sensor" not in seen and found.pre["navsat_link"].cls == "Sensor"
     assert "other sensor" not in seen["pre:plate@Sensor"] and found.pre["plate"].cls != "Sensor"
+
+
+def test_a_device_of_several_chains_naming_a_sensor_of_no_kind_below_sensor_stays_a_sensor():
+    """A boat's satellite receiver written as two antenna frames (a heading pair), grouped as one device: the model
+    descends from Sensor to a vision sensor and a depth camera (as the real model did on a Clearpath Heron), but the
+    product the links name rules every kind below Sensor out of post-classification as of pre-classification: the
+    device stays a Sensor, unasked (on the code before: a depth camera)."""
+    w = Writer(random.Random(6))
+    base = w.link('<box size="1.3 1.0 0.3"/>')
+    for leaf, x in (("navsat_link", 0.3), ("rear_navsat", -0.3)):
+        w.links.append(f'<link name="{leaf}"/>')
+        w.joint("fixed", base, leaf, (x, 0.0, 0.4))
+    tree = load_urdf(w.urdf())
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        return next((o for o in ("vision sensor", "depth camera") if o in q.options), q.options[0])
+    ctx = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor")
+    found = Findings(chains=[sub_chain(tree, leaf, base) for leaf in ("navsat_link", "rear_navsat")])
+    pre_classification(ctx, found)
+    found.groups = [Group(list(found.chains))]
+    post_classification(ctx, found)
+    assert found.post[0].cls == "Sensor" and not any(key.startswith("post:") for key in seen)
+
+
+@pytest.mark.parametrize("leaf", ["radar", "front_mmwave_link"])
+def test_a_radar_is_shown_as_one_and_is_no_lidar_and_no_sonar(leaf):
+    """A radar's link, bare (a quadruped's `radar` frame was typed an inertial measurement unit at 0.16 and held
+    back): the catalogue's generic radio ranging sensor is shown with the link, and once the model places it among
+    the ranging sensors no kind below is asked (a radar is neither a lidar nor a sonar)."""
+    w = Writer(random.Random(4))
+    base = w.link('<box size="0.6 0.3 0.15"/>')
+    w.links.append(f'<link name="{leaf}"/>')
+    w.joint("fixed", base, leaf, (0.3, 0.0, -0.05), rpy=(0.0, 2.88, 0.0))
+    tree = load_urdf(w.urdf())
+    assert named_product(tree, [leaf]).cls == "RangingSensor"
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        return "ranging sensor" if "ranging sensor" in q.options else q.options[0]
+    ctx = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor")
+    found = Findings(chains=[sub_chain(tree, leaf, base)])
+    assert "radar" in chain_subject(ctx, tree, found.chains[0], "Sensor").evidence
+    pre_classification(ctx, found)
+    assert found.pre[leaf].cls == "RangingSensor" and f"pre:{leaf}@RangingSensor" not in seen
 
 
 @pytest.mark.parametrize("leaf", ["front_tfmini_link", "ir_reflectance_sensor_2"])

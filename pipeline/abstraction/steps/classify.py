@@ -209,12 +209,14 @@ def _images_out(ctx: Context, g: Group, camera: str, top: str) -> frozenset[str]
 
 def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str],
                     unfit: frozenset[str]) -> frozenset[str]:
-    """The classes under `start` a multi-chain group is not offered: those its declarations, its count and its frames'
-    kinds rule out; where together they leave none and the declarations narrowed, the frames' kinds (the model's
-    reading of each frame) give way to the declarations (the file's statement of the device: a camera giving colour
-    and a depth sensor make an RGB-D camera whose frames the model called depth only)."""
+    """The classes under `start` a multi-chain group is not offered: those its declarations, the catalogue product
+    its links name (_off_product: a satellite receiver is a sensor of no kind the core names below Sensor), its count
+    and its frames' kinds rule out; where together they leave none and the declarations narrowed, the frames' kinds
+    (the model's reading of each frame) give way to the declarations (the file's statement of the device: a camera
+    giving colour and a depth sensor make an RGB-D camera whose frames the model called depth only)."""
     key = f"post:{g.leaves[0]}"
-    declared = _ruled_out(ctx, ctx.tree, g.members, start, key, _named_classes(ctx, g))
+    declared = (_ruled_out(ctx, ctx.tree, g.members, start, key, _named_classes(ctx, g))
+                | _off_product(ctx.vocab, device_product(ctx.tree, g.chains), start))
     ruled_out = declared | counted
     offered = set(ctx.vocab.subclasses_below(start)) - ruled_out
     if declared and offered and offered <= unfit:
