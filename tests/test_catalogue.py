@@ -353,3 +353,28 @@ def test_alike_leaves_naming_different_products_are_checked_apart():
         return "sensor" if "\nProduct: " in q.user else "passive part"
     dropped = not_sensors(Oracle(ScriptedBackend(check)), TAX, tree, leaves, dict.fromkeys(leaves, 0.7), lambda _m: None)
     assert dropped == [leaves[1]] and set(users) == {f"check:{leaf}" for leaf in leaves}
+
+
+@pytest.mark.parametrize("plugin", ["librotors_gazebo_imu_plugin.so", "libhector_gazebo_ros_imu.so"])
+def test_an_imu_a_plugin_alone_simulates_is_declared_an_imu(plugin):
+    """A drone's inertial frame that the simulator gives by a plugin naming the link, with no <sensor> (RotorS,
+    hector): the plugin's library names the SDF type `imu`, which rules out the inertial kinds an IMU is not, as a
+    <sensor type="imu"> would. The model, which calls the frame a gyroscope (as the real one did on a Crazyflie),
+    is offered no gyroscope or accelerometer (on the code before: a gyroscope); a frame no plugin names still is."""
+    w = Writer(random.Random(8))
+    base = w.link('<box size="0.1 0.1 0.03"/>', centre=(0.0, 0.0, 0.0), mass=0.03)
+    frames = [w.link(centre=(0.0, 0.0, 0.0), mass=0.001) for _ in range(2)]
+    for frame in frames:
+        w.joint("fixed", base, frame)
+    block = (f'<gazebo><plugin filename="{plugin}" name="imu_plugin"><linkName>{frames[0]}</linkName>'
+             '<imuTopic>imu</imuTopic></plugin></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", block.encode() + b"</robot>"))
+    seen = {}
+
+    def rule(q):
+        seen[q.key] = q.options
+        return next((o for o in ("inertial sensor", "gyroscope") if o in q.options), q.options[0])
+    ctx = Abstractor(Oracle(ScriptedBackend(rule)), TAX).context(tree, kind="sensor")
+    found = Findings(chains=[sub_chain(tree, frame, base) for frame in frames])
+    pre_classification(ctx, found)
+    assert found.pre[frames[0]].cls == "IMU" and found.pre[frames[1]].cls == "Gyroscope"

@@ -75,8 +75,9 @@ def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: s
     (core:horizontalFieldOfViewRadians restrictions: a 10-degree beam is no lidar) and by what a ranging sensor
     emits (core:rangingRadiation values: an infrared beam is no sonar); each narrowing is counted and logged."""
     vocab = ctx.vocab
+    links = list(links)
     sensors = [s for link in links for s in tree.evidence.get(link, _NO_FACTS).sensors]
-    types = {s.sdf_type for s in sensors}
+    types = {s.sdf_type for s in sensors} | _plugin_types(vocab, tree, links)
     if any(d.type == "depth" and any(c.colour and c.reference == d.reference for c in sensors) for d in sensors):
         rgbd = vocab.declared_classes([RGBD])
         types = {RGBD if any(vocab.is_a(r, c) for r in rgbd for c in vocab.declared_classes([t])) else t for t in types}
@@ -93,6 +94,18 @@ def _ruled_out(ctx: Context, tree: KinematicTree, links: Iterable[str], below: s
                 + (f"; sweeping {max(spans):.2f} rad, not {sorted(narrow)}" if narrow else "")
                 + (f"; emitting {radiation}, not {sorted(emitting)}" if emitting else ""))
     return ruled_out | narrow | emitting
+
+
+def _plugin_types(vocab: Vocabulary, tree: KinematicTree, links: list[str]) -> set[str]:
+    """The simulator sensor types that the plugins naming `links` outside any sensor declaration carry as words of
+    their library's name: a sensor a simulator gives by a plugin alone, with no <sensor> (RotorS'
+    rotors_gazebo_imu_plugin, Gazebo's gazebo_ros_imu naming their IMU link), is declared as a sensor of that type is."""
+    found = set()
+    for stem in (p for link in links for p in tree.evidence.get(link, _NO_FACTS).plugins):
+        words = stem.lower().replace("-", "_").split("_")
+        found |= {run for i in range(len(words)) for j in range(i + 1, len(words) + 1)
+                  if vocab.declared_classes([run := "_".join(words[i:j])])}
+    return found
 
 
 @step("pre-classification", needs=("chains",), makes=("pre",))
