@@ -20,6 +20,11 @@ from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.runner import Settings, run
 from tests.urdf_writer import Writer
+from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
+from urdfkb.pipeline.abstraction.stages.classification import Typed
+from urdfkb.pipeline.abstraction.stages.grouping import Group
+from urdfkb.pipeline.abstraction.steps.classify import numbered_units
+from urdfkb.pipeline.abstraction.steps.findings import Findings
 
 BOT = Path(__file__).parent / "data" / "sensor_bot.urdf"
 TAX = vocabulary()
@@ -246,6 +251,36 @@ def test_numbered_units_named_as_one_device_stay_separate_unless_an_array(bot):
         assert all(c.root == "hull" and len(c.subcomponents) == 1 for c in echoes)
         assert {c.cls for c in echoes} == ({echoes[0].cls} if undeclared else {"Lidar"})  # first-option rangers
         assert any(line.startswith("split numbered units") for line in trace) == undeclared
+
+
+@pytest.mark.parametrize("names, cls, apart", [
+    (("button_1", "button_2", "button_power"), "Button", True),
+    (("bump_left", "bump_right"), "Bumper", True),
+    (("cam_left", "cam_right"), "StereoCamera", False),
+    (("button_1", "key_power"), "Button", False),
+])
+def test_units_whose_names_differ_in_their_last_word_are_separate_unless_one_cameras(names, cls, apart):
+    """Bare frames on one base, each by its own joint, named alike but for their last word and given one device name
+    by the model, then typed a device of one kind that is no array: a faceplate's three buttons are three buttons, each
+    of that kind (on the code before: one button of three frames); a stereo camera's two eyes stay one camera (its
+    frames of several places are one device); names of no common stem are no units."""
+    w = Writer(random.Random(3))
+    base = w.link('<box size="0.4 0.3 0.1"/>')
+    for i, name in enumerate(names):
+        w.links.append(f'<link name="{name}"/>')
+        w.joint("fixed", base, name, (0.1, 0.04 * i, 0.05))
+    tree = load_urdf(w.urdf())
+    ctx = Abstractor(Oracle(ScriptedBackend(lambda q: q.options[0])), TAX).context(tree, kind="sensor")
+    state = Findings(groups=[Group([sub_chain(tree, name, base) for name in names])])
+    parent = TAX.parents(cls)[0]
+    state.pre = {name: Typed(parent, 0.9) for name in names}
+    state.post = [Typed(cls, 0.7)]
+    numbered_units(ctx, state)
+    if apart:
+        assert [g.leaves for g in state.groups] == [[name] for name in names]
+        assert [t.cls for t in state.post] == [cls] * len(names)
+    else:
+        assert [g.leaves for g in state.groups] == [list(names)] and state.post[0].cls == cls
 
 
 def test_provenance_reports_how_many_decisions_a_declaration_constrained(bot):

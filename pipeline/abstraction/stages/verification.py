@@ -90,10 +90,17 @@ def verify(tree: KinematicTree, groups: list[Group], unclaimed: Callable[[str], 
 _INDEX = re.compile(r"\d+")
 
 
-def indexed_units(tree: KinematicTree, group: Group) -> bool:
+def indexed_units(tree: KinematicTree, group: Group, named_apart: bool = False) -> bool:
     """True when the group's sub-chains are numbered units of one type: each hangs by its own joint
-    from one shared parent, and their top links' names differ only by a number (sonar_1, sonar_2)."""
+    from one shared parent, and their top links' names differ only by a number (sonar_1, sonar_2), or, where
+    `named_apart`, only in their last word (button_1, button_power)."""
     tops = {c.links[0] for c in group.chains}
     if len(tops) < 2 or len(tops) != len(group.chains) or len({tree.parent(t) for t in tops}) != 1:
         return False
-    return len({_INDEX.sub("#", t) for t in tops}) == 1
+    return len({_INDEX.sub("#", t) for t in tops}) == 1 or (named_apart and _one_stem(tops))
+
+
+def _one_stem(names: set[str]) -> bool:
+    """The names share all but their last word, which tells each apart (button_1, button_2, button_power)."""
+    stems = {name.rsplit("_", 1)[0] for name in names if "_" in name}
+    return len(stems) == 1 and len(names) == sum(1 for name in names if "_" in name)

@@ -301,14 +301,24 @@ def _shared_class(ctx: Context, classes: set[str], top: str) -> str:
 
 @step("numbered units", needs=("groups", "pre", "post"), makes=("groups", "post"))
 def numbered_units(ctx: Context, found: Findings) -> None:
-    """Numbered units of one type given one device name are separate devices unless the
-    device was classified as an array (core:numberedUnits): each keeps its own pre-class."""
+    """Units of one type given one device name are separate devices unless the device was classified as an array
+    (core:numberedUnits): each hangs by its own joint from one parent, their names differing by a number only (each
+    unit keeps its own pre-class), or, for a device of a kind other than vision (a camera's frames of several
+    places are one device), in their last word only: a faceplate's button_1, button_2 and button_power, each unit
+    of the device's class."""
     groups, post = [], []
     for g, t in zip(found.groups, found.post):
-        if len(g.chains) > 1 and not ctx.vocab.has_numbered_units(t.cls) and indexed_units(ctx.tree, g):
+        if len(g.chains) < 2 or ctx.vocab.has_numbered_units(t.cls):
+            groups.append(g)
+            post.append(t)
+        elif indexed_units(ctx.tree, g):
             ctx.log(f"split numbered units {g.leaves} ({t.cls} is not an array)")
             groups += [Group([c]) for c in g.chains]
             post += [found.pre[c.leaf] for c in g.chains]
+        elif not ctx.vocab.is_a(t.cls, VISION) and indexed_units(ctx.tree, g, named_apart=True):
+            ctx.log(f"split units named apart {g.leaves} (each a {t.cls}, which is not an array)")
+            groups += [Group([c]) for c in g.chains]
+            post += [t] * len(g.chains)
         else:
             groups.append(g)
             post.append(t)
