@@ -69,7 +69,7 @@ def _one_kind_per_body(ctx: Context, found: Findings) -> None:
     frames (an IMU), unless the body they hang from names a product: a camera housing bolted to the hand."""
     vocab = ctx.vocab
     devices = {vocab.kinds[k].cls for k in (SENSOR, END_EFFECTOR) if k in vocab.kinds}
-    claims = found.claims
+    claims, palms = found.claims, found.palms
     settled = found.declared_sensors | set(found.hand_mounts)
     claimed = [leaf for leaf in found.leaves if claims.get(leaf) in devices]
 
@@ -84,7 +84,7 @@ def _one_kind_per_body(ctx: Context, found: Findings) -> None:
             continue
         body = body_of(ctx.tree, frames[0], frames[1])
         housing = kinds_named([body]) if body is not None else set()
-        if body in found.palms and not housing:
+        if body in palms and not housing:
             continue  # a hand's palm carries its tool frames beside its sensors' (an IMU)
         named = kinds_named(frames) | housing
         if len(named) == 1 and not any(claims[leaf] not in named for leaf in frames if leaf in settled):
