@@ -204,7 +204,8 @@ def test_a_radar_is_shown_as_one_and_is_no_lidar_and_no_sonar(leaf):
     w.links.append(f'<link name="{leaf}"/>')
     w.joint("fixed", base, leaf, (0.3, 0.0, -0.05), rpy=(0.0, 2.88, 0.0))
     tree = load_urdf(w.urdf())
-    assert named_product(tree, [leaf]).cls == "RangingSensor"
+    product = named_product(tree, [leaf])
+    assert product is not None and product.cls == "RangingSensor"
     seen = {}
 
     def rule(q):
