@@ -102,5 +102,4 @@ def indexed_units(tree: KinematicTree, group: Group, named_apart: bool = False) 
 
 def _one_stem(names: set[str]) -> bool:
     """The names share all but their last word, which tells each apart (button_1, button_2, button_power)."""
-    stems = {name.rsplit("_", 1)[0] for name in names if "_" in name}
-    return len(stems) == 1 and len(names) == sum(1 for name in names if "_" in name)
+    return all("_" in name for name in names) and len({name.rsplit("_", 1)[0] for name in names}) == 1

@@ -228,8 +228,9 @@ def _declared_first(ctx: Context, g: Group, start: str, counted: frozenset[str],
     (the model's reading of each frame) give way to the declarations (the file's statement of the device: a camera
     giving colour and a depth sensor make an RGB-D camera whose frames the model called depth only)."""
     key = f"post:{g.leaves[0]}"
-    declared = (_ruled_out(ctx, ctx.tree, g.members, start, key, _named_classes(ctx, g))
-                | _off_product(ctx.vocab, device_product(ctx.tree, g.chains), start))
+    product = device_product(ctx.tree, g.chains)
+    declared = (_ruled_out(ctx, ctx.tree, g.members, start, key, _classes_of(ctx.vocab, product))
+                | _off_product(ctx.vocab, product, start))
     ruled_out = declared | counted
     offered = set(ctx.vocab.subclasses_below(start)) - ruled_out
     if declared and offered and offered <= unfit:
