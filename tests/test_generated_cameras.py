@@ -1074,3 +1074,27 @@ def test_a_depth_cameras_frames_on_a_hand_split_by_the_model_are_one_kind_where_
         assert kinds == dict.fromkeys(frames, cls)
     else:
         assert kinds[frames[2]] == TAX.kinds["end_effector"].cls and kinds[frames[0]] == cls
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("beside", ["t265", "d435"])
+def test_frames_naming_products_of_two_kinds_are_two_devices_whatever_the_names_share(seed, beside):
+    """A sensor head carries a depth camera (a bare body frame and its optical frame, named for a RealSense D435) and,
+    a few centimetres away, a bare pose frame named for a RealSense T265 (a tracking camera) or for the D435 again;
+    the model names both one device (their names share a stem). Frames naming products of two kinds are two devices;
+    one product's frames stay one (on the code before: the tracking camera's frame was part of the RGB-D camera)."""
+    w = Writer(random.Random(seed))
+    base, head = w.link('<box size="0.6 0.3 0.1"/>'), w.link()
+    w.joint("fixed", base, head, (0.4, 0.0, 0.0))
+    stem = w.name()
+    body, optical, pose = f"{stem}_d435_link", f"{stem}_d435_optical_frame", f"{stem}_{beside}_pose_frame"
+    w.links += [f'<link name="{name}"/>' for name in (body, optical, pose)]
+    w.joint("fixed", head, body, (0.03, 0.0, 0.045))
+    w.joint("fixed", body, optical, rpy=OPTICAL)
+    w.joint("fixed", head, pose, (0.03, 0.01, 0.02))
+    tree = load_urdf(w.urdf())
+    frames = [optical, pose]
+    groups = merge(Oracle(ScriptedBackend(lambda q: q.options[0])), tree, [sub_chain(tree, f, base) for f in frames],
+                   "sensor", dict.fromkeys(frames, "VisionSensor"))
+    expected = [[optical], [pose]] if beside == "t265" else [sorted(frames)]
+    assert sorted(sorted(g.leaves) for g in groups) == expected

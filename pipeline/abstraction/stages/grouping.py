@@ -40,6 +40,8 @@ same parent (and of no other sub-chain), is another name for that link (_aliases
 the lidar's own base).
 One product, one device: two near sub-chains of one category whose links name one catalogue product, one of them a
 lone drawn leaf declaring nothing (a camera's bracket drawn with the product's mesh), are one device (_one_product).
+Two products, two devices: two sub-chains whose links name catalogue products of two classes are never one device
+(_two_products: a depth camera and a tracking camera bolted to one sensor head), whatever their names or their body.
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
 publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
@@ -59,6 +61,7 @@ from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
 from urdfkb.pipeline.abstraction.frames import SAME_PLACE, body_of, is_frame, is_optical, optical_twins, viewpoints
+from urdfkb.pipeline.abstraction.catalogue import Product
 from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.reading.evidence import SimSensor
 from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
@@ -269,6 +272,11 @@ def _two_declared(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return bool(own_a and own_b and own_a.isdisjoint(own_b))
 
 
+def _two_products(a: Product | None, b: Product | None) -> bool:
+    """Both sub-chains name a catalogue product, of two classes: two devices (one product's frames name it alike)."""
+    return a is not None and b is not None and a.cls != b.cls
+
+
 def _declared_devices(tree: KinematicTree, chain: SubChain, shared: set[str]) -> frozenset[SimSensor]:
     """The ray, depth and force-torque sensors declared on the sub-chain's links below its mount, but those `shared`
     with another sub-chain: each is one device (one scan, range reading, depth image, or one six-axis transducer),
@@ -332,16 +340,18 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
           progress: Progress | None = None, apart: frozenset[str] = frozenset()) -> list[Group]:
     """Partition `chains` into devices (see the module docstring); `categories`: leaf → sensor category; `apart`:
     leaves declared as sensors of their own that no camera carries (never a camera's built-in frame)."""
-    declared = [[kind != END_EFFECTOR and i != j and _two_declared(tree, a, b) for j, b in enumerate(chains)]
-                for i, a in enumerate(chains)]
+    products = [named_product(tree, list(reversed(c.links))) if kind != END_EFFECTOR else None for c in chains]
+    two = [[kind != END_EFFECTOR and i != j and (_two_declared(tree, a, b) or _two_products(products[i], products[j]))
+            for j, b in enumerate(chains)]
+           for i, a in enumerate(chains)]
 
-    def two_declared(i: int, j: int) -> bool:
-        return declared[i][j]
+    def two_devices(i: int, j: int) -> bool:
+        return two[i][j]
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
-                  and not two_declared(i, j) and _near(tree, a, b)
+                  and not two_devices(i, j) and _near(tree, a, b)
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
@@ -352,11 +362,11 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]
         device = _device_names(oracle, chains, joinable,
-                               partition(range(len(chains)), lambda i, j: bound[i][j], two_declared), progress)
+                               partition(range(len(chains)), lambda i, j: bound[i][j], two_devices), progress)
         same = [[bound[i][j] or (could[i][j] and device[i] == device[j]) for j in range(len(chains))]
                 for i in range(len(chains))]
     groups = [Group([chains[i] for i in members])
-              for members in partition(range(len(chains)), lambda i, j: same[i][j], two_declared)]
+              for members in partition(range(len(chains)), lambda i, j: same[i][j], two_devices)]
     if kind == END_EFFECTOR:
         for group in groups:
             group.chains = _one_mount(tree, group.chains)
