@@ -227,6 +227,7 @@ def test_merge_is_a_partition_joining_near_chains_with_one_device_name_and_categ
     monkeypatch.setattr(grouping, "_aliases", lambda *args: set())  # nor lie anywhere
     monkeypatch.setattr(grouping, "_bare_apart", lambda *args: False)
     monkeypatch.setattr(grouping, "optical_twins", lambda *args: False)
+    monkeypatch.setattr(grouping, "named_product", lambda *args: None)  # nor name a product
     chains = [SubChain("cam_a_rgb", "mount", ("cam_a_rgb",)), SubChain("cam_a_depth", "mount", ("cam_a_depth",)),
               SubChain("cam_b_rgb", "mount", ("cam_b_rgb",)), SubChain("cam_a_far", "elsewhere", ("cam_a_far",)),
               SubChain("cam_a_led", "mount", ("cam_a_led",))]
