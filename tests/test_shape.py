@@ -1226,3 +1226,38 @@ def test_two_jaws_moving_as_mirror_images_with_no_inertial_are_no_sensors(seed, 
     same_way = urdf.replace(b'<axis xyz="0 0 -1"/>', b'<axis xyz="0 0 1"/>').replace(b'<axis xyz="0 -1 0"/>',
                                                                                         b'<axis xyz="0 1 0"/>')
     assert not jaw_pairs(load_urdf(same_way))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_servo_horn_spinning_beside_a_grippers_fingers_is_the_grippers_mechanism(seed):
+    """An arm ends in a bare frame carrying a servo horn on a joint that turns without bound, a drawn camera fixed
+    beside it and a finger bar whose two fingers slide against each other (one mimicking the other) towards a tool
+    point. The horn is no body fixed beside the gripper (it may be the tool's), and of the gripper's chains the
+    fingers are its fingers and the horn its mechanism: a finger closes over a bounded arc (on the code before: the
+    horn was a third, pivoting finger, or left out of the gripper)."""
+    from urdfkb.pipeline.abstraction.structure import tool_structure
+    rng = random.Random(seed)
+    w = Writer(rng)
+    base = w.link('<box size="0.3 0.3 0.1"/>', centre=(0.0, 0.0, 0.0), mass=5.0)
+    end = w.link()
+    w.joint("fixed", w.arm(base), end, (0.04, 0.0, 0.0))
+    horn = w.link('<cylinder radius="0.012" length="0.004"/>', centre=(0.0, 0.004, 0.0), mass=0.005)
+    w.joint("continuous", end, horn, (0.005, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    camera = w.link('<box size="0.02 0.05 0.02"/>', centre=(0.0, 0.0, 0.0), mass=0.05)
+    w.joint("fixed", end, camera, (-0.02, 0.0, 0.04))
+    bar = w.link('<box size="0.02 0.08 0.02"/>', centre=(0.0, 0.0, 0.0), mass=0.03)
+    w.joint("fixed", end, bar, (0.01, 0.0, 0.0))
+    fingers, drive = [], None
+    for side in (1.0, -1.0):
+        finger = w.link('<box size="0.03 0.01 0.015"/>', centre=(0.015, 0.0, 0.0), mass=0.01)
+        drive = w.joint("prismatic", bar, finger, (0.02, 0.0, 0.0), axis=(0.0, side, 0.0),
+                        limits=(0.015, 0.037), mimic=drive, multiplier=1.0)
+        fingers.append(finger)
+    tip = w.link()
+    w.joint("fixed", bar, tip, (0.05, 0.0, 0.0))
+    tree = load_urdf(w.urdf())
+    off = off_limb_ends(tree, hands(tree))
+    assert camera in off and horn not in off
+    structure = tool_structure(tree, [horn, *fingers, tip])
+    assert sorted(f.name for f in structure.fingers) == sorted(fingers) and structure.mechanisms == (horn,)
+    assert {f.motion for f in structure.fingers} == {"prismatic"} and structure.grasps()

@@ -106,15 +106,17 @@ def limb_length(tree: KinematicTree, link: str, ancestor: str) -> float:
 
 
 def beside_hands(tree: KinematicTree, hands_found: list[tuple[ToolStructure, list[str]]]) -> frozenset[str]:
-    """Bodies fixed beside one of the hands found (hands) rather than in it: leaves with geometry on the body the
+    """Bodies fixed beside one of the hands found (hands) rather than in it: leaves with geometry fixed to the body the
     hand is mounted on, not below where its fingers part (a range sensor or a camera on the wrist a gripper is
-    bolted to). A pure frame there may mark the hand's tool point, so frames are not among them."""
+    bolted to). A pure frame there may mark the hand's tool point, and a body moving on a joint of its own there is
+    the hand's (a servo horn that drives its fingers through a linkage), so neither is among them."""
     found: set[str] = set()
     for structure, leaves in hands_found:
         mount = set(rigid_body(tree, structure.mount))
         below = {structure.fork, *tree.descendants(structure.fork)}
         found.update(leaf for link in mount for leaf in tree.children(link)
-                     if tree.is_leaf(leaf) and leaf not in below and leaf not in leaves and not is_frame(tree, leaf))
+                     if tree.is_leaf(leaf) and leaf not in below and leaf not in leaves and not is_frame(tree, leaf)
+                     and not tree.edge_to(leaf).movable)
     return frozenset(found)
 
 

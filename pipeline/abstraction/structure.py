@@ -25,7 +25,9 @@
   less far (_linkages: a four-bar's crank beside the finger it moves) is that finger's linkage. A driven
   subtree that opposes no other, whose tip sits on its drive's axis, that hangs on a planar or
   floating joint, or whose links are all bare frames beside chains with bodies (a virtual joint the
-  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger. A tip
+  fingers mimic, such as a finger-distance joint), is a *mechanism* (a motor, a lead screw), not a finger; so is a
+  subtree whose drive spins (turns without bound, Edge.spins) where the other chains grasp without it (a servo's horn
+  beside the fingers it drives through a linkage): a finger closes over a bounded arc. A tip
   whose frame lies on its drive's axis is read where its mass is (a one-link finger hung on its hinge: a rotor's
   mass lies on its axis too), unless it turns with a finger jointed beyond its drive (a four-bar's bar); where
   nothing closes so, jaws written as one link each are looked at again where their mass is.
@@ -48,7 +50,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Set as AbstractSet
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.reading.tree import Edge, KinematicTree, Vector, fork_of, rotate_rpy
@@ -142,21 +144,33 @@ def _top_body(tree: KinematicTree, link: str) -> str:
 
 
 def tool_structure(tree: KinematicTree, leaves: list[str]) -> ToolStructure:
-    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms. Fingers' linkages
-    (_linkages) close on nothing, and with the bars inside fingers (linkage_bars) neither end a finger nor decide
-    the pose; where, of two chains with bodies or more, one closes on none at the written pose, the
-    fingers are looked at again half closed (_half_closed), and that look is kept where more chains close on
-    others (fingers written flat, curling the same way at first)."""
+    """The facts of the tool whose leaves are `leaves`: fork, mount, fingers, mechanisms (_fingers_of); a chain
+    whose drive spins is a mechanism where the other chains grasp without it."""
     fork = fork_of(tree, leaves)
     chains: dict[str, tuple[tuple[str, ...], Edge, str]] = {}
-    bars: set[str] = set()
+    bars: dict[str, AbstractSet[str]] = {}
     for child in moving_children(tree, fork):
         links = (child, *tree.descendants(child))
-        own_bars = linkage_bars(tree, links)
-        bars |= own_bars
+        bars[child] = own_bars = linkage_bars(tree, links)
         tip = max((link for link in links if link not in own_bars),  # the finger's own links, its bars aside
                   key=lambda link: (len(tree.chain_to_root(link)), norm(tree.position_in(link, fork))))
         chains[child] = (links, tree.edge_to(child), tip)
+    spinning = [a for a, (_, drive, _) in chains.items() if drive.spins]
+    if spinning and len(chains) - len(spinning) >= 2:
+        rest = _fingers_of(tree, fork, {a: c for a, c in chains.items() if a not in spinning}, bars)
+        if rest.grasps():
+            return replace(rest, mechanisms=tuple(a for a in chains if a not in {f.name for f in rest.fingers}))
+    return _fingers_of(tree, fork, chains, bars)
+
+
+def _fingers_of(tree: KinematicTree, fork: str, chains: dict[str, tuple[tuple[str, ...], Edge, str]],
+                bars_of: dict[str, AbstractSet[str]]) -> ToolStructure:
+    """The tool's facts from its chains. Fingers' linkages (_linkages) close on nothing, and with the bars inside
+    fingers (linkage_bars, in `bars_of` by chain) neither end a finger nor decide the pose; where, of two chains with
+    bodies or more, one closes on none at the written pose, the fingers are looked at again half closed
+    (_half_closed), and that look is kept where more chains close on others (fingers written flat, curling the same
+    way at first)."""
+    bars = {bar for a in chains for bar in bars_of[a]}
     bodies = {a for a, (links, _, _) in chains.items() if not all(is_frame(tree, link) for link in links)}
     pivots = _pivots(tree, fork, chains)
     linkages = _linkages(pivots)
