@@ -185,7 +185,7 @@ def run(tree: KinematicTree, settings: Settings, backend: Backend | None = None,
         if owned:
             backend.close()
     record = _trace_writer(trace) if trace else None
-    kept = hold_unsure(Abstraction(tuple(components), provenance, tuple(body)), record)
+    kept = hold_unsure(tree, Abstraction(tuple(components), provenance, tuple(body)), record)
     kept = hold_bodiless(tree, kept, vocabulary().kinds[END_EFFECTOR].cls, record)
     result = screen(tree, kept, record)
     if settings.use_cache:

@@ -117,14 +117,30 @@ def test_a_sensor_under_the_floor_is_held_and_a_tool_never():
     camera, gripper = sample_abstraction().components
     unsure = Abstraction((replace(camera, confidence=SENSOR_FLOOR - 0.01), replace(gripper, confidence=0.05)))
     records: list[dict] = []
-    held = hold_unsure(unsure, records.append)
+    held = hold_unsure(sample_tree(), unsure, records.append)
     assert [c.name for c in held.components] == ["gripper"]
     assert held.held == (Held("head camera", "sensor", "RGBDCamera", camera.links,
                               (f"SensorFloor: head camera: confidence {SENSOR_FLOOR - 0.01:.2f} is under "
                                f"{SENSOR_FLOOR}, the least a sensor is written with",)),)
     assert [(r["why"], r["name"]) for r in records] == [("floor", "head camera")]
     at_floor = Abstraction((replace(camera, confidence=SENSOR_FLOOR), gripper))
-    assert hold_unsure(at_floor) == at_floor
+    assert hold_unsure(sample_tree(), at_floor) == at_floor
+
+
+def test_a_sensor_under_the_floor_the_file_declares_is_written():
+    """A camera body the file declares a camera on, its optical frame below it, read by the model as a monocular
+    camera at 0.15: the file states a camera, so it is written (in the review queue); a declaration of another kind
+    on its body (a contact sensor) states no camera, and it is held (on the code before: held either way)."""
+    for sdf_type, kept in (("camera", True), ("contact", False)):
+        tree = load_urdf(f"""<robot name="r"><link name="base"><visual><geometry><box size="0.3 0.3 0.1"/></geometry>
+            </visual></link><link name="cam"><visual><geometry><box size="0.02 0.05 0.02"/></geometry></visual></link>
+            <link name="cam_optical"/><joint name="a" type="fixed"><parent link="base"/><child link="cam"/></joint>
+            <joint name="b" type="fixed"><parent link="cam"/><child link="cam_optical"/></joint>
+            <gazebo reference="cam"><sensor name="s" type="{sdf_type}"/></gazebo></robot>""".encode())
+        camera = Component("camera", "sensor", "MonocularCamera", 0.15, "base",
+                           (SubComponent("cam", "SensorHousing", 0.9), SubComponent("cam_optical", "RgbFrame", 0.9)))
+        screened = hold_unsure(tree, Abstraction((camera,)))
+        assert (screened.components == (camera,)) == kept and (screened.held == ()) == kept
 
 
 def _arm_end(bracket: bool) -> tuple:

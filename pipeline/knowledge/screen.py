@@ -4,8 +4,10 @@ part that breaks ontologies/shapes.ttl (`screen`).
 
 A sensor whose confidence (its class's share of the votes times its kind's, steps.assembly) is under
 SENSOR_FLOOR is held with one line saying so: below that, over the truth robots and the probe robots of
-other families, sensors were lamps, logos, antennas, feet and fragments of devices, not sensors. A tool is never
-held for that: tools below it were as often right as wrong.
+other families, sensors were lamps, logos, antennas, feet and fragments of devices, not sensors. A sensor the file
+declares a simulator sensor of its class on (on one of its links, a type the ontology aligns to a class it agrees
+with: a camera declared on the body its optical frame hangs from) is written all the same, in the review queue: the
+file states it. A tool is never held for that: tools below it were as often right as wrong.
 
 The robot is built as population builds it, in a scratch world, and validated whole (pipeline.knowledge.shacl). Each
 violation's focus node names the component or body part it belongs to (a sub-component, finger chain or
@@ -26,10 +28,11 @@ import rdflib
 
 from urdfkb import local_name
 from urdfkb.pipeline.knowledge import rdf
-from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Abstraction, Held
+from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR, Abstraction, Component, Held
 from urdfkb.pipeline.abstraction.frames import is_frame
 from urdfkb.pipeline.knowledge.export import robot_graph
 from urdfkb.pipeline.knowledge.namespaces import escape, owner
+from urdfkb.pipeline.knowledge.ontology import vocabulary
 from urdfkb.pipeline.knowledge.population import build_robot
 from urdfkb.pipeline.knowledge.shacl import Violation, broken
 from urdfkb.pipeline.reading.tree import KinematicTree
@@ -41,14 +44,27 @@ Record = Callable[[dict], None]
 SENSOR_FLOOR = 0.2
 
 
-def hold_unsure(abstraction: Abstraction, record: Record | None = None) -> Abstraction:
-    """`abstraction` less its sensors of confidence under SENSOR_FLOOR, those in its `held`; `record` receives one
-    {"key": "held", ...} record for each."""
+def hold_unsure(tree: KinematicTree, abstraction: Abstraction, record: Record | None = None) -> Abstraction:
+    """`abstraction` less its sensors of confidence under SENSOR_FLOOR that the file declares no simulator sensor of
+    their class on (_declared), those in its `held`; `record` receives one {"key": "held", ...} record for each."""
     held = tuple(Held(c.name, c.kind, c.cls, c.links,
                       (f"SensorFloor: {c.name}: confidence {c.confidence:.2f} is under {SENSOR_FLOOR}, the least a "
                        "sensor is written with",))
-                 for c in abstraction.components if c.kind == SENSOR and c.confidence < SENSOR_FLOOR)
+                 for c in abstraction.components
+                 if c.kind == SENSOR and c.confidence < SENSOR_FLOOR and not _declared(tree, c))
     return _held(abstraction, held, "floor", record)
+
+
+def _declared(tree: KinematicTree, component: Component) -> bool:
+    """A simulator sensor declared on one of the component's links has a type the ontology aligns to a sensor class
+    its class agrees with (is, or lies above or below)."""
+    vocab = vocabulary()
+    top = vocab.kinds[SENSOR].cls
+    if component.cls not in vocab or component.cls == top:
+        return False
+    types = {s.sdf_type for link in component.links if link in tree.evidence for s in tree.evidence[link].sensors}
+    return any(vocab.is_a(d, top) and (vocab.is_a(component.cls, d) or vocab.is_a(d, component.cls))
+               for d in vocab.declared_classes(types))
 
 
 def hold_bodiless(tree: KinematicTree, abstraction: Abstraction, tool: str, record: Record | None = None) -> Abstraction:
