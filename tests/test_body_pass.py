@@ -1231,3 +1231,52 @@ def test_cameras_at_the_end_of_long_links_do_not_make_a_head(length):
         return q.options[0] if q.key.startswith("side:") else "arm"
     parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera])
     assert [(p.cls, list(p.joints)) for p in parts] == [("Head" if length < 0.5 else "Arm", joints)]
+
+
+def test_a_sensor_held_back_under_the_floor_decides_no_body_part():
+    """A small humanoid's torso carries a pan-tilt head with its camera and two three-joint arms whose forearms the
+    model took for cameras it hardly believes in (0.05, under the floor: held back, never written). The held
+    forearms own nothing and are carried by nothing: each arm keeps its elbow and is the model's to call an arm; the
+    head alone carries a camera (on the code before: the arms, carrying a camera on three joints or fewer, were
+    heads by the ontology, without their elbows)."""
+    w = Writer(random.Random(3))
+    torso = w.link('<box size="0.1 0.15 0.2"/>', centre=(0.0, 0.0, 0.0), mass=1.0)
+    neck = w.link('<box size="0.02 0.02 0.03"/>', centre=(0.0, 0.0, 0.0), mass=0.05)
+    pan = w.joint("revolute", torso, neck, (0.0, 0.0, 0.12), (0.0, 0.0, 1.0), (-2.0, 2.0))
+    head = w.link('<box size="0.06 0.06 0.06"/>', centre=(0.0, 0.0, 0.0), mass=0.2)
+    tilt = w.joint("revolute", neck, head, (0.0, 0.0, 0.03), (0.0, 1.0, 0.0), (-0.8, 1.5))
+    lens = w.link()
+    w.joint("fixed", head, lens, (0.03, 0.0, 0.0))
+    arms, forearms = {}, {}
+    for side, y in (("left", 0.09), ("right", -0.09)):
+        shoulder = w.link('<box size="0.03 0.03 0.03"/>', centre=(0.0, 0.0, 0.0), mass=0.05)
+        pitch = w.joint("revolute", torso, shoulder, (0.0, y, 0.08), (0.0, 1.0, 0.0), (-2.2, 2.2))
+        humerus = w.link('<box size="0.03 0.03 0.14"/>', centre=(0.0, 0.0, -0.07), mass=0.1)
+        roll = w.joint("revolute", shoulder, humerus, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (-0.3, 1.3))
+        forearm = w.link('<box size="0.03 0.03 0.12"/>', centre=(0.0, 0.0, -0.06), mass=0.08)
+        elbow = w.joint("revolute", humerus, forearm, (0.0, 0.0, -0.14), (0.0, 1.0, 0.0), (-2.8, 0.3))
+        arms[side], forearms[side] = (pitch, roll, elbow), forearm
+    legs = {}
+    for side, y in (("left", 0.04), ("right", -0.04)):
+        link, joints = torso, []
+        for xyz, axis, size in (((0.0, y, -0.12), (0.0, 0.0, 1.0), 0.03), ((0.0, 0.0, -0.03), (1.0, 0.0, 0.0), 0.03),
+                                ((0.0, 0.0, -0.03), (0.0, 1.0, 0.0), 0.14), ((0.0, 0.0, -0.14), (0.0, 1.0, 0.0), 0.14),
+                                ((0.0, 0.0, -0.14), (0.0, 1.0, 0.0), 0.03), ((0.0, 0.0, -0.03), (1.0, 0.0, 0.0), 0.02)):
+            child = w.link(f'<box size="0.03 0.03 {size}"/>', centre=(0.0, 0.0, -size / 2), mass=0.1)
+            joints.append(w.joint("revolute", link, child, xyz, axis, (-1.5, 1.5)))
+            link = child
+        legs[side] = tuple(joints)
+    tree = load_urdf(w.urdf())
+    camera = Component("head camera", SENSOR, "MonocularCamera", 0.9, head, (SubComponent(lens, "RgbFrame", 0.9),))
+    unsure = [Component(f"{side} forearm", SENSOR, "MonocularCamera", 0.05, tree.parent(forearm) or "",
+                        (SubComponent(forearm, "RgbFrame", 0.9),)) for side, forearm in forearms.items()]
+
+    def rule(question):
+        if question.key.startswith("side:"):
+            return question.options[0]
+        return "head" if question.key == f"body:{pan}" else "leg" if question.key in leg_keys else "arm"
+    leg_keys = {f"body:{joints[0]}" for joints in legs.values()}
+    parts, _ = body_pass(Oracle(ScriptedBackend(rule)), tree, [camera, *unsure])
+    found = {(p.cls, p.joints) for p in parts if p.joints}
+    assert found == {("Head", (pan, tilt)), *(("Arm", joints) for joints in arms.values()),
+                     *(("Leg", joints) for joints in legs.values())}

@@ -50,9 +50,13 @@ def hold_unsure(tree: KinematicTree, abstraction: Abstraction, record: Record | 
     held = tuple(Held(c.name, c.kind, c.cls, c.links,
                       (f"SensorFloor: {c.name}: confidence {c.confidence:.2f} is under {SENSOR_FLOOR}, the least a "
                        "sensor is written with",))
-                 for c in abstraction.components
-                 if c.kind == SENSOR and c.confidence < SENSOR_FLOOR and not _declared(tree, c))
+                 for c in abstraction.components if unsure(tree, c))
     return _held(abstraction, held, "floor", record)
+
+
+def unsure(tree: KinematicTree, component: Component) -> bool:
+    """The component is a sensor hold_unsure holds: under SENSOR_FLOOR, with no declaration of its class."""
+    return component.kind == SENSOR and component.confidence < SENSOR_FLOOR and not _declared(tree, component)
 
 
 def _declared(tree: KinematicTree, component: Component) -> bool:

@@ -14,6 +14,7 @@ from urdfkb.pipeline.abstraction.stages.classification import Subject, descend
 from urdfkb.pipeline.abstraction.steps.classify import chain_subject
 from urdfkb.pipeline.abstraction.steps.context import Context
 from urdfkb.pipeline.abstraction.steps.findings import Findings
+from urdfkb.pipeline.knowledge.screen import unsure
 
 
 @step("device joints", needs=("components",), makes=("components",))
@@ -25,9 +26,15 @@ def device_joints(ctx: Context, found: Findings) -> None:
 @step("candidates", needs=("components",), makes=("candidates", "done"))
 def candidates(ctx: Context, found: Findings) -> None:
     """The chains of movable joints no device owns; the pass is done when there are none and no main body
-    without joints may be a mobile base (stages.body.main_body)."""
-    found.candidates = body_stage.candidates(ctx.robot, found.components)
-    found.done = not found.candidates and body_stage.main_body(ctx.robot, found.components) is None
+    without joints may be a mobile base (stages.body.main_body). A sensor that will be held back for review
+    (pipeline.knowledge.screen.unsure) owns nothing here, nor is it carried (_written): what is not written decides no
+    body part (a small humanoid's forearm the model took for a camera, under the floor, made its arm a head)."""
+    found.candidates = body_stage.candidates(ctx.robot, _written(ctx, found.components))
+    found.done = not found.candidates and body_stage.main_body(ctx.robot, _written(ctx, found.components)) is None
+
+
+def _written(ctx: Context, components: list[Component]) -> list[Component]:
+    return [c for c in components if not unsure(ctx.robot, c)]
 
 
 @step("body classification", needs=("candidates", "components", "body_reasoned"), makes=("candidates",))
@@ -36,7 +43,8 @@ def body_classification(ctx: Context, found: Findings) -> None:
     same), the model's where no definition holds."""
     def reasoned(seconds: float) -> None:
         ctx.tally.reasoner_seconds += seconds
-    body_stage.classify(ctx.oracle, ctx.vocab, ctx.robot, found.candidates, found.components, ctx.progress, ctx.log,
+    body_stage.classify(ctx.oracle, ctx.vocab, ctx.robot, found.candidates, _written(ctx, found.components),
+                        ctx.progress, ctx.log,
                         reasoned, found.body_reasoned, ctx.reasoner)
 
 
@@ -52,7 +60,7 @@ def jointless_base(ctx: Context, found: Findings) -> None:
     """Where no part moves the robot about, whether its main body is a mobile base with no joints of its own (the
     joints of candidates classified as no body part move none)."""
     idle = frozenset(e.joint for c in found.candidates if c.cls == NONE for e in c.joints)
-    found.body = body_stage.jointless_base(ctx.oracle, ctx.vocab, ctx.robot, found.body, found.components,
+    found.body = body_stage.jointless_base(ctx.oracle, ctx.vocab, ctx.robot, found.body, _written(ctx, found.components),
                                            ctx.progress, ctx.log, idle)
 
 
