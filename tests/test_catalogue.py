@@ -54,6 +54,10 @@ def test_the_packaged_catalogue_names_sixty_products_each_a_core_device_with_its
     ("sensors/lds", "ROBOTIS LDS"),
     ("zed2_left_camera_frame", "Stereolabs ZED"),
     ("oak-d-pro_frame", "Luxonis OAK-D"),  # a hyphen parts words too
+    ("oak_rgb_camera_optical_frame", "Luxonis OAK-D"),  # depthai-ros's default device name
+    ("oak1_imu_frame", "Luxonis OAK-D"),  # a second device, numbered
+    ("soak_tank_link", None),     # "oak" inside a word
+    ("oaken_panel", None),        # "oak" followed by letters
     ("head/swissranger_frame", "MESA SwissRanger"),
     ("front_tfmini_link", "Benewake TFmini / TF-Luna / TF02"),
     ("base_lidar_lite_v3", "Garmin LIDAR-Lite"),
