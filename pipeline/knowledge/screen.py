@@ -61,14 +61,13 @@ def unsure(tree: KinematicTree, component: Component) -> bool:
 
 def _declared(tree: KinematicTree, component: Component) -> bool:
     """A simulator sensor declared on one of the component's links has a type the ontology aligns to a sensor class
-    its class agrees with (is, or lies above or below)."""
+    its class agrees with (Vocabulary.disagreeing rules it out of none)."""
     vocab = vocabulary()
     top = vocab.kinds[SENSOR].cls
-    if component.cls not in vocab or component.cls == top:
-        return False
     types = {s.sdf_type for link in component.links if link in tree.evidence for s in tree.evidence[link].sensors}
-    return any(vocab.is_a(d, top) and (vocab.is_a(component.cls, d) or vocab.is_a(d, component.cls))
-               for d in vocab.declared_classes(types))
+    declared = frozenset(d for d in vocab.declared_classes(types) if vocab.is_a(d, top))
+    return bool(declared) and component.cls in vocab.subclasses_below(top) \
+        and component.cls not in vocab.disagreeing(declared, top)
 
 
 def hold_bodiless(tree: KinematicTree, abstraction: Abstraction, tool: str, record: Record | None = None) -> Abstraction:

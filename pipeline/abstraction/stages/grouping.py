@@ -228,16 +228,15 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
 
 
-def _one_product(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
-    """Two near sub-chains whose links name one catalogue product, one of them a lone drawn leaf declaring no
-    sensor (a piece: the bracket a camera is mounted with, drawn with the product's mesh), are one device."""
+def _one_product(tree: KinematicTree, a: SubChain, b: SubChain, named_a: Product | None,
+                 named_b: Product | None) -> bool:
+    """Two near sub-chains whose links name one catalogue product (`named_a`, `named_b`: named_product of each), one
+    of them a lone drawn leaf declaring no sensor (a piece: the bracket a camera is mounted with, drawn with the
+    product's mesh), are one device."""
     def piece(x: SubChain) -> bool:
         facts = tree.evidence.get(x.leaf)
         return len(x.links) == 1 and not is_frame(tree, x.leaf) and not (facts is not None and facts.sensors)
-    if not (piece(a) or piece(b)):
-        return False
-    product = named_product(tree, list(reversed(a.links)))
-    return product is not None and product == named_product(tree, list(reversed(b.links)))
+    return (piece(a) or piece(b)) and named_a is not None and named_a == named_b
 
 
 def _aliases(tree: KinematicTree, chains: list[SubChain]) -> set[tuple[int, int]]:
@@ -357,7 +356,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                  for i, a in enumerate(chains)]
         aliases = _aliases(tree, chains)
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or (i, j) in aliases
-                                   or _one_product(tree, a, b) or optical_twins(tree, a.leaf, b.leaf))
+                                   or _one_product(tree, a, b, products[i], products[j])
+                                   or optical_twins(tree, a.leaf, b.leaf))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
         joinable = [any(c and not b for c, b in zip(row_c, row_b)) for row_c, row_b in zip(could, bound)]

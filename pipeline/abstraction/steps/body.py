@@ -29,8 +29,9 @@ def candidates(ctx: Context, found: Findings) -> None:
     without joints may be a mobile base (stages.body.main_body). A sensor that will be held back for review
     (pipeline.knowledge.screen.unsure) owns nothing here, nor is it carried (_written): what is not written decides no
     body part (a small humanoid's forearm the model took for a camera, under the floor, made its arm a head)."""
-    found.candidates = body_stage.candidates(ctx.robot, _written(ctx, found.components))
-    found.done = not found.candidates and body_stage.main_body(ctx.robot, _written(ctx, found.components)) is None
+    written = _written(ctx, found.components)
+    found.candidates = body_stage.candidates(ctx.robot, written)
+    found.done = not found.candidates and body_stage.main_body(ctx.robot, written) is None
 
 
 def _written(ctx: Context, components: list[Component]) -> list[Component]:
