@@ -296,6 +296,35 @@ def test_a_rigid_tool_on_a_gantrys_sliding_joints_stays_a_tool():
     assert [g.leaves for g, _ in settled] == [[spindle]]
 
 
+@pytest.mark.parametrize("end", ["flange", "jaw"])
+def test_a_wrist_roll_turning_a_flange_is_the_arms_and_the_tool_is_what_it_carries(end):
+    """A six-joint arm whose last link carries a bare wrist frame and one more joint: a roll (range past a turn,
+    about the line the arm runs along) turning a flange drawn on its axis, or a jaw hinged across the line, its tip
+    frame swinging 6 cm out. The model groups the wrist frame with the flange or the jaw tip. The roll turns the flange
+    in place: it is the arm's last joint, the tool is the flange alone, mounted on the roll's link. The jaw swings its
+    tip: it stays one tool with the frame beside it."""
+    w = Writer(random.Random(9))
+    link = w.arm(w.link('<box size="0.3 0.3 0.1"/>'))
+    wrist = w.link()
+    w.joint("fixed", link, wrist, (0.0, 0.0, 0.1))
+    moving = w.link('<cylinder radius="0.04" length="0.05"/>')
+    if end == "flange":
+        w.joint("revolute", link, moving, (0.0, 0.0, 0.1), (0.0, 0.0, 1.0), (-4.7, 4.7))
+        tip = w.link('<cylinder radius="0.035" length="0.03"/>')
+        w.joint("fixed", moving, tip, (0.0, 0.0, 0.025))
+    else:
+        w.joint("revolute", link, moving, (0.02, 0.0, 0.1), (0.0, 1.0, 0.0), (0.0, 0.8))
+        tip = w.link()
+        w.joint("fixed", moving, tip, (0.0, 0.0, 0.06))
+    tree = load_urdf(w.urdf())
+    notes: list[str] = []
+    settled = settle(tree, [Group([sub_chain(tree, wrist, link), sub_chain(tree, tip, link)])], lambda leaf: True,
+                     notes.append)
+    expected = {moving: [tip]} if end == "flange" else {link: [wrist, tip]}
+    assert {structure.mount: g.leaves for g, structure in settled} == expected
+    assert (f"['{wrist}'] hang before ['{tip}']'s roll, the arm's last joint" in notes) is (end == "flange")
+
+
 @pytest.mark.parametrize("apart, palm", [(0.0, False), (0.04, False), (0.0, True)])
 def test_chains_hung_at_one_point_of_the_arms_end_are_one_tool(apart, palm):
     """A four-joint arm whose last link carries, at one point, a bare tool frame with a one-link finger turning

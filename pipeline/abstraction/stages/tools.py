@@ -14,7 +14,9 @@ The model's mount choices only group a tool's leaves; the tool itself is then se
   from the limb's first moving joint; a limb that slides is not measured so), is no tool but the limb's own segment
   (a forearm fixed to an upper arm that a shoulder's pitch and roll, meeting at one point, swing);
 - the tool is mounted on the link it is bolted to (`structure.mount_of`), never on its own palm and
-  never above the arm's last moving link: links above that mount leave the tool;
+  never above the arm's last moving link: links above that mount leave the tool; where no finger moves and a
+  moving chain of the tool turns in place the leaves it carries (a wrist's last roll turning its flange), that
+  roll is the arm's, and the tool is what it carries;
 - the tool keeps every finger chain and mechanism hung on its fork (a hand keeps its thumb), and
   every static frame on its palm; where the fingers hang straight on the arm's last link (the
   mount), only static frames identified as end-effector parts join;
@@ -30,7 +32,8 @@ import math
 from typing import Callable
 
 from urdfkb.pipeline.abstraction.frames import is_frame, meeting_tips
-from urdfkb.pipeline.abstraction.hands import limb_length, limb_top
+from urdfkb.pipeline.abstraction.hands import ROLL_OFFSET, limb_length, limb_top
+from urdfkb.pipeline.abstraction.vectors import off_axis, unit
 from urdfkb.pipeline.abstraction.structure import ToolStructure, nothing_moves, source_joint, tool_structure
 from urdfkb.pipeline.reading.tree import KinematicTree, fork_of
 from urdfkb.pipeline.abstraction.stages.attachment import sub_chain
@@ -51,6 +54,10 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
     while pending:
         leaves = pending.pop(0)
         structure = tool_structure(tree, leaves)
+        if beyond := _beyond_roll(tree, structure, leaves):
+            log(f"{[x for x in leaves if x not in beyond]} hang before {beyond}'s roll, the arm's last joint")
+            pending.insert(0, beyond)
+            continue
         links = _extent(tree, structure, leaves, part_of_tool)
         clash = [d for d in done if set(d[0]) & links or set(leaves) & d[2] or d[1].mount == structure.mount
                  or _hung_together(tree, (d[1].mount, d[2]), (structure.mount, links))]
@@ -79,6 +86,23 @@ def settle(tree: KinematicTree, groups: list[Group], part_of_tool: Callable[[str
             + (f"; joined by structure: {added}" if added else ""))
         settled.append((group, structure))
     return sorted(settled, key=lambda gs: tree.links.index(gs[0].chains[0].leaf))
+
+
+def _beyond_roll(tree: KinematicTree, structure: ToolStructure, leaves: list[str]) -> list[str]:
+    """Where no finger of the tool moves and one of its moving chains turns in place the leaves it carries (one
+    joint, those leaves fixed beyond its first link within ROLL_OFFSET of that joint's axis: a wrist's last roll
+    turning a flange), those leaves, when other leaves hang before it; else none. A jaw swings its tip about a
+    hinge across it."""
+    if structure.fingers:
+        return []
+    for first in structure.mechanisms:
+        below, axis = tree.descendants(first), unit(tree.edge_to(first).axis)
+        carried = [x for x in leaves if x in below]
+        if carried and len(carried) < len(leaves) and axis is not None \
+                and not any(tree.edge_to(x).movable for x in below) \
+                and all(off_axis(tree.position_in(x, first), axis) <= ROLL_OFFSET for x in carried):
+            return carried
+    return []
 
 
 def _only_spins(tree: KinematicTree, links: set[str]) -> bool:
