@@ -237,6 +237,38 @@ def test_a_tool_in_which_nothing_moves_may_stay_a_plain_end_effector(end, offere
     assert (tool.cls == "EndEffector") is offered
 
 
+def test_alike_tools_are_asked_their_kind_once_the_first_standing_for_both():
+    """Two mirrored three-joint arms on a torso, each ending in a rigid ball with a tip frame: the kind of the left
+    one is asked, and the right one takes it, where a model split on a near tie would give each its own."""
+    w = Writer(random.Random(8))
+    torso = w.link('<box size="0.2 0.4 0.5"/>')
+    tips = []
+    for y in (0.2, -0.2):
+        link = w.link('<box size="0.05 0.05 0.05"/>')
+        w.joint("fixed", torso, link, (0.0, y, 0.2))
+        for _ in range(3):
+            child = w.link('<box size="0.05 0.05 0.2"/>')
+            w.joint("revolute", link, child, (0.0, 0.0, 0.2), (0.0, 1.0, 0.0), (-2.0, 2.0))
+            link = child
+        ball, tip = w.link('<sphere radius="0.05"/>'), w.link()
+        w.joint("fixed", link, ball, (0.0, 0.0, 0.1))
+        w.joint("fixed", ball, tip, (0.0, 0.0, 0.07))
+        tips.append(tip)
+    asked = []
+
+    def rule(q: Question):
+        if q.key.startswith("identify:"):
+            return "end effector" if q.key.split(":", 1)[1] in tips else NONE
+        if q.key.startswith("post:") and q.key.endswith("@EndEffector"):
+            asked.append(q.key)
+            return "hand" if len(asked) == 1 else "gripper"
+        return q.options[0]
+    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(w.urdf())).components
+    tools = [c for c in comps if c.kind == "end_effector"]
+    assert asked == [f"post:{tips[0]}@EndEffector"]
+    assert len(tools) == 2 and tools[0].cls == tools[1].cls and TAX.is_a(tools[0].cls, "Hand")
+
+
 def test_a_rigid_body_swung_by_joints_that_meet_at_one_point_is_the_limbs_segment_not_a_tool():
     """An upper body with a short arm (shoulder pitch and roll meeting at one point, the forearm fixed 0.15 m out
     from them) and a six-joint arm ending in a rigid tool 0.05 m out from its flange, names meaningless: the

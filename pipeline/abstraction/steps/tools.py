@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from urdfkb.pipeline.knowledge import reasoning
+from urdfkb.pipeline.abstraction.alike import alike_sets
 from urdfkb.pipeline.abstraction.components import FingerFact
 from urdfkb.pipeline.abstraction.hands import frozen_jaws
 from urdfkb.pipeline.reading.evidence import named as named_link
@@ -85,22 +86,27 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     ontology allows and no kind below it fits, unless its links name a catalogue product of a kind below
     (a suction gripper's tip frame): then the kinds that product is not are not offered. A tool holding the tips of
     fingers written fixed (hands.frozen_fingertips) is described so (as jaws where they are a gripper's,
-    hands.frozen_jaws), and is no rigid tool."""
+    hands.frozen_jaws), and is no rigid tool. Alike tools (alike.alike_sets: a left and a right hand) told the same
+    structure and offered the same answers are asked once, the first standing for all, as alike sensors are."""
     tree, top = ctx.tree, ctx.device_kind.cls
     open_groups = [(g, st) for g, st, i in zip(found.groups, found.structures, found.inferred) if not i.settled]
     ruled = [_product_rules_out(ctx, g, top) for g, _ in open_groups]
     tips = found.frozen_tips
     frozen = [[leaf for leaf in g.leaves if leaf in tips] for g, _ in open_groups]
     jaws = frozen_jaws(tree) if any(frozen) else frozenset()
-    asked = descend(ctx.oracle, ctx.vocab, top, [
-        Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
-                f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
-                f"\nStructure: {_written_fixed(fixed, jaws) if fixed else st.describe()}", out,
-                stay=RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not fixed else None)
-        for (g, st), out, fixed in zip(open_groups, ruled, frozen)
-    ], "end-effector classification", ctx.progress)
-    by_group = {id(g): t for (g, _), t in zip(open_groups, asked)}
-    found.post = [by_group.get(id(g), Typed(i.cls, 1.0)) for g, i in zip(found.groups, found.inferred)]
+    told = {g.leaves[0]: (_written_fixed(fixed, jaws) if fixed else st.describe(), out,
+                          RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not fixed else None)
+            for (g, st), out, fixed in zip(open_groups, ruled, frozen)}  # what the question tells and offers
+    subjects = {g.leaves[0]: Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
+                                     f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
+                                     f"\nStructure: {phrase}", out, stay=stay)
+                for g, _ in open_groups for phrase, out, stay in [told[g.leaves[0]]]}
+    sets = alike_sets(tree, list(subjects), lambda a, b: told[a] == told[b])
+    asked = descend(ctx.oracle, ctx.vocab, top, [subjects[leaves[0]] for leaves in sets],
+                    "end-effector classification", ctx.progress)
+    by_leaf = {leaf: t for leaves, t in zip(sets, asked) for leaf in leaves}
+    found.post = [by_leaf[g.leaves[0]] if not i.settled else Typed(i.cls, 1.0)
+                  for g, i in zip(found.groups, found.inferred)]
 
 
 def _written_fixed(tips: list[str], jaws: frozenset[str]) -> str:
