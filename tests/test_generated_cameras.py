@@ -348,6 +348,37 @@ def test_two_depth_cameras_each_declared_are_two_devices_whatever_the_names_say(
     assert sorted(f for g in groups for f in g.leaves) == sorted(frames)
 
 
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("turned", [False, True])
+def test_colour_frames_beside_a_declared_rgbd_camera_are_its_own(seed, turned):
+    """A head carries, as bare frames each with its optical frame, an RGB-D camera whose simulator declaration (a
+    Kinect's openni plugin: colour and depth) is written on its depth frames, its colour frames 2.5 cm beside them,
+    and a webcam 8 cm away on the other side, declared nowhere. The model names each frame a device of its own (a
+    service robot's Kinect, under a shared namespace, became a monocular and an RGB-D camera): the colour frames are
+    the declared camera's where they look the same way; the webcam and a colour frame turned aside stay apart."""
+    w = Writer(random.Random(seed))
+    base, head = w.link('<box size="0.4 0.4 0.2"/>'), w.link('<box size="0.2 0.3 0.2"/>')
+    w.joint("revolute", base, head, (0.0, 0.0, 0.5))
+    frames = []
+    for y, yaw in ((0.0, 0.0), (0.025, 0.8 if turned else 0.0), (-0.08, 0.0)):  # depth, colour, webcam
+        own, optical = w.link(), w.link()
+        w.joint("fixed", head, own, (0.1, y, 0.05), rpy=(0.0, 0.0, yaw))
+        w.joint("fixed", own, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
+        frames.append((own, optical))
+    (depth_own, depth), (_, colour), (_, webcam) = frames
+    text = (f'<gazebo reference="{depth_own}"><sensor name="kinect" type="depth"><plugin name="kinect_p" '
+            f'filename="libgazebo_ros_openni_kinect.so"><imageTopicName>rgb/image_raw</imageTopicName>'
+            f'<depthImageTopicName>depth/image_raw</depthImageTopicName><frameName>{depth}</frameName></plugin>'
+            '</sensor></gazebo>')
+    tree = load_urdf(w.urdf().replace(b"</robot>", text.encode() + b"</robot>"))
+    optical = [f for _, f in frames]
+    chains = [sub_chain(tree, frame, head) for frame in optical]
+    oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
+    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(optical, "VisionSensor"))
+    expected = [[depth], [colour], [webcam]] if turned else [[depth, colour], [webcam]]
+    assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(e) for e in expected)
+
+
 @pytest.mark.parametrize("seed", range(20))
 def test_a_camera_written_as_one_body_keeps_its_kind_unless_it_is_one_eye_of_a_pair(seed):
     """A camera written as one body (a box, no optical frame) shows nowhere its imagers see from: the model's

@@ -44,7 +44,9 @@ Two products, two devices: two sub-chains whose links name catalogue products of
 (_two_products: a depth camera and a tracking camera bolted to one sensor head), whatever their names or their body.
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
 a link of one gives its data in a frame of the other (its plugin's frameName: the right camera of a stereo pair
-publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), whatever
+publishing in the left camera's optical frame), or declares several cameras at once (SDF's multicamera), or gives
+colour and depth images while the other, bare frames declaring nothing, ends within IMAGER_SPAN of it looking the
+same way (_imager_beside: a Kinect's colour frames beside the depth frames its declaration is written on), whatever
 their names.
 Each sub-chain lands in exactly one group: a partition by construction.
 """
@@ -74,6 +76,7 @@ AUDIO = "AudioSensor"  # a microphone hears the room, not the camera: never a ca
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 BARE_SPAN = 2 * DEVICE_SPAN  # m: the farthest a device's bare frame on its mount lies from its other frames
+IMAGER_SPAN = 0.06  # m: the colour and depth imagers of one RGB-D camera lie this close (a Kinect's 2.5 cm, a Kinect v2's 5)
 SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are turned alike
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
@@ -222,10 +225,23 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
     frameName): one device whose imagers share a frame, as the right camera of a stereo pair publishes in the left
     camera's optical frame; or one of them carries a declaration of several cameras at once (SDF's `multicamera`,
     a stereo head's), whose other imager is its near neighbour's."""
-    def declared(x: SubChain) -> list[SimSensor]:
-        return [s for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors
-                if s.reference in x.links]
-    return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in declared(x))
+    return any(s.frame in y.links or s.type == MULTI_CAMERA for x, y in ((a, b), (b, a)) for s in _declared_on(tree, x))
+
+
+def _declared_on(tree: KinematicTree, x: SubChain) -> list[SimSensor]:
+    """The simulator sensors declared on the sub-chain's links."""
+    return [s for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors if s.reference in x.links]
+
+
+def _imager_beside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """`a` declares on its links a camera giving colour and depth images (one RGB-D device), and `b`, bare frames
+    declaring nothing, ends within IMAGER_SPAN of `a`'s leaf looking the same way: the device's other imager."""
+    if not any(s.colour and s.depth for s in _declared_on(tree, a)) or _declared_on(tree, b) \
+            or not all(is_frame(tree, x) for x in b.links):
+        return False
+    fork = fork_of(tree, [a.leaf, b.leaf])
+    return math.dist(tree.position_in(a.leaf, fork), tree.position_in(b.leaf, fork)) <= IMAGER_SPAN \
+        and _looking_alike(tree, fork, a.leaf, b.leaf)
 
 
 def _one_product(tree: KinematicTree, a: SubChain, b: SubChain, named_a: Product | None,
@@ -356,6 +372,7 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
                  for i, a in enumerate(chains)]
         aliases = _aliases(tree, chains)
         bound = [[could[i][j] and (_one_body(tree, a, b) or _declared_together(tree, a, b) or (i, j) in aliases
+                                   or _imager_beside(tree, a, b) or _imager_beside(tree, b, a)
                                    or _one_product(tree, a, b, products[i], products[j])
                                    or optical_twins(tree, a.leaf, b.leaf))
                   for j, b in enumerate(chains)]
