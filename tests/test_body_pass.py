@@ -40,14 +40,15 @@ def test_candidate_chains_are_the_parts_over_many_seeds(make):
         assert _candidates(built) == expected, seed
 
 
+@pytest.mark.parametrize("dummy", ["", '<visual><geometry><box size="0.01 0.01 0.01"/></geometry></visual>'])
 @pytest.mark.parametrize("seed", range(0, 60, 7))
-def test_virtual_joints_that_place_the_whole_robot_are_no_part(seed):
-    """A file that moves its mobile base without its wheels writes virtual x, y and yaw joints between bare frames
-    above the base (a planar base as joints; the model called them an arm): they place the whole robot, so the
-    candidates are the robot's own parts, as without them."""
+def test_virtual_joints_that_place_the_whole_robot_are_no_part(seed, dummy):
+    """A file that moves its mobile base without its wheels writes virtual x, y and yaw joints between bare frames,
+    or dummy links drawn as 1 cm boxes, above the base (a planar base as joints; the model called them an arm): they
+    place the whole robot, so the candidates are the robot's own parts, as without them."""
     built = wheeled(seed)
     root = load_urdf(built.urdf).root
-    virtual = ('<link name="v_world"/><link name="v_x"/><link name="v_y"/>'
+    virtual = (f'<link name="v_world"/><link name="v_x">{dummy}</link><link name="v_y">{dummy}</link>'
                '<joint name="v_jx" type="prismatic"><parent link="v_world"/><child link="v_x"/><axis xyz="1 0 0"/>'
                '<limit lower="-5" upper="5" effort="1" velocity="1"/></joint>'
                '<joint name="v_jy" type="prismatic"><parent link="v_x"/><child link="v_y"/><axis xyz="0 1 0"/>'
@@ -1134,16 +1135,17 @@ def test_an_airframe_carrying_a_camera_gimbal_is_still_asked_as_a_base(seed):
     assert len(parts) == 2
 
 
+@pytest.mark.parametrize("dummy", ["", '<box size="0.01 0.01 0.01"/>'])
 @pytest.mark.parametrize("seed", range(3))
-def test_a_body_the_file_moves_in_the_plane_by_virtual_joints_is_asked_as_a_base(seed):
-    """A holonomic base written with no wheels: virtual x, y and yaw joints between bare frames place its body, which
-    carries a camera and a five-joint arm, or the camera alone (no candidate at all). Those joints place the whole
-    robot, so no part holds them, and nothing else moves it about. Moved in the ground plane, the body is asked as a
-    mobile base with no joint of its own, with or without the arm. Where the virtual joints also lift it (a vertical
-    slide), they say nothing of the ground, and it is asked nothing."""
+def test_a_body_the_file_moves_in_the_plane_by_virtual_joints_is_asked_as_a_base(seed, dummy):
+    """A holonomic base written with no wheels: virtual x, y and yaw joints between bare frames (or dummy links drawn
+    as 1 cm boxes) place its body, which carries a camera and a five-joint arm, or the camera alone (no candidate at
+    all). Those joints place the whole robot, so no part holds them, and nothing else moves it about. Moved in the
+    ground plane, the body is asked as a mobile base with no joint of its own, with or without the arm. Where the
+    virtual joints also lift it (a vertical slide), they say nothing of the ground, and it is asked nothing."""
     def build(lift: bool, arm: bool = True):
         w = Writer(random.Random(seed))
-        world, x, y = w.link(), w.link(), w.link()
+        world, x, y = w.link(), w.link(dummy), w.link(dummy)
         w.joint("prismatic", world, x, axis=(1.0, 0.0, 0.0), limits=(-50.0, 50.0))
         w.joint("prismatic", x, y, axis=(0.0, 0.0, 1.0) if lift else (0.0, 1.0, 0.0), limits=(-50.0, 50.0))
         base = w.link('<box size="0.8 0.6 0.4"/>', mass=50.0)

@@ -12,6 +12,7 @@ from urdfkb.pipeline.reading.tree import KinematicTree, Vector, fork_of
 from urdfkb.pipeline.abstraction.vectors import dot, norm, sub, unit
 
 FRAME_MARK = 0.005  # m: a primitive this small (a 1 mm box, a 0.5 mm sphere) only marks where a frame is
+PLACEHOLDER = 0.02  # m: a virtual joint's dummy link drawn this small (a 1 cm box) stands for no part of the robot
 CAMERA_BODY = 0.1  # m: the frames of one camera lie this close to the body they hang from
 SQUARE = 0.1  # |cosine| under which two unit axes are square to each other
 VIEWPOINT = 0.005  # m: optical frames closer than this see from one place (one imager)
@@ -40,16 +41,25 @@ def is_frame(tree: KinematicTree, link: str) -> bool:
 
 def placing_joints(tree: KinematicTree) -> frozenset[str]:
     """The joints that place the whole robot rather than move a part of it: the run of movable joints hanging from
-    frames alone from the root, above a first body, where that run holds a floating or planar joint or two prismatic
-    joints on axes square to each other (a planar base's virtual x, y and yaw joints, written to move it without its
-    wheels). A rail under an arm, a pan and tilt or an arm's first joint on a bare root frame is no such run."""
-    run = [e for e in tree.edges if e.movable and all(is_frame(tree, link) for link in tree.chain_to_root(e.parent))
+    frames alone from the root (or placeholders), above a first body, where that run holds a floating or
+    planar joint or two prismatic joints on axes square to each other (a planar base's virtual x, y and yaw joints,
+    written to move it without its wheels). A rail under an arm, a pan and tilt or an arm's first joint on a bare
+    root frame is no such run."""
+    run = [e for e in tree.edges if e.movable and all(placeholder(tree, link) for link in tree.chain_to_root(e.parent))
            and not all(is_frame(tree, link) for link in (e.child, *tree.descendants(e.child)))]
     sliding = [d for e in run if e.joint_type == "prismatic"
                and (d := unit(tree.direction_in(e.child, tree.root, e.axis))) is not None]
     square = any(abs(dot(a, b)) < SQUARE for i, a in enumerate(sliding) for b in sliding[:i])
     placing = square or any(e.joint_type in ("floating", "planar") for e in run)
     return frozenset(e.joint for e in run) if placing else frozenset()
+
+
+def placeholder(tree: KinematicTree, link: str) -> bool:
+    """A frame (is_frame), or a link drawn as a primitive of at most PLACEHOLDER alone: what a virtual joint's dummy
+    link is given so that a simulator keeps it (a 1 cm box), no part of the robot."""
+    facts = tree.evidence.get(link)
+    return is_frame(tree, link) or (facts is not None and not facts.meshes and facts.extent is not None
+                                    and facts.extent <= PLACEHOLDER)
 
 
 def body_of(tree: KinematicTree, a: str, b: str) -> str | None:

@@ -35,7 +35,7 @@ from urdfkb.pipeline.reading.evidence import named
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE, Choice, body_choice, side_question
-from urdfkb.pipeline.abstraction.frames import is_frame, mirrored, placing_joints
+from urdfkb.pipeline.abstraction.frames import is_frame, mirrored, placeholder, placing_joints
 from urdfkb.pipeline.abstraction import structure
 from urdfkb.pipeline.abstraction.hands import PARALLEL, feet, palm, wheel_body
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
@@ -504,8 +504,9 @@ def _parts(tax: Vocabulary, tree: KinematicTree, found: list[Chain]) -> list[Bod
 def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[str] = frozenset(),
               propelled: bool = False) -> str | None:
     """The link the robot's body starts at where no joint moves anything hanging from it: the first drawn link
-    below the root through fixed joints and frames (frames.is_frame; below a frame carrying several links, the
-    heaviest drawn one: a hull beside its decorative panels), owned by no device, no movable joint's parent (a
+    below the root through fixed joints and frames (frames.is_frame, and the dummy links between the joints placing
+    it in the plane: frames.placeholder; below a frame carrying several links, the heaviest drawn one: a hull beside
+    its decorative panels), owned by no device, no movable joint's parent (a
     drone's airframe, a base whose wheels the file fixes), but of `idle` joints, which move no body part (a drone's
     rotors), of joints held still (KinematicTree.moving: RotorS hangs its sensors' frames on revolute joints
     limited 0..0) and of the joints placing the robot where they move it in the ground plane (placed_in_plane), or,
@@ -518,8 +519,9 @@ def main_body(tree: KinematicTree, components: list[Component], idle: frozenset[
     def moves(child: str) -> bool:
         edge = tree.edge_to(child)
         return tree.moving(edge) and edge.joint not in idle
+    placed = {e.child for e in tree.edges if e.joint in planar}
     link = tree.root
-    while is_frame(tree, link):
+    while is_frame(tree, link) or (link in placed and placeholder(tree, link)):
         below = tree.children(link)
         held = [child for child in below if not (tree.edge_to(child).joint in idle and tree.is_leaf(child))]
         weighed = [(facts.mass, child) for child in held if not is_frame(tree, child)
