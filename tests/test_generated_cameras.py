@@ -899,11 +899,13 @@ def test_a_camera_declared_on_one_frame_writing_its_images_in_another_is_one_ima
     assert [t.cls for t in state.post] == ["MonocularCamera"]
 
 
+@pytest.mark.parametrize("turned", [False, True])
 @pytest.mark.parametrize("bracket_mesh, devices", [("sensors/xtion_pro_stack", 1), ("sensors/d435_bracket", 2)])
-def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(bracket_mesh, devices):
+def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(bracket_mesh, devices, turned):
     """A camera's frames and body hang from a bare frame on the base; its mounting bracket, a lone drawn leaf whose
-    mesh names the same product (an Xtion's stack mount), is fixed beside it. Asked apart, each keeps its own
-    name; naming one product, the bracket is a piece of that camera. A bracket naming another product stays apart."""
+    mesh names the same product (an Xtion's stack mount), is fixed beside it, its frame turned as the camera's or on
+    its side (a mesh exported with y up). Asked apart, each keeps its own name; naming one product, the bracket is a
+    piece of that camera however it is turned. A bracket naming another product stays apart."""
     w = Writer(random.Random(3))
     base = w.link('<box size="0.4 0.4 0.1"/>')
     frame = w.link()
@@ -914,7 +916,7 @@ def test_a_bracket_drawn_with_the_products_mesh_beside_its_camera_is_part_of_it(
     w.joint("fixed", frame, optical, rpy=(-math.pi / 2, 0.0, -math.pi / 2))
     w.joint("fixed", frame, depth, xyz=(0.0, -0.025, 0.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2))
     bracket = w.link(f'<mesh filename="package://d/meshes/{bracket_mesh}.dae"/>')
-    w.joint("fixed", base, bracket, xyz=(-0.1, 0.0, 0.28))
+    w.joint("fixed", base, bracket, xyz=(-0.1, 0.0, 0.28), rpy=(math.pi / 2, 0.0, -math.pi / 2) if turned else (0.0, 0.0, 0.0))
     tree = load_urdf(w.urdf())
     leaves = [body, optical, depth, bracket]
     chains = [sub_chain(tree, leaf, base) for leaf in leaves]

@@ -39,7 +39,9 @@ One place, one device: a bare frame fixed where a link of a near sub-chain of it
 same parent (and of no other sub-chain), is another name for that link (_aliases: a driver's `velodyne` frame beside
 the lidar's own base).
 One product, one device: two near sub-chains of one category whose links name one catalogue product, one of them a
-lone drawn leaf declaring nothing (a camera's bracket drawn with the product's mesh), are one device (_one_product).
+lone drawn leaf declaring nothing (a camera's bracket drawn with the product's mesh), are one device (_one_product);
+on one mount they are near where their bodies lie within DEVICE_SPAN, whichever way the piece is turned
+(_piece_beside).
 Two products, two devices: two sub-chains whose links name catalogue products of two classes are never one device
 (_two_products: a depth camera and a tracking camera bolted to one sensor head), whatever their names or their body.
 One declaration, one device: two near sub-chains of one category are one device where a simulator sensor declared on
@@ -255,6 +257,17 @@ def _one_product(tree: KinematicTree, a: SubChain, b: SubChain, named_a: Product
     return (piece(a) or piece(b)) and named_a is not None and named_a == named_b
 
 
+def _piece_beside(tree: KinematicTree, a: SubChain, b: SubChain, named_a: Product | None,
+                  named_b: Product | None) -> bool:
+    """Two sub-chains on one mount naming one product, one of them a piece of it (_one_product), their bodies within
+    DEVICE_SPAN: near whichever way the piece's frame is turned (a bracket's mesh exported on its side)."""
+    if a.root != b.root or not _one_product(tree, a, b, named_a, named_b):
+        return False
+    housing_a, housing_b = _housing(tree, a), _housing(tree, b)
+    return housing_a is not None and housing_b is not None \
+        and math.dist(tree.position_in(housing_a, a.root), tree.position_in(housing_b, a.root)) <= DEVICE_SPAN
+
+
 def _aliases(tree: KinematicTree, chains: list[SubChain]) -> set[tuple[int, int]]:
     """The pairs of sub-chains (both ways) where the leaf of one is a bare frame fixed where a link of the other, and
     of no third, is fixed on the same parent, turned as it is: another name for that link (a driver's frame written
@@ -366,7 +379,7 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
-                  and not two_devices(i, j) and _near(tree, a, b)
+                  and not two_devices(i, j) and (_near(tree, a, b) or _piece_beside(tree, a, b, products[i], products[j]))
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]
