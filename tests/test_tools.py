@@ -269,6 +269,34 @@ def test_alike_tools_are_asked_their_kind_once_the_first_standing_for_both():
     assert len(tools) == 2 and tools[0].cls == tools[1].cls and TAX.is_a(tools[0].cls, "Hand")
 
 
+def test_a_fixed_jaw_the_model_hardly_calls_a_sensor_stays_the_grippers():
+    """A one-jaw gripper at an arm's end: a jaw turning on a servo and a fixed jaw beside it. The model takes the fixed
+    jaw for a sensor it hardly believes in (under the floor: the screen holds it, never written); it stays in the tree
+    the tool pass sees, so the gripper keeps its fixed jaw (on the code before: the sensor pass took it out)."""
+    w = Writer(random.Random(12))
+    link = w.arm(w.link('<box size="0.3 0.3 0.1"/>'))
+    servo = w.link('<box size="0.04 0.03 0.05"/>')
+    w.joint("fixed", link, servo, (0.0, 0.0, 0.05))
+    moving = w.link('<box size="0.01 0.02 0.06"/>', centre=(0.0, 0.0, 0.03))
+    w.joint("revolute", servo, moving, (0.015, 0.0, 0.03), (0.0, 1.0, 0.0), (-0.8, 0.5))
+    fixed = w.link('<box size="0.01 0.02 0.06"/>', centre=(0.0, 0.0, 0.03))
+    w.joint("fixed", servo, fixed, (-0.015, 0.0, 0.03))
+    doubt = {"sensor": 0.55, "end effector": 0.15, "body part": 0.15, "none": 0.15}
+
+    def rule(q: Question):
+        stage, _, subject = q.key.partition(":")
+        if stage == "identify":
+            return doubt if subject == fixed else "end effector" if subject == moving else NONE
+        if stage == "pre":  # the sensor's kind: split too
+            return {option: 0.3 if i == 0 else 0.1 for i, option in enumerate(q.options)}
+        return q.options[0]
+    comps = Abstractor(Oracle(ScriptedBackend(rule)), TAX, reasoner=scripted_reasoner).run(load_urdf(w.urdf())).components
+    (tool,) = [c for c in comps if c.kind == "end_effector"]
+    held = [c for c in comps if c.kind == "sensor"]
+    assert held and all(c.confidence < 0.2 for c in held)
+    assert {moving, fixed} <= set(tool.links)
+
+
 def test_a_rigid_body_swung_by_joints_that_meet_at_one_point_is_the_limbs_segment_not_a_tool():
     """An upper body with a short arm (shoulder pitch and roll meeting at one point, the forearm fixed 0.15 m out
     from them) and a six-joint arm ending in a rigid tool 0.05 m out from its flange, names meaningless: the

@@ -5,7 +5,7 @@ End-effectors skip pre- and post-classification: after verification their extent
 from structure and their kind inferred by a reasoner from the ontology's definitions (pipeline.abstraction.steps.tools);
 the model is asked the kind only where the structure settles none. After a pass, the links of its
 components are removed from the tree (each device condensed onto its mount), so the next pass sees a
-smaller tree and never claims a link twice. The body pass then sees the whole robot again and groups the
+smaller tree and never claims a link twice (but a sensor the screen will hold, whose links stay). The body pass then sees the whole robot again and groups the
 movable joints no device owns into body parts. Every schema fact comes from the Vocabulary
 (pipeline.knowledge.ontology). The steps are functions in pipeline.abstraction.steps, each declaring the fields of the findings
 record it reads and makes; pipeline.abstraction.passes checks the declarations and runs the steps.
@@ -18,6 +18,7 @@ from urdfkb.pipeline.knowledge import reasoning
 from urdfkb.pipeline.abstraction.components import END_EFFECTOR, SENSOR
 from urdfkb.pipeline.errors import OntologyError
 from urdfkb.pipeline.knowledge.ontology import Vocabulary
+from urdfkb.pipeline.knowledge.screen import unsure
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.passes import Pass, PassManager, check_order
 from urdfkb.pipeline.abstraction.stages.asking import Progress
@@ -70,7 +71,8 @@ BODY_PASS = Pass(BODY, (
 ))
 
 # Run in this order; a device pass is named by the core:componentKind of the components it finds, and
-# removes them from the tree the next device pass sees.
+# removes them from the tree the next device pass sees, but those the screen will hold (screen.unsure: a sensor
+# under the floor is no device, and what it stood for may be a tool's, as a gripper's fixed finger).
 PASSES = (SENSOR_PASS, END_EFFECTOR_PASS, BODY_PASS)
 GIVEN = ("components",)  # what a robot's findings start with: no components yet
 check_order(PASSES, given=GIVEN, lasting=LASTING)
@@ -105,7 +107,7 @@ class Abstractor:
         for declared in self.passes:
             findings = findings.next_pass()
             manager.run(declared, self.context(robot, tree, declared.name), findings)
-            tree = tree.without({link for c in findings.found for link in c.links})
+            tree = tree.without({link for c in findings.found if not unsure(robot, c) for link in c.links})
         return findings
 
     def _counters(self) -> dict[str, float]:
