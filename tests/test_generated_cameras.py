@@ -371,10 +371,10 @@ def test_colour_frames_beside_a_declared_rgbd_camera_are_its_own(seed, turned):
             f'<depthImageTopicName>depth/image_raw</depthImageTopicName><frameName>{depth}</frameName></plugin>'
             '</sensor></gazebo>')
     tree = load_urdf(w.urdf().replace(b"</robot>", text.encode() + b"</robot>"))
-    optical = [f for _, f in frames]
-    chains = [sub_chain(tree, frame, head) for frame in optical]
+    leaves = [f for _, f in frames]
+    chains = [sub_chain(tree, frame, head) for frame in leaves]
     oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
-    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(optical, "VisionSensor"))
+    groups = merge(oracle, tree, chains, "sensor", dict.fromkeys(leaves, "VisionSensor"))
     expected = [[depth], [colour], [webcam]] if turned else [[depth, colour], [webcam]]
     assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(e) for e in expected)
 
