@@ -1228,6 +1228,39 @@ def test_two_jaws_moving_as_mirror_images_with_no_inertial_are_no_sensors(seed, 
     assert not jaw_pairs(load_urdf(same_way))
 
 
+def _scissors(seed: int, across: bool) -> tuple[bytes, list[str]]:
+    """A six-joint arm ending in a gripper body carrying two jaws hinged at one point about one line, each drawn with
+    its own mesh (a left and a right one), of one mass; the second written as the first turned half a turn about
+    the arm's axis (its joint's axis opposed, its centre of mass across the pin) where `across`, else as the first."""
+    rng = random.Random(seed)
+    w = Writer(rng)
+    link = w.arm(w.link('<box size="0.3 0.3 0.1"/>'))
+    body = w.link('<box size="0.04 0.05 0.03"/>', centre=(0.0, 0.0, 0.0), mass=0.2)
+    w.joint("fixed", link, body, (0.0, 0.0, 0.05))
+    out, mass = rng.uniform(0.015, 0.03), rng.uniform(0.02, 0.05)
+    jaws = []
+    for side, yaw in (("r", 0.0), ("l", math.pi if across else 0.0)):
+        jaw = w.link(f'<mesh filename="package://bot/meshes/finger_{side}.stl"/>', centre=(0.002, out, 0.03),
+                     mass=mass)
+        w.joint("revolute", body, jaw, (0.0, 0.0, 0.034), (1.0, 0.0, 0.0), (-0.44, 0.3), rpy=(0.0, 0.0, yaw))
+        jaws.append(jaw)
+    return w.urdf(), jaws
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_two_jaws_hinged_on_one_pin_are_no_sensors(seed):
+    """Scissor jaws (_scissors: a Katana's, whose fingers the model called touch sensors): the erring model calls them
+    sensors at 0.6; they get its next answer. Two leaves on one pin with their masses on one side of it are left to
+    the model."""
+    urdf, jaws = _scissors(seed, across=True)
+    assert jaw_pairs(load_urdf(urdf)) == set(jaws)
+    options = {TAX.answer(SENSOR_CLS): 0.6, TAX.answer(TOOL_CLS): 0.4}
+    claims = _identified(urdf, lambda q: options if _leaf(q) in jaws else NONE)
+    assert [claims[j] for j in jaws] == [TOOL_CLS, TOOL_CLS]
+    one_side, _ = _scissors(seed, across=False)
+    assert not jaw_pairs(load_urdf(one_side))
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_a_servo_horn_spinning_beside_a_grippers_fingers_is_the_grippers_mechanism(seed):
     """An arm ends in a bare frame carrying a servo horn on a joint that turns without bound, a drawn camera fixed

@@ -27,6 +27,7 @@ LOW_SHARE = 1 / 3  # of a robot's height: wheels spin this low (0.23 at most in 
 STANCE = 0.15  # m: how far above its lowest points the root of a robot that stands on them lies, at the least
 TRUNK_TO_LEG = 0.5  # a trunk that legs carry is at least this share of their length long from its front legs to its
 # rear ones (0.9 on two public quadruped files, a small one 0.12 m long among them)
+MASS_ALIKE = 0.01  # share: two parts' masses this near each other are one part's, mirrored
 MIRRORED_AXIS = 0.1  # two unit axes mirror each other where each component agrees (or opposes) within this
 LIMB_JOINTS = 4  # movable joints in series, nothing branching off, that make a limb (a neck's pan and tilt do not)
 ROLL_OFFSET = 0.01  # m: a limb's last joint this far out from its parent's origin, along its own axis, rolls
@@ -289,8 +290,8 @@ def jaw_pairs(tree: KinematicTree) -> frozenset[str]:
     """Two leaves, the only children of a link that a joint or more moves, each moved on a bounded joint of its own
     (one that neither spins nor is held at zero), drawn alike and hung as mirror images of each other across one of
     that link's planes, their joints' axes mirrored with them: they move as mirror images, as a gripper's two jaws do
-    (written with no <inertial>, nothing tells which way they close). Jaws, never sensors, which are fixed to what
-    they measure from."""
+    (written with no <inertial>, nothing tells which way they close); or hinged on one pin (_on_one_pin: scissor
+    jaws). Jaws, never sensors, which are fixed to what they measure from."""
     found: set[str] = set()
     for body in tree.links:
         pair = tree.children(body)
@@ -299,7 +300,12 @@ def jaw_pairs(tree: KinematicTree) -> frozenset[str]:
         a, b = pair
         edges = [tree.edge_to(x) for x in pair]
         if not all(tree.moving(e) and not e.spins and e.joint_type in ("revolute", "prismatic") for e in edges) \
-                or edges[0].joint_type != edges[1].joint_type or not drawn_alike(tree, a, b):
+                or edges[0].joint_type != edges[1].joint_type:
+            continue
+        if _on_one_pin(tree, body, a, b):
+            found.update(pair)
+            continue
+        if not drawn_alike(tree, a, b):
             continue
         pa, pb = tree.position_in(a, body), tree.position_in(b, body)
         ua, ub = (unit(tree.direction_in(x, body, e.axis)) for x, e in zip(pair, edges))
@@ -311,6 +317,29 @@ def jaw_pairs(tree: KinematicTree) -> frozenset[str]:
                     and all(abs(ua[k] + ub[k] if (k == axis) == polar else ua[k] - ub[k]) <= MIRRORED_AXIS for k in range(3)):
                 found.update(pair)
     return frozenset(found)
+
+
+def _on_one_pin(tree: KinematicTree, body: str, a: str, b: str) -> bool:
+    """Leaves `a` and `b` of `body` turn on revolute joints hinged at one point about one line (origins within
+    MIRROR_EPS, axes parallel or opposed), of one mass (within MASS_ALIKE of each other), their centres of mass at one
+    distance from that line (within MIRROR_EPS) and more than MIRROR_EPS apart: two jaws on one pin closing like
+    scissors (a Katana's), whatever meshes draw the left and the right one."""
+    ea, eb = tree.edge_to(a), tree.edge_to(b)
+    fa, fb = tree.evidence.get(a), tree.evidence.get(b)
+    if ea.joint_type != "revolute" or fa is None or fb is None:
+        return False
+    mass_a, mass_b, centre_a, centre_b = fa.mass, fb.mass, fa.centre, fb.centre
+    if mass_a is None or mass_b is None or centre_a is None or centre_b is None \
+            or abs(mass_a - mass_b) > MASS_ALIKE * max(mass_a, mass_b):
+        return False
+    pin = tree.position_in(a, body)
+    ua, ub = unit(tree.direction_in(a, body, ea.axis)), unit(tree.direction_in(b, body, eb.axis))
+    if ua is None or ub is None or math.dist(pin, tree.position_in(b, body)) > MIRROR_EPS \
+            or abs(abs(dot(ua, ub)) - 1.0) > MIRRORED_AXIS:
+        return False
+    centres = [tree.position_in(a, body, centre_a), tree.position_in(b, body, centre_b)]
+    out = [off_axis(sub(c, pin), ua) for c in centres]  # each centre's distance from the pin's line
+    return abs(out[0] - out[1]) <= MIRROR_EPS and math.dist(*centres) > MIRROR_EPS
 
 
 def frozen_fingertips(tree: KinematicTree) -> frozenset[str]:
