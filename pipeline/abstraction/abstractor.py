@@ -5,8 +5,8 @@ End-effectors skip pre- and post-classification: after verification their extent
 from structure and their kind inferred by a reasoner from the ontology's definitions (pipeline.abstraction.steps.tools);
 the model is asked the kind only where the structure settles none. After a pass, the links of its
 components are removed from the tree (each device condensed onto its mount), so the next pass sees a
-smaller tree and never claims a link twice (but a sensor the screen will hold, whose links stay). The body pass then sees the whole robot again and groups the
-movable joints no device owns into body parts. Every schema fact comes from the Vocabulary
+smaller tree and never claims a link twice (but for a sensor the screen will hold, whose links stay). The body pass
+then sees the whole robot again and groups the movable joints no device owns into body parts. Every schema fact comes from the Vocabulary
 (pipeline.knowledge.ontology). The steps are functions in pipeline.abstraction.steps, each declaring the fields of the findings
 record it reads and makes; pipeline.abstraction.passes checks the declarations and runs the steps.
 """

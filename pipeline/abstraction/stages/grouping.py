@@ -78,7 +78,7 @@ AUDIO = "AudioSensor"  # a microphone hears the room, not the camera: never a ca
 INERTIAL = "InertialSensor"  # the category of those a camera carries built in (its IMU's frames)
 DEVICE_SPAN = 0.25  # m: the widest two housings of one device lie apart (a wide stereo baseline)
 BARE_SPAN = 2 * DEVICE_SPAN  # m: the farthest a device's bare frame on its mount lies from its other frames
-IMAGER_SPAN = 0.06  # m: the colour and depth imagers of one RGB-D camera lie this close (a Kinect's 2.5 cm, a Kinect v2's 5)
+IMAGER_SPAN = 0.06  # m: an RGB-D camera's colour and depth imagers lie this close (Kinect: 2.5 cm, Kinect v2: 5)
 SAME_TURN = 1e-9  # 1 - cosine: two frames whose axes agree this closely are turned alike
 MULTI_CAMERA = "multicamera"  # SDF's sensor type of several cameras declared as one
 DEPTH_IMAGES = ("depth", "depth_camera", "rgbd_camera")  # SDF's (and Gazebo classic's) types of a depth camera
@@ -232,7 +232,8 @@ def _declared_together(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
 
 def _declared_on(tree: KinematicTree, x: SubChain) -> list[SimSensor]:
     """The simulator sensors declared on the sub-chain's links."""
-    return [s for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors if s.reference in x.links]
+    return [s for link in x.links if link in tree.evidence for s in tree.evidence[link].sensors
+            if s.reference in x.links]
 
 
 def _imager_beside(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
@@ -379,7 +380,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
         could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
-                  and not two_devices(i, j) and (_near(tree, a, b) or _piece_beside(tree, a, b, products[i], products[j]))
+                  and not two_devices(i, j)
+                  and (_near(tree, a, b) or _piece_beside(tree, a, b, products[i], products[j]))
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
                   for j, b in enumerate(chains)]
                  for i, a in enumerate(chains)]

@@ -45,8 +45,7 @@ def body_classification(ctx: Context, found: Findings) -> None:
     def reasoned(seconds: float) -> None:
         ctx.tally.reasoner_seconds += seconds
     body_stage.classify(ctx.oracle, ctx.vocab, ctx.robot, found.candidates, _written(ctx, found.components),
-                        ctx.progress, ctx.log,
-                        reasoned, found.body_reasoned, ctx.reasoner)
+                        ctx.progress, ctx.log, reasoned, found.body_reasoned, ctx.reasoner)
 
 
 @step("assembly", needs=("candidates",), makes=("body", "candidates"))
@@ -61,8 +60,8 @@ def jointless_base(ctx: Context, found: Findings) -> None:
     """Where no part moves the robot about, whether its main body is a mobile base with no joints of its own (the
     joints of candidates classified as no body part move none)."""
     idle = frozenset(e.joint for c in found.candidates if c.cls == NONE for e in c.joints)
-    found.body = body_stage.jointless_base(ctx.oracle, ctx.vocab, ctx.robot, found.body, _written(ctx, found.components),
-                                           ctx.progress, ctx.log, idle)
+    found.body = body_stage.jointless_base(ctx.oracle, ctx.vocab, ctx.robot, found.body,
+                                           _written(ctx, found.components), ctx.progress, ctx.log, idle)
 
 
 @step("sides", needs=("body",), makes=("body",))

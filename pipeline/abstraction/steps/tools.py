@@ -94,13 +94,15 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     tips = found.frozen_tips
     frozen = [[leaf for leaf in g.leaves if leaf in tips] for g, _ in open_groups]
     jaws = frozen_jaws(tree) if any(frozen) else frozenset()
-    told = {g.leaves[0]: (_written_fixed(fixed, jaws) if fixed else st.describe(), out,
-                          RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not fixed else None)
-            for (g, st), out, fixed in zip(open_groups, ruled, frozen)}  # what the question tells and offers
-    subjects = {g.leaves[0]: Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
-                                     f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
-                                     f"\nStructure: {phrase}", out, stay=stay)
-                for g, _ in open_groups for phrase, out, stay in [told[g.leaves[0]]]}
+    told: dict[str, tuple] = {}  # by each tool's first leaf: what its question tells and offers
+    subjects: dict[str, Subject] = {}
+    for (g, st), out, fixed in zip(open_groups, ruled, frozen):
+        phrase = _written_fixed(fixed, jaws) if fixed else st.describe()
+        stay = RIGID_TOOL if nothing_moves(tree, st, mount(tree, g)) and not out and not fixed else None
+        told[g.leaves[0]] = (phrase, out, stay)
+        subjects[g.leaves[0]] = Subject(f"post:{g.leaves[0]}", "The links below form one {concept}.",
+                                        f"Links: {', '.join(g.leaves)}\nOn: {named_link(tree.evidence, mount(tree, g))}"
+                                        f"\nStructure: {phrase}", out, stay=stay)
     sets = alike_sets(tree, list(subjects), lambda a, b: told[a] == told[b])
     asked = descend(ctx.oracle, ctx.vocab, top, [subjects[leaves[0]] for leaves in sets],
                     "end-effector classification", ctx.progress)
