@@ -1131,3 +1131,29 @@ def test_frames_naming_products_of_two_kinds_are_two_devices_whatever_the_names_
                    "sensor", dict.fromkeys(frames, "VisionSensor"))
     expected = [[optical], [pose]] if beside == "t265" else [sorted(frames)]
     assert sorted(sorted(g.leaves) for g in groups) == expected
+
+
+@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("declared", [True, False])
+def test_a_lidars_cap_is_its_own_whatever_sensor_the_model_took_it_for(seed, declared):
+    """A lidar drawn as a cylinder on a base carries its scan frame and a cap fixed straight to it. The model reads
+    the cap as an inertial sensor (an Ouster's cap, asked alone): where the file declares the lidar on its scan frame,
+    the cap is the housing's own piece, one device with the frame. Where nothing is declared on the frame, nothing says
+    what the frame is, and the model's two kinds stay two devices."""
+    w = Writer(random.Random(seed))
+    base = w.link('<box size="0.5 0.4 0.2"/>')
+    plate = w.link('<box size="0.11 0.11 0.02"/>')
+    w.joint("fixed", base, plate, (0.1, 0.0, 0.15))
+    housing = w.link('<cylinder radius="0.0435" length="0.058"/>', mass=0.41)
+    w.joint("fixed", plate, housing, (0.0, 0.0, 0.02))
+    cap, frame = w.link('<cylinder radius="0.0434" length="0.022"/>', mass=0.09), w.link()
+    w.joint("fixed", housing, cap, (0.0, 0.0, 0.058))
+    w.joint("fixed", housing, frame, (0.0, 0.0, 0.038))
+    text = (f'<gazebo reference="{frame}"><sensor name="lidar" type="gpu_ray"><update_rate>10</update_rate>'
+            '</sensor></gazebo>') if declared else ""
+    tree = load_urdf(w.urdf().replace(b"</robot>", text.encode() + b"</robot>"))
+    chains = [sub_chain(tree, cap, base), sub_chain(tree, frame, base)]
+    oracle = Oracle(ScriptedBackend(lambda q: q.options[-1]))  # the whole name: a device of its own
+    groups = merge(oracle, tree, chains, "sensor", {cap: "InertialSensor", frame: "RangingSensor"})
+    expected = [[cap, frame]] if declared else [[cap], [frame]]
+    assert sorted(sorted(g.leaves) for g in groups) == sorted(sorted(e) for e in expected)

@@ -64,7 +64,8 @@ from urdfkb.pipeline.abstraction.prompts import device_name_question
 from urdfkb.pipeline.abstraction.stages.asking import Progress, ask
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, sub_chain
 from urdfkb.pipeline.abstraction.alike import partition
-from urdfkb.pipeline.abstraction.frames import SAME_PLACE, body_of, is_frame, is_optical, optical_twins, viewpoints
+from urdfkb.pipeline.abstraction.frames import (SAME_PLACE, body_of, declares_sensor, is_frame, is_optical,
+                                                optical_twins, viewpoints)
 from urdfkb.pipeline.abstraction.catalogue import Product
 from urdfkb.pipeline.abstraction.stages.identification import named_product
 from urdfkb.pipeline.reading.evidence import SimSensor
@@ -325,6 +326,15 @@ def _built_in(tree: KinematicTree, a: SubChain, b: SubChain, categories: dict[st
         and not {a.leaf, b.leaf} & apart and _one_body(tree, a, b)
 
 
+def _housing_piece(tree: KinematicTree, a: SubChain, b: SubChain) -> bool:
+    """One leaf is a drawn piece declaring nothing, the other a frame the file declares a sensor on or an optical
+    frame, and both hang from one body (frames.body_of: the piece fixed straight to it): the piece is the device's own
+    housing (a lidar's cap), whatever kind of sensor the model took it for."""
+    return any(not is_frame(tree, x.leaf) and not declares_sensor(tree, x.leaf)
+               and (declares_sensor(tree, y.leaf) or is_optical(tree, y.leaf)) for x, y in ((a, b), (b, a))) \
+        and _one_body(tree, a, b)
+
+
 def one_mount(tree: KinematicTree, chains: list[SubChain]) -> list[SubChain]:
     """Frames of one body (frames.body_of) that the model mounted apart, some on a link above the body and some on
     the body or below it, all mounted on the highest of those mounts above the body: the body is then
@@ -379,7 +389,8 @@ def merge(oracle: Oracle, tree: KinematicTree, chains: list[SubChain], kind: str
     if kind == END_EFFECTOR:
         same = [[_meet_inside(tree, a, b) for b in chains] for a in chains]
     else:
-        could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart))
+        could = [[i != j and (categories[a.leaf] == categories[b.leaf] or _built_in(tree, a, b, categories, apart)
+                              or _housing_piece(tree, a, b))
                   and not two_devices(i, j)
                   and (_near(tree, a, b) or _piece_beside(tree, a, b, products[i], products[j]))
                   and not (categories[a.leaf] == categories[b.leaf] == VISION and _bare_cameras_apart(tree, a, b))
