@@ -19,6 +19,7 @@ from urdfkb.pipeline.llm.scripted import ScriptedBackend
 from urdfkb.pipeline.abstraction.oracle import Oracle
 from urdfkb.pipeline.abstraction.prompts import NONE
 from urdfkb.pipeline.abstraction.stages.attachment import SubChain, mount_candidates
+from urdfkb.pipeline.abstraction.stages.identification import identify
 from urdfkb.pipeline.abstraction.stages.classification import Subject, descend
 from urdfkb.pipeline.abstraction.stages import grouping
 from urdfkb.pipeline.abstraction.stages.grouping import Group, device_names, merge, name_prefixes
@@ -430,3 +431,33 @@ def test_a_housing_named_for_a_stereo_product_is_half_the_device_not_its_mount(s
     never = lambda link: False  # noqa: E731
     assert [mount_candidates(tree, c, never, rigid=True) for c in cameras] == [[chassis], [chassis]]
     assert mount_candidates(tree, lidar, never, rigid=True) == [tower, chassis]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_bare_frame_where_a_display_is_drawn_is_its_frame_not_a_sensor(seed):
+    """A face carries two display screens (drawn, named by their meshes) and, at each screen's place, a bare frame
+    (`eye_left` on a robot whose eyes are screens). The model reads every leaf as a sensor: the screens are settled
+    as no component by the catalogue, and each frame where a screen is with them, unasked; a bare frame elsewhere on
+    the face (a camera's) is still asked."""
+    w = Writer(random.Random(seed))
+    base, head = w.link('<box size="0.3 0.2 0.2"/>'), w.link('<box size="0.1 0.12 0.1"/>')
+    w.joint("revolute", base, head, (0.0, 0.0, 0.4))
+    frames, screens = [], []
+    for y in (0.034, -0.034):
+        screen, frame = w.link('<mesh filename="package://face/meshes/screen.stl"/>'), w.link()
+        w.joint("fixed", head, screen, (0.07, y, 0.006))
+        w.joint("fixed", head, frame, (0.07, y, 0.006))
+        screens.append(screen)
+        frames.append(frame)
+    camera = w.link()
+    w.joint("fixed", head, camera, (0.095, 0.0, 0.055))
+    tree = load_urdf(w.urdf())
+    asked = []
+
+    def sensor(q):
+        asked.append(q.key)
+        return "sensor"
+    answers = identify(Oracle(ScriptedBackend(sensor)), TAX, tree, [*screens, *frames, camera])
+    assert all(answers[link] == (NONE, 1.0) for link in [*screens, *frames])
+    assert answers[camera][0] != NONE
+    assert not [key for key in asked if any(key.endswith(link) for link in [*screens, *frames])]

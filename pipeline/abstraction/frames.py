@@ -25,6 +25,7 @@ LINE_OF_SIGHT = math.cos(math.radians(11))  # the imagers of one camera look the
 # between the most one camera's imagers part (a Femto Bolt's depth imager, 8 degrees from its colour imager) and the
 # least two cameras on one face do (a legged robot's face cameras, 14 to 60 degrees apart)
 SAME_PLACE = 1e-6  # m: a fixed joint shorter than this leaves its child at its parent's origin
+MARK_PLACE = 0.001  # m: a bare frame this near a drawn piece on the same link marks that piece
 ROD_LENGTH = 4.0  # a rod is at least this many times as long as it is thick (poles, standoffs, antennas: 5 to 17)
 ROD_THICKNESS = 0.02  # m: and at most this thick (they are 8 to 12 mm; a stereo camera drawn as a cylinder, 3 cm)
 

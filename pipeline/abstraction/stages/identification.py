@@ -3,17 +3,19 @@
 Alike leaves (pipeline.abstraction.alike.alike_leaves: the fingers of a hand, mirrored limbs, a quadruped's feet)
 are asked once, the first standing for all, and all get its answer: four
 identical fingers can no longer become four different things, and fewer questions are asked. A leaf
-that names a catalogue product which is no component (a fiducial marker) is settled without a question.
+that names a catalogue product which is no component (a fiducial marker) is settled without a question, and so is
+a bare frame fixed where such a piece is (the frame of a face's display screen).
 Where the robot's structure rules a kind out for a leaf (no end effector where a limb goes on from the leaf's
 body: hands.limb_goes_on), the question stays the same for every leaf, so its system text is shared, and
 the answer is the option with the most votes among those left."""
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from typing import Callable
 
 from urdfkb.pipeline.abstraction.catalogue import Product, catalogue
-from urdfkb.pipeline.abstraction.frames import is_frame
+from urdfkb.pipeline.abstraction.frames import MARK_PLACE, is_frame
 from urdfkb.pipeline.abstraction.oracle import Oracle, Verdict
 from urdfkb.pipeline.knowledge.ontology import Vocabulary, vocabulary
 from urdfkb.pipeline.abstraction.prompts import NONE, Choice, kind_choice
@@ -79,6 +81,11 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
     ruled = dict(ruled_out or {})
     groups, settled = [], {}
     for group in alike_sets(tree, leaves, lambda a, b: ruled.get(a) == ruled.get(b)):
+        if (marked := _marks(tree, tax, group[0])) is not None:
+            if log:
+                log(f"{group}: where {marked} is, part of no component: its frame")
+            settled.update({leaf: (NONE, 1.0) for leaf in group})
+            continue
         product = named_product(tree, [group[0]])
         if product is not None and product.cls in tax and not tax.is_a(product.cls, tax.component):
             if log:
@@ -101,6 +108,23 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
             log(f"{group}: {c.meant(v.answer, NONE)} ruled out by structure: {kind} ({share:.2f})")
         answers.update({leaf: (kind, share) for leaf in group})
     return answers
+
+
+def _marks(tree: KinematicTree, tax: Vocabulary, leaf: str) -> str | None:
+    """The piece a bare frame marks: a drawn leaf fixed to the frame's parent, as the frame is, within MARK_PLACE of
+    it and naming a catalogue product the ontology places under no component (a display screen, a marker)."""
+    edge = tree.parent_edge(leaf)
+    if edge is None or edge.movable or not is_frame(tree, leaf):
+        return None
+    here = tree.position_in(leaf, edge.parent)
+    for piece in tree.children(edge.parent):
+        if piece == leaf or not tree.is_leaf(piece) or is_frame(tree, piece) or tree.edge_to(piece).movable:
+            continue
+        product = named_product(tree, [piece])
+        if product is not None and product.cls in tax and not tax.is_a(product.cls, tax.component) \
+                and math.dist(here, tree.position_in(piece, edge.parent)) <= MARK_PLACE:
+            return piece
+    return None
 
 
 def _allowed(choice: Choice, verdict: Verdict, ruled: frozenset[str]) -> tuple[str, float]:
