@@ -87,7 +87,7 @@ def identify(oracle: Oracle, tax: Vocabulary, tree: KinematicTree, leaves: list[
             settled.update({leaf: (NONE, 1.0) for leaf in group})
             continue
         product = named_product(tree, [group[0]])
-        if product is not None and product.cls in tax and not tax.is_a(product.cls, tax.component):
+        if product is not None and _no_component(tax, product):
             if log:
                 log(f"{group}: {product.label}, a {tax.label(product.cls)}: part of no component")
             settled.update({leaf: (NONE, 1.0) for leaf in group})
@@ -120,11 +120,15 @@ def _marks(tree: KinematicTree, tax: Vocabulary, leaf: str) -> str | None:
     for piece in tree.children(edge.parent):
         if piece == leaf or not tree.is_leaf(piece) or is_frame(tree, piece) or tree.edge_to(piece).movable:
             continue
-        product = named_product(tree, [piece])
-        if product is not None and product.cls in tax and not tax.is_a(product.cls, tax.component) \
-                and math.dist(here, tree.position_in(piece, edge.parent)) <= MARK_PLACE:
+        if math.dist(here, tree.position_in(piece, edge.parent)) <= MARK_PLACE \
+                and (product := named_product(tree, [piece])) is not None and _no_component(tax, product):
             return piece
     return None
+
+
+def _no_component(tax: Vocabulary, product: Product) -> bool:
+    """The product is one the ontology places under no component (a fiducial marker, a display screen)."""
+    return product.cls in tax and not tax.is_a(product.cls, tax.component)
 
 
 def _allowed(choice: Choice, verdict: Verdict, ruled: frozenset[str]) -> tuple[str, float]:

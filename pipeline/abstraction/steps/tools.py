@@ -94,7 +94,8 @@ def tool_classification(ctx: Context, found: Findings) -> None:
     tips = found.frozen_tips
     frozen = [[leaf for leaf in g.leaves if leaf in tips] for g, _ in open_groups]
     jaws = frozen_jaws(tree) if any(frozen) else frozenset()
-    told: dict[str, tuple] = {}  # by each tool's first leaf: what its question tells and offers
+    # by each tool's first leaf: what its question tells and offers
+    told: dict[str, tuple[str, frozenset[str], tuple[str, str] | None]] = {}
     subjects: dict[str, Subject] = {}
     for (g, st), out, fixed in zip(open_groups, ruled, frozen):
         phrase = _written_fixed(fixed, jaws) if fixed else st.describe()
